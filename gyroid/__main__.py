@@ -1,0 +1,5 @@
+import sys
+
+from gyroid.cli import main
+
+sys.exit(main())

@@ -1,0 +1,178 @@
+"""gyroid's command line (click). Bad input ends with one message and exit code 2."""
+
+from __future__ import annotations
+
+import os
+import sys
+import traceback
+from pathlib import Path
+
+import click
+
+from gyroid.errors import GyroidInputError
+
+
+def _parse_assignments(text: str, what: str) -> dict[str, float]:
+    values: dict[str, float] = {}
+    for item in filter(None, (s.strip() for s in text.split(","))):
+        name, sep, value = item.partition("=")
+        try:
+            if not sep:
+                raise ValueError
+            values[name.strip()] = float(value)
+        except ValueError:
+            raise GyroidInputError(f"{what}: {item!r} is not NAME=NUMBER") from None
+    return values
+
+
+def _parse_effects(specs: tuple[str, ...]) -> dict[str, dict[str, float]]:
+    effects: dict[str, dict[str, float]] = {}
+    for spec in specs:
+        name, _, rest = spec.partition(":")
+        effects[name.strip()] = _parse_assignments(rest, f"--effect {spec}")
+    return effects
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="gyroid")
+def cli() -> None:
+    """gyroid: Bayesian identification of gyroscope error models.
+
+    Paper A's FOG drift as a sum of named effects (temperature, its rate, magnetic field and
+    candidate effects): simulate the benches, and more to come in each release.
+    """
+
+
+@cli.command()
+@click.argument("bench", type=click.Choice(["thermal", "magnetic"]))
+@click.option(
+    "--out",
+    "out",
+    required=True,
+    type=click.Path(file_okay=False, path_type=Path),
+    help="Folder to write bench.csv, truth.json and bench.png into.",
+)
+@click.option("--seed", default=0, show_default=True, type=int, help="Random seed.")
+@click.option(
+    "--set",
+    "overrides",
+    default="",
+    metavar="NAME=VALUE,...",
+    help="Override default coefficients, e.g. 'w1=-0.1,wD=2'.",
+)
+@click.option(
+    "--effect",
+    "effects",
+    multiple=True,
+    metavar="NAME:P=V,...",
+    help="Switch on an effect with values, e.g. 'warmup:w_warmup=2,tau_warmup_min=15'. Repeatable.",
+)
+@click.option(
+    "--arw", default=0.005, show_default=True, type=float, help="Angle random walk, deg/sqrt(h)."
+)
+@click.option(
+    "--bias-instability",
+    default=0.0,
+    show_default=True,
+    type=float,
+    help="Bias instability (Gauss-Markov part), deg/h; 0 = white noise only.",
+)
+@click.option(
+    "--correlation-time",
+    default=300.0,
+    show_default=True,
+    type=float,
+    help="Correlation time of the Gauss-Markov part, s.",
+)
+@click.option(
+    "--average",
+    "average_s",
+    default=None,
+    type=float,
+    help="Write window averages over this many seconds (paper A: 60), with sigma_deg_h.",
+)
+def simulate(
+    bench, out, seed, overrides, effects, arw, bias_instability, correlation_time, average_s
+) -> None:
+    """Simulate paper A's thermal or magnetic bench with known truth."""
+    from gyroid.bench import preset_parameters, simulate_magnetic_bench, simulate_thermal_bench
+    from gyroid.noise import GyroNoise
+    from gyroid.outputs import json_text, output_dir
+    from gyroid.plotting import magnetic_sweep, save, thermal_run
+
+    parameters = preset_parameters(bench) | _parse_assignments(overrides, "--set")
+    noise = GyroNoise(
+        arw_deg_rt_h=arw,
+        bias_instability_deg_h=bias_instability,
+        correlation_time_s=correlation_time,
+    )
+    if arw < 0 or bias_instability < 0 or correlation_time <= 0:
+        raise GyroidInputError("noise levels must be >= 0 and the correlation time > 0")
+    simulator = simulate_thermal_bench if bench == "thermal" else simulate_magnetic_bench
+    sim = simulator(
+        parameters=parameters,
+        effects=_parse_effects(effects),
+        noise=noise,
+        seed=seed,
+        average_s=average_s,
+    )
+    from gyroid.logs import bench_log_text
+
+    with output_dir(out) as stage:
+        (stage / "bench.csv").write_text(bench_log_text(sim.log.columns, sim.log.comments))
+        (stage / "truth.json").write_text(json_text(sim.truth))
+        if bench == "thermal":
+            fig = thermal_run(
+                sim.log, sim.log.inputs().rate_C_h, None if average_s else sim.true_drift_deg_h
+            )
+        else:
+            fig = magnetic_sweep(sim.log)
+        save(fig, stage / "bench.png")
+    click.echo(f"wrote {out / 'bench.csv'} ({sim.log.n} rows) and {out / 'truth.json'}")
+
+
+@cli.command()
+@click.option(
+    "--out",
+    "out",
+    default=Path("gyroid-demo"),
+    show_default=True,
+    type=click.Path(file_okay=False, path_type=Path),
+    help="Folder for the study.",
+)
+@click.option("--seed", default=0, show_default=True, type=int, help="Random seed.")
+def demo(out, seed) -> None:
+    """The whole study on built-in data, written as report.md with figures."""
+    from gyroid.demo import run_demo
+
+    report = run_demo(out, seed=seed, echo=click.echo)
+    click.echo(f"report: {report}")
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Entry point: run the CLI, turning bad input into one message and exit code 2."""
+    try:
+        cli.main(args=argv, prog_name="gyroid", standalone_mode=False)
+    except GyroidInputError as error:
+        click.echo(f"gyroid: error: {error}", err=True)
+        return 2
+    except click.exceptions.Abort:
+        click.echo("gyroid: aborted", err=True)
+        return 130
+    except click.ClickException as error:
+        error.show()
+        return error.exit_code
+    except Exception as error:  # an internal fault: short message unless debugging
+        if os.environ.get("GYROID_DEBUG"):
+            traceback.print_exc()
+        click.echo(
+            f"gyroid: internal error: {type(error).__name__}: {error} (this is a bug in gyroid;"
+            " set GYROID_DEBUG=1 for the traceback)",
+            err=True,
+        )
+        return 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

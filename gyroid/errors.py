@@ -1,0 +1,10 @@
+"""The one exception type gyroid raises for bad input."""
+
+from __future__ import annotations
+
+
+class GyroidInputError(ValueError):
+    """Input that gyroid refuses, with a message naming the row or column and what to do.
+
+    The command line prints the message alone (no traceback) and exits with code 2.
+    """

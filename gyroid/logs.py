@@ -1,0 +1,142 @@
+"""Bench logs (contract section 1): loading with validation, and writing."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from gyroid.drift import DriftModel
+from gyroid.errors import GyroidInputError
+from gyroid.inputs import FIELD_COLUMNS, T0_C, DriftInputs, build_inputs
+from gyroid.outputs import atomic_write_text
+from gyroid.tables import check_time_increasing, read_csv_table
+
+#: Columns of a bench log that gyroid reads, in the order it writes them.
+BENCH_COLUMNS = ("time_s", "drift_deg_h", "temperature_C", *FIELD_COLUMNS, "sigma_deg_h")
+_UNITS = {
+    "time_s": "s",
+    "drift_deg_h": "deg/h",
+    "temperature_C": "degC",
+    "Hx_uT": "uT",
+    "Hy_uT": "uT",
+    "Hz_uT": "uT",
+    "sigma_deg_h": "deg/h",
+}
+
+
+@dataclass(frozen=True)
+class BenchLog:
+    """A validated bench log: numeric columns by name, all of one length."""
+
+    columns: Mapping[str, np.ndarray]
+    source: str = "<memory>"
+    comments: tuple[str, ...] = ()
+
+    @property
+    def n(self) -> int:
+        return int(self.columns["time_s"].size)
+
+    @property
+    def time_s(self) -> np.ndarray:
+        return self.columns["time_s"]
+
+    @property
+    def drift_deg_h(self) -> np.ndarray:
+        return self.columns["drift_deg_h"]
+
+    @property
+    def sigma_deg_h(self) -> np.ndarray | None:
+        return self.columns.get("sigma_deg_h")
+
+    def has(self, name: str) -> bool:
+        return name in self.columns
+
+    def inputs(self, *, t0_C: float = T0_C, **options) -> DriftInputs:
+        """The drift model's inputs, derived quantities included."""
+        return build_inputs(self.columns, t0_C=t0_C, **options)
+
+
+def check_temperature_celsius(values: np.ndarray, where: str = "temperature_C") -> None:
+    """Refuse temperatures that look like kelvin."""
+    if values.size and float(np.median(values)) > 150.0 and float(np.min(values)) > 100.0:
+        raise GyroidInputError(
+            f"column {where} looks like kelvin (median {np.median(values):.2f}); gyroid "
+            "expects degC: subtract 273.15"
+        )
+
+
+def load_bench_log(
+    path: str | Path,
+    terms: str | Iterable[str] | DriftModel | None = None,
+    *,
+    t0_C: float = T0_C,
+) -> BenchLog:
+    """Read and validate a bench log for a model with the given terms.
+
+    ``time_s`` and ``drift_deg_h`` are always needed; the terms add their columns. Every
+    needed column must be numeric and finite in every row; time must increase strictly;
+    temperatures must be in degC; ``sigma_deg_h``, where present, must be positive; the
+    selected terms must be identifiable on the log. The first problem found ends the load
+    with a :class:`GyroidInputError` that names the row or column.
+    """
+    table = read_csv_table(path)
+    if terms is None:
+        model = None
+    elif isinstance(terms, DriftModel):
+        model = terms
+    else:
+        model = DriftModel.from_terms(terms if isinstance(terms, str) else tuple(terms))
+    needed = ["time_s", "drift_deg_h"]
+    if model is not None:
+        needed += [c for c in model.columns if c not in needed]
+    columns: dict[str, np.ndarray] = {name: table.number_column(name) for name in needed}
+    if "sigma_deg_h" in table.header:
+        sigma = table.number_column("sigma_deg_h")
+        bad = np.flatnonzero(sigma <= 0)
+        if bad.size:
+            raise GyroidInputError(
+                f"{table.path.name}: {table.where(int(bad[0]))}, column sigma_deg_h: "
+                f"{sigma[bad[0]]:g} is not a positive noise level; fix it or drop the column "
+                "to let gyroid estimate the noise"
+            )
+        columns["sigma_deg_h"] = sigma
+    # Known context columns that are clean are kept (e.g. for residual diagnostics).
+    for name in BENCH_COLUMNS:
+        if name not in columns:
+            values = table.try_number_column(name)
+            if values is not None:
+                columns[name] = values
+    check_time_increasing(table, columns["time_s"])
+    if "temperature_C" in needed:
+        check_temperature_celsius(columns["temperature_C"])
+    log = BenchLog(columns=columns, source=str(table.path), comments=table.comments)
+    if model is not None:
+        if log.n <= len(model.parameter_names):
+            raise GyroidInputError(
+                f"{table.path.name}: {log.n} rows cannot identify "
+                f"{len(model.parameter_names)} coefficients; use a longer log"
+            )
+        model.check_identifiable(log.inputs(t0_C=t0_C), set(needed))
+    return log
+
+
+def bench_log_text(columns: Mapping[str, np.ndarray], comments: Iterable[str] = ()) -> str:
+    """Render bench-log columns as contract CSV text (known columns first, in order)."""
+    names = [c for c in BENCH_COLUMNS if c in columns]
+    names += [c for c in columns if c not in names]
+    lines = [f"# {c}" for c in comments]
+    lines.append("# units: " + ", ".join(f"{c} [{_UNITS.get(c, '-')}]" for c in names))
+    lines.append(",".join(names))
+    data = np.column_stack([np.asarray(columns[c], dtype=float) for c in names])
+    body = "\n".join(",".join(f"{v:.10g}" for v in row) for row in data)
+    return "\n".join(lines) + "\n" + body + "\n"
+
+
+def write_bench_log(
+    path: str | Path, columns: Mapping[str, np.ndarray], comments: Iterable[str] = ()
+) -> None:
+    """Write a bench log atomically."""
+    atomic_write_text(Path(path), bench_log_text(columns, comments))

@@ -1,0 +1,74 @@
+"""Atomic outputs: a command's files appear whole or not at all."""
+
+from __future__ import annotations
+
+import contextlib
+import json
+import math
+import os
+import shutil
+import tempfile
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+
+def atomic_write_text(path: Path, text: str) -> None:
+    """Write ``text`` to ``path`` through a temporary file in the same folder and a rename."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as handle:
+            handle.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        with contextlib.suppress(FileNotFoundError):
+            os.unlink(tmp)
+        raise
+
+
+def to_jsonable(value: Any) -> Any:
+    """Convert numpy/JAX scalars and arrays to plain JSON values (NaN/inf become null)."""
+    if isinstance(value, dict):
+        return {str(k): to_jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [to_jsonable(v) for v in value]
+    if hasattr(value, "tolist") and not isinstance(value, str):
+        return to_jsonable(np.asarray(value).tolist())
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    return value
+
+
+def json_text(data: Any) -> str:
+    return json.dumps(to_jsonable(data), indent=2, allow_nan=False) + "\n"
+
+
+@contextlib.contextmanager
+def output_dir(out: str | Path) -> Iterator[Path]:
+    """Stage a command's outputs in a hidden sibling folder; move them into ``out`` on success.
+
+    If the block raises, nothing reaches ``out``. Files already in ``out`` that the command
+    does not write are left as they are; each written file replaces its old version
+    atomically.
+    """
+    out = Path(out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    if out.exists() and not out.is_dir():
+        from gyroid.errors import GyroidInputError
+
+        raise GyroidInputError(f"--out {out} is a file; give a folder")
+    staging = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.staging-"))
+    try:
+        yield staging
+        out.mkdir(exist_ok=True)
+        for item in sorted(staging.rglob("*")):
+            target = out / item.relative_to(staging)
+            if item.is_dir():
+                target.mkdir(exist_ok=True)
+            else:
+                os.replace(item, target)
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)

@@ -1,0 +1,84 @@
+"""Derived inputs: the temperature-rate estimator, the lagged temperature, field-change signs."""
+
+import jax
+import numpy as np
+import pytest
+from scipy.integrate import solve_ivp
+
+from gyroid.derived import (
+    RATE_WINDOW_S,
+    field_change_sign,
+    lagged_temperature,
+    temperature_rate_deg_c_per_h,
+)
+
+
+def test_rate_recovers_a_noisy_ramp_within_5_percent():
+    rng = np.random.default_rng(11)
+    time_s = np.arange(0.0, 4 * 3600.0)  # 1 Hz for 4 h
+    true_rate = 3.0  # degC/h, a slow ramp
+    temperature = 25.0 + true_rate * time_s / 3600.0 + 0.01 * rng.standard_normal(time_s.size)
+    estimate = temperature_rate_deg_c_per_h(time_s, temperature)
+    assert np.all(np.abs(estimate - true_rate) < 0.05 * true_rate)
+    # A plain first difference of the same readings is ~50 degC/h of noise.
+    plain = np.diff(temperature) / np.diff(time_s) * 3600.0
+    assert 40.0 < plain.std() < 60.0
+
+
+def test_rate_noise_matches_the_documented_formula():
+    rng = np.random.default_rng(12)
+    time_s = np.arange(0.0, 20 * 3600.0)
+    noise = 0.01 * rng.standard_normal(time_s.size)
+    estimate = temperature_rate_deg_c_per_h(time_s, 21.0 + noise)
+    n = RATE_WINDOW_S + 1
+    predicted = 0.01 * 3600.0 * np.sqrt(229.7 / n**3)
+    interior = estimate[int(RATE_WINDOW_S) : -int(RATE_WINDOW_S)]
+    # ~60 independent windows: the sample sd is within ~20 % of the truth.
+    assert interior.std() == pytest.approx(predicted, rel=0.2)
+
+
+def test_rate_has_no_lag_on_a_smooth_transition_and_handles_irregular_sampling():
+    rng = np.random.default_rng(13)
+    time_s = np.sort(rng.uniform(0.0, 6 * 3600.0, 15000))
+    hours = time_s / 3600.0
+    temperature = 30.0 + 5.0 * np.tanh((hours - 3.0) / 0.7)
+    true_rate = 5.0 / 0.7 / np.cosh((hours - 3.0) / 0.7) ** 2
+    estimate = temperature_rate_deg_c_per_h(time_s, temperature)
+    assert np.max(np.abs(estimate - true_rate)) < 0.01 * true_rate.max()
+
+
+def test_lagged_temperature_solves_the_first_order_lag():
+    time_s = np.linspace(0.0, 7200.0, 500)
+    temperature = 21.0 + 10.0 * np.sin(time_s / 1500.0) + 0.002 * time_s
+    tau_s = 600.0
+    ode = solve_ivp(
+        lambda t, y: (np.interp(t, time_s, temperature) - y) / tau_s,
+        (0.0, time_s[-1]),
+        [temperature[0]],
+        t_eval=time_s,
+        rtol=1e-10,
+        atol=1e-10,
+        max_step=5.0,
+    )
+    lagged = np.asarray(lagged_temperature(time_s / 3600.0, temperature, tau_s / 3600.0))
+    np.testing.assert_allclose(lagged, ode.y[0], atol=2e-6)
+
+
+def test_lagged_temperature_follows_a_ramp_tau_behind_and_is_differentiable():
+    time_h = np.linspace(0.0, 5.0, 3001)
+    temperature = 20.0 + 4.0 * time_h
+    lagged = lagged_temperature(time_h, temperature, 0.25)
+    np.testing.assert_allclose(
+        np.asarray(lagged)[-100:], temperature[-100:] - 4.0 * 0.25, atol=1e-9
+    )
+    grad = jax.grad(lambda tau: lagged_temperature(time_h, temperature, tau)[-1])(0.25)
+    assert float(grad) == pytest.approx(-4.0, rel=1e-6)
+
+
+def test_field_change_sign_follows_a_noisy_sweep():
+    rng = np.random.default_rng(5)
+    levels = np.array([0, 50, 100, 50, 0, -50, 0], dtype=float)
+    field = np.repeat(levels, 100) + 0.5 * rng.standard_normal(700)
+    sign = field_change_sign(field)
+    expected = np.repeat([0, 1, 1, -1, -1, -1, 1], 100)
+    np.testing.assert_array_equal(sign, expected)

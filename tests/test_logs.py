@@ -1,0 +1,165 @@
+"""Loading bench logs: every bad input of the contract ends with one clear message."""
+
+import numpy as np
+import pytest
+from helpers import SHORT_MAGNETIC, SHORT_THERMAL, write_log
+
+from gyroid import GyroidInputError, load_bench_log
+from gyroid.bench import simulate_magnetic_bench, simulate_thermal_bench
+from gyroid.logs import bench_log_text
+
+
+@pytest.fixture(scope="module")
+def thermal_columns():
+    return dict(simulate_thermal_bench(seed=1, protocol=SHORT_THERMAL).log.columns)
+
+
+@pytest.fixture(scope="module")
+def magnetic_columns():
+    return dict(simulate_magnetic_bench(seed=1, protocol=SHORT_MAGNETIC).log.columns)
+
+
+def _text_with(tmp_path, columns, edit):
+    lines = bench_log_text(columns).splitlines()
+    lines = edit(lines)
+    path = tmp_path / "bench.csv"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _set_cell(lines, row, column, value):
+    header_index = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    names = lines[header_index].split(",")
+    cells = lines[header_index + row].split(",")
+    cells[names.index(column)] = value
+    lines[header_index + row] = ",".join(cells)
+    return lines
+
+
+def test_a_clean_log_round_trips(tmp_path, thermal_columns):
+    path = write_log(tmp_path / "bench.csv", thermal_columns)
+    log = load_bench_log(path, "thermal")
+    assert log.n == thermal_columns["time_s"].size
+    np.testing.assert_allclose(log.drift_deg_h, thermal_columns["drift_deg_h"], rtol=1e-9)
+
+
+def test_comments_and_extra_columns_are_allowed(tmp_path, thermal_columns):
+    columns = dict(thermal_columns)
+    columns["operator_note"] = np.zeros(columns["time_s"].size)
+    text = "# free metadata, any text\n" + bench_log_text(columns)
+    path = tmp_path / "bench.csv"
+    path.write_text(text.replace("operator_note\n", "operator_note\n", 1))
+    assert load_bench_log(path, "thermal").n == columns["time_s"].size
+
+
+@pytest.mark.parametrize(
+    ("row", "column", "value", "expected"),
+    [
+        (
+            3,
+            "drift_deg_h",
+            "abc",
+            r"row 3 \(line \d+ of bench.csv\), column drift_deg_h: the "
+            r"value is 'abc', not a number",
+        ),
+        (5, "temperature_C", "", r"row 5 .*column temperature_C: the value is empty"),
+        (7, "drift_deg_h", "nan", r"row 7 .*column drift_deg_h: the value is nan"),
+        (2, "temperature_C", "inf", r"row 2 .*column temperature_C: the value is inf"),
+        (4, "time_s", "0", r"time_s does not increase at row 4"),
+    ],
+)
+def test_bad_cells_are_named(tmp_path, thermal_columns, row, column, value, expected):
+    path = _text_with(tmp_path, thermal_columns, lambda ls: _set_cell(ls, row, column, value))
+    with pytest.raises(GyroidInputError, match=expected):
+        load_bench_log(path, "thermal")
+
+
+def test_unused_bad_columns_do_not_matter(tmp_path, thermal_columns):
+    path = _text_with(tmp_path, thermal_columns, lambda ls: _set_cell(ls, 3, "Hx_uT", "n/a"))
+    assert load_bench_log(path, "thermal").n > 0
+    with pytest.raises(GyroidInputError, match="column Hx_uT"):
+        load_bench_log(path, "full")
+
+
+def test_repeated_time_is_refused(tmp_path, thermal_columns):
+    columns = dict(thermal_columns)
+    columns["time_s"] = columns["time_s"].copy()
+    columns["time_s"][10] = columns["time_s"][9]
+    with pytest.raises(GyroidInputError, match=r"time_s does not increase at row 11 .* follows"):
+        load_bench_log(write_log(tmp_path / "b.csv", columns), "thermal")
+
+
+def test_missing_columns_are_named(tmp_path, thermal_columns):
+    columns = {k: v for k, v in thermal_columns.items() if k != "temperature_C"}
+    path = write_log(tmp_path / "bench.csv", columns)
+    with pytest.raises(GyroidInputError, match="column 'temperature_C' is missing"):
+        load_bench_log(path, "thermal")
+    assert load_bench_log(path, "bias").n > 0
+    no_drift = {k: v for k, v in thermal_columns.items() if k != "drift_deg_h"}
+    with pytest.raises(GyroidInputError, match="column 'drift_deg_h' is missing"):
+        load_bench_log(write_log(tmp_path / "b2.csv", no_drift), "bias")
+
+
+def test_constant_columns_that_leave_a_coefficient_unidentifiable(
+    tmp_path, thermal_columns, magnetic_columns
+):
+    # The thermal bench's field is the lab's: constant apart from noise -> it is fine for
+    # 'bias' but the coils never moved it, so a magnetic term is refused when it is exact.
+    columns = dict(magnetic_columns)
+    columns["Hy_uT"] = np.zeros_like(columns["Hy_uT"])
+    path = write_log(tmp_path / "bench.csv", columns)
+    with pytest.raises(GyroidInputError, match="column Hy_uT does not vary enough to identify wy"):
+        load_bench_log(path, "magnetic")
+    columns = dict(thermal_columns)
+    columns["temperature_C"] = np.full_like(columns["temperature_C"], 25.0)
+    path = write_log(tmp_path / "bench2.csv", columns)
+    with pytest.raises(GyroidInputError, match="column temperature_C does not vary enough"):
+        load_bench_log(path, "thermal")
+
+
+def test_collinear_terms_are_refused(tmp_path, thermal_columns):
+    columns = dict(thermal_columns)
+    columns["Hx_uT"] = (columns["temperature_C"] - 21.0) * 3.0
+    path = write_log(tmp_path / "bench.csv", columns)
+    with pytest.raises(GyroidInputError, match=r"cannot be told apart .*temperature"):
+        load_bench_log(path, "bias,temperature,magnetic_x")
+
+
+def test_kelvin_temperatures_are_refused(tmp_path, thermal_columns):
+    columns = dict(thermal_columns)
+    columns["temperature_C"] = columns["temperature_C"] + 273.15
+    path = write_log(tmp_path / "bench.csv", columns)
+    with pytest.raises(GyroidInputError, match="looks like kelvin"):
+        load_bench_log(path, "thermal")
+
+
+def test_bad_sigma_is_refused(tmp_path, thermal_columns):
+    columns = dict(thermal_columns)
+    columns["sigma_deg_h"] = np.full(columns["time_s"].size, 0.3)
+    columns["sigma_deg_h"][6] = -0.1
+    path = write_log(tmp_path / "bench.csv", columns)
+    with pytest.raises(GyroidInputError, match=r"row 7 .*sigma_deg_h: -0.1 is not a positive"):
+        load_bench_log(path, "thermal")
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("", "no header row"),
+        ("# only a comment\n", "no header row"),
+        ("time_s,drift_deg_h\n", "no data rows"),
+        ("time_s,drift_deg_h\n1,2\n2,3,4\n", r"row 2 \(line 3\) has 3 fields"),
+        ("time_s,time_s,drift_deg_h\n1,2,3\n", "names column 'time_s' twice"),
+        ("time_s,drift_deg_h\n1,0.5\n", "1 rows cannot identify 1 coefficients"),
+    ],
+)
+def test_malformed_files(tmp_path, text, expected):
+    path = tmp_path / "bench.csv"
+    path.write_text(text)
+    with pytest.raises(GyroidInputError, match=expected):
+        load_bench_log(path, "bias")
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(GyroidInputError, match="no such file"):
+        load_bench_log(tmp_path / "absent.csv", "bias")
