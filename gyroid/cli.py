@@ -10,6 +10,7 @@ from pathlib import Path
 import click
 
 from gyroid.errors import GyroidInputError
+from gyroid.outputs import output_dir
 
 
 def _parse_assignments(text: str, what: str) -> dict[str, float]:
@@ -97,7 +98,7 @@ def simulate(
     """Simulate paper A's thermal or magnetic bench with known truth."""
     from gyroid.bench import preset_parameters, simulate_magnetic_bench, simulate_thermal_bench
     from gyroid.noise import GyroNoise
-    from gyroid.outputs import json_text, output_dir
+    from gyroid.outputs import json_text
     from gyroid.plotting import magnetic_sweep, save, thermal_run
 
     parameters = preset_parameters(bench) | _parse_assignments(overrides, "--set")
@@ -129,6 +130,40 @@ def simulate(
             fig = magnetic_sweep(sim.log)
         save(fig, stage / "bench.png")
     click.echo(f"wrote {out / 'bench.csv'} ({sim.log.n} rows) and {out / 'truth.json'}")
+
+
+@cli.command()
+@click.argument("data", type=click.Path(path_type=Path))
+@click.option("--terms", required=True, metavar="TERMS",
+              help="Comma list of effects or a preset: thermal, magnetic, full.")
+@click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="Folder to write fit.json, posterior.nc and figures into.")
+@click.option("--seed", default=0, show_default=True, type=int, help="Random seed of emcee.")
+@click.option("--noise", type=click.Choice(["white", "white+gm"]), default="white",
+              show_default=True,
+              help="Noise model: white, or white plus a Gauss-Markov (bias-instability) part.")
+@click.option("--t0", "t0_C", default=21.0, show_default=True, type=float,
+              help="Reference temperature t0, degC (t = T - t0).")
+@click.option("--flat-prior", is_flag=True, help="Flat priors on the drift coefficients.")
+@click.option("--progress/--no-progress", default=True, show_default=True,
+              help="Show the sampler's progress bar.")
+def fit(data, terms, out, seed, noise, t0_C, flat_prior, progress) -> None:
+    """Fit the drift model TERMS to a bench log DATA.csv (point estimate and posterior)."""
+    from gyroid.fit import fit_log
+    from gyroid.logs import load_bench_log
+    from gyroid.report_files import write_fit_outputs
+    from gyroid.sampling import SamplerSettings
+
+    log = load_bench_log(data, terms, t0_C=t0_C)
+    click.echo(f"fitting {terms} to {data} ({log.n} rows) ...", err=True)
+    result = fit_log(log, terms, noise=noise, seed=seed, flat_prior=flat_prior, t0_C=t0_C,
+                     settings=SamplerSettings(progress=progress))
+    with output_dir(out) as stage:
+        write_fit_outputs(stage, log, result)
+    click.echo(result.point.summary())
+    for note in result.warnings:
+        click.echo(f"warning: {note}", err=True)
+    click.echo(f"wrote {out / 'fit.json'}, {out / 'posterior.nc'} and figures")
 
 
 @cli.command()

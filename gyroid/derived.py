@@ -9,11 +9,12 @@
 
 from __future__ import annotations
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 from scipy.signal import oaconvolve
+
+from gyroid.recurrences import linear_recurrence
 
 #: Default length of the temperature-rate estimator's window, s.
 RATE_WINDOW_S = 1200.0
@@ -133,7 +134,8 @@ def lagged_temperature(
 
     Exact for a temperature that is linear between samples (first-order hold), starting in
     equilibrium (``T_lag[0] = T[0]``). A steady ramp of r degC/h is followed ``r * tau``
-    behind. Computed with an associative scan, so it is fast and differentiable in ``tau_h``.
+    behind. Computed as a linear recurrence (a JAX scan): fast and differentiable
+    in ``tau_h``.
     """
     time_h = jnp.asarray(time_h)
     temperature_C = jnp.asarray(temperature_C)
@@ -145,11 +147,4 @@ def lagged_temperature(
     forcing = u_next - decay * u_prev - slope_term
     a = jnp.concatenate([jnp.zeros(1), decay])
     b = jnp.concatenate([temperature_C[:1], forcing])
-
-    def compose(left, right):
-        a_l, b_l = left
-        a_r, b_r = right
-        return a_l * a_r, a_r * b_l + b_r
-
-    _, lagged = jax.lax.associative_scan(compose, (a, b))
-    return lagged
+    return linear_recurrence(a, b)

@@ -73,3 +73,70 @@ def magnetic_sweep(log: BenchLog) -> plt.Figure:
         axes[1].legend(loc="upper right", frameon=False, ncol=3)
         fig.align_ylabels(axes)
         return fig
+
+
+def fit_overview(time_s: np.ndarray, drift: np.ndarray, predictions: np.ndarray,
+                 point_prediction: np.ndarray) -> plt.Figure:
+    """Data with the posterior 95 % band of the modelled drift, and residuals against time."""
+    with plt.rc_context(STYLE):
+        fig, axes = plt.subplots(2, 1, figsize=(6.5, 5.0), sharex=True,
+                                 gridspec_kw={"height_ratios": [2, 1]})
+        hours = (time_s - time_s[0]) / 3600.0
+        lo, hi = np.percentile(predictions, [2.5, 97.5], axis=0)
+        axes[0].plot(hours, drift, color="0.65", lw=0.4, ls="-", label="logged drift")
+        axes[0].fill_between(hours, lo, hi, color="0.2", alpha=0.35, lw=0,
+                             label="model, 95 % posterior band")
+        axes[0].plot(hours, point_prediction, color="0.0", lw=0.9, ls="-",
+                     label="model at the point estimate")
+        axes[0].set_ylabel("drift, deg/h")
+        axes[0].legend(loc="best", frameon=False)
+        residual = drift - point_prediction
+        axes[1].plot(hours, residual, color="0.55", lw=0.4, ls="-")
+        window = max(1, int(round(60.0 / max(np.median(np.diff(time_s)), 1e-9))))
+        if window > 1 and residual.size > window:
+            smooth = np.convolve(residual, np.ones(window) / window, mode="same")
+            axes[1].plot(hours, smooth, color="0.0", lw=1.0, ls="-", label="60 s mean")
+            axes[1].legend(loc="upper right", frameon=False)
+        axes[1].axhline(0.0, color="0.0", lw=0.6, ls=":")
+        axes[1].set_ylabel("residual, deg/h")
+        axes[1].set_xlabel("time since start, h")
+        fig.align_ylabels(axes)
+        return fig
+
+
+def pair_plot(draws: np.ndarray, names: list[str], units: dict[str, str],
+              truth: dict[str, float] | None = None, max_points: int = 1500) -> plt.Figure:
+    """Corner plot of posterior draws (n, d): histograms and pairwise scatter."""
+    d = len(names)
+    rng = np.random.default_rng(0)
+    pick = rng.choice(draws.shape[0], size=min(max_points, draws.shape[0]), replace=False)
+    with plt.rc_context(STYLE | {"axes.grid": False, "font.size": 7}):
+        fig, axes = plt.subplots(d, d, figsize=(1.6 * d + 1, 1.6 * d + 1), squeeze=False)
+        for i in range(d):
+            for j in range(d):
+                ax = axes[i, j]
+                if j > i:
+                    ax.set_visible(False)
+                    continue
+                if i == j:
+                    ax.hist(draws[:, i], bins=40, color="0.5", histtype="stepfilled")
+                    ax.set_yticks([])
+                    if truth and names[i] in truth:
+                        ax.axvline(truth[names[i]], color="0.0", ls="--", lw=1.0)
+                else:
+                    ax.plot(draws[pick, j], draws[pick, i], ".", color="0.2", ms=1.0, alpha=0.4)
+                    if truth and names[i] in truth and names[j] in truth:
+                        ax.plot(truth[names[j]], truth[names[i]], "x", color="0.0", ms=6)
+                if i == d - 1:
+                    ax.set_xlabel(f"{names[j]}, {units.get(names[j], '')}")
+                else:
+                    ax.set_xticklabels([])
+                if j == 0 and i > 0:
+                    ax.set_ylabel(f"{names[i]}, {units.get(names[i], '')}")
+                elif j > 0:
+                    ax.set_yticklabels([])
+                ax.tick_params(labelsize=6)
+                for label in ax.get_xticklabels():
+                    label.set_rotation(45)
+        fig.subplots_adjust(wspace=0.08, hspace=0.08)
+        return fig

@@ -1,0 +1,270 @@
+"""The posterior of a bench log: drift model, noise model and priors as one JAX pytree.
+
+Sampling coordinates ``u``: model parameters in their own units, except positive ones
+(time constants) as ``log x``; noise parameters as logs. Noise models:
+
+* ``white``: independent Gaussian noise, sd from ``sigma_deg_h`` when the log has it,
+  otherwise one sampled level ``sigma_deg_h``;
+* ``white+gm``: white noise plus a first-order Gauss-Markov (AR(1)) part of sd
+  ``sigma_gm_deg_h`` and correlation time ``tau_gm_s`` (the usual model of a FOG's bias
+  instability). The exact Gaussian likelihood comes from the innovations of a Kalman
+  filter (a JAX scan), for regular or irregular sampling.
+
+For a model linear in its parameters with white noise, the log-likelihood is computed
+from sufficient statistics (cost independent of the log's length).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+from jaxtyping import Array, Float, Int
+
+from gyroid.drift import DriftModel
+from gyroid.errors import GyroidInputError
+from gyroid.inputs import T0_C
+from gyroid.logs import BenchLog
+from gyroid.priors import Flat, LogNormal, Prior
+
+NOISE_MODELS = ("white", "white+gm")
+#: Default priors of the noise parameters (densities on log x).
+NOISE_PRIORS: dict[str, Prior] = {
+    "sigma_deg_h": LogNormal(1.0, 3.0),
+    "sigma_gm_deg_h": LogNormal(0.05, 3.0),
+    "tau_gm_s": LogNormal(300.0, 2.0),
+}
+NOISE_UNITS = {"sigma_deg_h": "deg/h", "sigma_gm_deg_h": "deg/h", "tau_gm_s": "s"}
+#: Length of the blocks whose summed log-likelihood ArviZ's LOO treats as one observation, s.
+LOO_BLOCK_S = 60.0
+#: At most this many LOO blocks (longer blocks on long logs).
+MAX_LOO_BLOCKS = 500
+_LOG_2PI = math.log(2.0 * math.pi)
+
+
+class BenchProblem(eqx.Module):
+    """Everything the posterior of one bench log needs; build it with :meth:`from_log`."""
+
+    model: DriftModel
+    inputs: eqx.Module
+    drift: Float[Array, " n"]
+    sigma: Float[Array, " n"] | None  # known per-row white-noise sd, deg/h
+    steps_s: Float[Array, " n"]  # time since the previous sample (first: the median step)
+    block: Int[Array, " n"]  # LOO block of each row
+    priors: tuple[Prior, ...] = eqx.field(static=True)
+    noise: str = eqx.field(static=True)
+    n_blocks: int = eqx.field(static=True)
+    step_s: float = eqx.field(static=True)
+    # Linear-Gaussian fast path: (X'WX, weighted LS solution, residual sum at it).
+    gram: Float[Array, "p p"] | None = None
+    solution: Float[Array, " p"] | None = None
+    rss_min: Float[Array, ""] | None = None
+    log_sigma_sum: Float[Array, ""] | None = None
+
+    @classmethod
+    def from_log(
+        cls,
+        log: BenchLog,
+        terms: str | tuple[str, ...] | DriftModel,
+        *,
+        noise: str = "white",
+        priors: Mapping[str, Prior] | None = None,
+        flat_prior: bool = False,
+        t0_C: float = T0_C,
+        fast: bool = True,
+    ) -> BenchProblem:
+        """Build the problem; ``priors`` overrides registry defaults by parameter name."""
+        model = terms if isinstance(terms, DriftModel) else DriftModel.from_terms(terms)
+        if noise not in NOISE_MODELS:
+            raise GyroidInputError(f"--noise must be one of {', '.join(NOISE_MODELS)}")
+        inputs = log.inputs(t0_C=t0_C)
+        time_s = np.asarray(log.time_s)
+        steps = np.diff(time_s)
+        step = float(np.median(steps)) if steps.size else 1.0
+        sigma = None if log.sigma_deg_h is None else jnp.asarray(log.sigma_deg_h)
+        noise_names = _noise_names(noise, sigma is not None)
+        overrides = dict(priors or {})
+        unknown = set(overrides) - set(model.parameter_names) - set(noise_names)
+        if unknown:
+            raise GyroidInputError(f"no parameter named {sorted(unknown)[0]!r} in this model")
+        chosen: list[Prior] = []
+        for p in model.parameters:
+            chosen.append(Flat() if flat_prior else overrides.get(p.name, p.prior))
+        for name in noise_names:
+            chosen.append(overrides.get(name, NOISE_PRIORS[name]))
+        duration = float(time_s[-1] - time_s[0])
+        block_s = max(LOO_BLOCK_S, step, duration / MAX_LOO_BLOCKS * 1.0001)
+        block = np.floor((time_s - time_s[0]) / block_s).astype(int)
+        _, block = np.unique(block, return_inverse=True)
+        problem = cls(
+            model=model,
+            inputs=inputs,
+            drift=jnp.asarray(log.drift_deg_h),
+            sigma=sigma,
+            steps_s=jnp.asarray(np.concatenate([[step], steps])),
+            block=jnp.asarray(block),
+            priors=tuple(chosen),
+            noise=noise,
+            n_blocks=int(block.max()) + 1,
+            step_s=step,
+        )
+        if fast and model.is_linear and noise == "white":
+            problem = problem._with_sufficient_statistics()
+        return problem
+
+    def _with_sufficient_statistics(self) -> BenchProblem:
+        X = np.asarray(self.model.design(self.inputs))
+        y = np.asarray(self.drift)
+        w = np.ones_like(y) if self.sigma is None else 1.0 / np.asarray(self.sigma)
+        Xw, yw = X * w[:, None], y * w
+        solution, *_ = np.linalg.lstsq(Xw, yw, rcond=None)
+        rss = float(np.sum((yw - Xw @ solution) ** 2))
+        log_sigma_sum = 0.0 if self.sigma is None else float(np.sum(np.log(self.sigma)))
+        return eqx.tree_at(
+            lambda p: (p.gram, p.solution, p.rss_min, p.log_sigma_sum),
+            self,
+            (jnp.asarray(Xw.T @ Xw), jnp.asarray(solution), jnp.asarray(rss),
+             jnp.asarray(log_sigma_sum)),
+            is_leaf=lambda x: x is None,
+        )
+
+    # ----- parameter bookkeeping -------------------------------------------------------
+    @property
+    def n(self) -> int:
+        return int(self.drift.shape[0])
+
+    @property
+    def noise_names(self) -> tuple[str, ...]:
+        return _noise_names(self.noise, self.sigma is not None)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Parameter names in natural units, in sampling order."""
+        return self.model.parameter_names + self.noise_names
+
+    @property
+    def positive(self) -> tuple[bool, ...]:
+        return tuple(p.positive for p in self.model.parameters) + (True,) * len(self.noise_names)
+
+    @property
+    def n_model(self) -> int:
+        return len(self.model.parameter_names)
+
+    def to_natural(self, u: Float[Array, "... d"]) -> Float[Array, "... d"]:
+        """Sampling coordinates to natural units (exp of the log-coordinates)."""
+        mask = jnp.asarray(self.positive)
+        return jnp.where(mask, jnp.exp(u), u)
+
+    def to_sampling(self, x: Float[Array, "... d"]) -> Float[Array, "... d"]:
+        mask = jnp.asarray(self.positive)
+        return jnp.where(mask, jnp.log(jnp.where(mask, x, 1.0)), x)
+
+    # ----- densities ---------------------------------------------------------------------
+    def predict(self, u: Float[Array, " d"]) -> Float[Array, " n"]:
+        """Modelled drift, deg/h."""
+        theta = self.to_natural(u)[: self.n_model]
+        return self.model.predict(theta, self.inputs)
+
+    def _noise_levels(self, u: Float[Array, " d"]):
+        x = self.to_natural(u)[self.n_model :]
+        values = dict(zip(self.noise_names, x, strict=True))
+        if self.sigma is not None:
+            white = self.sigma if self.noise == "white" else jnp.median(self.sigma)
+        else:
+            white = values["sigma_deg_h"]
+        return white, values
+
+    def log_likelihood_rows(self, u: Float[Array, " d"]) -> Float[Array, " n"]:
+        """Log-likelihood of each row (for white+gm: of its innovation)."""
+        residual = self.drift - self.predict(u)
+        white, values = self._noise_levels(u)
+        if self.noise == "white":
+            return -0.5 * (residual / white) ** 2 - jnp.log(white) - 0.5 * _LOG_2PI
+        innovation, variance = self._innovations(
+            residual, white, values["sigma_gm_deg_h"], values["tau_gm_s"]
+        )
+        return -0.5 * innovation**2 / variance - 0.5 * jnp.log(variance) - 0.5 * _LOG_2PI
+
+    def _innovations(self, residual, white, sd_gm, tau_s):
+        """Innovations of white + Gauss-Markov noise and their variances (Kalman filter).
+
+        The residual is ``g + w``: ``g`` a stationary Gauss-Markov state of sd ``sd_gm`` and
+        correlation time ``tau_s``, ``w`` white of sd ``white``. The filter is exact for any
+        sampling (``phi_k = exp(-step_k / tau)``), so the likelihood is the exact Gaussian one.
+        """
+        phi = jnp.exp(-self.steps_s / tau_s)
+        r = jnp.broadcast_to(white**2, residual.shape)
+        q = sd_gm**2
+
+        def step(carry, row):
+            mean, var = carry  # of g_k after the previous update
+            e_k, phi_k, r_k = row
+            prior_mean = phi_k * mean
+            prior_var = phi_k**2 * var + q * (1.0 - phi_k**2)
+            total = prior_var + r_k
+            innovation = e_k - prior_mean
+            gain = prior_var / total
+            return (prior_mean + gain * innovation, (1.0 - gain) * prior_var), (innovation, total)
+
+        # Start from the stationary state: mean 0, variance q (phi_0 then plays no role).
+        start = (jnp.zeros(()), q)
+        _, (innovation, variance) = jax.lax.scan(step, start, (residual, phi, r))
+        return innovation, variance
+
+    def log_likelihood(self, u: Float[Array, " d"]) -> Float[Array, ""]:
+        """Total log-likelihood (the sufficient-statistics path where it applies)."""
+        if self.gram is not None:
+            theta = u[: self.n_model]
+            delta = theta - self.solution
+            rss = self.rss_min + delta @ self.gram @ delta
+            if self.sigma is not None:
+                return -0.5 * rss - self.log_sigma_sum - 0.5 * self.n * _LOG_2PI
+            sd = jnp.exp(u[self.n_model])
+            return -0.5 * rss / sd**2 - self.n * jnp.log(sd) - 0.5 * self.n * _LOG_2PI
+        return jnp.sum(self.log_likelihood_rows(u))
+
+    def log_likelihood_blocks(self, u: Float[Array, " d"]) -> Float[Array, " b"]:
+        """Log-likelihood summed over blocks of ``LOO_BLOCK_S`` (what LOO leaves out)."""
+        return jax.ops.segment_sum(self.log_likelihood_rows(u), self.block, self.n_blocks)
+
+    def prior_residuals(self, u: Float[Array, " d"]) -> Float[Array, " d"]:
+        """Standardised prior residuals: ``-0.5 * sum(r**2)`` is the log prior + const."""
+        return jnp.stack([_prior_residual(prior, u[i]) for i, prior in enumerate(self.priors)])
+
+    def log_prior(self, u: Float[Array, " d"]) -> Float[Array, ""]:
+        return sum(prior.log_density(u[i]) for i, prior in enumerate(self.priors))
+
+    def log_posterior(self, u: Float[Array, " d"]) -> Float[Array, ""]:
+        value = self.log_likelihood(u) + self.log_prior(u)
+        return jnp.where(jnp.isfinite(value), value, -jnp.inf)
+
+
+def _prior_residual(prior: Prior, u: Float[Array, ""]) -> Float[Array, ""]:
+    if isinstance(prior, Flat):
+        return jnp.zeros(())
+    if isinstance(prior, LogNormal):
+        return (u - math.log(prior.median)) / prior.log_sd
+    return (u - prior.loc) / prior.scale
+
+
+def _noise_names(noise: str, sigma_known: bool) -> tuple[str, ...]:
+    white = () if sigma_known else ("sigma_deg_h",)
+    if noise == "white":
+        return white
+    return (*white, "sigma_gm_deg_h", "tau_gm_s")
+
+
+@eqx.filter_jit
+def batch_log_posterior(problem: BenchProblem, u: Float[Array, "w d"]) -> Float[Array, " w"]:
+    """Log-posterior of a batch of walkers (jit-compiled once per problem shape)."""
+    return jax.vmap(problem.log_posterior)(u)
+
+
+@eqx.filter_jit
+def batch_log_likelihood_blocks(problem: BenchProblem, u: Float[Array, "s d"]
+                                ) -> Float[Array, "s b"]:
+    return jax.vmap(problem.log_likelihood_blocks)(u)

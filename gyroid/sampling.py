@@ -1,0 +1,212 @@
+"""Posterior sampling with emcee, stored as ArviZ InferenceData.
+
+The log-posterior is jit-compiled and vmapped over walkers (``vectorize=True``). Walkers
+start from the point estimate's Gaussian approximation; the run is extended in chunks
+until it is at least ``tau_factor`` integrated autocorrelation times long and every
+parameter has ``ess_bulk >= min_ess`` and ``r_hat <= max_r_hat`` (ArviZ, over walkers),
+or until ``max_steps``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import emcee
+import jax.numpy as jnp
+import numpy as np
+from tqdm.auto import tqdm
+
+from gyroid._arviz import arviz as az
+from gyroid.likelihood import BenchProblem, batch_log_likelihood_blocks, batch_log_posterior
+from gyroid.point import PointEstimate
+
+#: Cap on the draws kept for storage (walkers x draws) after thinning.
+MAX_STORED_SAMPLES = 2000
+
+
+@dataclass(frozen=True)
+class SamplerSettings:
+    """How long to run emcee."""
+
+    n_walkers: int | None = None  # default: max(32, 4 * dimension), even
+    burn_steps: int = 300
+    chunk_steps: int = 500
+    tau_factor: float = 50.0
+    min_ess: float = 400.0
+    max_r_hat: float = 1.01
+    max_steps: int = 30000
+    progress: bool = True
+
+
+@dataclass
+class Posterior:
+    """Posterior draws in natural units with their diagnostics."""
+
+    names: tuple[str, ...]
+    draws: np.ndarray  # (walkers, draws, d) natural units, thinned, burn-in removed
+    log_posterior: np.ndarray  # (walkers, draws)
+    tau_steps: np.ndarray  # integrated autocorrelation time per parameter, steps
+    n_steps: int
+    burn: int
+    thin: int
+    acceptance: float
+    idata: object = field(repr=False)
+    summary: dict[str, dict] = field(default_factory=dict)
+
+    def flat(self, name: str) -> np.ndarray:
+        return self.draws[..., self.names.index(name)].reshape(-1)
+
+    @property
+    def converged(self) -> bool:
+        return all(s["r_hat"] <= 1.01 and s["ess_bulk"] >= 400 for s in self.summary.values())
+
+
+def _initial_walkers(problem: BenchProblem, point: PointEstimate, n_walkers: int,
+                     rng: np.random.Generator) -> np.ndarray:
+    d = point.u.size
+    covariance = np.asarray(point.covariance_u)
+    if not np.all(np.isfinite(covariance)):
+        covariance = np.eye(d) * 1e-4
+    covariance = 0.5 * (covariance + covariance.T) + 1e-12 * np.eye(d)
+    try:
+        factor = np.linalg.cholesky(covariance)
+    except np.linalg.LinAlgError:
+        factor = np.diag(np.sqrt(np.clip(np.diag(covariance), 1e-12, None)))
+    walkers = point.u + rng.standard_normal((n_walkers, d)) @ factor.T
+    for _ in range(20):
+        lp = np.asarray(batch_log_posterior(problem, jnp.asarray(walkers)))
+        bad = ~np.isfinite(lp)
+        if not bad.any():
+            break
+        walkers[bad] = point.u + 0.1 * rng.standard_normal((bad.sum(), d)) @ factor.T
+    return walkers
+
+
+def sample_posterior(
+    problem: BenchProblem,
+    point: PointEstimate,
+    *,
+    seed: int = 0,
+    settings: SamplerSettings | None = None,
+) -> Posterior:
+    """Sample the posterior of ``problem`` with emcee (see the module docstring)."""
+    settings = settings or SamplerSettings()
+    rng = np.random.default_rng(seed)
+    d = point.u.size
+    n_walkers = settings.n_walkers or max(32, 4 * d)
+    n_walkers += n_walkers % 2
+
+    def log_prob(u: np.ndarray) -> np.ndarray:
+        return np.asarray(batch_log_posterior(problem, jnp.asarray(u)))
+
+    sampler = emcee.EnsembleSampler(n_walkers, d, log_prob, vectorize=True)
+    # emcee draws its stretch moves from its own RandomState: seed it from ours.
+    sampler.random_state = np.random.RandomState(int(rng.integers(2**31))).get_state()
+    state = _initial_walkers(problem, point, n_walkers, rng)
+    bar = tqdm(total=settings.burn_steps, desc="emcee", unit="step",
+               disable=not settings.progress, leave=False)
+    state = _advance(sampler, state, settings.burn_steps, bar)
+    burn = settings.burn_steps
+    while True:
+        bar.total += settings.chunk_steps
+        bar.refresh()
+        state = _advance(sampler, state, settings.chunk_steps, bar)
+        kept = sampler.iteration - burn
+        tau = sampler.get_autocorr_time(discard=burn, tol=0)
+        if not np.all(np.isfinite(tau)):
+            tau = np.full(d, float(kept))
+        long_enough = kept >= settings.tau_factor * float(np.max(tau))
+        capped = sampler.iteration >= settings.max_steps
+        if long_enough or capped:
+            draws_u, lp, thin = _thinned(sampler, burn, tau)
+            summary = summarise_draws(np.asarray(problem.to_natural(jnp.asarray(draws_u))),
+                                      problem.names)
+            good = all(v["r_hat"] <= settings.max_r_hat and v["ess_bulk"] >= settings.min_ess
+                       for v in summary.values())
+            if good or capped:
+                break
+        # Once the walkers have mixed, a burn-in of a few autocorrelation times suffices.
+        burn = max(burn, int(3 * np.max(tau)))
+    bar.close()
+    natural = np.asarray(problem.to_natural(jnp.asarray(draws_u)))
+    idata = to_inference_data(problem, draws_u, natural, lp)
+    return Posterior(
+        names=problem.names,
+        draws=natural,
+        log_posterior=lp,
+        tau_steps=np.asarray(tau),
+        n_steps=int(sampler.iteration),
+        burn=burn,
+        thin=thin,
+        acceptance=float(np.mean(sampler.acceptance_fraction)),
+        idata=idata,
+        summary=summarise(idata, problem.names),
+    )
+
+
+def _advance(sampler: emcee.EnsembleSampler, state, steps: int, bar) -> emcee.State:
+    """Run ``steps`` more steps, ticking the progress bar."""
+    for _ in sampler.sample(state, iterations=steps):
+        bar.update(1)
+    return sampler.get_last_sample()
+
+
+def _thinned(sampler: emcee.EnsembleSampler, burn: int, tau: np.ndarray):
+    """Draws after burn-in, thinned by half the shortest autocorrelation time (or more, to
+    keep at most ``MAX_STORED_SAMPLES``): (walkers, draws, d), (walkers, draws), thin."""
+    chain = sampler.get_chain(discard=burn)  # (steps, walkers, d)
+    lp = sampler.get_log_prob(discard=burn)
+    steps, walkers, _ = chain.shape
+    thin = max(1, int(0.5 * np.min(tau)), math.ceil(steps * walkers / MAX_STORED_SAMPLES))
+    return np.transpose(chain[::thin], (1, 0, 2)), lp[::thin].T, thin
+
+
+def to_inference_data(problem: BenchProblem, draws_u: np.ndarray, natural: np.ndarray,
+                      log_posterior: np.ndarray):
+    """ArviZ InferenceData: posterior, block log-likelihood, observed data, sample stats."""
+    walkers, draws, d = draws_u.shape
+    flat = jnp.asarray(draws_u.reshape(-1, d))
+    blocks = []
+    for start in range(0, flat.shape[0], 256):
+        blocks.append(np.asarray(batch_log_likelihood_blocks(problem, flat[start:start + 256])))
+    log_lik = np.concatenate(blocks).reshape(walkers, draws, -1)
+    return az.from_dict(
+        posterior={name: natural[..., i] for i, name in enumerate(problem.names)},
+        log_likelihood={"drift_deg_h": log_lik},
+        observed_data={"drift_deg_h": np.asarray(problem.drift)},
+        constant_data={"time_h": np.asarray(problem.inputs.time_h),
+                       "loo_block": np.asarray(problem.block)},
+        sample_stats={"lp": log_posterior},
+        dims={"drift_deg_h": ["row"], "time_h": ["row"], "loo_block": ["row"]},
+        attrs={
+            "terms": ",".join(problem.model.terms),
+            "noise_model": problem.noise,
+            "log_likelihood_note": "log_likelihood holds sums over blocks of rows "
+                                   "(constant_data.loo_block): LOO leaves out whole blocks",
+        },
+    )
+
+
+def summarise_draws(draws: np.ndarray, names: tuple[str, ...]) -> dict[str, dict]:
+    """Summary of (walkers, draws, d) natural-unit draws, without building InferenceData."""
+    posterior = az.from_dict(posterior={n: draws[..., i] for i, n in enumerate(names)})
+    return summarise(posterior, names)
+
+
+def summarise(idata, names: tuple[str, ...]) -> dict[str, dict]:
+    """Mean, sd, 95 % interval, r_hat and bulk ESS of each parameter."""
+    r_hat = az.rhat(idata)
+    ess = az.ess(idata, method="bulk")
+    out = {}
+    for name in names:
+        values = np.asarray(idata.posterior[name]).reshape(-1)
+        lo, hi = np.percentile(values, [2.5, 97.5])
+        out[name] = {
+            "mean": float(values.mean()),
+            "sd": float(values.std(ddof=1)),
+            "ci95": [float(lo), float(hi)],
+            "r_hat": float(r_hat[name]),
+            "ess_bulk": float(ess[name]),
+        }
+    return out
