@@ -50,3 +50,21 @@ def paper_a_magnetic_coefficients() -> dict[tuple[int, int], dict[str, float]]:
         (int(r["device"]), int(r["test"])): {k: float(r[k]) for k in ("wx", "wy", "wz")}
         for r in rows
     }
+
+
+def paper_a_table_log():
+    """Paper A's setpoint table as a bench log (one row per setpoint, sigma as printed),
+    so that gyroid's fits run on the paper's only real measurements."""
+    from gyroid.logs import BenchLog
+
+    table = paper_a_thermal_table()
+    return BenchLog(
+        columns={
+            "time_s": np.arange(table.setpoint_C.size, dtype=float),
+            "drift_deg_h": table.dw_deg_h,
+            "temperature_C": table.setpoint_C,
+            "sigma_deg_h": table.sigma_deg_h,
+        },
+        source="paper A setpoint table",
+        comments=table.source,
+    )

@@ -112,3 +112,56 @@ def test_demo_writes_a_report_whose_figures_exist(tmp_path):
     results = json.loads((out / "demo.json").read_text())
     k = results["magnetic"]["K"]["wy"]
     assert np.isfinite(k["signed"])
+
+
+@pytest.fixture(scope="module")
+def simulated_magnetic(tmp_path_factory):
+    out = tmp_path_factory.mktemp("sim") / "magnetic"
+    assert main(["simulate", "magnetic", "--out", str(out), "--seed", "5"]) == 0
+    return out / "bench.csv"
+
+
+def test_fit_writes_the_contract_outputs(tmp_path, simulated_magnetic):
+    out = tmp_path / "fit"
+    assert main(["fit", str(simulated_magnetic), "--terms", "magnetic", "--out", str(out),
+                 "--seed", "1", "--no-progress"]) == 0
+    fit = json.loads((out / "fit.json").read_text())
+    names = ["w0", "wx", "wy", "wz"]
+    assert fit["terms"] == ["bias", "magnetic_x", "magnetic_y", "magnetic_z"]
+    assert fit["n_samples"] == 13500
+    assert list(fit["point"]) == names and list(fit["point_sd"]) == names
+    for name in names:
+        summary = fit["posterior"][name]
+        assert set(summary) >= {"mean", "sd", "ci95", "r_hat", "ess_bulk"}
+        assert summary["r_hat"] <= 1.01 and summary["ess_bulk"] >= 400
+        assert summary["ci95"][0] < summary["mean"] < summary["ci95"][1]
+    assert 0.25 < fit["rms_residual_deg_h"] < 0.35
+    for name in ("posterior.nc", "fit.png", "pair.png"):
+        assert (out / name).exists()
+    from gyroid._arviz import arviz as az
+
+    idata = az.from_netcdf(str(out / "posterior.nc"))
+    assert set(names) <= set(idata.posterior.data_vars)
+    assert "log_likelihood" in idata.groups() and "observed_data" in idata.groups()
+    loo = az.loo(idata)
+    assert np.isfinite(loo.elpd_loo)
+
+
+@pytest.mark.parametrize(
+    ("edit", "expected"),
+    [
+        (lambda t: t.replace("time_s,", "t,", 1), "column 'time_s' is missing"),
+        (lambda t: "\n".join(t.splitlines()[:20] + ["1,abc" + t.splitlines()[20][3:]]
+                             + t.splitlines()[21:]), "not a number"),
+        (lambda t: t.replace("Hz_uT", "Hz_nT"), "column 'Hz_uT' is missing"),
+    ],
+)
+def test_fit_refuses_a_malformed_log_and_writes_nothing(tmp_path, capsys, simulated_magnetic,
+                                                       edit, expected):
+    bad = tmp_path / "bad.csv"
+    bad.write_text(edit(simulated_magnetic.read_text()))
+    out = tmp_path / "fit"
+    assert main(["fit", str(bad), "--terms", "magnetic", "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert expected in err and "Traceback" not in err
+    assert not out.exists()

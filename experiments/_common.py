@@ -1,0 +1,34 @@
+"""Shared plumbing of the experiment scripts: where results go, and the run record."""
+
+from __future__ import annotations
+
+import json
+import shlex
+import sys
+import time
+from pathlib import Path
+
+import gyroid
+from gyroid.outputs import atomic_write_text, json_text
+
+RESULTS = Path(__file__).resolve().parent / "results"
+
+
+def results_dir(name: str) -> Path:
+    folder = RESULTS / name
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
+
+
+def save_run(folder: Path, *, seed: int, config: dict, results: dict, started: float) -> None:
+    """Write results.json with the command, config, seed, gyroid version and wall time."""
+    record = {
+        "command": " ".join(shlex.quote(a) for a in [sys.executable, *sys.argv]),
+        "seed": seed,
+        "config": config,
+        "gyroid_version": gyroid.__version__,
+        "seconds": round(time.time() - started, 1),
+        "results": results,
+    }
+    atomic_write_text(folder / "results.json", json_text(record))
+    print(json.dumps(results, indent=2)[:4000])
