@@ -207,6 +207,48 @@ def roll_simulate(out, seed, overrides, roll_profile, rate, duration, period, ov
 
 
 @cli.command()
+@click.argument("data", type=click.Path(path_type=Path))
+@click.option("--terms", required=True, metavar="TERMS",
+              help="The model to start from: effects or a preset (thermal, magnetic, full).")
+@click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="Folder for discrepancy.json and discrepancy.png.")
+@click.option("--t0", "t0_C", default=21.0, show_default=True, type=float,
+              help="Reference temperature t0, degC.")
+@click.option("--max-added", default=3, show_default=True, type=int,
+              help="Stop after adding this many effects.")
+def discrepancy(data, terms, out, t0_C, max_added) -> None:
+    """Find what the model TERMS misses in DATA.csv, add it, refit, show the gap shrink."""
+    from gyroid.discrepancy import find_discrepancies, regressors
+    from gyroid.logs import load_bench_log
+    from gyroid.outputs import json_text
+    from gyroid.plotting import discrepancy_figure, save
+    from gyroid.tables import read_csv_table
+
+    header = read_csv_table(data).header
+    if "roll_rate_deg_s" in header and "drift_deg_h" not in header:
+        raise GyroidInputError(
+            f"{Path(data).name} is a roll log: this version of gyroid runs the discrepancy "
+            "workflow on bench logs only (columns time_s, drift_deg_h, ...)")
+    log = load_bench_log(data, terms, t0_C=t0_C)
+    click.echo(f"searching what {terms} misses in {data} ({log.n} rows) ...", err=True)
+    report = find_discrepancies(log, terms, max_added=max_added, t0_C=t0_C,
+                                progress=lambda m: click.echo(m, err=True))
+    regs = regressors(log.inputs(t0_C=t0_C, rate_window_s=report.rate_window_s))
+    if report.steps:
+        name = report.steps[0].regressor
+    else:
+        name = next(iter(report.lines_up_with), "elapsed time")
+    with output_dir(out) as stage:
+        (stage / "discrepancy.json").write_text(json_text(report.to_json()))
+        save(discrepancy_figure(report, regs.get(name), name), stage / "discrepancy")
+    for step in report.steps:
+        click.echo(f"added {step.effect}: {step.evidence}")
+    if not report.steps:
+        click.echo("nothing is missing: no candidate effect reaches dBIC > 10")
+    click.echo(f"wrote {out / 'discrepancy.json'} and {out / 'discrepancy.png'}")
+
+
+@cli.command()
 @click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder for reproduce.json, tables.md and the figures.")
 def reproduce(out) -> None:

@@ -57,6 +57,9 @@ class Effect:
     nonlinear: Callable[[Params, DriftInputs], Float[Array, " n"]] | None = None
     reads: tuple[str, ...] = field(default=())
     needs_effects: tuple[str, ...] = field(default=())
+    #: What the residuals of a model lacking this effect line up with (a key of
+    #: ``gyroid.discrepancy.REGRESSORS``).
+    signature: str = "elapsed time"
 
     @property
     def parameter_names(self) -> tuple[str, ...]:
@@ -107,6 +110,7 @@ EFFECTS: dict[str, Effect] = {
     for e in (
         Effect(
             name="bias",
+            signature="constant",
             formula="w0",
             parameters=(Parameter("w0", "deg/h", "constant drift", Normal(0.0, 10.0)),),
             columns=(),
@@ -115,6 +119,7 @@ EFFECTS: dict[str, Effect] = {
         ),
         Effect(
             name="temperature",
+            signature="temperature",
             formula="w1 t, t = T - t0",
             parameters=(
                 Parameter("w1", "deg/h/degC", "linear temperature sensitivity", Normal(0.0, 1.0)),
@@ -125,6 +130,7 @@ EFFECTS: dict[str, Effect] = {
         ),
         Effect(
             name="temperature_sq",
+            signature="temperature^2",
             formula="w2 t^2",
             parameters=(
                 Parameter(
@@ -137,6 +143,7 @@ EFFECTS: dict[str, Effect] = {
         ),
         Effect(
             name="temperature_rate",
+            signature="dT/dt",
             formula="wD dT/dt, dT/dt in degC/h",
             parameters=(
                 Parameter(
@@ -153,6 +160,7 @@ EFFECTS: dict[str, Effect] = {
         *(
             Effect(
                 name=f"magnetic_{axis}",
+                signature=f"H{axis}",
                 formula=f"w{axis} H{axis}/H0, H0 = 100 uT",
                 parameters=(
                     Parameter(
@@ -170,6 +178,7 @@ EFFECTS: dict[str, Effect] = {
         ),
         Effect(
             name="thermal_lag",
+            signature="dT/dt",
             formula=(
                 "the temperature terms see T_lag, tau dT_lag/dt = T - T_lag: adds "
                 "w1 (t_lag - t) + w2 (t_lag^2 - t^2) + w3 (t_lag^3 - t^3)"
@@ -191,6 +200,7 @@ EFFECTS: dict[str, Effect] = {
         ),
         Effect(
             name="warmup",
+            signature="start-up transient",
             formula="w_warmup exp(-(time - time[0]) / tau_warmup)",
             parameters=(
                 Parameter(
@@ -210,6 +220,7 @@ EFFECTS: dict[str, Effect] = {
         ),
         Effect(
             name="time_trend",
+            signature="elapsed time",
             formula="w_trend (time - time[0]), time in h",
             parameters=(
                 Parameter(
@@ -222,6 +233,7 @@ EFFECTS: dict[str, Effect] = {
         ),
         Effect(
             name="magnetic_hysteresis",
+            signature="sign of the last field change",
             formula=(
                 "hys_x s_x + hys_y s_y + hys_z s_z, s_k = sign of the last change of H_k "
                 "(+1 rising, -1 falling, 0 before any; 10 uT dead band)"
@@ -241,6 +253,7 @@ EFFECTS: dict[str, Effect] = {
         ),
         Effect(
             name="temperature_cubic",
+            signature="temperature^3",
             formula="w3 t^3",
             parameters=(
                 Parameter("w3", "deg/h/degC^3", "cubic temperature sensitivity", Normal(0.0, 0.01)),

@@ -190,30 +190,7 @@ class BenchProblem(eqx.Module):
         return -0.5 * innovation**2 / variance - 0.5 * jnp.log(variance) - 0.5 * _LOG_2PI
 
     def _innovations(self, residual, white, sd_gm, tau_s):
-        """Innovations of white + Gauss-Markov noise and their variances (Kalman filter).
-
-        The residual is ``g + w``: ``g`` a stationary Gauss-Markov state of sd ``sd_gm`` and
-        correlation time ``tau_s``, ``w`` white of sd ``white``. The filter is exact for any
-        sampling (``phi_k = exp(-step_k / tau)``), so the likelihood is the exact Gaussian one.
-        """
-        phi = jnp.exp(-self.steps_s / tau_s)
-        r = jnp.broadcast_to(white**2, residual.shape)
-        q = sd_gm**2
-
-        def step(carry, row):
-            mean, var = carry  # of g_k after the previous update
-            e_k, phi_k, r_k = row
-            prior_mean = phi_k * mean
-            prior_var = phi_k**2 * var + q * (1.0 - phi_k**2)
-            total = prior_var + r_k
-            innovation = e_k - prior_mean
-            gain = prior_var / total
-            return (prior_mean + gain * innovation, (1.0 - gain) * prior_var), (innovation, total)
-
-        # Start from the stationary state: mean 0, variance q (phi_0 then plays no role).
-        start = (jnp.zeros(()), q)
-        _, (innovation, variance) = jax.lax.scan(step, start, (residual, phi, r))
-        return innovation, variance
+        return gauss_markov_innovations(residual, self.steps_s, white, sd_gm, tau_s)
 
     def log_likelihood(self, u: Float[Array, " d"]) -> Float[Array, ""]:
         """Total log-likelihood (the sufficient-statistics path where it applies)."""
@@ -241,6 +218,36 @@ class BenchProblem(eqx.Module):
     def log_posterior(self, u: Float[Array, " d"]) -> Float[Array, ""]:
         value = self.log_likelihood(u) + self.log_prior(u)
         return jnp.where(jnp.isfinite(value), value, -jnp.inf)
+
+
+def gauss_markov_innovations(residual, steps_s, white, sd_gm, tau_s):
+    """Innovations of white + Gauss-Markov noise and their variances (a Kalman filter).
+
+    The residual is ``g + w``: ``g`` a stationary Gauss-Markov state of sd ``sd_gm`` and
+    correlation time ``tau_s``, ``w`` white of sd ``white`` (scalar or per row). The filter
+    is exact for any sampling (``phi_k = exp(-step_k / tau)``), so ``-0.5 sum(innovation**2
+    / variance + log(2 pi variance))`` is the exact Gaussian log-likelihood. ``residual``
+    may have trailing columns (each filtered alike: the filter is linear in the data).
+    """
+    phi = jnp.exp(-steps_s / tau_s)
+    r = jnp.broadcast_to(white**2, steps_s.shape)
+    q = sd_gm**2
+    extra = residual.shape[1:]
+
+    def step(carry, row):
+        mean, var = carry  # of g_k after the previous update
+        e_k, phi_k, r_k = row
+        prior_mean = phi_k * mean
+        prior_var = phi_k**2 * var + q * (1.0 - phi_k**2)
+        total = prior_var + r_k
+        innovation = e_k - prior_mean
+        gain = prior_var / total
+        return (prior_mean + gain * innovation, (1.0 - gain) * prior_var), (innovation, total)
+
+    # Start from the stationary state: mean 0, variance q (phi_0 then plays no role).
+    start = (jnp.zeros(extra), jnp.asarray(q, dtype=float))
+    _, (innovation, variance) = jax.lax.scan(step, start, (residual, phi, r))
+    return innovation, variance
 
 
 def _prior_residual(prior: Prior, u: Float[Array, ""]) -> Float[Array, ""]:

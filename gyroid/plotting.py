@@ -208,3 +208,46 @@ def paper_b_stabiliser(reproduce: dict) -> plt.Figure:
         ax.set_ylabel("stabiliser angle error, deg")
         ax.legend(frameon=False)
         return fig
+
+
+def discrepancy_figure(report, regressor_values: np.ndarray | None, regressor_name: str
+                       ) -> plt.Figure:
+    """Residuals before/after against time, the regressor that explains them, RMS per step."""
+    time_s = np.asarray(report.time_s)
+    window = max(60.0, (time_s[-1] - time_s[0]) / 400.0)
+    index = np.floor((time_s - time_s[0]) / window).astype(int)
+    counts = np.bincount(index)
+    keep = counts >= 0.5 * np.median(counts[counts > 0])  # drop a short last block
+
+    def means(values):
+        return np.bincount(index, weights=np.asarray(values))[keep] / counts[keep]
+
+    hours = means((time_s - time_s[0]) / 3600.0)
+    before, after = means(report.residual_before), means(report.residual_after)
+    with plt.rc_context(STYLE):
+        fig = plt.figure(figsize=(7.5, 6.0))
+        grid = fig.add_gridspec(2, 2, height_ratios=[1.2, 1])
+        ax = fig.add_subplot(grid[0, :])
+        ax.plot(hours, before, color="0.6", lw=1.0, ls="-", label="baseline model")
+        ax.plot(hours, after, color="0.0", lw=1.0, ls="-", label="after adding: "
+                + (", ".join(report.added) or "nothing"))
+        ax.axhline(0.0, color="0.0", lw=0.5, ls=":")
+        ax.set_xlabel("time since start, h")
+        ax.set_ylabel(f"residual ({window:.0f} s means), deg/h")
+        ax.legend(frameon=False, loc="best")
+        ax2 = fig.add_subplot(grid[1, 0])
+        if regressor_values is not None:
+            ax2.plot(means(regressor_values), before, ".", color="0.2", ms=2.5)
+        from gyroid.discrepancy import REGRESSOR_UNITS
+
+        ax2.set_xlabel(f"{regressor_name}, {REGRESSOR_UNITS.get(regressor_name, '-')}")
+        ax2.set_ylabel("baseline residual, deg/h")
+        ax3 = fig.add_subplot(grid[1, 1])
+        labels = ["baseline", *report.added]
+        rms = [report.rms_baseline_deg_h, *[s.rms_after_deg_h for s in report.steps]]
+        ax3.plot(range(len(rms)), rms, "o-", color="0.0")
+        ax3.set_xticks(range(len(rms)), labels, rotation=20, fontsize=7)
+        ax3.set_ylabel("RMS residual, deg/h")
+        ax3.set_xlabel("model step")
+        fig.tight_layout()
+        return fig

@@ -1,0 +1,516 @@
+"""The discrepancy workflow: where does a model disagree with a log, which missing effect
+explains it, and how much does adding it close the gap?
+
+Evidence. Every comparison uses the exact Gaussian likelihood under a white + Gauss-Markov
+noise model (:func:`gyroid.likelihood.gauss_markov_innovations`), so slowly wandering noise
+(bias instability) is not mistaken for an effect. A candidate effect is scored by the BIC
+difference ``dBIC = 2 (logL_with - logL_without) - k log n`` (``k`` its parameters, ``n``
+rows), the large-sample (Laplace) approximation to twice the log Bayes factor. A candidate
+is added when ``dBIC > 10`` ("very strong" on the Kass-Raftery scale: a Bayes factor above
+150 after paying for the extra parameters). Each model's noise levels are re-estimated from
+its own residuals (alternating with the fit), so an effect is not hidden by a noise model
+that has absorbed it. Two candidates whose scores are within ``AMBIGUITY_DBIC`` of each other
+(a Bayes factor below 20) are reported as interchangeable on this log.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from dataclasses import dataclass, field
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+from scipy.optimize import minimize
+
+from gyroid.drift import DriftModel
+from gyroid.effects import EFFECTS, resolve_terms
+from gyroid.errors import GyroidInputError
+from gyroid.inputs import T0_C, DriftInputs
+from gyroid.likelihood import NOISE_PRIORS, gauss_markov_innovations
+from gyroid.logs import BenchLog
+
+#: dBIC a candidate must reach to be added.
+ADD_THRESHOLD = 10.0
+#: Two candidates scoring within this of each other are interchangeable on the log.
+AMBIGUITY_DBIC = 6.0
+#: Rate-estimator windows tried on logs whose model reads dT/dt, s.
+RATE_WINDOWS_S = (300.0, 600.0, 1200.0)
+#: Multiples of a time constant's prior median used as starting grid.
+TAU_GRID = (0.05, 0.15, 0.4, 1.0, 2.5, 6.0, 15.0)
+_LOG_2PI = math.log(2.0 * math.pi)
+
+
+REGRESSOR_UNITS = {
+    "temperature": "degC from t0", "temperature^2": "degC^2", "temperature^3": "degC^3",
+    "dT/dt": "degC/h", "d2T/dt2": "degC/h^2", "elapsed time": "h",
+    "start-up transient": "exp(-t / 20 min)", "Hx": "H/H0", "Hy": "H/H0", "Hz": "H/H0",
+    "sign of the last Hx change": "+/-1", "sign of the last Hy change": "+/-1",
+    "sign of the last Hz change": "+/-1",
+}
+
+
+def regressors(x: DriftInputs) -> dict[str, np.ndarray]:
+    """Quantities residuals may line up with, by the names effects give as signatures."""
+    time_h = np.asarray(x.time_h)
+    t = np.asarray(x.t_rel)
+    out = {
+        "temperature": t,
+        "temperature^2": t**2,
+        "temperature^3": t**3,
+        "dT/dt": np.asarray(x.rate_C_h),
+        "d2T/dt2": np.gradient(np.asarray(x.rate_C_h), time_h) if time_h.size > 1 else t * 0,
+        "elapsed time": time_h,
+        "start-up transient": np.exp(-time_h / 0.33),
+    }
+    for k, axis in enumerate("xyz"):
+        out[f"H{axis}"] = np.asarray(x.field_rel[:, k])
+        out[f"sign of the last H{axis} change"] = np.asarray(x.field_sign[:, k])
+    return out
+
+
+@dataclass(frozen=True)
+class NoiseLevels:
+    """White + Gauss-Markov noise: sds in deg/h, correlation time in s."""
+
+    white: float
+    gm: float
+    tau_s: float
+
+    def as_dict(self) -> dict[str, float]:
+        return {"sigma_deg_h": self.white, "sigma_gm_deg_h": self.gm, "tau_gm_s": self.tau_s}
+
+
+@dataclass
+class ModelFit:
+    terms: tuple[str, ...]
+    values: dict[str, float]
+    log_likelihood: float
+    n_parameters: int
+    residual: np.ndarray  # data minus model at the whitened-LS optimum, deg/h
+    rms_ols: float  # RMS of the ordinary least-squares fit of the same model, deg/h
+
+
+@dataclass
+class Step:
+    effect: str
+    evidence: str
+    rms_before_deg_h: float
+    rms_after_deg_h: float
+    score: float  # dBIC, noise re-estimated
+    screening: dict[str, float]  # dBIC of every candidate tried at this step
+    interchangeable_with: list[str]
+    regressor: str
+    correlation: float
+
+
+@dataclass
+class DiscrepancyReport:
+    baseline_terms: tuple[str, ...]
+    final_terms: tuple[str, ...]
+    steps: list[Step]
+    rms_baseline_deg_h: float
+    rms_final_deg_h: float
+    rate_window_s: float
+    noise: NoiseLevels
+    where: list[dict]
+    lines_up_with: dict[str, float]
+    ambiguous: list[dict] = field(default_factory=list)
+    residual_before: np.ndarray = field(default=None, repr=False)
+    residual_after: np.ndarray = field(default=None, repr=False)
+    time_s: np.ndarray = field(default=None, repr=False)
+    skipped: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def added(self) -> list[str]:
+        return [s.effect for s in self.steps]
+
+    def to_json(self) -> dict:
+        return {
+            "baseline_terms": list(self.baseline_terms),
+            "added": self.added,
+            "final_terms": list(self.final_terms),
+            "rms_baseline_deg_h": self.rms_baseline_deg_h,
+            "rms_final_deg_h": self.rms_final_deg_h,
+            "steps": [
+                {
+                    "effect": s.effect,
+                    "evidence": s.evidence,
+                    "rms_before_deg_h": s.rms_before_deg_h,
+                    "rms_after_deg_h": s.rms_after_deg_h,
+                    "score": s.score,
+                    "score_kind": "dBIC = 2 dlogL - k log n, noise re-estimated",
+                    "candidates_dbic": s.screening,
+                    "interchangeable_with": s.interchangeable_with,
+                    "regressor": s.regressor,
+                    "correlation": s.correlation,
+                }
+                for s in self.steps
+            ],
+            "threshold_dbic": ADD_THRESHOLD,
+            "ambiguous": self.ambiguous,
+            "where": self.where,
+            "lines_up_with": self.lines_up_with,
+            "noise": self.noise.as_dict(),
+            "rate_window_s": self.rate_window_s,
+            "skipped_candidates": self.skipped,
+        }
+
+
+# ----- whitened least squares ------------------------------------------------------------
+
+
+@eqx.filter_jit
+def _profile(model: DriftModel, inputs: DriftInputs, y, positive_u, steps_s, noise):
+    """Max log-likelihood over the real parameters with the positive ones fixed."""
+    positive = np.array([p.positive for p in model.parameters])
+    real_idx = np.flatnonzero(~positive)
+    pos_idx = np.flatnonzero(positive)
+    base = jnp.zeros(positive.size).at[pos_idx].set(jnp.exp(positive_u))
+
+    def predict(values):
+        return model.predict(base.at[real_idx].set(values), inputs)
+
+    zero = jnp.zeros(real_idx.size)
+    offset = predict(zero)
+    design = jax.jacfwd(predict)(zero)
+    stacked = jnp.concatenate([(y - offset)[:, None], design], axis=1)
+    white, gm, tau = noise
+    innovations, variance = gauss_markov_innovations(stacked, steps_s, white, gm, tau)
+    scale = 1.0 / jnp.sqrt(variance)
+    target = innovations[:, 0] * scale
+    columns = innovations[:, 1:] * scale[:, None]
+    coef, *_ = jnp.linalg.lstsq(columns, target)
+    rss = jnp.sum((target - columns @ coef) ** 2)
+    log_lik = -0.5 * rss - 0.5 * jnp.sum(jnp.log(variance)) - 0.5 * y.shape[0] * _LOG_2PI
+    values = base.at[real_idx].set(coef)
+    return log_lik, values, y - model.predict(values, inputs)
+
+
+def _fit(model: DriftModel, inputs: DriftInputs, y, steps_s, noise: NoiseLevels) -> ModelFit:
+    """Whitened least squares of ``model`` with fixed noise; time constants by a grid search
+    followed by a local (Nelder-Mead / bounded) search on the profile likelihood."""
+    params = model.parameters
+    positive = [p for p in params if p.positive]
+    noise_args = (jnp.asarray(noise.white), jnp.asarray(noise.gm), jnp.asarray(noise.tau_s))
+    y = jnp.asarray(y)
+
+    def profile(u):
+        return _profile(model, inputs, y, jnp.asarray(u, dtype=float), steps_s, noise_args)
+
+    if positive:
+        medians = np.log([p.prior.median for p in positive])
+        best_u, best = None, -np.inf
+        for combo in itertools.product(TAU_GRID, repeat=len(positive)):
+            u = medians + np.log(combo)
+            value = float(profile(u)[0])
+            if value > best:
+                best_u, best = u, value
+        bounds = [(m + math.log(0.01), m + math.log(50.0)) for m in medians]
+        method = "Nelder-Mead" if len(positive) > 1 else "Powell"
+        options = {"xatol": 1e-4, "fatol": 1e-4} if len(positive) > 1 else {"xtol": 1e-4}
+        found = minimize(
+            lambda u: -float(profile(u)[0]), best_u, method=method, bounds=bounds, options=options
+        )
+        u = found.x if -found.fun >= best else best_u
+    else:
+        u = np.zeros(0)
+    log_lik, values, residual = profile(u)
+    ols = _ols_rms(model, inputs, np.asarray(y), u)
+    return ModelFit(
+        terms=model.terms,
+        values=dict(zip(model.parameter_names, np.asarray(values).tolist(), strict=True)),
+        log_likelihood=float(log_lik),
+        n_parameters=len(params),
+        residual=np.asarray(residual),
+        rms_ols=ols,
+    )
+
+
+def _ols_rms(model: DriftModel, inputs: DriftInputs, y: np.ndarray, positive_u) -> float:
+    """RMS residual of ordinary least squares of the model (time constants as given)."""
+    n = y.size
+    steps = jnp.ones(n)
+    log_lik, values, residual = _profile(
+        model,
+        inputs,
+        jnp.asarray(y),
+        jnp.asarray(positive_u, dtype=float),
+        steps,
+        (jnp.asarray(1.0), jnp.asarray(1e-9), jnp.asarray(1.0)),
+    )
+    del log_lik, values
+    return float(np.sqrt(np.mean(np.asarray(residual) ** 2)))
+
+
+#: Longest correlation time the noise model may take, s. A Gauss-Markov process with a
+#: correlation time comparable with the log is indistinguishable from a slow effect (a trend,
+#: a warm-up); bias instability of FOGs sits at seconds to tens of minutes.
+MAX_NOISE_TAU_S = 1800.0
+
+
+def _noise_tau(u):
+    return MAX_NOISE_TAU_S * jax.nn.sigmoid(u)
+
+
+def _noise_nll(u, args):
+    residual, steps_s = args
+    white, gm, tau = jnp.exp(u[0]), jnp.exp(u[1]), _noise_tau(u[2])
+    innovation, variance = gauss_markov_innovations(residual, steps_s, white, gm, tau)
+    log_lik = -0.5 * jnp.sum(innovation**2 / variance + jnp.log(variance))
+    prior = (
+        NOISE_PRIORS["sigma_deg_h"].log_density(u[0])
+        + NOISE_PRIORS["sigma_gm_deg_h"].log_density(u[1])
+        + NOISE_PRIORS["tau_gm_s"].log_density(jnp.log(tau))
+    )
+    return -(log_lik + prior)
+
+
+@eqx.filter_jit
+def _noise_solve(u0, residual, steps_s):
+    solution = optx.minimise(
+        _noise_nll,
+        optx.BFGS(rtol=1e-7, atol=1e-7),
+        u0,
+        args=(residual, steps_s),
+        max_steps=400,
+        throw=False,
+    )
+    return solution.value
+
+
+def estimate_noise(residual: np.ndarray, steps_s) -> NoiseLevels:
+    """Maximum a-posteriori white + Gauss-Markov noise levels of a residual series."""
+    residual = np.asarray(residual)
+    white0 = max(float(np.std(np.diff(residual))) / math.sqrt(2.0), 1e-6)
+    gm0 = max(0.3 * float(np.std(residual)), 1e-4)
+    u0 = jnp.asarray([math.log(white0), math.log(gm0), math.log(300.0 / (MAX_NOISE_TAU_S - 300.0))])
+    u = np.asarray(_noise_solve(u0, jnp.asarray(residual), steps_s))
+    if not np.all(np.isfinite(u)):
+        u = np.asarray(u0)
+    return NoiseLevels(float(np.exp(u[0])), float(np.exp(u[1])), float(_noise_tau(u[2])))
+
+
+def _fit_with_noise(model, inputs, y, steps_s, start: NoiseLevels, rounds: int = 2):
+    """Alternate the whitened fit and the noise estimate (the noise profiled out)."""
+    noise = start
+    fit = _fit(model, inputs, y, steps_s, noise)
+    for _ in range(rounds):
+        noise = estimate_noise(fit.residual, steps_s)
+        fit = _fit(model, inputs, y, steps_s, noise)
+    return fit, noise
+
+
+# ----- the workflow ------------------------------------------------------------------------
+
+
+def _applicable(
+    effect: str, terms: tuple[str, ...], log: BenchLog, inputs: DriftInputs
+) -> str | None:
+    """Why a candidate cannot be tried on this log (None when it can)."""
+    e = EFFECTS[effect]
+    missing = [c for c in e.columns if not log.has(c)]
+    if missing:
+        return f"the log has no {missing[0]} column"
+    if any(need not in terms for need in e.needs_effects):
+        return f"needs {', '.join(e.needs_effects)} in the model"
+    try:
+        DriftModel(terms=resolve_terms((*terms, effect))).check_identifiable(
+            inputs, frozenset(log.columns)
+        )
+    except GyroidInputError as error:
+        return str(error)
+    return None
+
+
+def _choose_rate_window(log: BenchLog, model: DriftModel, t0_C: float) -> float:
+    reads_rate = any(e.signature == "dT/dt" for e in model.effects) and log.has("temperature_C")
+    if not reads_rate:
+        return RATE_WINDOWS_S[-1]
+    best = (math.inf, RATE_WINDOWS_S[-1])
+    for window in RATE_WINDOWS_S:
+        inputs = log.inputs(t0_C=t0_C, rate_window_s=window)
+        design = np.asarray(
+            jax.jacfwd(lambda th, x=inputs: model.predict(th, x))(
+                jnp.zeros(len(model.parameter_names))
+            )
+        )
+        residual = (
+            log.drift_deg_h - design @ np.linalg.lstsq(design, log.drift_deg_h, rcond=None)[0]
+        )
+        best = min(best, (float(np.sum(residual**2)), window))
+    return best[1]
+
+
+def _where(
+    time_s, residual, inputs: DriftInputs, noise: NoiseLevels, log: BenchLog, top: int = 3
+) -> list[dict]:
+    """Time windows with the largest standardised mean residual."""
+    span = time_s[-1] - time_s[0]
+    window = max(span / 40.0, 60.0)
+    index = np.floor((time_s - time_s[0]) / window).astype(int)
+    out = []
+    for k in np.unique(index):
+        inside = index == k
+        count = int(inside.sum())
+        expected = math.sqrt(noise.white**2 / count + noise.gm**2)
+        mean = float(residual[inside].mean())
+        row = {
+            "start_s": float(time_s[inside][0]),
+            "end_s": float(time_s[inside][-1]),
+            "mean_residual_deg_h": mean,
+            "z": mean / expected,
+        }
+        if log.has("temperature_C"):
+            row["temperature_C"] = float(np.mean(log.columns["temperature_C"][inside]))
+            row["dT_dt_C_h"] = float(np.mean(np.asarray(inputs.rate_C_h)[inside]))
+        for c in ("Hx_uT", "Hy_uT", "Hz_uT"):
+            if log.has(c):
+                row[c] = float(np.mean(log.columns[c][inside]))
+        out.append(row)
+    out.sort(key=lambda r: -abs(r["z"]))
+    return out[:top]
+
+
+def _correlations(residual: np.ndarray, regs: dict[str, np.ndarray]) -> dict[str, float]:
+    out = {}
+    for name, values in regs.items():
+        if np.ptp(values) > 0:
+            out[name] = float(np.corrcoef(residual, values)[0, 1])
+    return dict(sorted(out.items(), key=lambda kv: -abs(kv[1])))
+
+
+def find_discrepancies(
+    log: BenchLog,
+    terms: str | tuple[str, ...],
+    *,
+    candidates: tuple[str, ...] | None = None,
+    max_added: int = 3,
+    t0_C: float = T0_C,
+    progress=None,
+) -> DiscrepancyReport:
+    """Fit ``terms``, find what is missing from the registry's effects, add it, repeat."""
+    say = progress or (lambda _msg: None)
+    current = DriftModel.from_terms(terms)
+    baseline_terms = current.terms
+    window = _choose_rate_window(log, current, t0_C)
+    inputs = log.inputs(t0_C=t0_C, rate_window_s=window)
+    time_s = log.time_s
+    steps_s = jnp.asarray(np.concatenate([[np.median(np.diff(time_s))], np.diff(time_s)]))
+    y = np.asarray(log.drift_deg_h)
+    n = y.size
+    pool = candidates or tuple(name for name in EFFECTS if name not in baseline_terms)
+    regs = regressors(inputs)
+
+    fit_now, noise = _fit_with_noise(current, inputs, y, steps_s, NoiseLevels(1.0, 1e-6, 300.0))
+    baseline_fit = fit_now
+    steps: list[Step] = []
+    skipped: dict[str, str] = {}
+    ambiguous: list[dict] = []
+    while len(steps) < max_added:
+        scores: dict[str, float] = {}
+        fits: dict[str, tuple[ModelFit, NoiseLevels]] = {}
+        for name in pool:
+            if name in current.terms:
+                continue
+            reason = _applicable(name, current.terms, log, inputs)
+            if reason:
+                skipped[name] = reason
+                continue
+            say(f"  trying {name} ...")
+            model = DriftModel(terms=resolve_terms((*current.terms, name)))
+            trial, trial_noise = _fit_with_noise(model, inputs, y, steps_s, noise)
+            k = trial.n_parameters - fit_now.n_parameters
+            gain = 2.0 * (trial.log_likelihood - fit_now.log_likelihood)
+            scores[name] = gain - k * math.log(n)
+            fits[name] = (trial, trial_noise)
+        if not scores:
+            break
+        best = max(scores, key=scores.get)
+        if scores[best] <= ADD_THRESHOLD:
+            break
+        with_fit, new_noise = fits[best]
+        rivals = [
+            name
+            for name, s in scores.items()
+            if name != best and s > ADD_THRESHOLD and scores[best] - s < AMBIGUITY_DBIC
+        ]
+        if rivals:
+            ambiguous.append(
+                {
+                    "step": len(steps) + 1,
+                    "chosen": best,
+                    "rivals": rivals,
+                    "dbic": {r: scores[r] for r in [best, *rivals]},
+                }
+            )
+        regressor, r = _explaining_regressor(
+            fit_now.residual, fit_now.residual - with_fit.residual, regs, time_s,
+            EFFECTS[best].signature)
+        evidence = (
+            f"residuals follow {regressor} (r = {r:.2f} on 60 s means); adding {best} cuts "
+            f"the RMS from {fit_now.rms_ols:.3g} to {with_fit.rms_ols:.3g} deg/h; "
+            f"dBIC = {scores[best]:.1f} (threshold {ADD_THRESHOLD:g})"
+            + (f"; nearly interchangeable here with {', '.join(rivals)}" if rivals else "")
+        )
+        steps.append(
+            Step(
+                best,
+                evidence,
+                fit_now.rms_ols,
+                with_fit.rms_ols,
+                scores[best],
+                scores,
+                rivals,
+                regressor,
+                r,
+            )
+        )
+        say(f"  added {best}: dBIC = {scores[best]:.1f}")
+        current, fit_now, noise = DriftModel(terms=with_fit.terms), with_fit, new_noise
+    return DiscrepancyReport(
+        baseline_terms=baseline_terms,
+        final_terms=current.terms,
+        steps=steps,
+        rms_baseline_deg_h=baseline_fit.rms_ols,
+        rms_final_deg_h=min(fit_now.rms_ols, baseline_fit.rms_ols),
+        rate_window_s=window,
+        noise=noise,
+        where=_where(time_s, baseline_fit.residual, inputs, noise, log),
+        lines_up_with=_correlations(baseline_fit.residual, regs),
+        ambiguous=ambiguous,
+        residual_before=baseline_fit.residual,
+        residual_after=fit_now.residual,
+        time_s=time_s,
+        skipped=skipped,
+    )
+
+
+def _block_means(values: np.ndarray, time_s: np.ndarray, window_s: float = 60.0) -> np.ndarray:
+    index = np.floor((time_s - time_s[0]) / window_s).astype(int)
+    counts = np.bincount(index)
+    keep = counts > 0
+    return np.bincount(index, weights=values)[keep] / counts[keep]
+
+
+def _explaining_regressor(residual: np.ndarray, change: np.ndarray,
+                          regs: dict[str, np.ndarray], time_s: np.ndarray, signature: str):
+    """The regressor that best matches what the added effect changed (its fitted
+    contribution), and its correlation with the residual; both on 60 s means (averaging
+    first keeps white noise from hiding the relation). Ties go to the effect's signature."""
+    residual_m = _block_means(residual, time_s)
+    change_m = _block_means(change, time_s)
+    best = (signature, 0.0, -1.0)
+    for name, values in regs.items():
+        values_m = _block_means(values, time_s)
+        if np.ptp(values_m) == 0 or np.ptp(change_m) == 0:
+            continue
+        match = abs(float(np.corrcoef(change_m, values_m)[0, 1]))
+        if name.startswith(signature.split(" ")[0]) or name == signature:
+            match += 1e-6
+        if match > best[2]:
+            best = (name, float(np.corrcoef(residual_m, values_m)[0, 1]), match)
+    return best[0], best[1]

@@ -1,0 +1,84 @@
+"""The discrepancy workflow on logs with a hidden effect, and on null logs."""
+
+import json
+
+import pytest
+
+from gyroid import GyroNoise
+from gyroid.bench import simulate_magnetic_bench, simulate_thermal_bench
+from gyroid.cli import main
+from gyroid.discrepancy import find_discrepancies
+
+HIDDEN_THERMAL = {
+    "warmup": {"w_warmup": 1.0, "tau_warmup_min": 20.0},
+    "time_trend": {"w_trend": 0.05},
+    "temperature_cubic": {"w3": 2e-5},
+    "thermal_lag": {"tau_lag_min": 10.0},
+}
+HIDDEN_MAGNETIC = {
+    "magnetic_hysteresis": {"hys_x": 0.0, "hys_y": 0.03, "hys_z": 0.06},
+    "warmup": {"w_warmup": 0.5, "tau_warmup_min": 15.0},
+    "time_trend": {"w_trend": 0.05},
+}
+
+
+def _check(report, expected):
+    assert report.added == expected, [s.evidence for s in report.steps]
+    assert report.rms_final_deg_h <= report.rms_baseline_deg_h
+    for step in report.steps:
+        assert step.score > 10 and step.rms_after_deg_h <= step.rms_before_deg_h
+
+
+@pytest.mark.parametrize("effect", list(HIDDEN_THERMAL))
+def test_names_the_hidden_thermal_effect(effect):
+    sim = simulate_thermal_bench(seed=11, effects={effect: HIDDEN_THERMAL[effect]})
+    _check(find_discrepancies(sim.log, "thermal"), [effect])
+
+
+@pytest.mark.parametrize("effect", list(HIDDEN_MAGNETIC))
+def test_names_the_hidden_magnetic_effect(effect):
+    sim = simulate_magnetic_bench(seed=12, effects={effect: HIDDEN_MAGNETIC[effect]})
+    _check(find_discrepancies(sim.log, "magnetic"), [effect])
+
+
+@pytest.mark.parametrize(
+    ("bench", "noise"),
+    [
+        ("thermal", GyroNoise()),
+        ("thermal", GyroNoise(bias_instability_deg_h=0.1, correlation_time_s=600.0)),
+        ("magnetic", GyroNoise()),
+        ("magnetic", GyroNoise(bias_instability_deg_h=0.1, correlation_time_s=300.0)),
+    ],
+)
+def test_null_logs_add_nothing(bench, noise):
+    simulate = simulate_thermal_bench if bench == "thermal" else simulate_magnetic_bench
+    sim = simulate(seed=13, noise=noise)
+    report = find_discrepancies(sim.log, bench)
+    _check(report, [])
+    assert report.final_terms == report.baseline_terms
+
+
+def test_a_missing_paper_effect_is_found_from_a_reduced_model():
+    # The magnetic preset without magnetic_y: the residuals follow Hy.
+    sim = simulate_magnetic_bench(seed=14)
+    report = find_discrepancies(sim.log, "bias,magnetic_x,magnetic_z")
+    _check(report, ["magnetic_y"])
+    assert report.steps[0].regressor == "Hy"
+    assert abs(report.steps[0].correlation) > 0.9
+
+
+def test_cli_writes_the_contract_json(tmp_path):
+    out = tmp_path / "sim"
+    assert main(["simulate", "magnetic", "--out", str(out), "--seed", "15",
+                 "--effect", "warmup:w_warmup=0.8,tau_warmup_min=10"]) == 0
+    disc = tmp_path / "disc"
+    assert main(["discrepancy", str(out / "bench.csv"), "--terms", "magnetic",
+                 "--out", str(disc)]) == 0
+    data = json.loads((disc / "discrepancy.json").read_text())
+    assert data["added"] == ["warmup"]
+    assert data["baseline_terms"] == ["bias", "magnetic_x", "magnetic_y", "magnetic_z"]
+    assert data["final_terms"] == [*data["baseline_terms"], "warmup"]
+    assert data["rms_final_deg_h"] <= data["rms_baseline_deg_h"]
+    step = data["steps"][0]
+    assert set(step) >= {"effect", "evidence", "rms_before_deg_h", "rms_after_deg_h", "score"}
+    assert (disc / "discrepancy.png").exists()
