@@ -166,6 +166,39 @@ def fit(data, terms, out, seed, noise, t0_C, flat_prior, progress) -> None:
     click.echo(f"wrote {out / 'fit.json'}, {out / 'posterior.nc'} and figures")
 
 
+@cli.command()
+@click.argument("fit_dir", type=click.Path(path_type=Path))
+@click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="Folder for propagate.json and figures.")
+@click.option("--scenario", default=None, metavar="NAME|FILE",
+              help="A preset (paper_b_worked, paper_b_worked_stabiliser, ideal_stabiliser, "
+                   "table2) or a JSON/TOML file of scenario fields. Default: paper_b_worked.")
+@click.option("--seed", default=0, show_default=True, type=int, help="Random seed.")
+@click.option("--draws", default=2000, show_default=True, type=int,
+              help="Monte-Carlo draws for the distributions.")
+def propagate(fit_dir, out, scenario, seed, draws) -> None:
+    """Push a fit's posterior through paper B's correction loop: dK, roll and lateral error."""
+    from gyroid.outputs import json_text
+    from gyroid.plotting import dk_distribution, save, sobol_bars
+    from gyroid.propagate import FittedDrift, load_scenario
+    from gyroid.propagate import propagate as run
+
+    if draws < 10:
+        raise GyroidInputError("--draws must be at least 10")
+    fitted = FittedDrift.from_dir(fit_dir)
+    chosen = load_scenario(scenario)
+    click.echo(f"propagating {fit_dir} through scenario {chosen.name} ...", err=True)
+    result, samples = run(fitted, chosen, draws=draws, seed=seed)
+    with output_dir(out) as stage:
+        (stage / "propagate.json").write_text(json_text(result))
+        save(dk_distribution(samples["dK"], result["closed_form"]["dK_eq7"],
+                             result["closed_form"]["dK_printed"]), stage / "dk_distribution")
+        save(sobol_bars(result["drivers"], result["drivers_total"]), stage / "drivers")
+    dk = result["dK"]
+    click.echo(f"dK = {dk['mean']:.3g} +/- {dk['sd']:.2g} (95 % {dk['ci95'][0]:.3g} ... "
+               f"{dk['ci95'][1]:.3g}); wrote {out / 'propagate.json'}")
+
+
 @cli.group()
 def roll() -> None:
     """Paper B's roll-gyro scale-factor correction: simulate and fit flights."""

@@ -122,10 +122,9 @@ def simulate_flight(
         sample_s=profile.sample_s,
         period_s=profile.period_s,
         mems_range_deg_s=profile.mems_saturation_deg_s,
-        encoder_phase_rad=profile.encoder_phase_rad,
         feedback=profile.feedback,
     )
-    loop = run_loop(RollParams(**values), flight)
+    loop = run_loop(RollParams(**values, encoder_phase=profile.encoder_phase_rad), flight)
     m = loop.time_s.shape[0]
     columns = {
         "time_s": time_s[:m],

@@ -251,3 +251,36 @@ def discrepancy_figure(report, regressor_values: np.ndarray | None, regressor_na
         ax3.set_xlabel("model step")
         fig.tight_layout()
         return fig
+
+
+def dk_distribution(dk: np.ndarray, recomputed: float, printed: float) -> plt.Figure:
+    """Distribution of dK with paper B's recomputed (eq. 7) and printed values marked."""
+    with plt.rc_context(STYLE):
+        fig, ax = plt.subplots(figsize=(5.5, 3.6))
+        scaled = dk * 1e6
+        lo, hi = np.percentile(scaled, [0.5, 99.5])
+        ax.hist(scaled[(scaled >= lo) & (scaled <= hi)], bins=60, color="0.6",
+                histtype="stepfilled", label="propagated (draws x periods)")
+        ax.axvline(recomputed * 1e6, color="0.0", ls="--", lw=1.2,
+                   label=f"eq. 7 recomputed: {recomputed * 1e6:.0f} ppm")
+        ax.annotate(f"printed 0.093 = {printed * 1e6:.0f} ppm: off scale",
+                    xy=(0.98, 0.95), xycoords="axes fraction", ha="right", va="top", fontsize=8)
+        ax.set_xlabel("dK, relative error of the correction coefficient, ppm")
+        ax.set_ylabel("draws, count")
+        ax.legend(frameon=False, loc="upper left", fontsize=7)
+        return fig
+
+
+def sobol_bars(first: dict[str, float], total: dict[str, float]) -> plt.Figure:
+    """First-order and total Sobol indices of dK."""
+    names = list(first)
+    y = np.arange(len(names))
+    with plt.rc_context(STYLE):
+        fig, ax = plt.subplots(figsize=(5.5, 0.5 * len(names) + 1.2))
+        ax.barh(y + 0.2, [first[n] for n in names], height=0.4, color="0.2", label="first order")
+        ax.barh(y - 0.2, [total[n] for n in names], height=0.4, color="white", edgecolor="0.0",
+                hatch="//", label="total")
+        ax.set_yticks(y, names)
+        ax.set_xlabel("share of the variance of dK, fraction")
+        ax.legend(frameon=False, loc="lower right")
+        return fig

@@ -44,6 +44,7 @@ class RollParams(eqx.Module):
     D1gs: Float[Array, ""] | float = 280e-6  # GS MEMS relative SF error
     Denc: Float[Array, ""] | float = 0.33  # encoder error amplitude, deg
     D2: Float[Array, ""] | float = 0.0  # SF non-linearity, relative per 1000 deg/s
+    encoder_phase: Float[Array, ""] | float = 0.0  # phase of the encoder error, rad
 
 
 class Flight(eqx.Module):
@@ -54,10 +55,10 @@ class Flight(eqx.Module):
     sins_drift_deg_s: Float[Array, " n"]  # extra SINS bias history D0(t)
     sins_noise_deg_s: Float[Array, " n"]  # SINS gyro noise
     gs_noise_deg: Float[Array, " n"]  # GS angle read-out noise
-    sample_s: float = eqx.field(static=True)
-    period_s: float = eqx.field(static=True)
+    gs_drift_deg_s: Float[Array, " n"] | None = None  # extra GS bias history D0gs(t)
+    sample_s: float = eqx.field(static=True, default=1e-3)
+    period_s: float = eqx.field(static=True, default=5.0)
     mems_range_deg_s: float = eqx.field(static=True, default=MEMS_SATURATION_DEG_S)
-    encoder_phase_rad: float = eqx.field(static=True, default=0.0)
     feedback: bool = eqx.field(static=True, default=False)
 
     @property
@@ -128,10 +129,12 @@ def sensor_signals(params: RollParams, flight: Flight):
     scale = 1.0 + params.D1 + params.D2 * jnp.abs(w) / 1000.0
     sins = params.D0 + flight.sins_drift_deg_s + scale * w + flight.sins_noise_deg_s
     w_h = flight.uncompensated_deg_s
-    mems = jnp.clip(params.D0gs + (1.0 + params.D1gs) * w_h, -flight.mems_range_deg_s,
+    gs_bias = params.D0gs if flight.gs_drift_deg_s is None else (
+        params.D0gs + flight.gs_drift_deg_s)
+    mems = jnp.clip(gs_bias + (1.0 + params.D1gs) * w_h, -flight.mems_range_deg_s,
                     flight.mems_range_deg_s)
     platform_error = jnp.cumsum(mems - w_h) * dt
-    encoder = params.Denc * jnp.sin(true_angle * DEG + flight.encoder_phase_rad)
+    encoder = params.Denc * jnp.sin(true_angle * DEG + params.encoder_phase)
     gs_angle = true_angle + platform_error + encoder + flight.gs_noise_deg
     return true_angle, sins, gs_angle, mems
 
@@ -144,7 +147,7 @@ def run_loop(params: RollParams, flight: Flight) -> LoopResult:
     n = n_periods * m
     true_angle, sins, gs_angle, mems = sensor_signals(params, flight)
     true_angle, sins, gs_angle, mems = (x[:n] for x in (true_angle, sins, gs_angle, mems))
-    gs_start = params.Denc * jnp.sin(jnp.asarray(flight.encoder_phase_rad))
+    gs_start = params.Denc * jnp.sin(jnp.asarray(params.encoder_phase, dtype=float))
     gs_ends = jnp.concatenate([gs_start[None], gs_angle[m - 1 :: m]])
     gs_increment = jnp.diff(gs_ends)  # (P,)
     raw_increment = sins.reshape(n_periods, m).sum(axis=1) * dt  # (P,)

@@ -55,8 +55,8 @@ def test_scan_model_matches_a_plain_numpy_loop(feedback):
               "D2": 1e-5}
     flight = Flight(jnp.asarray(w), jnp.asarray(w_h), jnp.asarray(drift), jnp.asarray(noise),
                     jnp.asarray(gs_noise), sample_s=dt, period_s=period, mems_range_deg_s=300.0,
-                    encoder_phase_rad=0.4, feedback=feedback)
-    result = run_loop(RollParams(**params), flight)
+                    feedback=feedback)
+    result = run_loop(RollParams(**params, encoder_phase=0.4), flight)
     error, K = _numpy_loop(params, w, w_h, drift, noise, gs_noise, dt, period, 300.0, 0.4,
                            feedback)
     np.testing.assert_allclose(np.asarray(result.K), K, rtol=0, atol=1e-9)

@@ -1,0 +1,346 @@
+"""From a fitted gyro's posterior to the roll-correction coefficient's relative error dK.
+
+Each posterior draw of the FOG drift coefficients gives the gyro's drift history in a flight
+scenario's environment (temperature rising through the flight, the Earth's field in the
+gyro's axes); that drift is fed to paper B's correction loop (:mod:`gyroid.roll`) together
+with the scenario's uncertain inputs (encoder-error phase, uncompensated rate, stabiliser
+SF error and bias), vectorised over draws. Out come the distributions of dK, of the residual
+SF error, of the roll-angle error and of the lateral position error; Sobol indices say which
+input drives dK's uncertainty, JAX derivatives give the local sensitivities.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import tomllib
+from dataclasses import asdict, dataclass, fields, replace
+from pathlib import Path
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from gyroid import paper_b as pb
+from gyroid._arviz import arviz as az
+from gyroid.drift import DriftModel
+from gyroid.errors import GyroidInputError
+from gyroid.inputs import H0_UT, T0_C, DriftInputs
+from gyroid.roll import MEMS_SATURATION_DEG_S, Flight, RollParams, run_loop
+from gyroid.sensitivity import sobol_indices
+
+REPORT_TIMES_S = (10.0, 60.0, 120.0)
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A flight scenario. Defaults: paper B's worked example (roll 900 deg/s, dt 5 s,
+    uncompensated rate 300 deg/s, MEMS SF error 280 ppm, encoder 0.33 deg), with the fitted
+    FOG as the SINS roll gyro in a flight whose temperature rises 5 degC in 120 s."""
+
+    name: str = "paper_b_worked"
+    roll_rate_deg_s: float = 900.0
+    period_s: float = 5.0
+    duration_s: float = 120.0
+    sample_s: float = 0.05
+    sins_sf_error: float = pb.SINS_SF_ERROR  # D1, what the loop corrects
+    uncompensated_deg_s: float = 300.0
+    uncompensated_sd_deg_s: float = 5.0
+    mems_sf_error: float = pb.MEMS_SF_ERROR
+    mems_sf_error_sd: float = 28e-6
+    mems_bias_deg_h: float = 12.2
+    mems_bias_sd_deg_h: float = 1.2
+    encoder_deg: float = pb.ENCODER_ERROR_DEG
+    encoder_phase: str = "uniform"  # or a fixed phase in rad, as a number in a string
+    fitted_gyro_role: str = "sins"  # "sins" (the roll gyro) or "stabiliser" (the GS gyro)
+    temperature_start_C: float = T0_C
+    temperature_rise_C: float = 5.0
+    earth_field_uT: tuple[float, float] = (20.0, 45.0)  # along the roll axis, across it
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+PRESETS = {
+    "paper_b_worked": Scenario(),
+    "paper_b_worked_stabiliser": Scenario(name="paper_b_worked_stabiliser",
+                                          fitted_gyro_role="stabiliser"),
+    "ideal_stabiliser": Scenario(name="ideal_stabiliser", uncompensated_deg_s=0.0,
+                                 uncompensated_sd_deg_s=0.0),
+    "table2": Scenario(name="table2", roll_rate_deg_s=3600.0, uncompensated_deg_s=280.0,
+                       uncompensated_sd_deg_s=5.0),
+}
+
+
+def load_scenario(spec: str | None) -> Scenario:
+    """A preset name, or a JSON/TOML file of Scenario fields (unknown keys are refused)."""
+    if spec is None:
+        return PRESETS["paper_b_worked"]
+    if spec in PRESETS:
+        return PRESETS[spec]
+    path = Path(spec)
+    if not path.exists():
+        raise GyroidInputError(f"--scenario {spec!r} is neither a preset "
+                               f"({', '.join(PRESETS)}) nor a file")
+    text = path.read_text()
+    try:
+        data = tomllib.loads(text) if path.suffix == ".toml" else json.loads(text)
+    except (json.JSONDecodeError, tomllib.TOMLDecodeError) as error:
+        raise GyroidInputError(f"{path.name}: not valid {path.suffix[1:]}: {error}") from None
+    known = {f.name for f in fields(Scenario)}
+    unknown = sorted(set(data) - known)
+    if unknown:
+        raise GyroidInputError(f"{path.name}: unknown scenario key {unknown[0]!r}; known: "
+                               f"{', '.join(sorted(known))}")
+    if "earth_field_uT" in data:
+        data["earth_field_uT"] = tuple(data["earth_field_uT"])
+    scenario = replace(PRESETS["paper_b_worked"], name=path.stem, **data)
+    if scenario.fitted_gyro_role not in ("sins", "stabiliser"):
+        raise GyroidInputError(f"{path.name}: fitted_gyro_role must be 'sins' or 'stabiliser'")
+    if scenario.period_s > scenario.duration_s or scenario.sample_s <= 0:
+        raise GyroidInputError(f"{path.name}: need 0 < sample_s and period_s <= duration_s")
+    return scenario
+
+
+@dataclass(frozen=True)
+class FittedDrift:
+    """A fit's drift model and posterior draws (natural units)."""
+
+    model: DriftModel
+    draws: np.ndarray  # (m, p)
+    t0_C: float
+
+    @classmethod
+    def from_dir(cls, folder: str | Path) -> FittedDrift:
+        folder = Path(folder)
+        fit_json, netcdf = folder / "fit.json", folder / "posterior.nc"
+        for path in (fit_json, netcdf):
+            if not path.exists():
+                raise GyroidInputError(f"{folder} has no {path.name}: give the --out folder "
+                                       "of 'gyroid fit'")
+        fit = json.loads(fit_json.read_text())
+        model = DriftModel.from_terms(fit["terms"])
+        posterior = az.from_netcdf(str(netcdf)).posterior
+        columns = [np.asarray(posterior[name]).reshape(-1) for name in model.parameter_names]
+        return cls(model=model, draws=np.column_stack(columns), t0_C=fit.get("t0_C", T0_C))
+
+
+def flight_environment(scenario: Scenario, t0_C: float = T0_C) -> DriftInputs:
+    """The drift model's inputs along the scenario's flight."""
+    n = int(round(scenario.duration_s / scenario.sample_s))
+    time_s = scenario.sample_s * (np.arange(n) + 1.0)
+    frac = time_s / scenario.duration_s
+    temperature = scenario.temperature_start_C + scenario.temperature_rise_C * (3 * frac**2
+                                                                                - 2 * frac**3)
+    rate = scenario.temperature_rise_C * 6 * frac * (1 - frac) / scenario.duration_s * 3600.0
+    along, across = scenario.earth_field_uT
+    if scenario.fitted_gyro_role == "sins":  # the body rolls: the field turns in its axes
+        angle = np.deg2rad(scenario.roll_rate_deg_s * time_s)
+        field = np.column_stack([np.full(n, along), across * np.cos(angle),
+                                 -across * np.sin(angle)])
+    else:  # the stabilised platform keeps its orientation
+        field = np.tile([along, across, 0.0], (n, 1))
+    return DriftInputs(
+        time_h=jnp.asarray(time_s / 3600.0), temperature_C=jnp.asarray(temperature),
+        t_rel=jnp.asarray(temperature - t0_C), rate_C_h=jnp.asarray(rate),
+        field_rel=jnp.asarray(field / H0_UT), field_sign=jnp.zeros((n, 3)), t0_C=t0_C,
+    )
+
+
+class _Evaluator(eqx.Module):
+    model: DriftModel
+    env: DriftInputs
+    scenario: Scenario = eqx.field(static=True)
+
+    def one(self, theta, phase, uncompensated, mems_sf, mems_bias_deg_s, roll_rate, sins_sf,
+            encoder, period=None):
+        """Outputs for one set of inputs; ``period`` picks the correction period whose dK is
+        reported (default: the one ending nearest mid-flight)."""
+        s = self.scenario
+        n = self.env.time_h.shape[0]
+        drift = self.model.predict(theta, self.env) / 3600.0  # deg/s
+        zeros = jnp.zeros(n)
+        sins_role = s.fitted_gyro_role == "sins"
+        flight = Flight(
+            roll_rate_deg_s=jnp.full(n, 1.0) * roll_rate,
+            uncompensated_deg_s=jnp.full(n, 1.0) * uncompensated,
+            sins_drift_deg_s=drift if sins_role else zeros,
+            sins_noise_deg_s=zeros,
+            gs_noise_deg=zeros,
+            gs_drift_deg_s=None if sins_role else drift,
+            sample_s=s.sample_s,
+            period_s=s.period_s,
+            mems_range_deg_s=MEMS_SATURATION_DEG_S,
+        )
+        params = RollParams(D0=0.0, D1=sins_sf, D0gs=mems_bias_deg_s, D1gs=mems_sf,
+                            Denc=encoder, encoder_phase=phase)
+        result = run_loop(params, flight)
+        idx = jnp.asarray([int(round(t / s.sample_s)) - 1 for t in REPORT_TIMES_S
+                           if t <= s.duration_s])
+        if period is None:
+            period = jnp.asarray(result.dK.shape[0] // 2)
+        dk = result.dK[period]
+        return {
+            "dK": dk,
+            "sf_residual_ppm": 1e6 * jnp.abs(result.residual_sf_error[period]),
+            "saturated": jnp.any(jnp.abs(result.gs_rate_deg_s) >= MEMS_SATURATION_DEG_S),
+            "dpsi_deg": result.angle_error_deg[idx],
+            "dr_z_m": result.lateral_error_m[idx],
+        }
+
+
+@eqx.filter_jit
+def _batch(evaluator: _Evaluator, theta, phase, uncompensated, mems_sf, mems_bias,
+           roll_rate, sins_sf, encoder, period):
+    return jax.vmap(evaluator.one)(theta, phase, uncompensated, mems_sf, mems_bias, roll_rate,
+                                   sins_sf, encoder, period)
+
+
+def _evaluate(evaluator: _Evaluator, inputs: dict[str, np.ndarray], chunk: int = 256):
+    n = inputs["drift"].shape[0]
+    s = evaluator.scenario
+    outs = []
+    for start in range(0, n, chunk):
+        sl = slice(start, start + chunk)
+        m = inputs["drift"][sl].shape[0]
+        outs.append(_batch(
+            evaluator, jnp.asarray(inputs["drift"][sl]), jnp.asarray(inputs["encoder_phase"][sl]),
+            jnp.asarray(inputs["uncompensated"][sl]), jnp.asarray(inputs["mems_sf"][sl]),
+            jnp.asarray(inputs["mems_bias"][sl]), jnp.full(m, s.roll_rate_deg_s),
+            jnp.full(m, s.sins_sf_error), jnp.full(m, s.encoder_deg),
+            jnp.asarray(inputs["period"][sl])))
+    return {k: np.concatenate([np.asarray(o[k]) for o in outs]) for k in outs[0]}
+
+
+def _samplers(scenario: Scenario, draws: np.ndarray):
+    def drift(rng, n):
+        return draws[rng.integers(0, draws.shape[0], n)]
+
+    def phase(rng, n):
+        if scenario.encoder_phase == "uniform":
+            return rng.uniform(0.0, 2.0 * math.pi, n)
+        return np.full(n, float(scenario.encoder_phase))
+
+    def normal(mean, sd):
+        return lambda rng, n: mean + sd * rng.standard_normal(n)
+
+    n_periods = int(scenario.duration_s / scenario.sample_s) // int(
+        round(scenario.period_s / scenario.sample_s))
+
+    def period(rng, n):
+        return rng.integers(0, n_periods, n)
+
+    return {
+        "drift": drift,
+        "period": period,
+        "encoder_phase": phase,
+        "uncompensated": normal(scenario.uncompensated_deg_s, scenario.uncompensated_sd_deg_s),
+        "mems_sf": normal(scenario.mems_sf_error, scenario.mems_sf_error_sd),
+        "mems_bias": normal(scenario.mems_bias_deg_h / 3600.0,
+                            scenario.mems_bias_sd_deg_h / 3600.0),
+    }
+
+
+DRIVER_NAMES = {"drift": "fitted drift coefficients", "period": "time in flight (period)",
+                "encoder_phase": "encoder error",
+                "uncompensated": "uncompensated rate", "mems_sf": "stabiliser SF error",
+                "mems_bias": "stabiliser bias"}
+
+
+def _stats(values: np.ndarray) -> dict:
+    lo, hi = np.percentile(values, [2.5, 97.5])
+    return {"mean": float(np.mean(values)), "sd": float(np.std(values, ddof=1)),
+            "ci95": [float(lo), float(hi)]}
+
+
+def propagate(fitted: FittedDrift, scenario: Scenario, *, draws: int = 2000, seed: int = 0,
+              sobol_n: int = 1000) -> tuple[dict, dict[str, np.ndarray]]:
+    """Propagate the posterior through the scenario; returns (propagate.json, raw samples)."""
+    rng = np.random.default_rng(seed)
+    evaluator = _Evaluator(model=fitted.model, env=flight_environment(scenario, fitted.t0_C),
+                           scenario=scenario)
+    samplers = _samplers(scenario, fitted.draws)
+    inputs = {name: sample(rng, draws) for name, sample in samplers.items()}
+    out = _evaluate(evaluator, inputs)
+    times = [t for t in REPORT_TIMES_S if t <= scenario.duration_s]
+    sobol = sobol_indices(samplers, lambda x: _evaluate(evaluator, x)["dK"], sobol_n, rng)
+    nominal = _nominal_inputs(scenario, fitted.draws)
+    local = _local_sensitivity(evaluator, nominal)
+    delta = _delta_method(evaluator, nominal, scenario, fitted.draws)
+    eq7 = pb.dk_overloaded(scenario.mems_bias_deg_h / 3600.0, scenario.mems_sf_error,
+                           scenario.uncompensated_deg_s, scenario.encoder_deg,
+                           scenario.roll_rate_deg_s, scenario.period_s)
+    result = {
+        "scenario": scenario.as_dict(),
+        "draws": draws,
+        "dK": _stats(out["dK"]),
+        "dK_definition": "relative error (K_i - K_true) / K_true of the coefficient of one "
+                         "correction period, the period drawn uniformly over the flight",
+        "saturated_fraction": float(np.mean(out["saturated"])),
+        "sf_residual_ppm": _stats(out["sf_residual_ppm"]),
+        "dpsi_deg": {f"{t:g}": _stats(out["dpsi_deg"][:, i]) for i, t in enumerate(times)},
+        "dr_z_m": {f"{t:g}": _stats(out["dr_z_m"][:, i]) for i, t in enumerate(times)},
+        "drivers": {DRIVER_NAMES[k]: max(v["S1"], 0.0) for k, v in sobol.items()},
+        "drivers_total": {DRIVER_NAMES[k]: max(v["ST"], 0.0) for k, v in sobol.items()},
+        "sobol_samples": sobol_n,
+        "local_sensitivity": local,
+        "delta_method": delta,
+        "closed_form": {"dK_eq7": eq7, "dK_printed": pb.WORKED_DK_PRINTED,
+                        "note": "eq. 7 takes the encoder error at its full amplitude; the loop "
+                                "sees Denc (sin a_i - sin a_(i-1)), set by the phase"},
+        "fitted": {"terms": list(fitted.model.terms),
+                   "posterior_draws": int(fitted.draws.shape[0])},
+    }
+    return result, out
+
+
+def _nominal_inputs(scenario: Scenario, draws: np.ndarray) -> dict[str, float | np.ndarray]:
+    phase = 0.0 if scenario.encoder_phase == "uniform" else float(scenario.encoder_phase)
+    return {"drift": draws.mean(axis=0), "encoder_phase": phase,
+            "uncompensated": scenario.uncompensated_deg_s, "mems_sf": scenario.mems_sf_error,
+            "mems_bias": scenario.mems_bias_deg_h / 3600.0,
+            "roll_rate": scenario.roll_rate_deg_s, "sins_sf": scenario.sins_sf_error,
+            "encoder": scenario.encoder_deg}
+
+
+_ORDER = ("drift", "encoder_phase", "uncompensated", "mems_sf", "mems_bias", "roll_rate",
+          "sins_sf", "encoder")
+
+
+def _dk_of(evaluator: _Evaluator):
+    def f(*args):
+        return evaluator.one(*args)["dK"]
+    return f
+
+
+def _local_sensitivity(evaluator: _Evaluator, nominal: dict) -> dict[str, float]:
+    """d dK / d input at the nominal point (posterior mean, nominal scenario)."""
+    args = [jnp.asarray(nominal[k], dtype=float) for k in _ORDER]
+    grads = jax.grad(_dk_of(evaluator), argnums=tuple(range(len(args))))(*args)
+    names = evaluator.model.parameter_names
+    out = {f"{name} (per unit of the coefficient)": float(g)
+           for name, g in zip(names, np.asarray(grads[0]), strict=True)}
+    units = {"encoder_phase": "per rad", "uncompensated": "per deg/s", "mems_sf": "per unit",
+             "mems_bias": "per deg/s", "roll_rate": "per deg/s", "sins_sf": "per unit",
+             "encoder": "per deg"}
+    for key, g in zip(_ORDER[1:], grads[1:], strict=True):
+        out[f"{key} ({units[key]})"] = float(g)
+    return out
+
+
+def _delta_method(evaluator: _Evaluator, nominal: dict, scenario: Scenario,
+                  draws: np.ndarray) -> dict:
+    """First-order mean and sd of dK from the gradient and the inputs' covariances, without
+    the encoder phase (a uniform phase is far from linear: the delta method does not apply
+    to it)."""
+    args = [jnp.asarray(nominal[k], dtype=float) for k in _ORDER]
+    grads = jax.grad(_dk_of(evaluator), argnums=(0, 2, 3, 4))(*args)
+    cov_drift = np.cov(draws, rowvar=False).reshape(draws.shape[1], draws.shape[1])
+    g0 = np.asarray(grads[0])
+    variance = float(g0 @ cov_drift @ g0)
+    variance += float(grads[1]) ** 2 * scenario.uncompensated_sd_deg_s**2
+    variance += float(grads[2]) ** 2 * scenario.mems_sf_error_sd**2
+    variance += float(grads[3]) ** 2 * (scenario.mems_bias_sd_deg_h / 3600.0) ** 2
+    return {"mean": float(_dk_of(evaluator)(*args)), "sd": math.sqrt(variance),
+            "excludes": "encoder phase"}
