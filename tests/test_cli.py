@@ -99,19 +99,28 @@ def test_console_script_exit_code_and_no_traceback(tmp_path):
     assert result.stderr.count("\n") == 1
 
 
-def test_demo_writes_a_report_whose_figures_exist(tmp_path):
-    out = tmp_path / "demo"
-    assert main(["demo", "--out", str(out)]) == 0
-    report = (out / "report.md").read_text()
+def test_reduced_demo_writes_a_report_whose_figures_exist(tmp_path):
     import re
 
-    figures = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", report)
-    assert len(figures) >= 2
+    from gyroid.demo import DemoSize, run_demo
+
+    out = tmp_path / "demo"
+    report = run_demo(out, seed=1, echo=lambda _m: None,
+                      size=DemoSize(propagate_draws=200, sobol_samples=100))
+    text = report.read_text()
+    figures = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", text)
+    assert len(figures) >= 5
     for figure in figures:
         assert (out / figure).exists(), figure
-    results = json.loads((out / "demo.json").read_text())
-    k = results["magnetic"]["K"]["wy"]
-    assert np.isfinite(k["signed"])
+        assert f"*Figure {figures.index(figure) + 1}." in text
+    for folder in ("thermal/fit", "magnetic/fit"):
+        fit = json.loads((out / folder / "fit.json").read_text())
+        assert all(v["r_hat"] <= 1.01 for v in fit["posterior"].values())
+    assert json.loads((out / "propagate" / "propagate.json").read_text())["draws"] == 200
+    assert json.loads((out / "discrepancy" / "discrepancy.json").read_text())["added"] == [
+        "magnetic_hysteresis"]
+    assert "audit" in json.loads((out / "reproduce" / "reproduce.json").read_text())
+    assert not list(tmp_path.glob(".*staging*"))
 
 
 @pytest.fixture(scope="module")
