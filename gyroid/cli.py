@@ -180,7 +180,7 @@ def propagate(fit_dir, out, scenario, seed, draws) -> None:
     """Push a fit's posterior through paper B's correction loop: dK, roll and lateral error."""
     from gyroid.outputs import json_text
     from gyroid.plotting import dk_distribution, save, sobol_bars
-    from gyroid.propagate import FittedDrift, load_scenario
+    from gyroid.propagate import FittedDrift, dk_samples_csv, load_scenario
     from gyroid.propagate import propagate as run
 
     if draws < 10:
@@ -191,6 +191,7 @@ def propagate(fit_dir, out, scenario, seed, draws) -> None:
     result, samples = run(fitted, chosen, draws=draws, seed=seed)
     with output_dir(out) as stage:
         (stage / "propagate.json").write_text(json_text(result))
+        (stage / "dk_samples.csv").write_text(dk_samples_csv(samples["dK"]))
         save(dk_distribution(samples["dK"], result["closed_form"]["dK_eq7"],
                              result["closed_form"]["dK_printed"]), stage / "dk_distribution")
         save(sobol_bars(result["drivers"], result["drivers_total"]), stage / "drivers")

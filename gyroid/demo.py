@@ -29,7 +29,7 @@ from gyroid.plotting import (
     sobol_bars,
     thermal_run,
 )
-from gyroid.propagate import PRESETS, FittedDrift, propagate
+from gyroid.propagate import PRESETS, FittedDrift, dk_samples_csv, propagate
 from gyroid.report_files import write_fit_outputs
 from gyroid.reproduce import write_reproduction
 from gyroid.sampling import SamplerSettings
@@ -106,6 +106,7 @@ def run_demo(out: str | Path, *, seed: int = 0, echo: Callable[[str], None] = pr
                                   sobol_n=size.sobol_samples)
         (stage / "propagate").mkdir()
         (stage / "propagate" / "propagate.json").write_text(json_text(prop))
+        (stage / "propagate" / "dk_samples.csv").write_text(dk_samples_csv(samples["dK"]))
         save(dk_distribution(samples["dK"], prop["closed_form"]["dK_eq7"],
                              prop["closed_form"]["dK_printed"]), stage / "fig_dk")
         save(sobol_bars(prop["drivers"], prop["drivers_total"]), stage / "fig_drivers")

@@ -344,3 +344,8 @@ def _delta_method(evaluator: _Evaluator, nominal: dict, scenario: Scenario,
     variance += float(grads[3]) ** 2 * (scenario.mems_bias_sd_deg_h / 3600.0) ** 2
     return {"mean": float(_dk_of(evaluator)(*args)), "sd": math.sqrt(variance),
             "excludes": "encoder phase"}
+
+
+def dk_samples_csv(dk: np.ndarray) -> str:
+    """The propagated dK samples as a one-column CSV."""
+    return "dK\n" + "\n".join(f"{v:.10g}" for v in np.asarray(dk)) + "\n"

@@ -1,0 +1,18 @@
+"""gyroid: posterior pair plot of the thermal coefficients (from the demo's posterior.nc)."""
+
+import json
+
+import numpy as np
+import paths
+
+from gyroid._arviz import arviz as az
+from gyroid.effects import PARAMETERS
+from gyroid.plotting import pair_plot, save
+
+fit = json.loads(paths.data("thermal", "fit", "fit.json").read_text())
+truth = json.loads(paths.data("thermal", "truth.json").read_text())["parameters"]
+posterior = az.from_netcdf(str(paths.data("thermal", "fit", "posterior.nc"))).posterior
+names = list(fit["point"])
+draws = np.column_stack([np.asarray(posterior[n]).reshape(-1) for n in names])
+units = {n: PARAMETERS[n].unit for n in names}
+save(pair_plot(draws, names, units, truth), paths.figure("gyroid_posterior_pair"), pdf=True)
