@@ -167,6 +167,43 @@ def fit(data, terms, out, seed, noise, t0_C, flat_prior, progress) -> None:
 
 
 @cli.command()
+@click.argument("data", type=click.Path(path_type=Path))
+@click.option("--fit", "fit_dir", required=True, type=click.Path(path_type=Path),
+              help="The --out folder of 'gyroid fit' (fit.json and posterior.nc).")
+@click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="Folder for compensated.csv, compensate.json and figures.")
+@click.option("--seed", default=0, show_default=True, type=int,
+              help="Seed for choosing posterior draws.")
+def compensate(data, fit_dir, out, seed) -> None:
+    """Compensate a new log DATA.csv with a fitted drift model; Allan deviation before/after."""
+    from gyroid.compensate import compensate as run
+    from gyroid.compensate import compensated_csv, fitted_ranges_from
+    from gyroid.logs import load_bench_log
+    from gyroid.outputs import json_text
+    from gyroid.plotting import allan_figure, compensation_figure, save
+    from gyroid.propagate import FittedDrift
+    from gyroid.tables import read_csv_table
+
+    fitted = FittedDrift.from_dir(fit_dir)
+    log = load_bench_log(data, fitted.model, t0_C=fitted.t0_C)
+    result = run(log, fitted, fitted_ranges_from(fit_dir), seed=seed)
+    header = read_csv_table(data).header
+    with output_dir(out) as stage:
+        (stage / "compensated.csv").write_text(compensated_csv(log, result, header))
+        (stage / "compensate.json").write_text(json_text(result.summary))
+        save(compensation_figure(log.time_s, log.drift_deg_h, result.compensated_deg_h),
+             stage / "compensation")
+        save(allan_figure(result.adev_before, result.adev_after), stage / "allan")
+    s = result.summary
+    click.echo(f"RMS {s['rms_before_deg_h']:.3g} -> {s['rms_after_deg_h']:.3g} deg/h "
+               f"({100 * s['fraction_removed']:.0f} % removed); wrote {out / 'compensated.csv'}")
+    for item in s["extrapolation"]:
+        click.echo(f"warning: {item['input']} leaves the fitted range {item['fitted_range']} "
+                   f"in {100 * item['fraction_of_rows_outside']:.0f} % of rows: extrapolated",
+                   err=True)
+
+
+@cli.command()
 @click.argument("fit_dir", type=click.Path(path_type=Path))
 @click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder for propagate.json and figures.")

@@ -75,6 +75,7 @@ class FitResult:
                 "starts": self.point.n_starts,
             },
             "warnings": list(self.warnings),
+            "input_ranges": input_ranges(self.problem.inputs, self.problem.model),
         }
         if self.posterior is not None:
             post = self.posterior
@@ -98,6 +99,25 @@ class FitResult:
                 "converged": post.converged,
             }
         return out
+
+
+def input_ranges(inputs, model: DriftModel) -> dict[str, list[float]]:
+    """The range of every input the model reads, as seen in the fitted log."""
+    from gyroid.inputs import FIELD_COLUMNS, H0_UT
+
+    out = {}
+    if "temperature_C" in model.columns:
+        t = np.asarray(inputs.temperature_C)
+        r = np.asarray(inputs.rate_C_h)
+        out["temperature_C"] = [float(t.min()), float(t.max())]
+        out["dT_dt_C_h"] = [float(r.min()), float(r.max())]
+    for k, name in enumerate(FIELD_COLUMNS):
+        if name in model.columns:
+            h = np.asarray(inputs.field_rel[:, k]) * H0_UT
+            out[name] = [float(h.min()), float(h.max())]
+    time_h = np.asarray(inputs.time_h)
+    out["elapsed_h"] = [float(time_h.min()), float(time_h.max())]
+    return out
 
 
 def _describe(prior: Prior) -> str:

@@ -284,3 +284,39 @@ def sobol_bars(first: dict[str, float], total: dict[str, float]) -> plt.Figure:
         ax.set_xlabel("share of the variance of dK, fraction")
         ax.legend(frameon=False, loc="lower right")
         return fig
+
+
+def compensation_figure(time_s: np.ndarray, before: np.ndarray, after: np.ndarray
+                        ) -> plt.Figure:
+    """Drift before and after compensation against time."""
+    with plt.rc_context(STYLE):
+        fig, ax = plt.subplots(figsize=(6.5, 3.6))
+        hours = (time_s - time_s[0]) / 3600.0
+        ax.plot(hours, before, color="0.6", lw=0.5, ls="-", label="logged drift")
+        ax.plot(hours, after, color="0.0", lw=0.5, ls="-", label="compensated")
+        ax.set_xlabel("time since start, h")
+        ax.set_ylabel("drift, deg/h")
+        ax.legend(frameon=False, loc="upper right")
+        return fig
+
+
+def allan_figure(before, after) -> plt.Figure:
+    """Log-log Allan deviation before and after, with the standard slopes marked."""
+    with plt.rc_context(STYLE):
+        fig, ax = plt.subplots(figsize=(5.5, 4.0))
+        for adev, style, label in ((before, "s", "before"), (after, "o", "after")):
+            ax.fill_between(adev.tau_s, adev.lower_deg_h, adev.upper_deg_h, color="0.85", lw=0)
+            ax.loglog(adev.tau_s, adev.adev_deg_h, style + "-", color="0.0" if label == "after"
+                      else "0.5", ms=3, lw=1.0, label=f"{label} compensation")
+        tau = after.tau_s
+        anchor = after.adev_deg_h[0]
+        for slope, text in ((-0.5, "-1/2: angle random walk"), (0.0, "0: bias instability"),
+                            (0.5, "+1/2: rate random walk")):
+            ax.loglog(tau, anchor * (tau / tau[0]) ** slope * (1 if slope < 0 else 0.3), ":",
+                      color="0.3", lw=0.8)
+            ax.annotate(text, (tau[-1], anchor * (tau[-1] / tau[0]) ** slope
+                               * (1 if slope < 0 else 0.3)), fontsize=6, ha="right")
+        ax.set_xlabel("averaging time tau, s")
+        ax.set_ylabel("Allan deviation, deg/h")
+        ax.legend(frameon=False, loc="lower left")
+        return fig

@@ -1,0 +1,112 @@
+"""Allan deviation and compensation in service."""
+
+import json
+
+import numpy as np
+import pytest
+
+from gyroid.allan import allan_deviation
+from gyroid.bench import ThermalProtocol, simulate_thermal_bench
+from gyroid.cli import main
+from gyroid.compensate import compensate
+from gyroid.fit import fit_log
+from gyroid.noise import gauss_markov
+from gyroid.propagate import FittedDrift
+from gyroid.sampling import SamplerSettings
+
+
+def test_white_noise_has_slope_minus_half_and_the_arw_level():
+    arw = 0.005
+    rate = np.random.default_rng(0).normal(0.0, arw * 60.0, 50_000)
+    adev = allan_deviation(rate, 1.0)
+    expected = 60.0 * arw / np.sqrt(adev.tau_s)
+    # Every point within its (Greenhall, white-noise) 68 % interval widened to ~4 sigma.
+    half = 0.5 * (adev.upper_deg_h - adev.lower_deg_h)
+    assert np.all(np.abs(adev.adev_deg_h - expected) < 4 * half)
+    slope = np.polyfit(np.log(adev.tau_s), np.log(adev.adev_deg_h), 1)[0]
+    assert slope == pytest.approx(-0.5, abs=0.03)
+    assert adev.figures_of_merit()["arw_deg_rt_h"] == pytest.approx(arw, rel=0.03)
+
+
+def test_rate_random_walk_has_slope_plus_half():
+    k = 0.01  # deg/h per sqrt(s): sigma(tau) = k sqrt(tau / 3)
+    rate = np.cumsum(np.random.default_rng(1).normal(0.0, k, 50_000))
+    adev = allan_deviation(rate, 1.0)
+    middle = (adev.tau_s > 10) & (adev.tau_s < 3000)
+    slope = np.polyfit(np.log(adev.tau_s[middle]), np.log(adev.adev_deg_h[middle]), 1)[0]
+    assert slope == pytest.approx(0.5, abs=0.05)
+    level = adev.adev_deg_h[middle] / (k * np.sqrt(adev.tau_s[middle] / 3.0))
+    assert np.median(level) == pytest.approx(1.0, rel=0.15)
+
+
+def test_gauss_markov_bias_instability_is_recovered():
+    rng = np.random.default_rng(2)
+    rate = rng.normal(0, 0.3, 72_000) + gauss_markov(rng, 72_000, 1.0, 0.05 / 0.6174, 300.0)
+    merit = allan_deviation(rate, 1.0).figures_of_merit()
+    assert merit["bias_instability_resolved"]
+    assert merit["bias_instability_deg_h"] == pytest.approx(0.05, rel=0.25)
+    assert 150 < merit["bias_instability_tau_s"] < 2000
+    assert merit["arw_deg_rt_h"] == pytest.approx(0.005, rel=0.05)
+
+
+@pytest.fixture(scope="module")
+def fitted_short():
+    protocol = ThermalProtocol(setpoints_C=(31.0, 35.0, 40.0))
+    sim = simulate_thermal_bench(seed=21, protocol=protocol)
+    result = fit_log(sim.log, "thermal", seed=1, settings=SamplerSettings(progress=False))
+    names = result.model_names
+    draws = result.posterior.draws.reshape(-1, len(result.problem.names))[:, : len(names)]
+    from gyroid.fit import input_ranges
+
+    return (FittedDrift(model=result.problem.model, draws=draws, t0_C=21.0),
+            input_ranges(result.problem.inputs, result.problem.model))
+
+
+def test_compensated_drift_has_the_truths_noise_level(fitted_short):
+    fitted, ranges = fitted_short
+    # A different run inside the fitted range (heating, 21...39 degC, smaller steps).
+    new = simulate_thermal_bench(seed=22, protocol=ThermalProtocol(
+        setpoints_C=(28.0, 34.0, 39.0), soak_min=25.0))
+    result = compensate(new.log, fitted, ranges)
+    noise = new.log.drift_deg_h - new.true_drift_deg_h
+    # The compensated drift is the noise plus the model's small error: its RMS equals the
+    # noise's within a few per mille (the noise's own RMS scatters by 1/sqrt(2n) = 0.4 %).
+    assert result.summary["rms_after_deg_h"] == pytest.approx(np.sqrt(np.mean(noise**2)),
+                                                              rel=0.01)
+    assert result.summary["fraction_removed"] > 0.9
+    assert result.summary["within_fitted_range"]
+    assert np.all(result.model_sd_deg_h > 0)
+
+
+def test_extrapolation_is_reported(fitted_short):
+    fitted, ranges = fitted_short
+    hot = simulate_thermal_bench(seed=23)  # up to 55 degC; the fit saw 21...40 degC
+    result = compensate(hot.log, fitted, ranges)
+    names = {item["input"] for item in result.summary["extrapolation"]}
+    assert "temperature_C" in names
+    # Cooling back to the lab: negative rates the heating-only fit never saw.
+    cooling = simulate_thermal_bench(seed=24, protocol=ThermalProtocol(
+        setpoints_C=(35.0,), return_to_lab=True))
+    result = compensate(cooling.log, fitted, ranges)
+    assert {item["input"] for item in result.summary["extrapolation"]} == {"dT_dt_C_h"}
+    assert not result.summary["within_fitted_range"]
+
+
+def test_cli_writes_the_contract_files(tmp_path):
+    sim, fit, out = tmp_path / "sim", tmp_path / "fit", tmp_path / "comp"
+    assert main(["simulate", "magnetic", "--out", str(sim), "--seed", "4"]) == 0
+    assert main(["fit", str(sim / "bench.csv"), "--terms", "magnetic", "--out", str(fit),
+                 "--no-progress"]) == 0
+    assert main(["compensate", str(sim / "bench.csv"), "--fit", str(fit), "--out",
+                 str(out)]) == 0
+    header = (out / "compensated.csv").read_text().splitlines()[0].split(",")
+    assert header[:2] == ["time_s", "drift_deg_h"]
+    assert header[-3:] == ["drift_model_deg_h", "drift_model_sd_deg_h",
+                           "drift_compensated_deg_h"]
+    summary = json.loads((out / "compensate.json").read_text())
+    for key in ("rms_before_deg_h", "rms_after_deg_h", "peak_before_deg_h", "peak_after_deg_h",
+                "fraction_removed", "allan_before", "allan_after"):
+        assert key in summary
+    assert (out / "allan.png").exists() and (out / "compensation.png").exists()
+    assert main(["compensate", str(sim / "bench.csv"), "--fit", str(tmp_path), "--out",
+                 str(tmp_path / "x")]) == 2
