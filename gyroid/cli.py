@@ -277,6 +277,46 @@ def roll_simulate(out, seed, overrides, roll_profile, rate, duration, period, ov
                f"{out / 'truth.json'}")
 
 
+@roll.command("fit")
+@click.argument("data", type=click.Path(path_type=Path))
+@click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="Folder for roll_fit.json, posterior.nc and figures.")
+@click.option("--seed", default=0, show_default=True, type=int, help="Random seed of emcee.")
+@click.option("--progress/--no-progress", default=True, show_default=True,
+              help="Show the sampler's progress bar.")
+def roll_fit(data, out, seed, progress) -> None:
+    """Fit the loop parameters (D0, D1, D0gs, D1gs, Denc) to a roll log ROLL.csv."""
+    import jax.numpy as jnp
+    import numpy as np
+
+    from gyroid.outputs import json_text
+    from gyroid.plotting import pair_plot, roll_residual_figure, save
+    from gyroid.roll_fit import fit_roll_log, load_roll_log
+    from gyroid.sampling import SamplerSettings
+
+    log = load_roll_log(data)
+    click.echo(f"fitting the roll loop to {data} ({log.n} rows) ...", err=True)
+    result = fit_roll_log(log, seed=seed, settings=SamplerSettings(progress=progress))
+    summary = result.to_json()
+    problem = result.problem
+    residual = np.asarray(problem.gs_angle - problem.predict(jnp.asarray(result.point.u)))
+    loop = [n for n in ("D0", "D1", "D0gs", "D1gs", "enc_a", "enc_b") if n in problem.names]
+    flat = result.posterior.draws.reshape(-1, len(problem.names))
+    draws = flat[:, [problem.names.index(n) for n in loop]]
+    with output_dir(out) as stage:
+        (stage / "roll_fit.json").write_text(json_text(summary))
+        result.posterior.idata.to_netcdf(str(stage / "posterior.nc"))
+        save(roll_residual_figure(log.time_s, residual), stage / "roll_fit")
+        save(pair_plot(draws, loop, summary["units"] | {"enc_a": "deg", "enc_b": "deg"}),
+             stage / "pair")
+    for name, s in summary["parameters"].items():
+        click.echo(f"  {name:>5s} = {s['mean']:.6g} +/- {s['sd']:.2g}")
+    for item in summary["confounded"]:
+        click.echo(f"warning: {' and '.join(item['parameters'])} are confounded (r = "
+                   f"{item['correlation']:.3f}): {item['suggestion']}", err=True)
+    click.echo(f"wrote {out / 'roll_fit.json'} and {out / 'posterior.nc'}")
+
+
 @cli.command()
 @click.argument("data", type=click.Path(path_type=Path))
 @click.option("--terms", required=True, metavar="TERMS",

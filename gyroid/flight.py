@@ -41,6 +41,7 @@ class FlightProfile:
     mems_saturation_deg_s: float = MEMS_SATURATION_DEG_S
     sins_noise_deg_s: float = 0.02  # white, per sample
     gs_noise_deg: float = 0.01  # encoder read-out noise
+    mems_noise_deg_s: float = 0.05  # noise of the logged stabiliser MEMS output
     encoder_phase_rad: float = 0.7
     start_temperature_C: float = T0_C
     temperature_rise_C: float = 4.0  # over the flight, smooth
@@ -130,7 +131,8 @@ def simulate_flight(
         "time_s": time_s[:m],
         "roll_rate_deg_s": np.asarray(loop.sins_rate_deg_s),
         "gs_angle_deg": np.asarray(loop.gs_angle_deg),
-        "gs_rate_deg_s": np.asarray(loop.gs_rate_deg_s),
+        "gs_rate_deg_s": np.asarray(loop.gs_rate_deg_s)
+        + rng.normal(0.0, profile.mems_noise_deg_s, m),
         "temperature_C": temperature[:m],
         "Hx_uT": field_uT[:m, 0],
         "Hy_uT": field_uT[:m, 1],

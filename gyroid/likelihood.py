@@ -208,6 +208,20 @@ class BenchProblem(eqx.Module):
         """Log-likelihood summed over blocks of ``LOO_BLOCK_S`` (what LOO leaves out)."""
         return jax.ops.segment_sum(self.log_likelihood_rows(u), self.block, self.n_blocks)
 
+    def observed_data(self) -> dict[str, np.ndarray]:
+        return {"drift_deg_h": np.asarray(self.drift)}
+
+    def constant_data(self) -> dict[str, np.ndarray]:
+        return {"time_h": np.asarray(self.inputs.time_h), "loo_block": np.asarray(self.block)}
+
+    def idata_attrs(self) -> dict[str, str]:
+        return {
+            "terms": ",".join(self.model.terms),
+            "noise_model": self.noise,
+            "log_likelihood_note": "log_likelihood holds sums over blocks of rows "
+                                   "(constant_data.loo_block): LOO leaves out whole blocks",
+        }
+
     def prior_residuals(self, u: Float[Array, " d"]) -> Float[Array, " d"]:
         """Standardised prior residuals: ``-0.5 * sum(r**2)`` is the log prior + const."""
         return jnp.stack([_prior_residual(prior, u[i]) for i, prior in enumerate(self.priors)])
@@ -266,12 +280,12 @@ def _noise_names(noise: str, sigma_known: bool) -> tuple[str, ...]:
 
 
 @eqx.filter_jit
-def batch_log_posterior(problem: BenchProblem, u: Float[Array, "w d"]) -> Float[Array, " w"]:
+def batch_log_posterior(problem, u: Float[Array, "w d"]) -> Float[Array, " w"]:
     """Log-posterior of a batch of walkers (jit-compiled once per problem shape)."""
     return jax.vmap(problem.log_posterior)(u)
 
 
 @eqx.filter_jit
-def batch_log_likelihood_blocks(problem: BenchProblem, u: Float[Array, "s d"]
+def batch_log_likelihood_blocks(problem, u: Float[Array, "s d"]
                                 ) -> Float[Array, "s b"]:
     return jax.vmap(problem.log_likelihood_blocks)(u)

@@ -320,3 +320,14 @@ def allan_figure(before, after) -> plt.Figure:
         ax.set_ylabel("Allan deviation, deg/h")
         ax.legend(frameon=False, loc="lower left")
         return fig
+
+
+def roll_residual_figure(time_s: np.ndarray, residual_deg: np.ndarray) -> plt.Figure:
+    """Stabiliser angle minus the fitted loop's prediction against time."""
+    with plt.rc_context(STYLE):
+        fig, ax = plt.subplots(figsize=(6.5, 3.2))
+        ax.plot(time_s - time_s[0], residual_deg, color="0.3", lw=0.5, ls="-")
+        ax.axhline(0.0, color="0.0", lw=0.6, ls=":")
+        ax.set_xlabel("time since start, s")
+        ax.set_ylabel("stabiliser angle - model, deg")
+        return fig

@@ -18,7 +18,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from gyroid._arviz import arviz as az
-from gyroid.likelihood import BenchProblem, batch_log_likelihood_blocks, batch_log_posterior
+from gyroid.likelihood import batch_log_likelihood_blocks, batch_log_posterior
 from gyroid.point import PointEstimate
 
 #: Cap on the draws kept for storage (walkers x draws) after thinning.
@@ -62,7 +62,7 @@ class Posterior:
         return all(s["r_hat"] <= 1.01 and s["ess_bulk"] >= 400 for s in self.summary.values())
 
 
-def _initial_walkers(problem: BenchProblem, point: PointEstimate, n_walkers: int,
+def _initial_walkers(problem, point: PointEstimate, n_walkers: int,
                      rng: np.random.Generator) -> np.ndarray:
     d = point.u.size
     covariance = np.asarray(point.covariance_u)
@@ -84,7 +84,7 @@ def _initial_walkers(problem: BenchProblem, point: PointEstimate, n_walkers: int
 
 
 def sample_posterior(
-    problem: BenchProblem,
+    problem,
     point: PointEstimate,
     *,
     seed: int = 0,
@@ -162,29 +162,30 @@ def _thinned(sampler: emcee.EnsembleSampler, burn: int, tau: np.ndarray):
     return np.transpose(chain[::thin], (1, 0, 2)), lp[::thin].T, thin
 
 
-def to_inference_data(problem: BenchProblem, draws_u: np.ndarray, natural: np.ndarray,
+def to_inference_data(problem, draws_u: np.ndarray, natural: np.ndarray,
                       log_posterior: np.ndarray):
-    """ArviZ InferenceData: posterior, block log-likelihood, observed data, sample stats."""
+    """ArviZ InferenceData: posterior, block log-likelihood, observed data, sample stats.
+
+    ``problem`` supplies ``names``, ``log_likelihood_blocks`` and the hooks
+    ``observed_data()``, ``constant_data()`` and ``idata_attrs()``.
+    """
     walkers, draws, d = draws_u.shape
     flat = jnp.asarray(draws_u.reshape(-1, d))
     blocks = []
     for start in range(0, flat.shape[0], 256):
         blocks.append(np.asarray(batch_log_likelihood_blocks(problem, flat[start:start + 256])))
     log_lik = np.concatenate(blocks).reshape(walkers, draws, -1)
+    observed = problem.observed_data()
+    constant = problem.constant_data()
+    name = next(iter(observed))
     return az.from_dict(
-        posterior={name: natural[..., i] for i, name in enumerate(problem.names)},
-        log_likelihood={"drift_deg_h": log_lik},
-        observed_data={"drift_deg_h": np.asarray(problem.drift)},
-        constant_data={"time_h": np.asarray(problem.inputs.time_h),
-                       "loo_block": np.asarray(problem.block)},
+        posterior={n: natural[..., i] for i, n in enumerate(problem.names)},
+        log_likelihood={name: log_lik},
+        observed_data=observed,
+        constant_data=constant,
         sample_stats={"lp": log_posterior},
-        dims={"drift_deg_h": ["row"], "time_h": ["row"], "loo_block": ["row"]},
-        attrs={
-            "terms": ",".join(problem.model.terms),
-            "noise_model": problem.noise,
-            "log_likelihood_note": "log_likelihood holds sums over blocks of rows "
-                                   "(constant_data.loo_block): LOO leaves out whole blocks",
-        },
+        dims={name: ["row"], **{k: ["row"] for k in constant}},
+        attrs=problem.idata_attrs(),
     )
 
 

@@ -1,0 +1,323 @@
+"""Fitting paper B's loop parameters to a roll log (contract section 4).
+
+The SINS output ``w_x`` is inverted for the true rate, ``w = (w_x - D0) / (1 + D1)``, and
+integrated into the roll angle; the stabiliser's angle is then predicted as
+``psi0 + psi + platform error + encoder error`` with
+
+* platform error ``int (D1gs m + D0gs) / (1 + D1gs) dt`` when the log has the stabiliser's
+  MEMS output ``m`` (``gs_rate_deg_s``: then ``w_H = (m - D0gs) / (1 + D1gs)``), else
+  ``D0gs t`` (an ideal stabiliser);
+* encoder error ``a sin(psi) + b cos(psi)``: ``Denc = hypot(a, b)``, phase ``atan2(b, a)``.
+
+The residual is the encoder's read-out noise (white, ``sigma_gs_deg``) plus the SINS gyro's
+noise integrated into the angle (a random walk, ``sigma_sins_deg_s`` per sample); the exact
+Gaussian likelihood comes from a Kalman filter. When the stabiliser is ideal (``m`` near
+zero) its MEMS output is also an observation of ``D0gs`` (``m ~ N(D0gs, sigma_m)``): that is
+what separates ``D0gs`` from the SINS bias ``D0``, which otherwise enter only through their
+difference.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+import optimistix as optx
+
+from gyroid.errors import GyroidInputError
+from gyroid.priors import LogNormal, Normal, Prior
+from gyroid.tables import check_time_increasing, read_csv_table
+
+_LOG_2PI = math.log(2.0 * math.pi)
+DEG = math.pi / 180.0
+#: The stabiliser angle enters the likelihood at about this many rows (see RollProblem).
+MAX_OBSERVED_ROWS = 1000
+
+
+@dataclass(frozen=True)
+class RollLog:
+    time_s: np.ndarray
+    roll_rate_deg_s: np.ndarray
+    gs_angle_deg: np.ndarray
+    gs_rate_deg_s: np.ndarray | None
+    source: str = "<memory>"
+
+    @property
+    def n(self) -> int:
+        return int(self.time_s.size)
+
+
+def load_roll_log(path) -> RollLog:
+    """Read and validate a roll log (contract section 4)."""
+    table = read_csv_table(path)
+    time_s = table.number_column("time_s")
+    columns = {name: table.number_column(name) for name in ("roll_rate_deg_s", "gs_angle_deg")}
+    gs_rate = table.number_column("gs_rate_deg_s") if "gs_rate_deg_s" in table.header else None
+    check_time_increasing(table, time_s)
+    steps = np.diff(time_s)
+    if steps.size and np.ptp(steps) > 1e-6 * np.median(steps):
+        bad = int(np.argmax(np.abs(steps - np.median(steps)) > 1e-6 * np.median(steps))) + 1
+        raise GyroidInputError(f"{table.path.name}: the roll log must be uniformly sampled; the "
+                               f"step changes at {table.where(bad)}; resample the log")
+    if table.n_rows < 50:
+        raise GyroidInputError(f"{table.path.name}: {table.n_rows} rows are too few for a fit")
+    return RollLog(time_s, columns["roll_rate_deg_s"], columns["gs_angle_deg"], gs_rate,
+                   str(table.path))
+
+
+class RollProblem(eqx.Module):
+    """Posterior of the roll-loop parameters given a roll log."""
+
+    time_s: jax.Array
+    sins: jax.Array
+    gs_angle: jax.Array
+    gs_rate: jax.Array | None
+    block: jax.Array
+    observed: jax.Array  # indices of the rows whose stabiliser angle enters the likelihood
+    sample_s: float = eqx.field(static=True)
+    use_gs_rate: bool = eqx.field(static=True)  # the log has m (platform error uses it)
+    ideal_gs: bool = eqx.field(static=True)  # m ~ D0gs: also an observation of D0gs
+    names: tuple[str, ...] = eqx.field(static=True)
+    priors: tuple[Prior, ...] = eqx.field(static=True)
+    positive: tuple[bool, ...] = eqx.field(static=True)
+    n_blocks: int = eqx.field(static=True)
+
+    @classmethod
+    def from_log(cls, log: RollLog) -> RollProblem:
+        sample_s = float(np.median(np.diff(log.time_s)))
+        use_gs_rate = log.gs_rate_deg_s is not None
+        ideal = bool(use_gs_rate and np.median(np.abs(log.gs_rate_deg_s)) < 1.0)
+        spec: list[tuple[str, Prior, bool]] = [
+            ("psi0", Normal(0.0, 10.0), False),
+            ("D0", Normal(0.0, 0.1), False),
+            ("D1", Normal(0.0, 2e-3), False),
+            ("D0gs", Normal(0.0, 0.02), False),
+        ]
+        if use_gs_rate and not ideal:  # an ideal stabiliser's m ~ D0gs cannot show D1gs
+            spec.append(("D1gs", Normal(0.0, 1e-3), False))
+        spec += [("enc_a", Normal(0.0, 1.0), False), ("enc_b", Normal(0.0, 1.0), False),
+                 ("sigma_gs_deg", LogNormal(0.01, 2.0), True),
+                 ("sigma_sins_deg_s", LogNormal(0.02, 2.0), True)]
+        if ideal:
+            spec.append(("sigma_m_deg_s", LogNormal(0.01, 3.0), True))
+        # The angle comparison is informative on slow time scales: the likelihood uses every
+        # stride-th row (exact for this noise model: the random walk's increments over a
+        # stride add up), with an odd stride so the encoder phase keeps moving.
+        stride = max(1, log.n // MAX_OBSERVED_ROWS)
+        stride += 1 - stride % 2
+        observed = np.arange(stride - 1, log.n, stride)
+        t_obs = log.time_s[observed]
+        block = np.floor((t_obs - t_obs[0]) / max(1.0, (t_obs[-1] - t_obs[0]) / 500.0))
+        _, block = np.unique(block.astype(int), return_inverse=True)
+        return cls(
+            time_s=jnp.asarray(log.time_s - log.time_s[0] + sample_s),
+            sins=jnp.asarray(log.roll_rate_deg_s),
+            gs_angle=jnp.asarray(log.gs_angle_deg),
+            gs_rate=None if not use_gs_rate else jnp.asarray(log.gs_rate_deg_s),
+            block=jnp.asarray(block),
+            observed=jnp.asarray(observed),
+            sample_s=sample_s,
+            use_gs_rate=use_gs_rate,
+            ideal_gs=ideal,
+            names=tuple(n for n, _, _ in spec),
+            priors=tuple(p for _, p, _ in spec),
+            positive=tuple(f for _, _, f in spec),
+            n_blocks=int(block.max()) + 1,
+        )
+
+    def to_natural(self, u):
+        mask = jnp.asarray(self.positive)
+        return jnp.where(mask, jnp.exp(u), u)
+
+    def to_sampling(self, x):
+        mask = jnp.asarray(self.positive)
+        return jnp.where(mask, jnp.log(jnp.where(mask, x, 1.0)), x)
+
+    def values(self, u) -> dict:
+        return dict(zip(self.names, self.to_natural(u), strict=True))
+
+    def predict(self, u):
+        p = self.values(u)
+        rate = (self.sins - p["D0"]) / (1.0 + p["D1"])
+        psi = jnp.cumsum(rate) * self.sample_s
+        if self.use_gs_rate and not self.ideal_gs:
+            platform = jnp.cumsum((p["D1gs"] * self.gs_rate + p["D0gs"]) / (1.0 + p["D1gs"]))
+            platform = platform * self.sample_s
+        else:
+            platform = p["D0gs"] * self.time_s
+        encoder = p["enc_a"] * jnp.sin(psi * DEG) + p["enc_b"] * jnp.cos(psi * DEG)
+        return p["psi0"] + psi + platform + encoder
+
+    def log_likelihood_rows(self, u):
+        p = self.values(u)
+        residual = (self.gs_angle - self.predict(u))[self.observed]
+        steps = jnp.diff(self.observed, prepend=-1)  # rows since the previous observation
+        q = (p["sigma_sins_deg_s"] * self.sample_s) ** 2 * steps  # angle random walk
+        r = p["sigma_gs_deg"] ** 2
+
+        # The filter's mean follows the innovations; run it on (state, var) jointly.
+        def kalman(carry, row):
+            e, q_k = row
+            mean, var = carry
+            prior_var = var + q_k
+            total = prior_var + r
+            innovation = e - mean
+            gain = prior_var / total
+            return (mean + gain * innovation, (1.0 - gain) * prior_var), (innovation, total)
+
+        _, (innovation, total) = jax.lax.scan(kalman, (jnp.zeros(()), jnp.zeros(())),
+                                              (residual, q))
+        rows = -0.5 * (innovation**2 / total + jnp.log(total) + _LOG_2PI)
+        if self.ideal_gs:
+            # Every MEMS sample observes D0gs; summed over each stride onto its observed row.
+            m_res = (self.gs_rate - p["D0gs"]) / p["sigma_m_deg_s"]
+            m_rows = -0.5 * (m_res**2 + _LOG_2PI) - jnp.log(p["sigma_m_deg_s"])
+            owner = jnp.clip(jnp.searchsorted(self.observed, jnp.arange(m_rows.shape[0])), 0,
+                             self.observed.shape[0] - 1)
+            rows = rows + jax.ops.segment_sum(m_rows, owner, self.observed.shape[0])
+        return rows
+
+    def log_likelihood_blocks(self, u):
+        return jax.ops.segment_sum(self.log_likelihood_rows(u), self.block, self.n_blocks)
+
+    def log_prior(self, u):
+        return sum(prior.log_density(u[i]) for i, prior in enumerate(self.priors))
+
+    def log_posterior(self, u):
+        value = jnp.sum(self.log_likelihood_rows(u)) + self.log_prior(u)
+        return jnp.where(jnp.isfinite(value), value, -jnp.inf)
+
+    def observed_data(self):
+        return {"gs_angle_deg": np.asarray(self.gs_angle)[np.asarray(self.observed)]}
+
+    def constant_data(self):
+        return {"time_s": np.asarray(self.time_s)[np.asarray(self.observed)],
+                "loo_block": np.asarray(self.block)}
+
+    def idata_attrs(self):
+        return {"model": "paper B roll-correction loop", "ideal_stabiliser": str(self.ideal_gs)}
+
+
+@dataclass
+class RollPoint:
+    names: tuple[str, ...]
+    u: np.ndarray
+    covariance_u: np.ndarray
+    value: dict[str, float]
+    sd: dict[str, float]
+    converged: bool
+    message: str
+
+
+def _nlp(u, problem):
+    return -problem.log_posterior(u)
+
+
+@eqx.filter_jit
+def _minimise(problem: RollProblem, u0):
+    solution = optx.minimise(_nlp, optx.BFGS(rtol=1e-9, atol=1e-9), u0, args=problem,
+                             max_steps=3000, throw=False)
+    return solution.value, solution.result, jax.hessian(_nlp)(solution.value, problem)
+
+
+def roll_point_estimate(problem: RollProblem) -> RollPoint:
+    """Linearised least squares for a start, then BFGS (optimistix) on the log-posterior;
+    covariance from the inverse Hessian."""
+    t = np.asarray(problem.time_s)
+    psi_x = np.cumsum(np.asarray(problem.sins)) * problem.sample_s
+    y = np.asarray(problem.gs_angle) - psi_x
+    design = np.column_stack([np.ones_like(t), -psi_x, t, np.sin(psi_x * DEG),
+                              np.cos(psi_x * DEG)])
+    coef, *_ = np.linalg.lstsq(design, y, rcond=None)
+    start = dict(psi0=coef[0], D0=0.0, D1=coef[1], D0gs=coef[2], D1gs=0.0, enc_a=coef[3],
+                 enc_b=coef[4], sigma_gs_deg=0.01, sigma_sins_deg_s=0.02, sigma_m_deg_s=0.01)
+    if problem.ideal_gs:
+        start["D0gs"] = float(np.median(np.asarray(problem.gs_rate)))
+        start["D0"] = start["D0gs"] - coef[2]
+    x0 = np.array([start[n] for n in problem.names])
+    u0 = np.asarray(problem.to_sampling(jnp.asarray(x0)))
+    value, result, hessian = _minimise(problem, jnp.asarray(u0))
+    ok = bool(result == optx.RESULTS.successful)
+    message = "converged" if ok else optx.RESULTS[result].split("\n")[0]
+    hessian = np.asarray(hessian)
+    try:
+        cov = np.linalg.inv(hessian)
+    except np.linalg.LinAlgError:
+        cov = np.full_like(hessian, np.nan)
+    u = np.asarray(value)
+    x = np.asarray(problem.to_natural(jnp.asarray(u)))
+    sd_u = np.sqrt(np.clip(np.diag(cov), 0, None))
+    sd = np.where(problem.positive, x * sd_u, sd_u)
+    return RollPoint(problem.names, u, cov, dict(zip(problem.names, x.tolist(), strict=True)),
+                     dict(zip(problem.names, sd.tolist(), strict=True)), ok, message)
+
+
+CONFOUNDING_THRESHOLD = 0.9
+
+
+@dataclass
+class RollFit:
+    problem: RollProblem
+    point: RollPoint
+    posterior: object
+    summary: dict = field(default_factory=dict)
+
+    def to_json(self) -> dict:
+        post = self.posterior
+        flat = post.draws.reshape(-1, len(self.problem.names))
+        a = flat[:, self.problem.names.index("enc_a")]
+        b = flat[:, self.problem.names.index("enc_b")]
+        derived = {"Denc": np.hypot(a, b), "encoder_phase_rad": np.arctan2(b, a)}
+        summary = {k: dict(v) for k, v in post.summary.items()}
+        for name, values in derived.items():
+            lo, hi = np.percentile(values, [2.5, 97.5])
+            summary[name] = {"mean": float(values.mean()), "sd": float(values.std(ddof=1)),
+                             "ci95": [float(lo), float(hi)], "derived_from": ["enc_a", "enc_b"]}
+        loop_names = [n for n in ("D0", "D1", "D0gs", "D1gs") if n in self.problem.names]
+        corr = np.corrcoef(flat[:, [self.problem.names.index(n) for n in loop_names]],
+                           rowvar=False)
+        confounded = []
+        advice = {
+            ("D0", "D0gs"): "log the stabiliser's MEMS output (gs_rate_deg_s) while it holds "
+                            "the platform (ideal stabiliser): it measures D0gs alone",
+            ("D1", "D1gs"): "vary the roll rate while the stabiliser stays unsaturated, or "
+                            "hold it ideal for part of the flight: D1 then acts alone",
+            ("D0", "D1"): "vary the roll rate (a ramp or a reversal): D1 scales with it, D0 "
+                          "does not",
+        }
+        for i, a_name in enumerate(loop_names):
+            for j in range(i + 1, len(loop_names)):
+                r = float(corr[i, j])
+                if abs(r) > CONFOUNDING_THRESHOLD:
+                    pair = (a_name, loop_names[j])
+                    confounded.append({"parameters": list(pair), "correlation": r,
+                                       "identified": "only their combination",
+                                       "suggestion": advice.get(pair, "vary the manoeuvre")})
+        return {
+            "parameters": {n: summary[n] for n in (*loop_names, "Denc")},
+            "point": {n: self.point.value[n] for n in self.problem.names},
+            "point_sd": {n: self.point.sd[n] for n in self.problem.names},
+            "posterior": summary,
+            "confounded": confounded,
+            "ideal_stabiliser_assumed": not self.problem.use_gs_rate,
+            "gs_rate_used": self.problem.use_gs_rate,
+            "n_samples": int(self.problem.time_s.shape[0]),
+            "convergence": {"point_estimate": self.point.message,
+                            "sampler_steps": post.n_steps, "converged": post.converged},
+            "units": {"D0": "deg/s", "D1": "relative", "D0gs": "deg/s", "D1gs": "relative",
+                      "Denc": "deg", "psi0": "deg", "sigma_gs_deg": "deg",
+                      "sigma_sins_deg_s": "deg/s"},
+        }
+
+
+def fit_roll_log(log: RollLog, *, seed: int = 0, settings=None) -> RollFit:
+    from gyroid.sampling import sample_posterior
+
+    problem = RollProblem.from_log(log)
+    point = roll_point_estimate(problem)
+    posterior = sample_posterior(problem, point, seed=seed, settings=settings)
+    return RollFit(problem, point, posterior)
