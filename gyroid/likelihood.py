@@ -16,6 +16,7 @@ from sufficient statistics (cost independent of the log's length).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 
@@ -279,10 +280,21 @@ def _noise_names(noise: str, sigma_known: bool) -> tuple[str, ...]:
     return (*white, "sigma_gm_deg_h", "tau_gm_s")
 
 
-@eqx.filter_jit
+@functools.partial(jax.jit, static_argnums=0)
+def _batch_log_posterior(static, dynamic, u):
+    return jax.vmap(eqx.combine(dynamic, static).log_posterior)(u)
+
+
+def log_posterior_batcher(problem):
+    """``u (w, d) -> log-posterior (w,)``, jit-compiled once per problem structure and shape
+    (the arrays are arguments, so a new log of the same shape reuses the compilation)."""
+    dynamic, static = eqx.partition(problem, eqx.is_array)
+    return lambda u: _batch_log_posterior(static, dynamic, u)
+
+
 def batch_log_posterior(problem, u: Float[Array, "w d"]) -> Float[Array, " w"]:
-    """Log-posterior of a batch of walkers (jit-compiled once per problem shape)."""
-    return jax.vmap(problem.log_posterior)(u)
+    """Log-posterior of a batch of walkers."""
+    return log_posterior_batcher(problem)(u)
 
 
 @eqx.filter_jit

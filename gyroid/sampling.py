@@ -18,7 +18,11 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from gyroid._arviz import arviz as az
-from gyroid.likelihood import batch_log_likelihood_blocks, batch_log_posterior
+from gyroid.likelihood import (
+    batch_log_likelihood_blocks,
+    batch_log_posterior,
+    log_posterior_batcher,
+)
 from gyroid.point import PointEstimate
 
 #: Cap on the draws kept for storage (walkers x draws) after thinning.
@@ -97,8 +101,10 @@ def sample_posterior(
     n_walkers = settings.n_walkers or max(32, 4 * d)
     n_walkers += n_walkers % 2
 
+    batch = log_posterior_batcher(problem)
+
     def log_prob(u: np.ndarray) -> np.ndarray:
-        return np.asarray(batch_log_posterior(problem, jnp.asarray(u)))
+        return np.asarray(batch(u))
 
     sampler = emcee.EnsembleSampler(n_walkers, d, log_prob, vectorize=True)
     # emcee draws its stretch moves from its own RandomState: seed it from ours.

@@ -1,0 +1,266 @@
+"""gyroid against a plain NumPy/SciPy way of doing the same work, in one run.
+
+    python benchmarks/run.py --quick --json out.json
+
+Each benchmark checks that both ways give the same answer, then reports medians and the
+ratio (baseline time / gyroid time). Sections: likelihood_throughput, posterior_time,
+point_fit, roll_monte_carlo, demo.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import emcee
+import jax
+import jax.numpy as jnp
+import numpy as np
+from scipy.optimize import least_squares
+
+import gyroid
+from gyroid.bench import MagneticProtocol, ThermalProtocol, simulate_thermal_bench
+from gyroid.likelihood import BenchProblem, log_posterior_batcher
+from gyroid.logs import BenchLog
+from gyroid.point import point_estimate
+from gyroid.roll import Flight, RollParams, run_loop
+from gyroid.sampling import SamplerSettings, sample_posterior, summarise_draws
+
+
+def _median_time(fn, repeats: int) -> float:
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - start)
+    return float(np.median(times))
+
+
+def six_hour_log(seed: int = 0) -> BenchLog:
+    """6 h at 1 Hz with temperature steps and Helmholtz sweeps at once (all 'full' terms)."""
+    protocol = ThermalProtocol(
+        setpoints_C=(31.0, 40.0, 50.0), transition_min=60.0, soak_min=40.0, initial_min=60.0
+    )
+    sim = simulate_thermal_bench(
+        seed=seed,
+        protocol=protocol,
+        parameters={**gyroid.bench.PAPER_A_THERMAL, **gyroid.bench.PAPER_A_DEVICE_2},
+    )
+    n = 6 * 3600
+    columns = {k: v[:n] for k, v in sim.log.columns.items()}
+    _, field = MagneticProtocol(turn_gap_s=0.0).schedule()
+    field = np.resize(field, (n, 3))
+    rng = np.random.default_rng(seed)
+    truth = np.array([-0.037, -0.576, -0.253])
+    columns["drift_deg_h"] = columns["drift_deg_h"] + field @ truth / 100.0
+    for k, name in enumerate(("Hx_uT", "Hy_uT", "Hz_uT")):
+        columns[name] = field[:, k] + rng.normal(0, 0.05, n)
+    return BenchLog(columns=columns)
+
+
+def numpy_log_posterior(design, y, priors_scale, u):
+    """What a researcher writes: one walker at a time, residuals and sums in NumPy."""
+    theta, log_sigma = u[:-1], u[-1]
+    sigma = np.exp(log_sigma)
+    residual = y - design @ theta
+    loglik = -0.5 * np.sum(residual**2) / sigma**2 - y.size * log_sigma
+    prior = -0.5 * np.sum((theta / priors_scale) ** 2) - 0.5 * ((log_sigma - 0.0) / 3.0) ** 2
+    return loglik + prior - 0.5 * y.size * np.log(2 * np.pi)
+
+
+def bench_likelihood(problem, design, y, scales, repeats):
+    rng = np.random.default_rng(0)
+    d = len(problem.names)
+    u = rng.normal(0, 0.01, (64, d))
+    u[:, -1] = np.log(0.3)
+    batch = log_posterior_batcher(problem)
+    ours = np.asarray(batch(u))
+    theirs = np.array([numpy_log_posterior(design, y, scales, row) for row in u])
+    # Constant terms of the priors differ; compare differences between walkers.
+    assert np.allclose(ours - ours[0], theirs - theirs[0], rtol=1e-8, atol=1e-6)
+    t_ours = _median_time(lambda: np.asarray(batch(u)), repeats)
+    t_base = _median_time(
+        lambda: [numpy_log_posterior(design, y, scales, row) for row in u], max(3, repeats // 10)
+    )
+    return {
+        "gyroid_evals_per_s": 64 / t_ours,
+        "baseline_evals_per_s": 64 / t_base,
+        "ratio": t_base / t_ours,
+    }
+
+
+def bench_posterior(problem, design, y, scales, seed):
+    start = time.perf_counter()
+    point = point_estimate(problem)
+    post = sample_posterior(problem, point, seed=seed, settings=SamplerSettings(progress=False))
+    t_ours = time.perf_counter() - start
+    min_ess = min(v["ess_bulk"] for v in post.summary.values())
+    # Baseline: emcee with the NumPy log-probability, one walker at a time, same walkers and
+    # start, run in chunks until every ESS >= 400 (same criterion).
+    start = time.perf_counter()
+    d = len(problem.names)
+    walkers = post.draws.shape[0]
+    rng = np.random.default_rng(seed)
+    p0 = point.u + 1e-3 * rng.standard_normal((walkers, d)) * np.sqrt(np.diag(point.covariance_u))
+    sampler = emcee.EnsembleSampler(walkers, d, lambda u: numpy_log_posterior(design, y, scales, u))
+    state = sampler.run_mcmc(p0, 300, progress=False)
+    while sampler.iteration < 30000:  # the same stopping rule as gyroid's sampler
+        state = sampler.run_mcmc(state, 500, progress=False)
+        tau = float(np.max(sampler.get_autocorr_time(discard=300, tol=0)))
+        chain = np.transpose(sampler.get_chain(discard=300), (1, 0, 2))
+        natural = chain.copy()
+        natural[..., -1] = np.exp(natural[..., -1])
+        summary = summarise_draws(natural[:, :: max(1, int(tau / 2))], problem.names)
+        base_ess = min(v["ess_bulk"] for v in summary.values())
+        good = all(v["r_hat"] <= 1.01 for v in summary.values()) and base_ess >= 400
+        if sampler.iteration - 300 >= 50 * tau and good:
+            break
+    t_base = time.perf_counter() - start
+    # Same answer: posterior means agree within a few Monte-Carlo errors.
+    ours = post.draws.reshape(-1, d).mean(axis=0)
+    theirs = natural.reshape(-1, d).mean(axis=0)
+    sd = post.draws.reshape(-1, d).std(axis=0)
+    assert np.all(np.abs(ours - theirs) < 6 * sd / np.sqrt(min_ess)), (ours, theirs)
+    return {
+        "gyroid_s": t_ours,
+        "baseline_s": t_base,
+        "ratio": t_base / t_ours,
+        "min_ess": min_ess,
+        "baseline_min_ess": base_ess,
+    }
+
+
+def bench_point(problem, design, y, repeats):
+    """Weighted least squares of the 'full' model, flat priors, both ways (warm)."""
+    start = time.perf_counter()
+    point_estimate(problem)
+    first = time.perf_counter() - start
+    t_ours = _median_time(lambda: point_estimate(problem), repeats)
+    p = design.shape[1]
+
+    def residuals(theta):
+        return y - design @ theta
+
+    fit = least_squares(residuals, np.zeros(p), method="lm")
+    ours = point_estimate(problem).value
+    assert np.allclose(fit.x, [ours[n] for n in problem.model.parameter_names], rtol=1e-6,
+                       atol=1e-8)
+    t_base = _median_time(lambda: least_squares(residuals, np.zeros(p), method="lm"), repeats)
+    return {
+        "gyroid_s": t_ours,
+        "baseline_s": t_base,
+        "ratio": t_base / t_ours,
+        "compile_s": first - t_ours,
+    }
+
+
+def bench_roll(draws: int, quick: bool):
+    sample_s, duration = 1e-3, 120.0
+    n = int(duration / sample_s)
+    rng = np.random.default_rng(0)
+    d1 = 600e-6 + 30e-6 * rng.standard_normal(draws)
+    d0gs = 3.3e-3 + 3e-4 * rng.standard_normal(draws)
+    flight = Flight(
+        jnp.full(n, 900.0),
+        jnp.full(n, 300.0),
+        jnp.zeros(n),
+        jnp.zeros(n),
+        jnp.zeros(n),
+        sample_s=sample_s,
+        period_s=5.0,
+    )
+
+    @jax.jit
+    def batch(d1, d0gs):
+        return jax.vmap(lambda a, b: run_loop(RollParams(D1=a, D0gs=b), flight).dK)(d1, d0gs)
+
+    chunk = 250
+    batch(jnp.asarray(d1[:chunk]), jnp.asarray(d0gs[:chunk])).block_until_ready()  # compile
+
+    def ours():
+        return np.concatenate(
+            [
+                np.asarray(batch(jnp.asarray(d1[i : i + chunk]), jnp.asarray(d0gs[i : i + chunk])))
+                for i in range(0, draws, chunk)
+            ]
+        )
+
+    start = time.perf_counter()
+    dk = ours()
+    t_ours = time.perf_counter() - start
+
+    def numpy_loop(a, b):
+        w = np.full(n, 900.0)
+        true = np.cumsum(w) * sample_s
+        sins = (1 + a) * w
+        mems = np.clip(b + (1 + 280e-6) * 300.0, -330, 330)
+        gs = true + np.cumsum(np.full(n, mems - 300.0)) * sample_s + 0.33 * np.sin(np.deg2rad(true))
+        m = 5000
+        raw = sins.reshape(-1, m).sum(axis=1) * sample_s
+        gs_end = np.concatenate([[0.0], gs[m - 1 :: m]])
+        estimate = (raw - np.diff(gs_end)) / raw
+        return (1 - estimate) * (1 + a) - 1
+
+    subset = 50 if quick else 200
+    start = time.perf_counter()
+    base = np.array([numpy_loop(a, b) for a, b in zip(d1[:subset], d0gs[:subset], strict=True)])
+    t_base = (time.perf_counter() - start) * draws / subset
+    assert np.allclose(base, dk[:subset], rtol=1e-8, atol=1e-12)
+    return {
+        "gyroid_s": t_ours,
+        "baseline_s": t_base,
+        "ratio": t_base / t_ours,
+        "draws": draws,
+        "baseline_note": f"baseline ran {subset} draws, scaled",
+    }
+
+
+def bench_demo():
+    with tempfile.TemporaryDirectory() as folder:
+        start = time.perf_counter()
+        subprocess.run(
+            [sys.executable, "-m", "gyroid", "demo", "--out", folder],
+            check=True,
+            capture_output=True,
+        )
+        seconds = time.perf_counter() - start
+    peak_kb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    return {"seconds": seconds, "peak_rss_mb": peak_kb / 1024.0}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="fewer repeats and draws")
+    parser.add_argument("--json", type=Path, default=None, help="write the results here")
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args()
+    repeats = 5 if args.quick else 20
+    log = six_hour_log(args.seed)
+    problem = BenchProblem.from_log(log, "full")
+    flat = BenchProblem.from_log(log, "full", flat_prior=True)
+    design = np.asarray(problem.model.design(problem.inputs))
+    y = np.asarray(problem.drift)
+    scales = np.array([p.prior.scale for p in problem.model.parameters])
+    results = {}
+    for name, run in (
+        ("likelihood_throughput", lambda: bench_likelihood(problem, design, y, scales, repeats)),
+        ("posterior_time", lambda: bench_posterior(problem, design, y, scales, args.seed)),
+        ("point_fit", lambda: bench_point(flat, design, y, repeats)),
+        ("roll_monte_carlo", lambda: bench_roll(2000 if args.quick else 10000, args.quick)),
+        ("demo", bench_demo),
+    ):
+        print(f"-- {name} ...", flush=True)
+        results[name] = run()
+        print(json.dumps(results[name], indent=2), flush=True)
+    if args.json:
+        args.json.write_text(json.dumps(results, indent=2) + "\n")
+
+
+if __name__ == "__main__":
+    main()
