@@ -258,7 +258,11 @@ def roll() -> None:
               help="Correction period dt, s.")
 @click.option("--overload", default=0.0, show_default=True, type=float,
               help="Uncompensated fraction of the roll rate the stabiliser sees (0: ideal).")
-def roll_simulate(out, seed, overrides, roll_profile, rate, duration, period, overload) -> None:
+@click.option("--gs-capacity", default=None, type=float,
+              help="The stabiliser cancels roll rates up to this, deg/s; the excess is "
+                   "uncompensated (an overloaded stabiliser).")
+def roll_simulate(out, seed, overrides, roll_profile, rate, duration, period, overload,
+                  gs_capacity) -> None:
     """Simulate a flight with known truth: roll.csv (contract section 4) and truth.json."""
     from gyroid.flight import FlightProfile, roll_log_text, simulate_flight
     from gyroid.outputs import json_text
@@ -266,7 +270,8 @@ def roll_simulate(out, seed, overrides, roll_profile, rate, duration, period, ov
     if duration <= 0 or period <= 0 or period > duration:
         raise GyroidInputError("--duration and --period must be positive, period <= duration")
     profile = FlightProfile(duration_s=duration, period_s=period, roll=roll_profile,
-                            roll_rate_deg_s=rate, overload_fraction=overload)
+                            roll_rate_deg_s=rate, overload_fraction=overload,
+                            gs_capacity_deg_s=gs_capacity)
     sim = simulate_flight(params=_parse_assignments(overrides, "--set"), profile=profile,
                           seed=seed)
     with output_dir(out) as stage:
@@ -337,9 +342,8 @@ def discrepancy(data, terms, out, t0_C, max_added) -> None:
 
     header = read_csv_table(data).header
     if "roll_rate_deg_s" in header and "drift_deg_h" not in header:
-        raise GyroidInputError(
-            f"{Path(data).name} is a roll log: this version of gyroid runs the discrepancy "
-            "workflow on bench logs only (columns time_s, drift_deg_h, ...)")
+        _roll_discrepancy(data, terms, out, max_added)
+        return
     log = load_bench_log(data, terms, t0_C=t0_C)
     click.echo(f"searching what {terms} misses in {data} ({log.n} rows) ...", err=True)
     report = find_discrepancies(log, terms, max_added=max_added, t0_C=t0_C,
@@ -387,6 +391,27 @@ def demo(out, seed) -> None:
 
     report = run_demo(out, seed=seed, echo=click.echo)
     click.echo(f"report: {report}")
+
+
+def _roll_discrepancy(data: Path, terms: str, out: Path, max_added: int) -> None:
+    """The discrepancy workflow on a roll log (terms: roll effects or 'ideal')."""
+    from gyroid.outputs import json_text
+    from gyroid.plotting import roll_discrepancy_figure, save
+    from gyroid.roll_fit import find_roll_discrepancies, load_roll_log
+
+    log = load_roll_log(data)
+    click.echo(f"searching what {terms} misses in roll log {data} ({log.n} rows) ...", err=True)
+    residuals: dict = {}
+    report = find_roll_discrepancies(log, terms, max_added=max_added, residuals=residuals,
+                                     progress=lambda m: click.echo(m, err=True))
+    with output_dir(out) as stage:
+        (stage / "discrepancy.json").write_text(json_text(report))
+        save(roll_discrepancy_figure(residuals, report), stage / "discrepancy")
+    for step in report["steps"]:
+        click.echo(f"added {step['effect']}: {step['evidence']}")
+    if not report["steps"]:
+        click.echo("nothing is missing: no roll-side candidate reaches dBIC > 10")
+    click.echo(f"wrote {out / 'discrepancy.json'} and {out / 'discrepancy.png'}")
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -38,6 +38,7 @@ class FlightProfile:
     roll_swing_deg_s: float = 900.0  # oscillation amplitude
     roll_swing_period_s: float = 40.0
     overload_fraction: float = 0.0  # w_H = fraction * w (Sandia: ~0.1 at 3600 deg/s)
+    gs_capacity_deg_s: float | None = None  # or: the GS cancels up to this rate, w_H = excess
     mems_saturation_deg_s: float = MEMS_SATURATION_DEG_S
     sins_noise_deg_s: float = 0.02  # white, per sample
     gs_noise_deg: float = 0.01  # encoder read-out noise
@@ -83,6 +84,14 @@ def environment(profile: FlightProfile, time_s: np.ndarray, roll_angle_deg: np.n
     return temperature, rate, field_uT
 
 
+def uncompensated(profile: FlightProfile, rate: np.ndarray) -> np.ndarray:
+    """The rate the stabiliser's platform is left with, deg/s."""
+    excess = np.zeros_like(rate)
+    if profile.gs_capacity_deg_s is not None:
+        excess = np.sign(rate) * np.maximum(np.abs(rate) - profile.gs_capacity_deg_s, 0.0)
+    return profile.overload_fraction * rate + excess
+
+
 def simulate_flight(
     *,
     params: dict[str, float] | None = None,
@@ -116,7 +125,7 @@ def simulate_flight(
                                        inputs)) / 3600.0
     flight = Flight(
         roll_rate_deg_s=jnp.asarray(rate),
-        uncompensated_deg_s=jnp.asarray(profile.overload_fraction * rate),
+        uncompensated_deg_s=jnp.asarray(uncompensated(profile, rate)),
         sins_drift_deg_s=jnp.asarray(drift),
         sins_noise_deg_s=jnp.asarray(rng.normal(0.0, profile.sins_noise_deg_s, n)),
         gs_noise_deg=jnp.asarray(rng.normal(0.0, profile.gs_noise_deg, n)),

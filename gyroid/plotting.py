@@ -331,3 +331,24 @@ def roll_residual_figure(time_s: np.ndarray, residual_deg: np.ndarray) -> plt.Fi
         ax.set_xlabel("time since start, s")
         ax.set_ylabel("stabiliser angle - model, deg")
         return fig
+
+
+def roll_discrepancy_figure(residuals: dict, report: dict) -> plt.Figure:
+    """Stabiliser-angle residuals before/after the added roll effects, and RMS per step."""
+    with plt.rc_context(STYLE):
+        fig, (ax, ax2) = plt.subplots(1, 2, figsize=(8.0, 3.4),
+                                      gridspec_kw={"width_ratios": [2, 1]})
+        t = residuals["time_s"]
+        ax.plot(t, residuals["before"], color="0.6", lw=0.6, ls="-", label="baseline")
+        ax.plot(t, residuals["after"], color="0.0", lw=0.6, ls="-",
+                label="after adding: " + (", ".join(report["added"]) or "nothing"))
+        ax.set_xlabel("time since start, s")
+        ax.set_ylabel("stabiliser angle - model, deg")
+        ax.legend(frameon=False, fontsize=7)
+        rms = [report["rms_baseline_deg_h"], *[s["rms_after_deg_h"] for s in report["steps"]]]
+        ax2.plot(range(len(rms)), rms, "o-", color="0.0")
+        ax2.set_xticks(range(len(rms)), ["baseline", *report["added"]], rotation=20, fontsize=7)
+        ax2.set_ylabel("RMS residual, deg")
+        ax2.set_xlabel("model step")
+        fig.tight_layout()
+        return fig

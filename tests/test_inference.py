@@ -132,15 +132,16 @@ def test_white_noise_likelihood_is_overconfident_on_correlated_noise():
 
 
 def test_simulation_based_calibration_known_sigma():
-    """Truth drawn from the priors, 60 simulated sweeps: posterior ranks are uniform and the
-    90 % intervals cover the truth at the binomial rate (60 draws: 48...60 of 60 at 99 %)."""
+    """Truth drawn from the priors, 40 simulated sweeps: posterior ranks are uniform and the
+    90 % intervals cover the truth at the binomial rate (at least 31 of 40: a 1-in-200 miss
+    per parameter). A 100-dataset run is in experiments/sbc.py."""
     rng = np.random.default_rng(2024)
     names = ("w0", "wx", "wy", "wz")
     settings = SamplerSettings(progress=False, tau_factor=20, min_ess=200, burn_steps=200,
                                chunk_steps=300, max_r_hat=1.05)
     ranks = {n: [] for n in names}
     covered = dict.fromkeys(names, 0)
-    n_sets = 60
+    n_sets = 40
     for k in range(n_sets):
         truth = {"w0": rng.normal(0, 10), "wx": rng.normal(0, 2), "wy": rng.normal(0, 2),
                  "wz": rng.normal(0, 2)}
@@ -153,7 +154,7 @@ def test_simulation_based_calibration_known_sigma():
             covered[name] += lo <= truth[name] <= hi
     for name in names:
         assert stats.kstest(ranks[name], "uniform").pvalue > 1e-3, name
-        assert covered[name] >= 48, (name, covered[name])
+        assert covered[name] >= 31, (name, covered[name])
 
 
 @pytest.mark.parametrize("bench", ["thermal", "magnetic"])

@@ -11,7 +11,7 @@ from gyroid.cli import main
 def fitted(tmp_path_factory):
     root = tmp_path_factory.mktemp("roll")
     assert main(["roll", "simulate", "--out", str(root / "sim"), "--seed", "6",
-                 "--duration", "40", "--period", "4"]) == 0
+                 "--duration", "30", "--period", "3"]) == 0
     assert main(["roll", "fit", str(root / "sim" / "roll.csv"), "--out", str(root / "fit"),
                  "--no-progress"]) == 0
     truth = json.loads((root / "sim" / "truth.json").read_text())
