@@ -26,7 +26,7 @@ from gyroid.derived import HYSTERESIS_DEADBAND_UT, field_change_sign
 from gyroid.drift import DriftModel
 from gyroid.effects import EFFECTS, PARAMETERS, PRESETS
 from gyroid.errors import GyroidInputError
-from gyroid.inputs import FIELD_COLUMNS, H0_UT, T0_C, DriftInputs
+from gyroid.inputs import FIELD_COLUMNS, T0_C, inputs_from_arrays
 from gyroid.logs import BenchLog
 from gyroid.noise import GyroNoise, rate_noise
 
@@ -200,15 +200,7 @@ def _simulate(
     sign = np.column_stack(
         [field_change_sign(field_uT[:, k], HYSTERESIS_DEADBAND_UT) for k in range(3)]
     )
-    true_inputs = DriftInputs(
-        time_h=jnp.asarray((time_s - time_s[0]) / 3600.0),
-        temperature_C=jnp.asarray(temperature_C),
-        t_rel=jnp.asarray(temperature_C - t0_C),
-        rate_C_h=jnp.asarray(rate_C_h),
-        field_rel=jnp.asarray(field_uT / H0_UT),
-        field_sign=jnp.asarray(sign),
-        t0_C=t0_C,
-    )
+    true_inputs = inputs_from_arrays(time_s, temperature_C, rate_C_h, field_uT, sign, t0_C=t0_C)
     model = DriftModel(terms=terms)
     params = {name: jnp.asarray(values[name]) for name in model.parameter_names}
     true_drift = np.asarray(model(params, true_inputs))

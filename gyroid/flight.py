@@ -16,7 +16,7 @@ import numpy as np
 
 from gyroid.drift import DriftModel
 from gyroid.errors import GyroidInputError
-from gyroid.inputs import H0_UT, T0_C, DriftInputs
+from gyroid.inputs import T0_C, inputs_from_arrays
 from gyroid.roll import MEMS_SATURATION_DEG_S, Flight, LoopResult, RollParams, run_loop
 
 #: Paper B's values: SiIMU02 roll gyro (SF error 600 ppm, bias 100 deg/h), GYPRO4300 MEMS
@@ -116,11 +116,8 @@ def simulate_flight(
     temperature, temperature_rate, field_uT = environment(profile, time_s, angle)
     drift = np.zeros(n)
     if drift_model is not None:
-        inputs = DriftInputs(
-            time_h=jnp.asarray(time_s / 3600.0), temperature_C=jnp.asarray(temperature),
-            t_rel=jnp.asarray(temperature - T0_C), rate_C_h=jnp.asarray(temperature_rate),
-            field_rel=jnp.asarray(field_uT / H0_UT), field_sign=jnp.zeros((n, 3)),
-        )
+        inputs = inputs_from_arrays(time_s, temperature, temperature_rate, field_uT,
+                                    origin_s=0.0)
         drift = np.asarray(drift_model({k: jnp.asarray(v) for k, v in drift_params.items()},
                                        inputs)) / 3600.0
     flight = Flight(

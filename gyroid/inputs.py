@@ -44,6 +44,33 @@ class DriftInputs(eqx.Module):
         return int(self.time_h.shape[0])
 
 
+def inputs_from_arrays(
+    time_s: np.ndarray,
+    temperature_C: np.ndarray,
+    rate_C_h: np.ndarray,
+    field_uT: np.ndarray,
+    field_sign: np.ndarray | None = None,
+    *,
+    t0_C: float = T0_C,
+    origin_s: float | None = None,
+) -> DriftInputs:
+    """DriftInputs from given quantities (the simulators' truth, a flight's environment):
+    elapsed time from ``origin_s`` (default: the first sample), field (n, 3) in uT."""
+    time_s = np.asarray(time_s, dtype=float)
+    origin = time_s[0] if origin_s is None else origin_s
+    temperature_C = np.asarray(temperature_C, dtype=float)
+    sign = np.zeros((time_s.size, 3)) if field_sign is None else field_sign
+    return DriftInputs(
+        time_h=jnp.asarray((time_s - origin) / 3600.0),
+        temperature_C=jnp.asarray(temperature_C),
+        t_rel=jnp.asarray(temperature_C - t0_C),
+        rate_C_h=jnp.asarray(rate_C_h),
+        field_rel=jnp.asarray(np.asarray(field_uT) / H0_UT),
+        field_sign=jnp.asarray(sign),
+        t0_C=float(t0_C),
+    )
+
+
 def build_inputs(
     columns: Mapping[str, np.ndarray],
     *,
@@ -66,12 +93,4 @@ def build_inputs(
         if name in columns:
             field[:, k] = np.asarray(columns[name], dtype=float)
             sign[:, k] = field_change_sign(field[:, k], deadband_uT)
-    return DriftInputs(
-        time_h=jnp.asarray((time_s - time_s[0]) / 3600.0),
-        temperature_C=jnp.asarray(temperature),
-        t_rel=jnp.asarray(temperature - t0_C),
-        rate_C_h=jnp.asarray(rate),
-        field_rel=jnp.asarray(field / H0_UT),
-        field_sign=jnp.asarray(sign),
-        t0_C=float(t0_C),
-    )
+    return inputs_from_arrays(time_s, temperature, rate, field, sign, t0_C=t0_C)

@@ -26,7 +26,7 @@ from gyroid import paper_b as pb
 from gyroid._arviz import arviz as az
 from gyroid.drift import DriftModel
 from gyroid.errors import GyroidInputError
-from gyroid.inputs import H0_UT, T0_C, DriftInputs
+from gyroid.inputs import T0_C, DriftInputs, inputs_from_arrays
 from gyroid.roll import MEMS_SATURATION_DEG_S, Flight, RollParams, run_loop
 from gyroid.sensitivity import sobol_indices
 
@@ -141,11 +141,7 @@ def flight_environment(scenario: Scenario, t0_C: float = T0_C) -> DriftInputs:
                                  -across * np.sin(angle)])
     else:  # the stabilised platform keeps its orientation
         field = np.tile([along, across, 0.0], (n, 1))
-    return DriftInputs(
-        time_h=jnp.asarray(time_s / 3600.0), temperature_C=jnp.asarray(temperature),
-        t_rel=jnp.asarray(temperature - t0_C), rate_C_h=jnp.asarray(rate),
-        field_rel=jnp.asarray(field / H0_UT), field_sign=jnp.zeros((n, 3)), t0_C=t0_C,
-    )
+    return inputs_from_arrays(time_s, temperature, rate, field, t0_C=t0_C, origin_s=0.0)
 
 
 class _Evaluator(eqx.Module):
