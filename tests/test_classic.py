@@ -57,3 +57,23 @@ def test_package_data_holds_the_papers_numbers():
     mag = paper_a_magnetic_coefficients()
     assert mag[(2, 1)] == {"wx": -0.037, "wy": -0.576, "wz": -0.253}
     assert mag[(1, 2)]["wz"] == -0.041
+
+
+def test_setpoint_readings_from_a_noise_free_thermal_log():
+    from gyroid.bench import ThermalProtocol, simulate_thermal_bench
+    from gyroid.classic import setpoint_readings
+
+    protocol = ThermalProtocol()
+    sim = simulate_thermal_bench(noise=QUIET, protocol=protocol)
+    levels, means, rms = setpoint_readings(sim.log, protocol.reading_windows_s(60.0))
+    assert list(levels) == [21.0, 31.0, 35.0, 40.0, 45.0, 50.0, 55.0]
+    # Each reading is the mean true drift over its 60 s window (exact on a noise-free log).
+    for (level, start, end), mean in zip(protocol.reading_windows_s(60.0), means, strict=True):
+        inside = (sim.log.time_s >= start) & (sim.log.time_s < end)
+        assert mean == pytest.approx(sim.true_drift_deg_h[inside].mean(), abs=1e-12)
+    # Not yet the quadratic alone: the next transition's erf tail has begun (about
+    # 0.2 degC/h, i.e. ~0.4 deg/h through wD) -- a limit of the erf-shaped transitions.
+    t = levels - 21.0
+    quadratic = 1.197 - 0.108 * t + 0.004 * t**2
+    assert np.all(np.abs(means - quadratic) < 0.6)
+    assert np.all(rms < 0.05)
