@@ -40,7 +40,10 @@ def cli() -> None:
     """gyroid: Bayesian identification of gyroscope error models.
 
     Paper A's FOG drift as a sum of named effects (temperature, its rate, magnetic field and
-    candidate effects): simulate the benches, and more to come in each release.
+    candidate effects) and paper B's roll-gyro scale-factor correction: simulate benches and
+    flights, fit them (optimistix + emcee), compensate new runs, propagate to the correction
+    coefficient's error, find missing effects, reproduce both papers. Start with
+    `gyroid demo`.
     """
 
 
@@ -97,6 +100,7 @@ def simulate(
 ) -> None:
     """Simulate paper A's thermal or magnetic bench with known truth."""
     from gyroid.bench import preset_parameters, simulate_magnetic_bench, simulate_thermal_bench
+    from gyroid.logs import bench_log_text
     from gyroid.noise import GyroNoise
     from gyroid.outputs import json_text
     from gyroid.plotting import magnetic_sweep, save, thermal_run
@@ -117,8 +121,6 @@ def simulate(
         seed=seed,
         average_s=average_s,
     )
-    from gyroid.logs import bench_log_text
-
     with output_dir(out) as stage:
         (stage / "bench.csv").write_text(bench_log_text(sim.log.columns, sim.log.comments))
         (stage / "truth.json").write_text(json_text(sim.truth))

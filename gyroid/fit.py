@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -41,8 +42,6 @@ class FitResult:
         rng = np.random.default_rng(seed)
         pick = rng.choice(flat.shape[0], size=min(n_draws, flat.shape[0]), replace=False)
         u = self.problem.to_sampling(jnp.asarray(flat[pick]))
-        import jax
-
         return np.asarray(jax.vmap(self.problem.predict)(u))
 
     def to_json(self) -> dict:

@@ -68,7 +68,7 @@ def test_setpoint_readings_from_a_noise_free_thermal_log():
     levels, means, rms = setpoint_readings(sim.log, protocol.reading_windows_s(60.0))
     assert list(levels) == [21.0, 31.0, 35.0, 40.0, 45.0, 50.0, 55.0]
     # Each reading is the mean true drift over its 60 s window (exact on a noise-free log).
-    for (level, start, end), mean in zip(protocol.reading_windows_s(60.0), means, strict=True):
+    for (_level, start, end), mean in zip(protocol.reading_windows_s(60.0), means, strict=True):
         inside = (sim.log.time_s >= start) & (sim.log.time_s < end)
         assert mean == pytest.approx(sim.true_drift_deg_h[inside].mean(), abs=1e-12)
     # Not yet the quadratic alone: the next transition's erf tail has begun (about
