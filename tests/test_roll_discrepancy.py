@@ -24,11 +24,11 @@ def _log(sim) -> RollLog:
         ("gs_rate_leak", {"D0": 0.0, "Denc": 0.0},
          FlightProfile(duration_s=40.0, gs_capacity_deg_s=2400.0)),
         ("roll_bias", {"Denc": 0.0}, SHORT),
+        ("encoder_error", {"D0": 0.0}, SHORT),
+        ("sf_nonlinearity", {"D0": 0.0, "Denc": 0.0, "D2": 2e-4}, SHORT),
     ],
 )
 def test_names_the_hidden_roll_effect(hidden, params, profile):
-    # (encoder_error and sf_nonlinearity are found likewise, with dBIC in the thousands:
-    # checked in experiments/, left out here to keep the suite short.)
     report = find_roll_discrepancies(_log(simulate_flight(params=params, profile=profile,
                                                           seed=8)), "ideal")
     assert report["added"] == [hidden], report["steps"]
