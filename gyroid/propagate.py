@@ -54,6 +54,7 @@ class Scenario:
     encoder_deg: float = pb.ENCODER_ERROR_DEG
     encoder_phase: str = "uniform"  # or a fixed phase in rad, as a number in a string
     fitted_gyro_role: str = "sins"  # "sins" (the roll gyro) or "stabiliser" (the GS gyro)
+    period_index: int = -1  # which correction period's dK: -1 draws it uniformly
     temperature_start_C: float = T0_C
     temperature_rise_C: float = 5.0
     earth_field_uT: tuple[float, float] = (20.0, 45.0)  # along the roll axis, across it
@@ -225,6 +226,8 @@ def _samplers(scenario: Scenario, draws: np.ndarray):
         round(scenario.period_s / scenario.sample_s))
 
     def period(rng, n):
+        if scenario.period_index >= 0:
+            return np.full(n, min(scenario.period_index, n_periods - 1))
         return rng.integers(0, n_periods, n)
 
     return {
