@@ -29,7 +29,7 @@ from gyroid.bench import MagneticProtocol, ThermalProtocol, simulate_thermal_ben
 from gyroid.likelihood import BenchProblem, log_posterior_batcher
 from gyroid.logs import BenchLog
 from gyroid.point import point_estimate
-from gyroid.roll import Flight, RollParams, run_loop
+from gyroid.roll import Flight, RollParams, correction_coefficients
 from gyroid.sampling import SamplerSettings, sample_posterior, summarise_draws
 
 
@@ -178,9 +178,10 @@ def bench_roll(draws: int, quick: bool):
 
     @jax.jit
     def batch(d1, d0gs):
-        return jax.vmap(lambda a, b: run_loop(RollParams(D1=a, D0gs=b), flight).dK)(d1, d0gs)
+        return jax.vmap(lambda a, b: correction_coefficients(RollParams(D1=a, D0gs=b), flight))(
+            d1, d0gs)
 
-    chunk = 250
+    chunk = 1000
     batch(jnp.asarray(d1[:chunk]), jnp.asarray(d0gs[:chunk])).block_until_ready()  # compile
 
     def ours():

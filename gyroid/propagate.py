@@ -27,7 +27,13 @@ from gyroid._arviz import arviz as az
 from gyroid.drift import DriftModel
 from gyroid.errors import GyroidInputError
 from gyroid.inputs import T0_C, DriftInputs, inputs_from_arrays
-from gyroid.roll import MEMS_SATURATION_DEG_S, Flight, RollParams, run_loop
+from gyroid.roll import (
+    MEMS_SATURATION_DEG_S,
+    Flight,
+    RollParams,
+    correction_coefficients,
+    run_loop,
+)
 from gyroid.sensitivity import sobol_indices
 
 REPORT_TIMES_S = (10.0, 60.0, 120.0)
@@ -150,10 +156,8 @@ class _Evaluator(eqx.Module):
     env: DriftInputs
     scenario: Scenario = eqx.field(static=True)
 
-    def one(self, theta, phase, uncompensated, mems_sf, mems_bias_deg_s, roll_rate, sins_sf,
-            encoder, period=None):
-        """Outputs for one set of inputs; ``period`` picks the correction period whose dK is
-        reported (default: the one ending nearest mid-flight)."""
+    def _setup(self, theta, phase, uncompensated, mems_sf, mems_bias_deg_s, roll_rate,
+               sins_sf, encoder):
         s = self.scenario
         n = self.env.time_h.shape[0]
         drift = self.model.predict(theta, self.env) / 3600.0  # deg/s
@@ -172,6 +176,22 @@ class _Evaluator(eqx.Module):
         )
         params = RollParams(D0=0.0, D1=sins_sf, D0gs=mems_bias_deg_s, D1gs=mems_sf,
                             Denc=encoder, encoder_phase=phase)
+        return params, flight
+
+    def dk(self, theta, phase, uncompensated, mems_sf, mems_bias_deg_s, roll_rate, sins_sf,
+           encoder, period):
+        """dK of one period only, from per-period sums (the fast path for Sobol indices)."""
+        params, flight = self._setup(theta, phase, uncompensated, mems_sf, mems_bias_deg_s,
+                                     roll_rate, sins_sf, encoder)
+        return correction_coefficients(params, flight)[period]
+
+    def one(self, theta, phase, uncompensated, mems_sf, mems_bias_deg_s, roll_rate, sins_sf,
+            encoder, period=None):
+        """Outputs for one set of inputs; ``period`` picks the correction period whose dK is
+        reported (default: the one ending nearest mid-flight)."""
+        s = self.scenario
+        params, flight = self._setup(theta, phase, uncompensated, mems_sf, mems_bias_deg_s,
+                                     roll_rate, sins_sf, encoder)
         result = run_loop(params, flight)
         idx = jnp.asarray([int(round(t / s.sample_s)) - 1 for t in REPORT_TIMES_S
                            if t <= s.duration_s])
@@ -194,19 +214,30 @@ def _batch(evaluator: _Evaluator, theta, phase, uncompensated, mems_sf, mems_bia
                                    sins_sf, encoder, period)
 
 
-def _evaluate(evaluator: _Evaluator, inputs: dict[str, np.ndarray], chunk: int = 256):
+@eqx.filter_jit
+def _batch_dk(evaluator: _Evaluator, theta, phase, uncompensated, mems_sf, mems_bias,
+              roll_rate, sins_sf, encoder, period):
+    return jax.vmap(evaluator.dk)(theta, phase, uncompensated, mems_sf, mems_bias, roll_rate,
+                                  sins_sf, encoder, period)
+
+
+def _evaluate(evaluator: _Evaluator, inputs: dict[str, np.ndarray], chunk: int = 256,
+              dk_only: bool = False):
     n = inputs["drift"].shape[0]
     s = evaluator.scenario
     outs = []
     for start in range(0, n, chunk):
         sl = slice(start, start + chunk)
         m = inputs["drift"][sl].shape[0]
-        outs.append(_batch(
+        batch = _batch_dk if dk_only else _batch
+        outs.append(batch(
             evaluator, jnp.asarray(inputs["drift"][sl]), jnp.asarray(inputs["encoder_phase"][sl]),
             jnp.asarray(inputs["uncompensated"][sl]), jnp.asarray(inputs["mems_sf"][sl]),
             jnp.asarray(inputs["mems_bias"][sl]), jnp.full(m, s.roll_rate_deg_s),
             jnp.full(m, s.sins_sf_error), jnp.full(m, s.encoder_deg),
             jnp.asarray(inputs["period"][sl])))
+    if dk_only:
+        return {"dK": np.concatenate([np.asarray(o) for o in outs])}
     return {k: np.concatenate([np.asarray(o[k]) for o in outs]) for k in outs[0]}
 
 
@@ -263,7 +294,8 @@ def propagate(fitted: FittedDrift, scenario: Scenario, *, draws: int = 2000, see
     inputs = {name: sample(rng, draws) for name, sample in samplers.items()}
     out = _evaluate(evaluator, inputs)
     times = [t for t in REPORT_TIMES_S if t <= scenario.duration_s]
-    sobol = sobol_indices(samplers, lambda x: _evaluate(evaluator, x)["dK"], sobol_n, rng)
+    sobol = sobol_indices(samplers, lambda x: _evaluate(evaluator, x, dk_only=True)["dK"],
+                          sobol_n, rng)
     nominal = _nominal_inputs(scenario, fitted.draws)
     local = _local_sensitivity(evaluator, nominal)
     delta = _delta_method(evaluator, nominal, scenario, fitted.draws)

@@ -139,6 +139,52 @@ def sensor_signals(params: RollParams, flight: Flight):
     return true_angle, sins, gs_angle, mems
 
 
+def _corrections(raw_increment, gs_increment, feedback: bool):
+    """Eqs. 1-3 period by period (a ``lax.scan``): dpsi, D1 estimate, K, and the K in force
+    during each period."""
+
+    def period(k_previous, inputs):
+        raw, gs = inputs
+        applied = k_previous * raw if feedback else raw
+        dpsi = applied - gs
+        estimate = dpsi / applied
+        k_new = k_previous * (1.0 - estimate) if feedback else 1.0 - estimate
+        return k_new, (dpsi, estimate, k_new, k_previous)
+
+    _, out = jax.lax.scan(period, jnp.ones(()), (raw_increment, gs_increment))
+    return out
+
+
+def correction_coefficients(params: RollParams, flight: Flight) -> Float[Array, " p"]:
+    """dK of every correction period, from per-period sums only (no per-sample angles): the
+    fast path for Monte Carlo and sensitivity work. Equal to ``run_loop(...).dK``."""
+    dt = flight.sample_s
+    m = flight.samples_per_period
+    n_periods = flight.n // m
+    n = n_periods * m
+    w = flight.roll_rate_deg_s[:n]
+    scale = 1.0 + params.D1 + params.D2 * jnp.abs(w) / 1000.0
+    sins = params.D0 + flight.sins_drift_deg_s[:n] + scale * w + flight.sins_noise_deg_s[:n]
+    w_h = flight.uncompensated_deg_s[:n]
+    gs_bias = params.D0gs if flight.gs_drift_deg_s is None else (
+        params.D0gs + flight.gs_drift_deg_s[:n])
+    mems = jnp.clip(gs_bias + (1.0 + params.D1gs) * w_h, -flight.mems_range_deg_s,
+                    flight.mems_range_deg_s)
+
+    def per_period(x):
+        return x.reshape(n_periods, m).sum(axis=1) * dt
+
+    true_end = jnp.cumsum(per_period(w))
+    platform_end = jnp.cumsum(per_period(mems - w_h))
+    encoder_end = params.Denc * jnp.sin(true_end * DEG + params.encoder_phase)
+    gs_end = true_end + platform_end + encoder_end + flight.gs_noise_deg[m - 1 : n : m]
+    gs_start = params.Denc * jnp.sin(jnp.asarray(params.encoder_phase, dtype=float))
+    gs_increment = jnp.diff(jnp.concatenate([gs_start[None], gs_end]))
+    _, _, K, _ = _corrections(per_period(sins), gs_increment, flight.feedback)
+    k_true = 1.0 / (1.0 + params.D1)
+    return (K - k_true) / k_true
+
+
 def run_loop(params: RollParams, flight: Flight) -> LoopResult:
     """Run the correction loop over the whole flight (a ``lax.scan`` over periods)."""
     dt = flight.sample_s
@@ -152,17 +198,7 @@ def run_loop(params: RollParams, flight: Flight) -> LoopResult:
     gs_increment = jnp.diff(gs_ends)  # (P,)
     raw_increment = sins.reshape(n_periods, m).sum(axis=1) * dt  # (P,)
 
-    def period(k_previous, inputs):
-        raw, gs = inputs
-        applied = k_previous * raw if flight.feedback else raw
-        dpsi = applied - gs
-        estimate = dpsi / applied
-        k_new = k_previous * (1.0 - estimate) if flight.feedback else 1.0 - estimate
-        return k_new, (dpsi, estimate, k_new, k_previous)
-
-    _, (dpsi, estimate, K, applied_K) = jax.lax.scan(
-        period, jnp.ones(()), (raw_increment, gs_increment)
-    )
+    dpsi, estimate, K, applied_K = _corrections(raw_increment, gs_increment, flight.feedback)
     corrected = sins * jnp.repeat(applied_K, m)
     corrected_angle = jnp.cumsum(corrected) * dt
     angle_error = corrected_angle - true_angle

@@ -186,3 +186,18 @@ def test_paper_b_tables_recomputed():
     assert worked["recomputed"] == pytest.approx(1.70e-4, rel=0.01)
     assert worked["printed_reconstruction"] == pytest.approx(0.093, abs=0.0005)
     assert pb.mems_bias_deg_s() * 3600 == pytest.approx(12.2, abs=0.01)
+
+
+def test_period_sums_fast_path_equals_the_full_loop():
+    from gyroid.roll import correction_coefficients
+
+    rng = np.random.default_rng(4)
+    n = 3000
+    t = 0.01 * np.arange(n)
+    flight = Flight(jnp.asarray(1500 + 600 * np.sin(t / 4)), jnp.asarray(200 + 50 * np.cos(t)),
+                    jnp.asarray(0.01 * np.sin(t / 5)), jnp.asarray(rng.normal(0, 0.05, n)),
+                    jnp.asarray(rng.normal(0, 0.01, n)), sample_s=0.01, period_s=3.0)
+    params = RollParams(D0=0.01, D1=7e-4, D0gs=3e-3, D1gs=3e-4, Denc=0.33, D2=1e-5,
+                        encoder_phase=1.1)
+    np.testing.assert_allclose(np.asarray(correction_coefficients(params, flight)),
+                               np.asarray(run_loop(params, flight).dK), rtol=1e-9, atol=1e-12)
