@@ -32,3 +32,16 @@ def save_run(folder: Path, *, seed: int, config: dict, results: dict, started: f
     }
     atomic_write_text(folder / "results.json", json_text(record))
     print(json.dumps(results, indent=2)[:4000])
+
+
+def fitted_thermal(seed: int):
+    """A thermal bench simulated with paper A's truth, fitted (emcee), as a FittedDrift."""
+    from gyroid.bench import simulate_thermal_bench
+    from gyroid.fit import fit_log
+    from gyroid.propagate import FittedDrift
+    from gyroid.sampling import SamplerSettings
+
+    sim = simulate_thermal_bench(seed=seed)
+    fit = fit_log(sim.log, "thermal", seed=seed, settings=SamplerSettings(progress=False))
+    draws = fit.posterior.draws.reshape(-1, len(fit.problem.names))[:, : len(fit.model_names)]
+    return FittedDrift(model=fit.problem.model, draws=draws, t0_C=21.0)

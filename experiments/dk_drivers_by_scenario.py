@@ -16,12 +16,9 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from _common import results_dir, save_run  # noqa: E402
+from _common import fitted_thermal, results_dir, save_run  # noqa: E402
 
-from gyroid.bench import simulate_thermal_bench  # noqa: E402
-from gyroid.fit import fit_log  # noqa: E402
-from gyroid.propagate import PRESETS, FittedDrift, propagate  # noqa: E402
-from gyroid.sampling import SamplerSettings  # noqa: E402
+from gyroid.propagate import PRESETS, propagate  # noqa: E402
 
 
 def main() -> None:
@@ -30,10 +27,7 @@ def main() -> None:
     parser.add_argument("--sobol", type=int, default=1000)
     args = parser.parse_args()
     started = time.time()
-    sim = simulate_thermal_bench(seed=args.seed)
-    fit = fit_log(sim.log, "thermal", seed=args.seed, settings=SamplerSettings(progress=False))
-    draws = fit.posterior.draws.reshape(-1, len(fit.problem.names))[:, : len(fit.model_names)]
-    fitted = FittedDrift(model=fit.problem.model, draws=draws, t0_C=21.0)
+    fitted = fitted_thermal(args.seed)
     results = {}
     for name, scenario in PRESETS.items():
         result, _ = propagate(fitted, scenario, draws=500, seed=args.seed, sobol_n=args.sobol)

@@ -20,12 +20,9 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from _common import results_dir, save_run  # noqa: E402
+from _common import fitted_thermal, results_dir, save_run  # noqa: E402
 
-from gyroid.bench import simulate_thermal_bench  # noqa: E402
-from gyroid.fit import fit_log  # noqa: E402
-from gyroid.propagate import PRESETS, FittedDrift, propagate  # noqa: E402
-from gyroid.sampling import SamplerSettings  # noqa: E402
+from gyroid.propagate import PRESETS, propagate  # noqa: E402
 
 PERIODS_S = (1.0, 2.0, 3.0, 5.0, 8.0, 12.0, 20.0)
 RATES_DEG_S = (900.0, 1800.0, 3600.0)
@@ -37,11 +34,7 @@ def main() -> None:
     parser.add_argument("--draws", type=int, default=1000)
     args = parser.parse_args()
     started = time.time()
-    sim = simulate_thermal_bench(seed=args.seed)
-    fit = fit_log(sim.log, "thermal", seed=args.seed, settings=SamplerSettings(progress=False))
-    names = fit.model_names
-    draws = fit.posterior.draws.reshape(-1, len(fit.problem.names))[:, : len(names)]
-    fitted = FittedDrift(model=fit.problem.model, draws=draws, t0_C=21.0)
+    fitted = fitted_thermal(args.seed)
     results: dict = {}
     fig, ax = plt.subplots(figsize=(6, 4))
     for marker, rate in zip("osd", RATES_DEG_S, strict=True):

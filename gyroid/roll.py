@@ -121,19 +121,25 @@ class LoopResult(eqx.Module):
     residual_sf_error: Float[Array, " p"]  # K_i (1 + D1) - 1
 
 
+def _gyro_outputs(params: RollParams, flight: Flight, n: int):
+    """The SINS output w_x and the stabiliser MEMS output m over the first ``n`` samples."""
+    w = flight.roll_rate_deg_s[:n]
+    scale = 1.0 + params.D1 + params.D2 * jnp.abs(w) / 1000.0
+    sins = params.D0 + flight.sins_drift_deg_s[:n] + scale * w + flight.sins_noise_deg_s[:n]
+    w_h = flight.uncompensated_deg_s[:n]
+    gs_bias = params.D0gs if flight.gs_drift_deg_s is None else (
+        params.D0gs + flight.gs_drift_deg_s[:n])
+    mems = jnp.clip(gs_bias + (1.0 + params.D1gs) * w_h, -flight.mems_range_deg_s,
+                    flight.mems_range_deg_s)
+    return sins, mems
+
+
 def sensor_signals(params: RollParams, flight: Flight):
     """True angle, SINS output, GS angle and GS MEMS output, per sample."""
     dt = flight.sample_s
-    w = flight.roll_rate_deg_s
-    true_angle = jnp.cumsum(w) * dt
-    scale = 1.0 + params.D1 + params.D2 * jnp.abs(w) / 1000.0
-    sins = params.D0 + flight.sins_drift_deg_s + scale * w + flight.sins_noise_deg_s
-    w_h = flight.uncompensated_deg_s
-    gs_bias = params.D0gs if flight.gs_drift_deg_s is None else (
-        params.D0gs + flight.gs_drift_deg_s)
-    mems = jnp.clip(gs_bias + (1.0 + params.D1gs) * w_h, -flight.mems_range_deg_s,
-                    flight.mems_range_deg_s)
-    platform_error = jnp.cumsum(mems - w_h) * dt
+    true_angle = jnp.cumsum(flight.roll_rate_deg_s) * dt
+    sins, mems = _gyro_outputs(params, flight, flight.n)
+    platform_error = jnp.cumsum(mems - flight.uncompensated_deg_s) * dt
     encoder = params.Denc * jnp.sin(true_angle * DEG + params.encoder_phase)
     gs_angle = true_angle + platform_error + encoder + flight.gs_noise_deg
     return true_angle, sins, gs_angle, mems
@@ -163,13 +169,8 @@ def correction_coefficients(params: RollParams, flight: Flight) -> Float[Array, 
     n_periods = flight.n // m
     n = n_periods * m
     w = flight.roll_rate_deg_s[:n]
-    scale = 1.0 + params.D1 + params.D2 * jnp.abs(w) / 1000.0
-    sins = params.D0 + flight.sins_drift_deg_s[:n] + scale * w + flight.sins_noise_deg_s[:n]
     w_h = flight.uncompensated_deg_s[:n]
-    gs_bias = params.D0gs if flight.gs_drift_deg_s is None else (
-        params.D0gs + flight.gs_drift_deg_s[:n])
-    mems = jnp.clip(gs_bias + (1.0 + params.D1gs) * w_h, -flight.mems_range_deg_s,
-                    flight.mems_range_deg_s)
+    sins, mems = _gyro_outputs(params, flight, n)
 
     def per_period(x):
         return x.reshape(n_periods, m).sum(axis=1) * dt
