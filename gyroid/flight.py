@@ -70,14 +70,16 @@ class SimulatedFlight:
     loop: LoopResult = field(repr=False)
 
 
-def environment(profile: FlightProfile, time_s: np.ndarray, roll_angle_deg: np.ndarray):
-    """Temperature (degC), its rate (degC/h) and the field in body axes (uT, (n, 3))."""
-    frac = time_s / profile.duration_s
-    # Smooth rise: 3 f^2 - 2 f^3 (zero rate at both ends).
-    temperature = profile.start_temperature_C + profile.temperature_rise_C * (3 * frac**2
-                                                                              - 2 * frac**3)
-    rate = profile.temperature_rise_C * 6 * frac * (1 - frac) / profile.duration_s * 3600.0
-    along, across = profile.earth_field_uT
+def environment(time_s: np.ndarray, duration_s: float, start_C: float, rise_C: float,
+                earth_field_uT: tuple[float, float], roll_angle_deg: np.ndarray):
+    """A flight's temperature (degC), its rate (degC/h) and the Earth's field in the gyro's
+    axes (uT, (n, 3)): the temperature rises smoothly by ``rise_C`` over the flight
+    (3 f^2 - 2 f^3, zero rate at both ends); the field's cross component turns with the roll
+    angle (0 for a gyro on the stabilised platform)."""
+    frac = time_s / duration_s
+    temperature = start_C + rise_C * (3 * frac**2 - 2 * frac**3)
+    rate = rise_C * 6 * frac * (1 - frac) / duration_s * 3600.0
+    along, across = earth_field_uT
     angle = np.deg2rad(roll_angle_deg)
     field_uT = np.column_stack([np.full(time_s.shape, along), across * np.cos(angle),
                                 -across * np.sin(angle)])
@@ -113,7 +115,9 @@ def simulate_flight(
     time_s = profile.sample_s * (np.arange(n) + 1.0)
     rate = profile.roll_rate(time_s)
     angle = np.cumsum(rate) * profile.sample_s
-    temperature, temperature_rate, field_uT = environment(profile, time_s, angle)
+    temperature, temperature_rate, field_uT = environment(
+        time_s, profile.duration_s, profile.start_temperature_C, profile.temperature_rise_C,
+        profile.earth_field_uT, angle)
     drift = np.zeros(n)
     if drift_model is not None:
         inputs = inputs_from_arrays(time_s, temperature, temperature_rate, field_uT,

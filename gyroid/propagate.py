@@ -26,6 +26,7 @@ from gyroid import paper_b as pb
 from gyroid._arviz import arviz as az
 from gyroid.drift import DriftModel
 from gyroid.errors import GyroidInputError
+from gyroid.flight import environment
 from gyroid.inputs import T0_C, DriftInputs, inputs_from_arrays
 from gyroid.roll import (
     MEMS_SATURATION_DEG_S,
@@ -137,17 +138,13 @@ def flight_environment(scenario: Scenario, t0_C: float = T0_C) -> DriftInputs:
     """The drift model's inputs along the scenario's flight."""
     n = int(round(scenario.duration_s / scenario.sample_s))
     time_s = scenario.sample_s * (np.arange(n) + 1.0)
-    frac = time_s / scenario.duration_s
-    temperature = scenario.temperature_start_C + scenario.temperature_rise_C * (3 * frac**2
-                                                                                - 2 * frac**3)
-    rate = scenario.temperature_rise_C * 6 * frac * (1 - frac) / scenario.duration_s * 3600.0
-    along, across = scenario.earth_field_uT
-    if scenario.fitted_gyro_role == "sins":  # the body rolls: the field turns in its axes
-        angle = np.deg2rad(scenario.roll_rate_deg_s * time_s)
-        field = np.column_stack([np.full(n, along), across * np.cos(angle),
-                                 -across * np.sin(angle)])
-    else:  # the stabilised platform keeps its orientation
-        field = np.tile([along, across, 0.0], (n, 1))
+    # The body rolls, so the field turns in the SINS gyro's axes; the stabilised platform
+    # keeps its orientation.
+    sins_role = scenario.fitted_gyro_role == "sins"
+    angle = scenario.roll_rate_deg_s * time_s if sins_role else np.zeros(n)
+    temperature, rate, field = environment(
+        time_s, scenario.duration_s, scenario.temperature_start_C, scenario.temperature_rise_C,
+        scenario.earth_field_uT, angle)
     return inputs_from_arrays(time_s, temperature, rate, field, t0_C=t0_C, origin_s=0.0)
 
 
