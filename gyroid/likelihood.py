@@ -280,16 +280,56 @@ def _noise_names(noise: str, sigma_known: bool) -> tuple[str, ...]:
     return (*white, "sigma_gm_deg_h", "tau_gm_s")
 
 
-@functools.partial(jax.jit, static_argnums=0)
-def _batch_log_posterior(static, dynamic, u):
-    return jax.vmap(eqx.combine(dynamic, static).log_posterior)(u)
+class _HashedOnce:
+    """A static jit argument whose (costly, equinox-module) hash is computed once: jit
+    hashes and compares its static arguments on every call, which would otherwise dominate
+    a call that costs microseconds. Equal values are interned to one object, so the
+    comparison on a cache hit is an identity check."""
+
+    __slots__ = ("value", "_hash")
+
+    def __init__(self, value) -> None:
+        self.value = value
+        self._hash = hash(value)
+
+    def __hash__(self) -> int:
+        return self._hash
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, _HashedOnce) and (
+            self.value is other.value or (self._hash == other._hash and self.value == other.value)
+        )
+
+
+_INTERNED: dict[_HashedOnce, _HashedOnce] = {}
+
+
+def _interned(value) -> _HashedOnce:
+    key = _HashedOnce(value)
+    if len(_INTERNED) > 256:  # a long session with many model structures: start afresh
+        _INTERNED.clear()
+    return _INTERNED.setdefault(key, key)
+
+
+@functools.partial(jax.jit, static_argnums=(0, 1, 2))
+def _batched_method(static, treedef, method, leaves, u):
+    problem = eqx.combine(jax.tree_util.tree_unflatten(treedef, leaves), static.value)
+    return jax.vmap(getattr(problem, method))(u)
+
+
+def problem_batcher(problem, method: str = "log_posterior"):
+    """``u (w, d) -> vmap(problem.<method>)(u)``, jit-compiled once per problem structure
+    and shape (the arrays are arguments, so a new log of the same shape reuses the
+    compilation). The problem is split and flattened here, once, not on every call."""
+    dynamic, static = eqx.partition(problem, eqx.is_array)
+    leaves, treedef = jax.tree_util.tree_flatten(dynamic)
+    static = _interned(static)
+    return lambda u: _batched_method(static, treedef, method, leaves, u)
 
 
 def log_posterior_batcher(problem):
-    """``u (w, d) -> log-posterior (w,)``, jit-compiled once per problem structure and shape
-    (the arrays are arguments, so a new log of the same shape reuses the compilation)."""
-    dynamic, static = eqx.partition(problem, eqx.is_array)
-    return lambda u: _batch_log_posterior(static, dynamic, u)
+    """``u (w, d) -> log-posterior (w,)``: see ``problem_batcher``."""
+    return problem_batcher(problem, "log_posterior")
 
 
 def batch_log_posterior(problem, u: Float[Array, "w d"]) -> Float[Array, " w"]:
@@ -297,7 +337,6 @@ def batch_log_posterior(problem, u: Float[Array, "w d"]) -> Float[Array, " w"]:
     return log_posterior_batcher(problem)(u)
 
 
-@eqx.filter_jit
-def batch_log_likelihood_blocks(problem, u: Float[Array, "s d"]
-                                ) -> Float[Array, "s b"]:
-    return jax.vmap(problem.log_likelihood_blocks)(u)
+def batch_log_likelihood_blocks(problem, u: Float[Array, "s d"]) -> Float[Array, "s b"]:
+    """Per-block log-likelihoods of a batch of draws."""
+    return problem_batcher(problem, "log_likelihood_blocks")(u)
