@@ -320,8 +320,13 @@ def _batched_method(static, treedef, method, leaves, u):
 def problem_batcher(problem, method: str = "log_posterior"):
     """``u (w, d) -> vmap(problem.<method>)(u)``, jit-compiled once per problem structure
     and shape (the arrays are arguments, so a new log of the same shape reuses the
-    compilation). The problem is split and flattened here, once, not on every call."""
-    dynamic, static = eqx.partition(problem, eqx.is_array)
+    compilation). The problem is split and flattened here, once, not on every call.
+
+    A problem that keeps its JAX part apart from its description (names, priors) exposes it
+    as ``problem.density`` (an equinox module with the same methods): models that differ
+    only in their description then share one compilation."""
+    module = getattr(problem, "density", problem)
+    dynamic, static = eqx.partition(module, eqx.is_array)
     leaves, treedef = jax.tree_util.tree_flatten(dynamic)
     static = _interned(static)
     return lambda u: _batched_method(static, treedef, method, leaves, u)
