@@ -106,8 +106,8 @@ def main() -> None:
         ax.legend(fontsize=7, frameon=False)
     fig.tight_layout()
     fig.savefig(out / "sbc_ranks.png", dpi=150)
-    save_run(out, seed=args.seed, config={"datasets": args.datasets, "levels": LEVELS},
-             results=results, started=started)
+    config = {"datasets": args.datasets, "levels": LEVELS, "move": settings.move}
+    save_run(out, seed=args.seed, config=config, results=results, started=started)
 
 
 if __name__ == "__main__":
