@@ -1,0 +1,74 @@
+"""Fast paths compile once: a new log of the same shape, or another candidate model of the
+same roll log, reuses the compiled code (counted from JAX's compilation log)."""
+
+import logging
+
+import jax
+import numpy as np
+import pytest
+from helpers import SHORT_MAGNETIC
+
+from gyroid.bench import simulate_magnetic_bench
+from gyroid.flight import FlightProfile, simulate_flight
+from gyroid.likelihood import BenchProblem, log_posterior_batcher
+from gyroid.roll_fit import ALL_PARAMETERS, RollLog, RollProblem, roll_point_estimate
+from gyroid.sampling import SamplerSettings
+
+
+def _compilations(caplog, name: str) -> int:
+    return sum(f"compilation of jit({name})" in r.getMessage() for r in caplog.records)
+
+
+@pytest.fixture
+def compile_log(caplog):
+    with jax.log_compiles(True), caplog.at_level(logging.WARNING):
+        yield caplog
+
+
+def test_a_new_log_of_the_same_shape_reuses_the_log_posterior(compile_log):
+    # A protocol length no other test uses, so the first call must compile.
+    logs = [simulate_magnetic_bench(protocol=SHORT_MAGNETIC, seed=seed).log for seed in (1, 2)]
+    logs = [type(log)(columns={k: v[:211] for k, v in log.columns.items()}) for log in logs]
+    u = np.zeros((6, 5))
+    values = []
+    for log in logs:
+        values.append(np.asarray(log_posterior_batcher(BenchProblem.from_log(log, "magnetic"))(u)))
+    assert _compilations(compile_log, "_batched_method") == 1
+    assert not np.allclose(values[0], values[1])  # the second log's data, not the first's
+
+
+def _roll_log(duration_s: float) -> RollLog:
+    sim = simulate_flight(params={"D0": 0.0, "Denc": 0.0},
+                          profile=FlightProfile(duration_s=duration_s), seed=5)
+    c = sim.columns
+    return RollLog(c["time_s"], c["roll_rate_deg_s"], c["gs_angle_deg"], c["gs_rate_deg_s"])
+
+
+def test_roll_candidate_models_share_one_optimiser(compile_log):
+    log = _roll_log(7.3)  # a length no other test uses
+    fits = [roll_point_estimate(RollProblem.from_log(log, terms))
+            for terms in ("ideal", "ideal,roll_bias", "ideal,encoder_error",
+                          "ideal,roll_bias,encoder_error,sf_nonlinearity")]
+    assert _compilations(compile_log, "_minimise") == 1
+    assert all(f.converged for f in fits)
+    # The models really differ: the widest one has more parameters, all estimated.
+    assert len(fits[-1].names) == len(fits[0].names) + 4
+    assert set(fits[-1].names) <= set(ALL_PARAMETERS)
+
+
+def test_an_absent_roll_parameter_is_exactly_absent():
+    """A model without D0 equals the wider model with D0 held at zero: the shared density's
+    masked entries do not leak into the likelihood."""
+    log = _roll_log(7.3)
+    narrow = RollProblem.from_log(log, "ideal")
+    wide = RollProblem.from_log(log, "ideal,roll_bias")
+    u_narrow = np.asarray(roll_point_estimate(narrow).u)
+    u_wide = np.insert(u_narrow, wide.names.index("D0"), 0.0)
+    rows_narrow = np.asarray(narrow.log_likelihood_rows(u_narrow))
+    rows_wide = np.asarray(wide.log_likelihood_rows(u_wide))
+    np.testing.assert_allclose(rows_wide, rows_narrow, rtol=1e-12, atol=1e-12)
+
+
+def test_an_unknown_move_is_refused_with_the_choices():
+    with pytest.raises(ValueError, match="'de' or 'stretch'"):
+        SamplerSettings(move="walk").emcee_moves()
