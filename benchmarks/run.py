@@ -28,8 +28,9 @@ import gyroid
 from gyroid.bench import MagneticProtocol, ThermalProtocol, simulate_thermal_bench
 from gyroid.likelihood import BenchProblem, log_posterior_batcher
 from gyroid.logs import BenchLog
+from gyroid.paper_b import G
 from gyroid.point import point_estimate
-from gyroid.roll import Flight, RollParams, correction_coefficients
+from gyroid.roll import Flight, RollParams, correction_coefficients, navigation_errors
 from gyroid.sampling import SamplerSettings, sample_posterior, summarise_draws
 
 
@@ -213,29 +214,74 @@ def bench_roll(draws: int, quick: bool):
     dk = ours()
     t_ours = time.perf_counter() - start
 
-    def numpy_loop(a, b):
+    m = 5000
+    report = np.array([10_000, 60_000, 120_000]) - 1  # samples at 10, 60 and 120 s
+
+    def numpy_loop(a, b, navigation=False):
+        """The loop as a researcher writes it for one draw: per-sample angles in NumPy."""
         w = np.full(n, 900.0)
         true = np.cumsum(w) * sample_s
         sins = (1 + a) * w
         mems = np.clip(b + (1 + 280e-6) * 300.0, -330, 330)
         gs = true + np.cumsum(np.full(n, mems - 300.0)) * sample_s + 0.33 * np.sin(np.deg2rad(true))
-        m = 5000
         raw = sins.reshape(-1, m).sum(axis=1) * sample_s
         gs_end = np.concatenate([[0.0], gs[m - 1 :: m]])
         estimate = (raw - np.diff(gs_end)) / raw
-        return (1 - estimate) * (1 + a) - 1
+        dk = (1 - estimate) * (1 + a) - 1
+        if not navigation:
+            return dk
+        applied = np.concatenate([[1.0], 1 - estimate[:-1]])
+        error = np.cumsum(sins * np.repeat(applied, m)) * sample_s - true
+        velocity = np.cumsum(G * np.sin(np.deg2rad(error))) * sample_s
+        position = np.cumsum(velocity) * sample_s
+        return dk, error[report], position[report]
 
     subset = 50 if quick else 200
     start = time.perf_counter()
     base = np.array([numpy_loop(a, b) for a, b in zip(d1[:subset], d0gs[:subset], strict=True)])
     t_base = (time.perf_counter() - start) * draws / subset
     assert np.allclose(base, dk[:subset], rtol=1e-8, atol=1e-12)
+
+    # Navigation errors (roll and lateral error at 10/60/120 s) need the per-sample angle
+    # error: gyroid's navigation_errors (one cumulative sum and one sine per sample) against
+    # the NumPy loop above; both run a subset of the draws, scaled.
+    index = jnp.asarray(report)
+
+    @jax.jit
+    def navigation(d1, d0gs):
+        return jax.vmap(lambda a, b: navigation_errors(RollParams(D1=a, D0gs=b), flight,
+                                                       index))(d1, d0gs)
+
+    nav_chunk = 128
+    nav_subset = 2 * nav_chunk if quick else 8 * nav_chunk
+    jax.block_until_ready(navigation(jnp.asarray(d1[:nav_chunk]), jnp.asarray(d0gs[:nav_chunk])))
+    start = time.perf_counter()
+    nav = [navigation(jnp.asarray(d1[i : i + nav_chunk]), jnp.asarray(d0gs[i : i + nav_chunk]))
+           for i in range(0, nav_subset, nav_chunk)]
+    jax.block_until_ready(nav)
+    t_nav = (time.perf_counter() - start) * draws / nav_subset
+    base_subset = 10 if quick else 40
+    start = time.perf_counter()
+    base_nav = [numpy_loop(a, b, navigation=True)
+                for a, b in zip(d1[:base_subset], d0gs[:base_subset], strict=True)]
+    t_base_nav = (time.perf_counter() - start) * draws / base_subset
+    for k, (dk_b, error_b, position_b) in enumerate(base_nav):
+        np.testing.assert_allclose(nav[0].dK[k], dk_b, rtol=1e-8, atol=1e-12)
+        np.testing.assert_allclose(nav[0].angle_error_deg[k], error_b, rtol=1e-6, atol=1e-8)
+        np.testing.assert_allclose(nav[0].lateral_error_m[k], position_b, rtol=1e-6, atol=1e-8)
     return {
         "gyroid_s": t_ours,
         "baseline_s": t_base,
         "ratio": t_base / t_ours,
         "draws": draws,
-        "baseline_note": f"baseline ran {subset} draws, scaled",
+        "baseline_note": f"dK per period (per-period fast path); baseline ran {subset} draws, "
+                         "scaled",
+        "navigation_gyroid_s": t_nav,
+        "navigation_baseline_s": t_base_nav,
+        "navigation_ratio": t_base_nav / t_nav,
+        "navigation_note": f"dK plus roll and lateral error at 10/60/120 s (per-sample angle "
+                           f"error); gyroid ran {nav_subset} draws and the baseline "
+                           f"{base_subset}, both scaled to {draws}",
     }
 
 
@@ -270,7 +316,7 @@ def main() -> None:
         ("likelihood_throughput", lambda: bench_likelihood(problem, design, y, scales, repeats)),
         ("posterior_time", lambda: bench_posterior(problem, design, y, scales, args.seed)),
         ("point_fit", lambda: bench_point(flat, design, y, repeats)),
-        ("roll_monte_carlo", lambda: bench_roll(2000 if args.quick else 10000, args.quick)),
+        ("roll_monte_carlo", lambda: bench_roll(10000, args.quick)),
         ("demo", bench_demo),
     ):
         print(f"-- {name} ...", flush=True)

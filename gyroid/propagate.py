@@ -33,7 +33,7 @@ from gyroid.roll import (
     Flight,
     RollParams,
     correction_coefficients,
-    run_loop,
+    navigation_errors,
 )
 from gyroid.sensitivity import sobol_indices
 
@@ -189,18 +189,17 @@ class _Evaluator(eqx.Module):
         s = self.scenario
         params, flight = self._setup(theta, phase, uncompensated, mems_sf, mems_bias_deg_s,
                                      roll_rate, sins_sf, encoder)
-        result = run_loop(params, flight)
         idx = jnp.asarray([int(round(t / s.sample_s)) - 1 for t in REPORT_TIMES_S
                            if t <= s.duration_s])
+        result = navigation_errors(params, flight, idx)
         if period is None:
             period = jnp.asarray(result.dK.shape[0] // 2)
-        dk = result.dK[period]
         return {
-            "dK": dk,
+            "dK": result.dK[period],
             "sf_residual_ppm": 1e6 * jnp.abs(result.residual_sf_error[period]),
-            "saturated": jnp.any(jnp.abs(result.gs_rate_deg_s) >= MEMS_SATURATION_DEG_S),
-            "dpsi_deg": result.angle_error_deg[idx],
-            "dr_z_m": result.lateral_error_m[idx],
+            "saturated": result.peak_mems_deg_s >= MEMS_SATURATION_DEG_S,
+            "dpsi_deg": result.angle_error_deg,
+            "dr_z_m": result.lateral_error_m,
         }
 
 

@@ -25,7 +25,7 @@ from __future__ import annotations
 import equinox as eqx
 import jax
 import jax.numpy as jnp
-from jaxtyping import Array, Float
+from jaxtyping import Array, Float, Int
 
 from gyroid.paper_b import DEG, G
 
@@ -161,9 +161,9 @@ def _corrections(raw_increment, gs_increment, feedback: bool):
     return out
 
 
-def correction_coefficients(params: RollParams, flight: Flight) -> Float[Array, " p"]:
-    """dK of every correction period, from per-period sums only (no per-sample angles): the
-    fast path for Monte Carlo and sensitivity work. Equal to ``run_loop(...).dK``."""
+def _period_loop(params: RollParams, flight: Flight):
+    """Eqs. 1-3 from per-period sums only (no per-sample angles): the SINS and MEMS outputs
+    over the whole periods, and each period's K and the K in force during it."""
     dt = flight.sample_s
     m = flight.samples_per_period
     n_periods = flight.n // m
@@ -181,9 +181,53 @@ def correction_coefficients(params: RollParams, flight: Flight) -> Float[Array, 
     gs_end = true_end + platform_end + encoder_end + flight.gs_noise_deg[m - 1 : n : m]
     gs_start = params.Denc * jnp.sin(jnp.asarray(params.encoder_phase, dtype=float))
     gs_increment = jnp.diff(jnp.concatenate([gs_start[None], gs_end]))
-    _, _, K, _ = _corrections(per_period(sins), gs_increment, flight.feedback)
+    _, _, K, applied_K = _corrections(per_period(sins), gs_increment, flight.feedback)
+    return sins, mems, K, applied_K
+
+
+def correction_coefficients(params: RollParams, flight: Flight) -> Float[Array, " p"]:
+    """dK of every correction period, from per-period sums only (no per-sample angles): the
+    fast path for Monte Carlo and sensitivity work. Equal to ``run_loop(...).dK``."""
+    _, _, K, _ = _period_loop(params, flight)
     k_true = 1.0 / (1.0 + params.D1)
     return (K - k_true) / k_true
+
+
+class NavigationErrors(eqx.Module):
+    """The loop's outputs at chosen samples: what a Monte Carlo over draws keeps."""
+
+    dK: Float[Array, " p"]
+    residual_sf_error: Float[Array, " p"]  # K_i (1 + D1) - 1
+    angle_error_deg: Float[Array, " r"]  # corrected SINS angle minus truth, at the samples
+    lateral_error_m: Float[Array, " r"]  # g sin(angle error) integrated twice, at the samples
+    peak_mems_deg_s: Float[Array, ""]  # largest |m| (saturation check)
+
+
+def navigation_errors(params: RollParams, flight: Flight,
+                      report_index: Int[Array, " r"]) -> NavigationErrors:
+    """``run_loop``'s dK, residual SF error, roll-angle error and lateral error at the samples
+    ``report_index``, without its per-sample histories: one cumulative sum (the angle error)
+    and one sine per sample, the double integral as a weighted sum per report sample
+    (``r_z(t_i) = dt^2 sum_{j <= i} (i - j + 1) a_z(t_j)``). About 1.4x faster than the full
+    loop per draw; the cumulative sum and the sine per sample remain (see benchmarks/)."""
+    dt = flight.sample_s
+    m = flight.samples_per_period
+    sins, mems, K, applied_K = _period_loop(params, flight)
+    n = sins.shape[0]
+    angle_error = jnp.cumsum(sins * jnp.repeat(applied_K, m) - flight.roll_rate_deg_s[:n]) * dt
+    accel = G * jnp.sin(angle_error * DEG)
+    # Weights (i - j + 1)_+ as one (n, r) matrix: shared by every draw, so a batch of draws
+    # is one matrix product instead of two cumulative sums per draw.
+    weights = jnp.clip(report_index[None, :] - jnp.arange(n)[:, None] + 1, 0).astype(float)
+    lateral = (accel @ weights) * dt**2
+    k_true = 1.0 / (1.0 + params.D1)
+    return NavigationErrors(
+        dK=(K - k_true) / k_true,
+        residual_sf_error=K * (1.0 + params.D1) - 1.0,
+        angle_error_deg=angle_error[report_index],
+        lateral_error_m=lateral,
+        peak_mems_deg_s=jnp.max(jnp.abs(mems)),
+    )
 
 
 def run_loop(params: RollParams, flight: Flight) -> LoopResult:

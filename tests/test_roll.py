@@ -201,3 +201,31 @@ def test_period_sums_fast_path_equals_the_full_loop():
                         encoder_phase=1.1)
     np.testing.assert_allclose(np.asarray(correction_coefficients(params, flight)),
                                np.asarray(run_loop(params, flight).dK), rtol=1e-9, atol=1e-12)
+
+
+def test_navigation_errors_at_report_samples_equal_the_full_loop():
+    from gyroid.roll import navigation_errors
+
+    rng = np.random.default_rng(5)
+    n = 4000
+    t = 0.01 * np.arange(n)
+    flight = Flight(jnp.asarray(1200 + 500 * np.sin(t / 3)), jnp.asarray(280 + 80 * np.cos(t)),
+                    jnp.asarray(0.02 * np.sin(t / 7)), jnp.asarray(rng.normal(0, 0.05, n)),
+                    jnp.asarray(rng.normal(0, 0.01, n)), sample_s=0.01, period_s=2.5)
+    params = RollParams(D0=0.02, D1=9e-4, D0gs=4e-3, D1gs=5e-4, Denc=0.2, D2=2e-5,
+                        encoder_phase=0.7)
+    full = run_loop(params, flight)
+    idx = jnp.asarray([0, 999, 2500, 3999])
+    fast = jax.jit(navigation_errors)(params, flight, idx)
+    np.testing.assert_allclose(fast.dK, full.dK, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(fast.residual_sf_error, full.residual_sf_error, rtol=1e-9,
+                               atol=1e-12)
+    # The full loop differences two large cumulative angles (~5e4 deg): agreement to its
+    # rounding, ~1e-11 relative.
+    np.testing.assert_allclose(fast.angle_error_deg, full.angle_error_deg[idx], rtol=1e-7,
+                               atol=1e-8)
+    np.testing.assert_allclose(fast.lateral_error_m, full.lateral_error_m[idx], rtol=1e-7,
+                               atol=1e-9)
+    assert float(fast.peak_mems_deg_s) == pytest.approx(float(jnp.max(jnp.abs(
+        full.gs_rate_deg_s))))
+    assert np.all(np.abs(np.asarray(fast.lateral_error_m)[1:]) > 0)
