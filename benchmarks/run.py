@@ -4,7 +4,7 @@
 
 Each benchmark checks that both ways give the same answer, then reports medians and the
 ratio (baseline time / gyroid time). Sections: likelihood_throughput, posterior_time,
-point_fit, roll_monte_carlo, demo.
+point_fit, roll_monte_carlo, cold_start (compilation, in a fresh process), demo.
 """
 
 from __future__ import annotations
@@ -285,6 +285,39 @@ def bench_roll(draws: int, quick: bool):
     }
 
 
+_COLD_START = """
+import json, sys, time
+start = time.perf_counter()
+sys.path.insert(0, "benchmarks")
+from run import six_hour_log
+from gyroid.likelihood import BenchProblem
+from gyroid.point import point_estimate
+from gyroid.sampling import SamplerSettings, sample_posterior
+out = {"import_s": time.perf_counter() - start}
+problem = BenchProblem.from_log(six_hour_log(0), "full")
+settings = SamplerSettings(progress=False)
+for label in ("cold", "warm"):
+    start = time.perf_counter()
+    point = point_estimate(problem)
+    out[f"point_{label}_s"] = time.perf_counter() - start
+    start = time.perf_counter()
+    post = sample_posterior(problem, point, seed=0, settings=settings)
+    out[f"posterior_{label}_s"] = time.perf_counter() - start
+print(json.dumps(out))
+"""
+
+
+def bench_cold_start():
+    """Compilation cost, measured in a fresh process: the first fit of the 6 h log against
+    the second (same shapes: nothing is compiled again)."""
+    run = subprocess.run([sys.executable, "-c", _COLD_START], check=True, capture_output=True,
+                         text=True, cwd=Path(__file__).resolve().parents[1])
+    out = json.loads(run.stdout.strip().splitlines()[-1])
+    out["compile_s"] = (out["point_cold_s"] + out["posterior_cold_s"]
+                        - out["point_warm_s"] - out["posterior_warm_s"])
+    return out
+
+
 def bench_demo():
     with tempfile.TemporaryDirectory() as folder:
         start = time.perf_counter()
@@ -317,6 +350,7 @@ def main() -> None:
         ("posterior_time", lambda: bench_posterior(problem, design, y, scales, args.seed)),
         ("point_fit", lambda: bench_point(flat, design, y, repeats)),
         ("roll_monte_carlo", lambda: bench_roll(10000, args.quick)),
+        ("cold_start", bench_cold_start),
         ("demo", bench_demo),
     ):
         print(f"-- {name} ...", flush=True)

@@ -12,7 +12,6 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
-from scipy.signal import oaconvolve
 
 from gyroid.recurrences import linear_recurrence
 
@@ -31,6 +30,8 @@ def _local_polynomial_slope(values: np.ndarray, half: int, degree: int, step: fl
     interior is one FFT convolution, and the first and last ``half`` samples take the slope
     of the polynomial fitted to the first or last full window.
     """
+    from scipy.signal import oaconvolve  # here: importing scipy.signal costs 0.7 s at start-up
+
     width = 2 * half + 1
     x = np.arange(-half, half + 1) / half
     vander = np.vander(x, degree + 1, increasing=True)

@@ -5,7 +5,6 @@ from __future__ import annotations
 from dataclasses import asdict, dataclass
 
 import numpy as np
-from scipy.signal import lfilter
 
 #: Peak of the Allan deviation of a first-order Gauss-Markov process over its sd
 #: (reached at an averaging time of 1.89 correlation times).
@@ -49,6 +48,8 @@ def gauss_markov(
     phi = float(np.exp(-sample_s / correlation_time_s))
     shocks = rng.standard_normal(n) * sd * np.sqrt(1.0 - phi**2)
     shocks[0] = rng.standard_normal() * sd
+    from scipy.signal import lfilter  # here: importing scipy.signal is slow at start-up
+
     return lfilter([1.0], [1.0, -phi], shocks)
 
 
