@@ -19,13 +19,11 @@ import math
 from dataclasses import dataclass, field
 
 import emcee
-import jax.numpy as jnp
 import numpy as np
 from tqdm.auto import tqdm
 
 from gyroid._arviz import arviz as az
 from gyroid.likelihood import (
-    batch_log_posterior,
     log_posterior_batcher,
     problem_batcher,
 )
@@ -93,8 +91,10 @@ def _initial_walkers(problem, point: PointEstimate, n_walkers: int,
     except np.linalg.LinAlgError:
         factor = np.diag(np.sqrt(np.clip(np.diag(covariance), 1e-12, None)))
     walkers = point.u + rng.standard_normal((n_walkers, d)) @ factor.T
+    batch = log_posterior_batcher(problem)
+    half = n_walkers // 2  # emcee evaluates half the ensemble at a time: one compilation
     for _ in range(20):
-        lp = np.asarray(batch_log_posterior(problem, jnp.asarray(walkers)))
+        lp = np.concatenate([np.asarray(batch(walkers[:half])), np.asarray(batch(walkers[half:]))])
         bad = ~np.isfinite(lp)
         if not bad.any():
             break
@@ -152,9 +152,12 @@ def sample_posterior(
                 break
         # Once the walkers have mixed, a burn-in of a few autocorrelation times suffices.
         burn = max(burn, int(3 * tau_max))
-        # Aim the next chunk at tau_factor * tau (10 % margin), but never less than a fifth
-        # of a normal chunk, so that a check that failed on r_hat or ESS adds real steps.
-        wanted = settings.tau_factor * tau_max * 1.1 - (sampler.iteration - burn)
+        # Aim the next chunk at tau_factor * tau (10 % margin); once there, a check that
+        # failed on r_hat or ESS grows the run by a quarter, so few checks are needed.
+        kept = sampler.iteration - burn
+        wanted = settings.tau_factor * tau_max * 1.1 - kept
+        if long_enough:
+            wanted = 0.25 * kept
         chunk = int(max(settings.chunk_steps / 5, min(wanted, 4 * settings.chunk_steps)))
     bar.close()
     natural = _to_natural(problem, draws_u)
@@ -169,7 +172,7 @@ def sample_posterior(
         thin=thin,
         acceptance=float(np.mean(sampler.acceptance_fraction)),
         idata=idata,
-        summary=summarise(idata, problem.names),
+        summary=summary,  # of these very draws (the last check's)
     )
 
 
