@@ -188,17 +188,24 @@ def test_paper_b_tables_recomputed():
     assert pb.mems_bias_deg_s() * 3600 == pytest.approx(12.2, abs=0.01)
 
 
+def _busy_flight(seed: int, n: int, rate: float, period_s: float) -> tuple[RollParams, Flight]:
+    """A varying roll rate, an overloaded stabiliser, drift and noise on every signal, and
+    every loop parameter non-zero: where a fast path could part from the full loop."""
+    rng = np.random.default_rng(seed)
+    t = 0.01 * np.arange(n)
+    flight = Flight(jnp.asarray(rate + 0.4 * rate * np.sin(t / 4)),
+                    jnp.asarray(250 + 60 * np.cos(t)), jnp.asarray(0.01 * np.sin(t / 5)),
+                    jnp.asarray(rng.normal(0, 0.05, n)), jnp.asarray(rng.normal(0, 0.01, n)),
+                    sample_s=0.01, period_s=period_s)
+    params = RollParams(D0=0.01 * seed, D1=7e-4 + 1e-4 * seed, D0gs=3e-3, D1gs=3e-4,
+                        Denc=0.33 / seed, D2=1e-5 * seed, encoder_phase=1.1 / seed)
+    return params, flight
+
+
 def test_period_sums_fast_path_equals_the_full_loop():
     from gyroid.roll import correction_coefficients
 
-    rng = np.random.default_rng(4)
-    n = 3000
-    t = 0.01 * np.arange(n)
-    flight = Flight(jnp.asarray(1500 + 600 * np.sin(t / 4)), jnp.asarray(200 + 50 * np.cos(t)),
-                    jnp.asarray(0.01 * np.sin(t / 5)), jnp.asarray(rng.normal(0, 0.05, n)),
-                    jnp.asarray(rng.normal(0, 0.01, n)), sample_s=0.01, period_s=3.0)
-    params = RollParams(D0=0.01, D1=7e-4, D0gs=3e-3, D1gs=3e-4, Denc=0.33, D2=1e-5,
-                        encoder_phase=1.1)
+    params, flight = _busy_flight(1, 3000, 1500.0, 3.0)
     np.testing.assert_allclose(np.asarray(correction_coefficients(params, flight)),
                                np.asarray(run_loop(params, flight).dK), rtol=1e-9, atol=1e-12)
 
@@ -206,14 +213,7 @@ def test_period_sums_fast_path_equals_the_full_loop():
 def test_navigation_errors_at_report_samples_equal_the_full_loop():
     from gyroid.roll import navigation_errors
 
-    rng = np.random.default_rng(5)
-    n = 4000
-    t = 0.01 * np.arange(n)
-    flight = Flight(jnp.asarray(1200 + 500 * np.sin(t / 3)), jnp.asarray(280 + 80 * np.cos(t)),
-                    jnp.asarray(0.02 * np.sin(t / 7)), jnp.asarray(rng.normal(0, 0.05, n)),
-                    jnp.asarray(rng.normal(0, 0.01, n)), sample_s=0.01, period_s=2.5)
-    params = RollParams(D0=0.02, D1=9e-4, D0gs=4e-3, D1gs=5e-4, Denc=0.2, D2=2e-5,
-                        encoder_phase=0.7)
+    params, flight = _busy_flight(2, 4000, 1200.0, 2.5)
     full = run_loop(params, flight)
     idx = jnp.asarray([0, 999, 2500, 3999])
     fast = jax.jit(navigation_errors)(params, flight, idx)
