@@ -121,16 +121,28 @@ _ABSENT = np.array([0.0] * 8 + [1.0, 1.0, 1.0])
 class RollDensity(eqx.Module):
     """The JAX part of a roll problem on a vector ``v`` over all of ``ALL_PARAMETERS`` (in
     sampling coordinates); the entries outside the model (``active == 0``) are ignored.
-    Arrays only, plus the block count: every model of one log (the discrepancy workflow's
-    candidates) has the same shapes and shares one compilation of the optimiser. Priors are
-    normal on the sampling coordinate (``prior_loc``, ``prior_scale``)."""
+    Arrays only, plus the block count and whether ``D2`` is in the model: every model of
+    one log (the discrepancy workflow's candidates) has the same shapes and shares one
+    compilation of the optimiser. Priors are normal on the sampling coordinate
+    (``prior_loc``, ``prior_scale``).
 
-    time_s: jax.Array
+    The likelihood costs O(observed rows), not O(samples): every per-sample sum it needs is
+    a fixed sum of the data times a parameter, precomputed once (``cum_sins``,
+    ``cum_gs_rate``, and per observed row the count, mean and spread of the MEMS samples).
+    Only ``D2`` (a scale factor varying with |w|) needs the per-sample cumulative sum.
+    """
+
+    time_s: jax.Array  # elapsed time of every sample, s
     sins: jax.Array
     gs_angle: jax.Array
     gs_rate: jax.Array  # zeros when the log has none (then D1gs is never in the model)
+    cum_sins: jax.Array  # int w_x dt, deg
+    cum_gs_rate: jax.Array  # int m dt, deg
     block: jax.Array
     observed: jax.Array  # indices of the rows whose stabiliser angle enters the likelihood
+    m_count: jax.Array  # MEMS samples owned by each observed row (ideal stabiliser)
+    m_mean: jax.Array  # their mean, deg/s
+    m_spread: jax.Array  # their sum of squares about that mean, (deg/s)^2
     sample_s: jax.Array
     ideal_gs: jax.Array  # 1.0: m ~ N(D0gs, sigma_m) is also an observation; else 0.0
     active: jax.Array
@@ -138,6 +150,7 @@ class RollDensity(eqx.Module):
     prior_loc: jax.Array
     prior_scale: jax.Array
     n_blocks: int = eqx.field(static=True)
+    has_d2: bool = eqx.field(static=True)
 
     def parameters(self, v) -> dict:
         """Every parameter of ``ALL_PARAMETERS`` in natural units (absent ones at rest)."""
@@ -145,21 +158,27 @@ class RollDensity(eqx.Module):
         return dict(zip(ALL_PARAMETERS, jnp.where(self.active > 0, natural, _ABSENT),
                         strict=True))
 
-    def predict(self, v):
-        """The stabiliser's angle, deg."""
+    def _predict_rows(self, v, rows):
+        """The stabiliser's angle at ``rows`` (indices, or a slice), deg."""
         p = self.parameters(v)
-        scale = 1.0 + p["D1"] + p["D2"] * jnp.abs(self.sins) / 1000.0
-        rate = (self.sins - p["D0"]) / scale
-        psi = jnp.cumsum(rate) * self.sample_s
+        t = self.time_s[rows]
+        if self.has_d2:
+            scale = 1.0 + p["D1"] + p["D2"] * jnp.abs(self.sins) / 1000.0
+            psi = (jnp.cumsum((self.sins - p["D0"]) / scale) * self.sample_s)[rows]
+        else:  # int (w_x - D0) / (1 + D1) dt
+            psi = (self.cum_sins[rows] - p["D0"] * t) / (1.0 + p["D1"])
         # int (D1gs m + D0gs) / (1 + D1gs) dt; with D1gs = 0 (absent) this is D0gs t.
-        platform = jnp.cumsum((p["D1gs"] * self.gs_rate + p["D0gs"]) / (1.0 + p["D1gs"]))
-        platform = platform * self.sample_s
+        platform = (p["D1gs"] * self.cum_gs_rate[rows] + p["D0gs"] * t) / (1.0 + p["D1gs"])
         encoder = p["enc_a"] * jnp.sin(psi * DEG) + p["enc_b"] * jnp.cos(psi * DEG)
         return p["psi0"] + psi + platform + encoder
 
+    def predict(self, v):
+        """The stabiliser's angle at every sample, deg."""
+        return self._predict_rows(v, slice(None))
+
     def log_likelihood_rows(self, v):
         p = self.parameters(v)
-        residual = (self.gs_angle - self.predict(v))[self.observed]
+        residual = self.gs_angle[self.observed] - self._predict_rows(v, self.observed)
         steps = jnp.diff(self.observed, prepend=-1)  # rows since the previous observation
         q = (p["sigma_sins_deg_s"] * self.sample_s) ** 2 * steps  # angle random walk
         r = p["sigma_gs_deg"] ** 2
@@ -177,14 +196,13 @@ class RollDensity(eqx.Module):
         _, (innovation, total) = jax.lax.scan(kalman, (jnp.zeros(()), jnp.zeros(())),
                                               (residual, q))
         rows = -0.5 * (innovation**2 / total + jnp.log(total) + _LOG_2PI)
-        # Ideal stabiliser: every MEMS sample observes D0gs; summed over each stride onto its
-        # observed row.
-        m_res = (self.gs_rate - p["D0gs"]) / p["sigma_m_deg_s"]
-        m_rows = -0.5 * (m_res**2 + _LOG_2PI) - jnp.log(p["sigma_m_deg_s"])
-        owner = jnp.clip(jnp.searchsorted(self.observed, jnp.arange(m_rows.shape[0])), 0,
-                         self.observed.shape[0] - 1)
-        return rows + self.ideal_gs * jax.ops.segment_sum(m_rows, owner,
-                                                          self.observed.shape[0])
+        # Ideal stabiliser: every MEMS sample observes D0gs, m ~ N(D0gs, sigma_m); the
+        # samples' log-densities summed onto the observed row that owns them.
+        sigma_m = p["sigma_m_deg_s"]
+        squares = self.m_spread + self.m_count * (self.m_mean - p["D0gs"]) ** 2
+        m_rows = -0.5 * squares / sigma_m**2 - self.m_count * (0.5 * _LOG_2PI
+                                                                + jnp.log(sigma_m))
+        return rows + self.ideal_gs * m_rows
 
     def log_likelihood_blocks(self, v):
         return jax.ops.segment_sum(self.log_likelihood_rows(v), self.block, self.n_blocks)
@@ -286,13 +304,25 @@ class RollProblem:
         active[slot] = 1.0
         positive_all = np.zeros(len(ALL_PARAMETERS), dtype=bool)
         positive_all[slot] = positive
+        gs_rate = np.asarray(log.gs_rate_deg_s if has_rate else np.zeros(log.n), dtype=float)
+        # Each MEMS sample belongs to the first observed row at or after it (the samples after
+        # the last observed row to the last).
+        owner = np.minimum(np.searchsorted(observed, np.arange(log.n)), observed.size - 1)
+        m_count = np.bincount(owner, minlength=observed.size).astype(float)
+        m_mean = np.bincount(owner, gs_rate, observed.size) / np.maximum(m_count, 1.0)
+        m_spread = np.bincount(owner, (gs_rate - m_mean[owner]) ** 2, observed.size)
         full = RollDensity(
             time_s=jnp.asarray(log.time_s - log.time_s[0] + sample_s),
             sins=jnp.asarray(log.roll_rate_deg_s),
             gs_angle=jnp.asarray(log.gs_angle_deg),
-            gs_rate=jnp.asarray(log.gs_rate_deg_s if has_rate else np.zeros(log.n)),
+            gs_rate=jnp.asarray(gs_rate),
+            cum_sins=jnp.asarray(np.cumsum(log.roll_rate_deg_s) * sample_s),
+            cum_gs_rate=jnp.asarray(np.cumsum(gs_rate) * sample_s),
             block=jnp.asarray(block),
             observed=jnp.asarray(observed),
+            m_count=jnp.asarray(m_count),
+            m_mean=jnp.asarray(m_mean),
+            m_spread=jnp.asarray(m_spread),
             sample_s=jnp.asarray(sample_s),
             ideal_gs=jnp.asarray(float(ideal)),
             active=jnp.asarray(active),
@@ -300,6 +330,7 @@ class RollProblem:
             prior_loc=jnp.asarray(loc),
             prior_scale=jnp.asarray(scale),
             n_blocks=int(block.max()) + 1,
+            has_d2="D2" in names,
         )
         density = ModelDensity(full, jnp.asarray(slot))
         return cls(density, has_rate, "gs_rate_leak" in terms, ideal, terms, names, priors,

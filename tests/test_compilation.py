@@ -48,8 +48,14 @@ def test_roll_candidate_models_share_one_optimiser(compile_log):
     log = _roll_log(7.3)  # a length no other test uses
     fits = [roll_point_estimate(RollProblem.from_log(log, terms))
             for terms in ("ideal", "ideal,roll_bias", "ideal,encoder_error",
-                          "ideal,roll_bias,encoder_error,sf_nonlinearity")]
+                          "ideal,roll_bias,encoder_error")]
     assert _compilations(compile_log, "_minimise") == 1
+    # D2 (a scale factor varying with |w|) takes the per-sample path: one more compilation,
+    # shared again by every model with D2.
+    fits += [roll_point_estimate(RollProblem.from_log(log, terms))
+             for terms in ("ideal,sf_nonlinearity", "ideal,roll_bias,encoder_error,"
+                           "sf_nonlinearity")]
+    assert _compilations(compile_log, "_minimise") == 2
     assert all(f.converged for f in fits)
     # The models really differ: the widest one has more parameters, all estimated.
     assert len(fits[-1].names) == len(fits[0].names) + 4
@@ -72,3 +78,43 @@ def test_an_absent_roll_parameter_is_exactly_absent():
 def test_an_unknown_move_is_refused_with_the_choices():
     with pytest.raises(ValueError, match="'de' or 'stretch'"):
         SamplerSettings(move="walk").emcee_moves()
+
+
+def test_precomputed_sums_equal_the_per_sample_path():
+    """Without D2 the roll likelihood reads precomputed sums of the data (cost per observed
+    row); with D2 it integrates sample by sample. With D2 = 0 both must agree, on a log
+    with an overloaded stabiliser (gs_rate_leak: the MEMS sums matter too)."""
+    sim = simulate_flight(params={"D0": 0.02, "Denc": 0.2},
+                          profile=FlightProfile(duration_s=7.3, gs_capacity_deg_s=2400.0),
+                          seed=6)
+    c = sim.columns
+    log = RollLog(c["time_s"], c["roll_rate_deg_s"], c["gs_angle_deg"], c["gs_rate_deg_s"])
+    sums = RollProblem.from_log(log, "loop")
+    per_sample = RollProblem.from_log(log, "loop,sf_nonlinearity")
+    assert "D1gs" in sums.names and not sums.density.full.has_d2
+    u = np.asarray(roll_point_estimate(sums).u)
+    u_wide = np.insert(u, per_sample.names.index("D2"), 0.0)
+    np.testing.assert_allclose(np.asarray(per_sample.log_likelihood_rows(u_wide)),
+                               np.asarray(sums.log_likelihood_rows(u)), rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(np.asarray(per_sample.predict(u_wide)),
+                               np.asarray(sums.predict(u)), rtol=1e-12, atol=1e-9)
+
+
+def test_stabiliser_rate_sums_equal_the_per_sample_density():
+    """The ideal stabiliser's MEMS samples enter through per-row counts, means and spreads:
+    their total must be the sum of the per-sample normal log-densities."""
+    import equinox as eqx
+    from scipy import stats
+
+    log = _roll_log(7.3)
+    problem = RollProblem.from_log(log, "ideal")
+    assert problem.ideal_gs
+    u = np.asarray(roll_point_estimate(problem).u)
+    full = problem.density.full
+    with_mems = full.log_likelihood_rows(problem.density.spread(u))
+    without = eqx.tree_at(lambda d: d.ideal_gs, full, 0.0 * full.ideal_gs)
+    angle_only = without.log_likelihood_rows(problem.density.spread(u))
+    values = problem.values(u)
+    direct = stats.norm.logpdf(log.gs_rate_deg_s, float(values["D0gs"]),
+                               float(values["sigma_m_deg_s"])).sum()
+    assert float(np.sum(with_mems - angle_only)) == pytest.approx(direct, rel=1e-10)
