@@ -50,7 +50,7 @@ def main() -> None:
         simulate = simulate_thermal_bench if bench == "thermal" else simulate_magnetic_bench
         rows = []
         for scale in SCALES:
-            hits, sizes = 0, []
+            hits, missed, extra, sizes = 0, 0, 0, []
             for _ in range(args.seeds_per_point):
                 seed = int(rng.integers(2**31))
                 sim = simulate(seed=seed, effects={effect: params(scale)})
@@ -59,8 +59,13 @@ def main() -> None:
                                                      - base.true_drift_deg_h) ** 2))) / NOISE_UNIT)
                 report = find_discrepancies(sim.log, bench)
                 hits += report.added == [effect]
+                missed += effect not in report.added
+                extra += effect in report.added and len(report.added) > 1
+            n = args.seeds_per_point
             rows.append({"scale": scale, "size_noise_units": float(np.mean(sizes)),
-                         "exact_detection_rate": hits / args.seeds_per_point})
+                         "exact_detection_rate": hits / n,
+                         # the two ways to miss "exactly": not found, or found with another
+                         "missed_rate": missed / n, "found_with_extra_rate": extra / n})
         results["detection"][effect] = rows
         ax.plot([r["size_noise_units"] for r in rows], [r["exact_detection_rate"] for r in rows],
                 marker + "-", color="0.0", ms=4, label=effect)
