@@ -365,7 +365,7 @@ def main() -> None:
     for name, run in (
         ("likelihood_throughput", lambda: bench_likelihood(problem, design, y, scales, repeats)),
         ("posterior_time", lambda: bench_posterior_repeated(problem, design, y, scales,
-                                                            args.seed, 1 if args.quick else 3)),
+                                                            args.seed, 3)),
         ("point_fit", lambda: bench_point(flat, design, y, repeats)),
         ("roll_monte_carlo", lambda: bench_roll(10000, args.quick)),
         ("cold_start", bench_cold_start),
