@@ -87,6 +87,7 @@ class FitResult:
                 for i, a in enumerate(names)
             }
             out["convergence"]["sampler"] = {
+                "move": post.move,
                 "walkers": int(post.draws.shape[0]),
                 "steps": post.n_steps,
                 "burn": post.burn,

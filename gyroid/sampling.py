@@ -69,6 +69,7 @@ class Posterior:
     thin: int
     acceptance: float
     idata: object = field(repr=False)
+    move: str = "de"  # emcee move (SamplerSettings.move)
     summary: dict[str, dict] = field(default_factory=dict)
 
     def flat(self, name: str) -> np.ndarray:
@@ -161,7 +162,9 @@ def sample_posterior(
         chunk = int(max(settings.chunk_steps / 5, min(wanted, 4 * settings.chunk_steps)))
     bar.close()
     natural = _to_natural(problem, draws_u)
-    idata = to_inference_data(problem, draws_u, natural, lp)
+    idata = to_inference_data(problem, draws_u, natural, lp,
+                              sampler=f"emcee {emcee.__version__}, {settings.move} move, "
+                                      f"{n_walkers} walkers")
     return Posterior(
         names=problem.names,
         draws=natural,
@@ -171,6 +174,7 @@ def sample_posterior(
         burn=burn,
         thin=thin,
         acceptance=float(np.mean(sampler.acceptance_fraction)),
+        move=settings.move,
         idata=idata,
         summary=summary,  # of these very draws (the last check's)
     )
@@ -199,7 +203,7 @@ def _thinned(sampler: emcee.EnsembleSampler, burn: int, tau: np.ndarray):
 
 
 def to_inference_data(problem, draws_u: np.ndarray, natural: np.ndarray,
-                      log_posterior: np.ndarray):
+                      log_posterior: np.ndarray, sampler: str = "emcee"):
     """ArviZ InferenceData: posterior, block log-likelihood, observed data, sample stats.
 
     ``problem`` supplies ``names``, ``log_likelihood_blocks`` and the hooks
@@ -223,7 +227,7 @@ def to_inference_data(problem, draws_u: np.ndarray, natural: np.ndarray,
         constant_data=constant,
         sample_stats={"lp": log_posterior},
         dims={name: ["row"], **{k: ["row"] for k in constant}},
-        attrs=problem.idata_attrs(),
+        attrs={**problem.idata_attrs(), "sampler": sampler},
     )
 
 
