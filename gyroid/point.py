@@ -28,6 +28,7 @@ import numpy as np
 import optimistix as optx
 
 from gyroid.likelihood import BenchProblem, problem_batcher
+from gyroid.priors import natural_from_sampling
 
 #: Multiples of a time constant's prior median tried as starting values.
 START_GRID = (0.05, 0.15, 0.4, 1.0, 2.5, 6.0, 15.0)
@@ -155,7 +156,7 @@ def _linear_gaussian(problem: BenchProblem) -> PointEstimate:
         noise_u = np.array([math.log(scale)])
         u = np.concatenate([theta, noise_u])
         cov = _block_diag(covariance, np.array([[1.0 / (2.0 * max(n - p, 1))]]))
-    x = np.where(problem.positive, np.exp(u), u)
+    x = natural_from_sampling(u, problem.positive)
     sd_u = np.sqrt(np.diag(cov))
     sd = np.where(problem.positive, x * sd_u, sd_u)
     # One compiled call (shared by logs of this shape), not op-by-op JAX on every row.

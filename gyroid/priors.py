@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass
 
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
 
@@ -57,3 +58,13 @@ class Flat:
 
 
 Prior = Normal | LogNormal | Flat
+
+
+def natural_from_sampling(u, positive) -> np.ndarray:
+    """Sampling coordinates to natural units on the host (NumPy): ``exp`` of the positive
+    parameters' log-coordinates (``positive``: one flag per last-axis entry), the others
+    as they are. Only the positive entries are exponentiated (no overflow warnings)."""
+    positive = np.asarray(positive, dtype=bool)
+    natural = np.array(u, dtype=float)
+    natural[..., positive] = np.exp(natural[..., positive])
+    return natural

@@ -28,6 +28,7 @@ from gyroid.likelihood import (
     problem_batcher,
 )
 from gyroid.point import PointEstimate
+from gyroid.priors import natural_from_sampling
 
 #: Cap on the draws kept for storage (walkers x draws) after thinning.
 MAX_STORED_SAMPLES = 2000
@@ -181,8 +182,8 @@ def sample_posterior(
 
 
 def _to_natural(problem, u: np.ndarray) -> np.ndarray:
-    """``problem.to_natural`` in NumPy (exp of the log-coordinates), for host-side draws."""
-    return np.where(np.asarray(problem.positive), np.exp(u), u)
+    """``problem.to_natural`` in NumPy, for host-side draws."""
+    return natural_from_sampling(u, problem.positive)
 
 
 def _advance(sampler: emcee.EnsembleSampler, state, steps: int, bar) -> emcee.State:
