@@ -214,6 +214,9 @@ def navigation_errors(params: RollParams, flight: Flight,
     m = flight.samples_per_period
     sins, mems, K, applied_K = _period_loop(params, flight)
     n = sins.shape[0]
+    # The loop ends with the last whole period: later samples read its end (as indexing
+    # run_loop's histories would).
+    report_index = jnp.minimum(jnp.asarray(report_index), n - 1)
     angle_error = jnp.cumsum(sins * jnp.repeat(applied_K, m) - flight.roll_rate_deg_s[:n]) * dt
     accel = G * jnp.sin(angle_error * DEG)
     # Weights (i - j + 1)_+ as one (n, r) matrix: shared by every draw, so a batch of draws

@@ -215,7 +215,7 @@ def test_navigation_errors_at_report_samples_equal_the_full_loop():
 
     params, flight = _busy_flight(2, 4000, 1200.0, 2.5)
     full = run_loop(params, flight)
-    idx = jnp.asarray([0, 999, 2500, 3999])
+    idx = jnp.asarray([0, 999, 2500, 3999])  # 4000 samples: the last period ends at 3999
     fast = jax.jit(navigation_errors)(params, flight, idx)
     np.testing.assert_allclose(fast.dK, full.dK, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(fast.residual_sf_error, full.residual_sf_error, rtol=1e-9,
@@ -229,3 +229,12 @@ def test_navigation_errors_at_report_samples_equal_the_full_loop():
     assert float(fast.peak_mems_deg_s) == pytest.approx(float(jnp.max(jnp.abs(
         full.gs_rate_deg_s))))
     assert np.all(np.abs(np.asarray(fast.lateral_error_m)[1:]) > 0)
+    # A flight that ends inside a period: the loop stops at the last whole period, and a
+    # report sample after it reads that end, as indexing run_loop's histories does.
+    short = constant_flight(900.0, 23.0, sample_s=0.01)
+    ended = run_loop(params, short)
+    late = navigation_errors(params, short, jnp.asarray([500, 2299]))
+    n = ended.lateral_error_m.shape[0]
+    assert n < short.n
+    expected = ended.lateral_error_m[jnp.asarray([500, n - 1])]
+    np.testing.assert_allclose(late.lateral_error_m, expected, rtol=1e-7)
