@@ -351,7 +351,10 @@ def _where(
     """Time windows with the largest standardised mean residual."""
     span = time_s[-1] - time_s[0]
     window = max(span / 40.0, 60.0)
-    index = np.floor((time_s - time_s[0]) / window).astype(int)
+    # Whole windows only: the log's last samples join the last window (a window of one
+    # sample at the very end would otherwise rank by its noise alone).
+    last = max(int(span // window) - 1, 0)
+    index = np.minimum(np.floor((time_s - time_s[0]) / window).astype(int), last)
     out = []
     for k in np.unique(index):
         inside = index == k

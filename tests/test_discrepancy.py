@@ -2,6 +2,7 @@
 
 import json
 
+import numpy as np
 import pytest
 
 from gyroid import GyroNoise
@@ -82,3 +83,20 @@ def test_cli_writes_the_contract_json(tmp_path):
     step = data["steps"][0]
     assert set(step) >= {"effect", "evidence", "rms_before_deg_h", "rms_after_deg_h", "score"}
     assert (disc / "discrepancy.png").exists()
+
+
+def test_where_reports_whole_windows_only():
+    """The last samples of a log join the last window: no window of a few samples at the end
+    (whose mean is mostly noise) can top the list."""
+    from gyroid.discrepancy import NoiseLevels, _where
+
+    sim = simulate_magnetic_bench(seed=3)
+    log = sim.log
+    residual = sim.log.drift_deg_h - sim.true_drift_deg_h
+    rows = _where(log.time_s, residual, log.inputs(), NoiseLevels(0.3, 1e-6, 300.0), log,
+                  top=50)
+    span = log.time_s[-1] - log.time_s[0]
+    window = max(span / 40.0, 60.0)
+    (tail,) = [r for r in rows if r["end_s"] == log.time_s[-1]]
+    assert tail["end_s"] - tail["start_s"] >= window - 2 * np.median(np.diff(log.time_s))
+    assert all(abs(r["z"]) < 5 for r in rows)  # pure noise: standardised means stay small
