@@ -335,13 +335,3 @@ def problem_batcher(problem, method: str = "log_posterior"):
 def log_posterior_batcher(problem):
     """``u (w, d) -> log-posterior (w,)``: see ``problem_batcher``."""
     return problem_batcher(problem, "log_posterior")
-
-
-def batch_log_posterior(problem, u: Float[Array, "w d"]) -> Float[Array, " w"]:
-    """Log-posterior of a batch of walkers."""
-    return log_posterior_batcher(problem)(u)
-
-
-def batch_log_likelihood_blocks(problem, u: Float[Array, "s d"]) -> Float[Array, "s b"]:
-    """Per-block log-likelihoods of a batch of draws."""
-    return problem_batcher(problem, "log_likelihood_blocks")(u)

@@ -28,7 +28,7 @@ import numpy as np
 import optimistix as optx
 
 from gyroid.likelihood import BenchProblem, problem_batcher
-from gyroid.priors import natural_from_sampling
+from gyroid.priors import natural_with_sd
 
 #: Multiples of a time constant's prior median tried as starting values.
 START_GRID = (0.05, 0.15, 0.4, 1.0, 2.5, 6.0, 15.0)
@@ -156,9 +156,7 @@ def _linear_gaussian(problem: BenchProblem) -> PointEstimate:
         noise_u = np.array([math.log(scale)])
         u = np.concatenate([theta, noise_u])
         cov = _block_diag(covariance, np.array([[1.0 / (2.0 * max(n - p, 1))]]))
-    x = natural_from_sampling(u, problem.positive)
-    sd_u = np.sqrt(np.diag(cov))
-    sd = np.where(problem.positive, x * sd_u, sd_u)
+    x, sd = natural_with_sd(u, cov, problem.positive)
     # One compiled call (shared by logs of this shape), not op-by-op JAX on every row.
     prediction = np.asarray(problem_batcher(problem, "predict")(u[None, :]))[0]
     return PointEstimate(
@@ -218,9 +216,7 @@ def point_estimate(problem: BenchProblem, *, max_refine: int = 3) -> PointEstima
         u = np.asarray(value)
         converged, message = _message(result)
         covariance = _inverse(np.asarray(hessian))
-    x = np.asarray(problem.to_natural(jnp.asarray(u)))
-    sd_u = np.sqrt(np.clip(np.diag(covariance), 0.0, None))
-    sd = np.where(problem.positive, x * sd_u, sd_u)
+    x, sd = natural_with_sd(u, covariance, problem.positive)
     if not np.all(np.isfinite(sd)):
         converged, message = False, "the covariance at the optimum is singular"
     prediction = np.asarray(problem.predict(jnp.asarray(u)))

@@ -68,3 +68,11 @@ def natural_from_sampling(u, positive) -> np.ndarray:
     natural = np.array(u, dtype=float)
     natural[..., positive] = np.exp(natural[..., positive])
     return natural
+
+
+def natural_with_sd(u, covariance, positive) -> tuple[np.ndarray, np.ndarray]:
+    """A point in sampling coordinates and its covariance to natural values and standard
+    deviations: a positive parameter's sd is ``x * sd(log x)`` (the delta method)."""
+    x = natural_from_sampling(u, positive)
+    sd_u = np.sqrt(np.clip(np.diag(covariance), 0.0, None))
+    return x, np.where(positive, x * sd_u, sd_u)

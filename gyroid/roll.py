@@ -185,12 +185,17 @@ def _period_loop(params: RollParams, flight: Flight):
     return sins, mems, K, applied_K
 
 
+def _relative_error(K, params: RollParams):
+    """dK = (K - K_true) / K_true with K_true = 1 / (1 + D1)."""
+    k_true = 1.0 / (1.0 + params.D1)
+    return (K - k_true) / k_true
+
+
 def correction_coefficients(params: RollParams, flight: Flight) -> Float[Array, " p"]:
     """dK of every correction period, from per-period sums only (no per-sample angles): the
     fast path for Monte Carlo and sensitivity work. Equal to ``run_loop(...).dK``."""
     _, _, K, _ = _period_loop(params, flight)
-    k_true = 1.0 / (1.0 + params.D1)
-    return (K - k_true) / k_true
+    return _relative_error(K, params)
 
 
 class NavigationErrors(eqx.Module):
@@ -223,9 +228,8 @@ def navigation_errors(params: RollParams, flight: Flight,
     # is one matrix product instead of two cumulative sums per draw.
     weights = jnp.clip(report_index[None, :] - jnp.arange(n)[:, None] + 1, 0).astype(float)
     lateral = (accel @ weights) * dt**2
-    k_true = 1.0 / (1.0 + params.D1)
     return NavigationErrors(
-        dK=(K - k_true) / k_true,
+        dK=_relative_error(K, params),
         residual_sf_error=K * (1.0 + params.D1) - 1.0,
         angle_error_deg=angle_error[report_index],
         lateral_error_m=lateral,
@@ -253,7 +257,6 @@ def run_loop(params: RollParams, flight: Flight) -> LoopResult:
     accel = G * jnp.sin(angle_error * DEG)
     velocity = jnp.cumsum(accel) * dt
     position = jnp.cumsum(velocity) * dt
-    k_true = 1.0 / (1.0 + params.D1)
     time_s = flight.time_s[:n]
     return LoopResult(
         time_s=time_s,
@@ -270,6 +273,6 @@ def run_loop(params: RollParams, flight: Flight) -> LoopResult:
         dpsi_deg=dpsi,
         sf_error_estimate=estimate,
         K=K,
-        dK=(K - k_true) / k_true,
+        dK=_relative_error(K, params),
         residual_sf_error=K * (1.0 + params.D1) - 1.0,
     )

@@ -29,7 +29,7 @@ import numpy as np
 import optimistix as optx
 
 from gyroid.errors import GyroidInputError
-from gyroid.priors import LogNormal, Normal, Prior
+from gyroid.priors import LogNormal, Normal, Prior, natural_with_sd
 from gyroid.tables import check_time_increasing, read_csv_table
 
 _LOG_2PI = math.log(2.0 * math.pi)
@@ -450,8 +450,7 @@ def roll_point_estimate(problem: RollProblem) -> RollPoint:
         start["D0"] = start["D0gs"] - coef[2]
     x0 = np.array([start[n] for n in problem.names])
     slot = np.asarray(problem.density.slot)
-    v0 = np.zeros(len(ALL_PARAMETERS))
-    v0[slot] = np.asarray(problem.to_sampling(jnp.asarray(x0)))
+    v0 = np.asarray(problem.density.spread(problem.to_sampling(jnp.asarray(x0))))
     # Scales from the curvature at the start (diagonal of the Hessian), floored for safety;
     # 1 for the parameters outside the model (they have no curvature).
     curvature = np.abs(np.diag(np.asarray(_nlp_hessian(jnp.asarray(v0), problem.density.full))))
@@ -465,9 +464,7 @@ def roll_point_estimate(problem: RollProblem) -> RollPoint:
     except np.linalg.LinAlgError:
         cov = np.full_like(hessian, np.nan)
     u = np.asarray(value)[slot]
-    x = np.asarray(problem.to_natural(jnp.asarray(u)))
-    sd_u = np.sqrt(np.clip(np.diag(cov), 0, None))
-    sd = np.where(problem.positive, x * sd_u, sd_u)
+    x, sd = natural_with_sd(u, cov, problem.positive)
     return RollPoint(problem.names, u, cov, dict(zip(problem.names, x.tolist(), strict=True)),
                      dict(zip(problem.names, sd.tolist(), strict=True)), ok, message)
 
@@ -561,9 +558,8 @@ def _fit_quality(density: RollDensity, v):
 
 def _max_log_likelihood(problem: RollProblem) -> tuple[float, RollPoint, np.ndarray]:
     point = roll_point_estimate(problem)
-    v = np.zeros(len(ALL_PARAMETERS))
-    v[np.asarray(problem.density.slot)] = point.u
-    log_lik, residual = _fit_quality(problem.density.full, jnp.asarray(v))
+    v = problem.density.spread(jnp.asarray(point.u))
+    log_lik, residual = _fit_quality(problem.density.full, v)
     return float(log_lik), point, np.asarray(residual)
 
 

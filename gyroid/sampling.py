@@ -81,7 +81,7 @@ class Posterior:
         return all(s["r_hat"] <= 1.01 and s["ess_bulk"] >= 400 for s in self.summary.values())
 
 
-def _initial_walkers(problem, point: PointEstimate, n_walkers: int,
+def _initial_walkers(batch, point: PointEstimate, n_walkers: int,
                      rng: np.random.Generator) -> np.ndarray:
     d = point.u.size
     covariance = np.asarray(point.covariance_u)
@@ -93,7 +93,6 @@ def _initial_walkers(problem, point: PointEstimate, n_walkers: int,
     except np.linalg.LinAlgError:
         factor = np.diag(np.sqrt(np.clip(np.diag(covariance), 1e-12, None)))
     walkers = point.u + rng.standard_normal((n_walkers, d)) @ factor.T
-    batch = log_posterior_batcher(problem)
     half = n_walkers // 2  # emcee evaluates half the ensemble at a time: one compilation
     for _ in range(20):
         lp = np.concatenate([np.asarray(batch(walkers[:half])), np.asarray(batch(walkers[half:]))])
@@ -127,7 +126,7 @@ def sample_posterior(
                                     moves=settings.emcee_moves())
     # emcee draws its moves from its own RandomState: seed it from ours.
     sampler.random_state = np.random.RandomState(int(rng.integers(2**31))).get_state()
-    state = _initial_walkers(problem, point, n_walkers, rng)
+    state = _initial_walkers(batch, point, n_walkers, rng)
     bar = tqdm(total=settings.burn_steps, desc="emcee", unit="step",
                disable=not settings.progress, leave=False)
     state = _advance(sampler, state, settings.burn_steps, bar)
