@@ -9,7 +9,7 @@ from pathlib import Path
 
 import click
 
-from gyroid.errors import GyroidInputError
+from gyroid.errors import GyroidInputError, UntrustworthyResult
 from gyroid.outputs import output_dir
 
 
@@ -32,6 +32,20 @@ def _parse_effects(specs: tuple[str, ...]) -> dict[str, dict[str, float]]:
         name, _, rest = spec.partition(":")
         effects[name.strip()] = _parse_assignments(rest, f"--effect {spec}")
     return effects
+
+
+def _map_option(function):
+    return click.option(
+        "--map", "mappings", multiple=True, metavar="CONTRACT_COLUMN=LOG_COLUMN[:UNIT]",
+        help="Read a vendor's column as a contract column, converting its unit, e.g. "
+             "drift_deg_h=gyro_x:rad/s, temperature_C=temp:K, Hx_uT=mag_x:G. Repeatable.")(
+        function)
+
+
+def _parse_maps(items: tuple[str, ...]):
+    from gyroid.tables import parse_column_maps
+
+    return parse_column_maps(items)
 
 
 @click.group(context_settings={"help_option_names": ["-h", "--help"]})
@@ -134,10 +148,41 @@ def simulate(
     click.echo(f"wrote {out / 'bench.csv'} ({sim.log.n} rows) and {out / 'truth.json'}")
 
 
+def _terms_help() -> str:
+    from gyroid.effects import CANDIDATES, EFFECTS, PRESETS
+
+    paper = [n for n in EFFECTS if n not in CANDIDATES]
+    return (f"Comma list of effects or presets. Presets: {', '.join(PRESETS)}. Paper A's "
+            f"effects: {', '.join(paper)}. Candidates: {', '.join(CANDIDATES)}.")
+
+
+def _prior_options(function):
+    function = click.option(
+        "--prior", "prior_items", multiple=True, metavar="NAME=normal(MU,SD)",
+        help="Override one parameter's prior (normal(MU,SD), lognormal(MEDIAN,LOG_SD) for "
+             "time constants and noise levels, or flat()). Repeatable.")(function)
+    function = click.option(
+        "--priors", "prior_choice", default="default", show_default=True,
+        metavar="default|paper_a_fog|flat|FILE.toml",
+        help="Prior set: 'default' is weakly informative and scaled to this log (any gyro "
+             "grade); 'paper_a_fog' is sized for paper A's FOG; 'flat'; or a TOML file of "
+             "NAME = \"normal(MU, SD)\" lines.")(function)
+    return function
+
+
+def report_checks(checks) -> None:
+    """Print every failed self-check in one line, then the verdict; exit 3 when the result
+    must not be used (outputs are written first)."""
+    for line in checks.lines():
+        click.echo(line, err=True)
+    if not checks.trustworthy:
+        click.echo(checks.verdict(), err=True)
+        raise UntrustworthyResult()
+
+
 @cli.command()
 @click.argument("data", type=click.Path(path_type=Path))
-@click.option("--terms", required=True, metavar="TERMS",
-              help="Comma list of effects or a preset: thermal, magnetic, full.")
+@click.option("--terms", required=True, metavar="TERMS", help=_terms_help())
 @click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder to write fit.json, posterior.nc and figures into.")
 @click.option("--seed", default=0, show_default=True, type=int, help="Random seed of emcee.")
@@ -146,26 +191,39 @@ def simulate(
               help="Noise model: white, or white plus a Gauss-Markov (bias-instability) part.")
 @click.option("--t0", "t0_C", default=21.0, show_default=True, type=float,
               help="Reference temperature t0, degC (t = T - t0).")
-@click.option("--flat-prior", is_flag=True, help="Flat priors on the drift coefficients.")
+@_prior_options
+@click.option("--flat-prior", is_flag=True, help="Same as --priors flat.")
+@click.option("--rate-window", "rate_window", default="auto", show_default=True,
+              metavar="auto|SECONDS",
+              help="Window of the dT/dt estimator; auto chooses it from the data.")
+@_map_option
 @click.option("--progress/--no-progress", default=True, show_default=True,
               help="Show the sampler's progress bar.")
-def fit(data, terms, out, seed, noise, t0_C, flat_prior, progress) -> None:
-    """Fit the drift model TERMS to a bench log DATA.csv (point estimate and posterior)."""
+def fit(data, terms, out, seed, noise, t0_C, prior_choice, prior_items, flat_prior,
+        rate_window, mappings, progress) -> None:
+    """Fit the drift model TERMS to a bench log DATA (point estimate, posterior, checks).
+
+    DATA is a bench log (.csv, .csv.gz or .parquet; contract section 1). Exit code 3 when a
+    self-check says the result must not be used."""
     from gyroid.fit import fit_log
     from gyroid.logs import load_bench_log
+    from gyroid.prior_scales import resolve_prior_option
+    from gyroid.rate_window import parse_rate_window
     from gyroid.report_files import write_fit_outputs
     from gyroid.sampling import SamplerSettings
 
-    log = load_bench_log(data, terms, t0_C=t0_C)
+    prior_set, overrides = resolve_prior_option(prior_choice, prior_items)
+    window = parse_rate_window(rate_window)
+    log = load_bench_log(data, terms, t0_C=t0_C, column_map=_parse_maps(mappings))
     click.echo(f"fitting {terms} to {data} ({log.n} rows) ...", err=True)
-    result = fit_log(log, terms, noise=noise, seed=seed, flat_prior=flat_prior, t0_C=t0_C,
-                     settings=SamplerSettings(progress=progress))
+    result = fit_log(log, terms, noise=noise, seed=seed, priors=overrides,
+                     prior_set="flat" if flat_prior else prior_set, t0_C=t0_C,
+                     rate_window_s=window, settings=SamplerSettings(progress=progress))
     with output_dir(out) as stage:
         write_fit_outputs(stage, log, result)
     click.echo(result.point.summary())
-    for note in result.warnings:
-        click.echo(f"warning: {note}", err=True)
     click.echo(f"wrote {out / 'fit.json'}, {out / 'posterior.nc'} and figures")
+    report_checks(result.checks)
 
 
 @cli.command()
@@ -176,22 +234,23 @@ def fit(data, terms, out, seed, noise, t0_C, flat_prior, progress) -> None:
               help="Folder for compensated.csv, compensate.json and figures.")
 @click.option("--seed", default=0, show_default=True, type=int,
               help="Seed for choosing posterior draws.")
-def compensate(data, fit_dir, out, seed) -> None:
-    """Compensate a new log DATA.csv with a fitted drift model; Allan deviation before/after."""
+@_map_option
+def compensate(data, fit_dir, out, seed, mappings) -> None:
+    """Compensate a new bench log DATA with a fitted drift model; Allan deviation before and
+    after. Exit code 3 when a self-check (extrapolation, gain) says not to use it."""
     from gyroid.compensate import compensate as run
     from gyroid.compensate import compensated_csv, fitted_ranges_from
     from gyroid.logs import load_bench_log
     from gyroid.outputs import json_text
     from gyroid.plotting import allan_figure, compensation_figure, save
     from gyroid.propagate import FittedDrift
-    from gyroid.tables import read_csv_table
 
     fitted = FittedDrift.from_dir(fit_dir)
-    log = load_bench_log(data, fitted.model, t0_C=fitted.t0_C)
+    maps = _parse_maps(mappings)
+    log = load_bench_log(data, fitted.model, t0_C=fitted.t0_C, column_map=maps)
     result = run(log, fitted, fitted_ranges_from(fit_dir), seed=seed)
-    header = read_csv_table(data).header
     with output_dir(out) as stage:
-        (stage / "compensated.csv").write_text(compensated_csv(log, result, header))
+        (stage / "compensated.csv").write_text(compensated_csv(log, result))
         (stage / "compensate.json").write_text(json_text(result.summary))
         save(compensation_figure(log.time_s, log.drift_deg_h, result.compensated_deg_h),
              stage / "compensation")
@@ -199,10 +258,7 @@ def compensate(data, fit_dir, out, seed) -> None:
     s = result.summary
     click.echo(f"RMS {s['rms_before_deg_h']:.3g} -> {s['rms_after_deg_h']:.3g} deg/h "
                f"({100 * s['fraction_removed']:.0f} % removed); wrote {out / 'compensated.csv'}")
-    for item in s["extrapolation"]:
-        click.echo(f"warning: {item['input']} leaves the fitted range {item['fitted_range']} "
-                   f"in {100 * item['fraction_of_rows_outside']:.0f} % of rows: extrapolated",
-                   err=True)
+    report_checks(result.checks)
 
 
 @cli.command()
@@ -289,10 +345,12 @@ def roll_simulate(out, seed, overrides, roll_profile, rate, duration, period, ov
 @click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder for roll_fit.json, posterior.nc and figures.")
 @click.option("--seed", default=0, show_default=True, type=int, help="Random seed of emcee.")
+@_map_option
 @click.option("--progress/--no-progress", default=True, show_default=True,
               help="Show the sampler's progress bar.")
-def roll_fit(data, out, seed, progress) -> None:
-    """Fit the loop parameters (D0, D1, D0gs, D1gs, Denc) to a roll log ROLL.csv."""
+def roll_fit(data, out, seed, mappings, progress) -> None:
+    """Fit the loop parameters (D0, D1, D0gs, D1gs, Denc) to a roll log ROLL (.csv, .csv.gz
+    or .parquet; contract section 4). Exit code 3 when a self-check fails."""
     import jax.numpy as jnp
     import numpy as np
 
@@ -301,7 +359,9 @@ def roll_fit(data, out, seed, progress) -> None:
     from gyroid.roll_fit import fit_roll_log, load_roll_log
     from gyroid.sampling import SamplerSettings
 
-    log = load_roll_log(data)
+    log = load_roll_log(data, _parse_maps(mappings))
+    for note in log.notes:
+        click.echo(f"note: {note}", err=True)
     click.echo(f"fitting the roll loop to {data} ({log.n} rows) ...", err=True)
     result = fit_roll_log(log, seed=seed, settings=SamplerSettings(progress=progress))
     summary = result.to_json()
@@ -322,6 +382,7 @@ def roll_fit(data, out, seed, progress) -> None:
         click.echo(f"warning: {' and '.join(item['parameters'])} are confounded (r = "
                    f"{item['correlation']:.3f}): {item['suggestion']}", err=True)
     click.echo(f"wrote {out / 'roll_fit.json'} and {out / 'posterior.nc'}")
+    report_checks(result.checks)
 
 
 @cli.command()
@@ -340,9 +401,9 @@ def discrepancy(data, terms, out, t0_C, max_added) -> None:
     from gyroid.logs import load_bench_log
     from gyroid.outputs import json_text
     from gyroid.plotting import discrepancy_figure, save
-    from gyroid.tables import read_csv_table
+    from gyroid.tables import read_log_table
 
-    header = read_csv_table(data).header
+    header = read_log_table(data).header
     if "roll_rate_deg_s" in header and "drift_deg_h" not in header:
         _roll_discrepancy(data, terms, out, max_added)
         return
@@ -423,6 +484,8 @@ def main(argv: list[str] | None = None) -> int:
     except GyroidInputError as error:
         click.echo(f"gyroid: error: {error}", err=True)
         return 2
+    except UntrustworthyResult:
+        return 3
     except click.exceptions.Abort:
         click.echo("gyroid: aborted", err=True)
         return 130

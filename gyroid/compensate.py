@@ -19,8 +19,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyroid.allan import AllanDeviation, allan_deviation
+from gyroid.checks import Check, CheckReport
 from gyroid.fit import input_ranges
-from gyroid.logs import BenchLog
+from gyroid.logs import BENCH_COLUMNS, BenchLog
 from gyroid.propagate import FittedDrift
 
 #: Effects whose contribution depends on elapsed time (extrapolating them in time matters).
@@ -35,12 +36,13 @@ class Compensation:
     summary: dict
     adev_before: AllanDeviation
     adev_after: AllanDeviation
+    checks: CheckReport
 
 
 def compensate(log: BenchLog, fitted: FittedDrift, fitted_ranges: dict[str, list[float]],
                *, max_draws: int = 400, seed: int = 0) -> Compensation:
     """Apply a fit's posterior to ``log``."""
-    inputs = log.inputs(t0_C=fitted.t0_C)
+    inputs = log.inputs(t0_C=fitted.t0_C, rate_window_s=fitted.rate_window_s)
     rng = np.random.default_rng(seed)
     draws = fitted.draws
     if draws.shape[0] > max_draws:
@@ -53,7 +55,9 @@ def compensate(log: BenchLog, fitted: FittedDrift, fitted_ranges: dict[str, list
     compensated = drift - model
     steps = np.diff(log.time_s)
     sample_s = float(np.median(steps))
-    before, after = allan_deviation(drift, sample_s), allan_deviation(compensated, sample_s)
+    time_s = np.asarray(log.time_s)
+    before = allan_deviation(drift, sample_s, time_s=time_s)
+    after = allan_deviation(compensated, sample_s, time_s=time_s)
 
     def rms(x):
         return float(np.sqrt(np.mean(x**2)))
@@ -88,7 +92,47 @@ def compensate(log: BenchLog, fitted: FittedDrift, fitted_ranges: dict[str, list
         "posterior_draws_used": int(draws.shape[0]),
         "rows": int(drift.size),
     }
-    return Compensation(model, sd, compensated, summary, before, after)
+    checks = compensation_checks(drift, compensated, outside, fitted.trustworthy)
+    summary.update(checks.to_json())
+    return Compensation(model, sd, compensated, summary, before, after, checks)
+
+
+#: Rows outside the fitted ranges above this fraction make the compensation an
+#: extrapolation (an error); fewer are a warning.
+EXTRAPOLATED_FRACTION = 0.1
+
+
+def compensation_checks(drift: np.ndarray, compensated: np.ndarray, outside: list[dict],
+                        fit_trustworthy: bool) -> CheckReport:
+    """Extrapolation, the gain over removing a constant, and the fit's own verdict."""
+    worst = max((item["fraction_of_rows_outside"] for item in outside), default=0.0)
+    if not outside:
+        extrapolation = Check("extrapolation", True, "error", 0.0, EXTRAPOLATED_FRACTION,
+                              "every input stays within the fitted ranges")
+    else:
+        names = ", ".join(item["input"] for item in outside)
+        severe = worst > EXTRAPOLATED_FRACTION
+        extrapolation = Check(
+            "extrapolation", False, "error" if severe else "warning", worst,
+            EXTRAPOLATED_FRACTION,
+            f"{100 * worst:.0f} % of rows leave the fitted range of {names}: the model is "
+            "extrapolated there; fit a log that covers these conditions")
+    spread_before = float(np.std(drift))
+    spread_after = float(np.std(compensated))
+    ratio = spread_after / spread_before if spread_before > 0 else 1.0
+    # A model no better than a constant leaves the spread as it is (ratio 1); sampling noise
+    # of the sd is ~1/sqrt(2n), so 1.01 is far beyond chance for any usable log.
+    gain = Check(
+        "compensation_gain", ratio <= 1.01, "error", ratio, 1.01,
+        f"compensation leaves {100 * ratio:.0f} % of the drift's spread about its mean"
+        if ratio <= 1.01 else
+        f"compensation makes the drift's spread about its mean {ratio:.2f}x larger than "
+        "removing a constant would: do not use this model on this log")
+    verdict = Check("fit_trustworthy", fit_trustworthy, "error", None, None,
+                    "the fit's own self-checks passed" if fit_trustworthy else
+                    "the fit was marked not trustworthy (see its fit.json checks); refit "
+                    "before compensating with it")
+    return CheckReport((extrapolation, gain, verdict))
 
 
 def _input_values(name: str, inputs) -> np.ndarray:
@@ -107,9 +151,10 @@ def fitted_ranges_from(folder: str | Path) -> dict[str, list[float]]:
     return json.loads((Path(folder) / "fit.json").read_text()).get("input_ranges", {})
 
 
-def compensated_csv(log: BenchLog, result: Compensation, header: tuple[str, ...]) -> str:
-    """Input columns (those gyroid read) plus the three compensation columns."""
-    names = [c for c in header if c in log.columns]
+def compensated_csv(log: BenchLog, result: Compensation) -> str:
+    """The input's contract columns (those gyroid read, under their contract names) plus
+    the three compensation columns."""
+    names = [c for c in BENCH_COLUMNS if c in log.columns]
     columns = [log.columns[c] for c in names]
     names += ["drift_model_deg_h", "drift_model_sd_deg_h", "drift_compensated_deg_h"]
     columns += [result.model_deg_h, result.model_sd_deg_h, result.compensated_deg_h]

@@ -32,6 +32,7 @@ from gyroid.errors import GyroidInputError
 from gyroid.inputs import T0_C, DriftInputs
 from gyroid.likelihood import NOISE_PRIORS, gauss_markov_innovations
 from gyroid.logs import BenchLog
+from gyroid.rate_window import choose_rate_window
 
 #: dBIC a candidate must reach to be added.
 ADD_THRESHOLD = 10.0
@@ -327,22 +328,8 @@ def _applicable(
 
 
 def _choose_rate_window(log: BenchLog, model: DriftModel, t0_C: float) -> float:
-    reads_rate = any(e.signature == "dT/dt" for e in model.effects) and log.has("temperature_C")
-    if not reads_rate:
-        return RATE_WINDOWS_S[-1]
-    best = (math.inf, RATE_WINDOWS_S[-1])
-    for window in RATE_WINDOWS_S:
-        inputs = log.inputs(t0_C=t0_C, rate_window_s=window)
-        design = np.asarray(
-            jax.jacfwd(lambda th, x=inputs: model.predict(th, x))(
-                jnp.zeros(len(model.parameter_names))
-            )
-        )
-        residual = (
-            log.drift_deg_h - design @ np.linalg.lstsq(design, log.drift_deg_h, rcond=None)[0]
-        )
-        best = min(best, (float(np.sum(residual**2)), window))
-    return best[1]
+    """The rate window on the workflow's short grid (the fit's ``auto`` uses a wider one)."""
+    return choose_rate_window(log, model, t0_C=t0_C, grid=np.asarray(RATE_WINDOWS_S))[0]
 
 
 def _where(

@@ -34,8 +34,12 @@ class Parameter:
     name: str
     unit: str
     description: str
-    prior: Prior
+    prior: Prior  # paper A's FOG-sized prior (``--priors paper_a_fog``)
     positive: bool = False
+    #: The regressor's physical span over which the default log-scaled prior lets this
+    #: coefficient move the drift by ten times the log's drift scale (regressor units:
+    #: degC for w1, degC^2 for w2, degC/h for wD, H/H0 for the field terms, h for w_trend).
+    span: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -122,7 +126,8 @@ EFFECTS: dict[str, Effect] = {
             signature="temperature",
             formula="w1 t, t = T - t0",
             parameters=(
-                Parameter("w1", "deg/h/degC", "linear temperature sensitivity", Normal(0.0, 1.0)),
+                Parameter("w1", "deg/h/degC", "linear temperature sensitivity", Normal(0.0, 1.0),
+                          span=10.0),
             ),
             columns=("temperature_C",),
             paper=True,
@@ -134,7 +139,8 @@ EFFECTS: dict[str, Effect] = {
             formula="w2 t^2",
             parameters=(
                 Parameter(
-                    "w2", "deg/h/degC^2", "quadratic temperature sensitivity", Normal(0.0, 0.1)
+                    "w2", "deg/h/degC^2", "quadratic temperature sensitivity", Normal(0.0, 0.1),
+                    span=100.0,
                 ),
             ),
             columns=("temperature_C",),
@@ -151,6 +157,7 @@ EFFECTS: dict[str, Effect] = {
                     "(deg/h)/(degC/h)",
                     "sensitivity to the rate of temperature change",
                     Normal(0.0, 10.0),
+                    span=10.0,
                 ),
             ),
             columns=("temperature_C",),
@@ -256,7 +263,8 @@ EFFECTS: dict[str, Effect] = {
             signature="temperature^3",
             formula="w3 t^3",
             parameters=(
-                Parameter("w3", "deg/h/degC^3", "cubic temperature sensitivity", Normal(0.0, 0.01)),
+                Parameter("w3", "deg/h/degC^3", "cubic temperature sensitivity", Normal(0.0, 0.01),
+                          span=1000.0),
             ),
             columns=("temperature_C",),
             paper=False,

@@ -8,3 +8,8 @@ class GyroidInputError(ValueError):
 
     The command line prints the message alone (no traceback) and exits with code 2.
     """
+
+
+class UntrustworthyResult(Exception):
+    """Raised by a command after it wrote a result whose self-checks failed at error level;
+    the command line exits with code 3 (the failed checks are already printed)."""

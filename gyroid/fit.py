@@ -9,13 +9,21 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from gyroid.checks import CheckReport, FitEvidence, fit_checks
 from gyroid.drift import DriftModel
 from gyroid.effects import PARAMETERS
 from gyroid.inputs import T0_C
 from gyroid.likelihood import NOISE_UNITS, BenchProblem
 from gyroid.logs import BenchLog
 from gyroid.point import PointEstimate, point_estimate
+from gyroid.prior_scales import (
+    PriorBasis,
+    default_priors,
+    identifiability_hints,
+    reference_sd,
+)
 from gyroid.priors import Flat, LogNormal, Normal, Prior
+from gyroid.rate_window import choose_rate_window, reads_rate
 from gyroid.sampling import Posterior, SamplerSettings, sample_posterior
 
 
@@ -28,7 +36,14 @@ class FitResult:
     posterior: Posterior | None
     seed: int
     t0_C: float
-    warnings: list[str] = field(default_factory=list)
+    prior_set: str = "default"
+    prior_basis: PriorBasis | None = None
+    rate_window_choice: str = "given"
+    checks: CheckReport = field(default_factory=lambda: CheckReport(()))
+
+    @property
+    def trustworthy(self) -> bool:
+        return self.checks.trustworthy
 
     @property
     def model_names(self) -> tuple[str, ...]:
@@ -68,12 +83,16 @@ class FitResult:
             },
             "priors": {k: _describe(p) for k, p in zip(self.problem.names, self.problem.priors,
                                                          strict=True)},
+            "prior_set": self.prior_set,
+            "prior_basis": None if self.prior_basis is None else self.prior_basis.to_json(),
+            "rate_window_s": self.problem.rate_window_s,
+            "rate_window_choice": self.rate_window_choice,
             "convergence": {
                 "point_estimate": self.point.message,
                 "point_converged": self.point.converged,
                 "starts": self.point.n_starts,
             },
-            "warnings": list(self.warnings),
+            **self.checks.to_json(),
             "input_ranges": input_ranges(self.problem.inputs, self.problem.model),
         }
         if self.posterior is not None:
@@ -133,41 +152,54 @@ def fit_log(
     noise: str = "white",
     seed: int = 0,
     priors: Mapping[str, Prior] | None = None,
+    prior_set: str = "default",
     flat_prior: bool = False,
     t0_C: float = T0_C,
+    rate_window_s: float | None = None,
     sample: bool = True,
     settings: SamplerSettings | None = None,
 ) -> FitResult:
-    """Fit a bench log: point estimate, then (``sample=True``) the emcee posterior."""
-    problem = BenchProblem.from_log(
-        log, terms, noise=noise, priors=priors, flat_prior=flat_prior, t0_C=t0_C
-    )
+    """Fit a bench log: point estimate, then (``sample=True``) the emcee posterior, then
+    the self-checks. ``rate_window_s=None`` chooses the rate estimator's window from the
+    data (:mod:`gyroid.rate_window`)."""
+    model = terms if isinstance(terms, DriftModel) else DriftModel.from_terms(terms)
+    if rate_window_s is None:
+        rate_window_s, _ = choose_rate_window(log, model, t0_C=t0_C)
+        window_choice = "auto" if reads_rate(model) else "default (the model reads no dT/dt)"
+    else:
+        window_choice = "given"
+    chosen_set = "flat" if flat_prior else prior_set
+    problem = BenchProblem.from_log(log, model, noise=noise, priors=priors, prior_set=chosen_set,
+                                    t0_C=t0_C, rate_window_s=rate_window_s)
     point = point_estimate(problem)
     posterior = sample_posterior(problem, point, seed=seed, settings=settings) if sample else None
-    result = FitResult(problem=problem, point=point, posterior=posterior, seed=seed, t0_C=t0_C)
-    result.warnings.extend(_warnings(result))
+    _, basis = default_priors(model, problem.inputs, np.asarray(log.drift_deg_h))
+    result = FitResult(problem=problem, point=point, posterior=posterior, seed=seed, t0_C=t0_C,
+                       prior_set=chosen_set, prior_basis=basis,
+                       rate_window_choice=window_choice)
+    result.checks = fit_checks(bench_evidence(result, log))
     return result
 
 
-def _warnings(result: FitResult) -> list[str]:
-    notes = []
-    if not result.point.converged:
-        notes.append(f"the point estimate did not converge: {result.point.message}")
-    post = result.posterior
+def bench_evidence(result: FitResult, log: BenchLog) -> FitEvidence:
+    """What the self-checks need from a bench fit."""
+    problem, point, post = result.problem, result.point, result.posterior
+    model, inputs = problem.model, problem.inputs
+    draws_u = None
     if post is not None:
-        for name, s in post.summary.items():
-            if s["r_hat"] > 1.01 or s["ess_bulk"] < 400:
-                notes.append(
-                    f"{name}: r_hat {s['r_hat']:.3f}, ess_bulk {s['ess_bulk']:.0f} "
-                    "(wanted <= 1.01 and >= 400): treat its posterior with care"
-                )
-        for i, prior in enumerate(result.problem.priors[: result.problem.n_model]):
-            name = result.problem.names[i]
-            if isinstance(prior, Normal):
-                ratio = post.summary[name]["sd"] / prior.scale
-                if ratio > 0.5:
-                    notes.append(
-                        f"{name} is barely constrained by this log: its posterior sd is "
-                        f"{100 * ratio:.0f} % of the prior's ({prior.describe()})"
-                    )
-    return notes
+        draws_u = np.asarray(problem.to_sampling(jnp.asarray(post.draws)))
+    return FitEvidence(
+        names=problem.names,
+        n_model=problem.n_model,
+        point_u=np.asarray(point.u),
+        point_converged=point.converged,
+        point_message=point.message,
+        priors=problem.priors,
+        reference_sd=reference_sd(model, inputs, np.asarray(log.drift_deg_h)),
+        residuals=np.asarray(problem.standardised_residuals(jnp.asarray(point.u))),
+        sigma_given=problem.sigma is not None,
+        noise=problem.noise,
+        draws_u=draws_u,
+        summary=None if post is None else post.summary,
+        hints=identifiability_hints(model, inputs),
+    )

@@ -26,19 +26,18 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
 
+from gyroid.derived import RATE_WINDOW_S
 from gyroid.drift import DriftModel
 from gyroid.errors import GyroidInputError
 from gyroid.inputs import T0_C
 from gyroid.logs import BenchLog
-from gyroid.priors import Flat, LogNormal, Prior
+from gyroid.prior_scales import FOG_NOISE_PRIORS, choose_priors
+from gyroid.priors import Flat, LogNormal, Normal, Prior
 
 NOISE_MODELS = ("white", "white+gm")
-#: Default priors of the noise parameters (densities on log x).
-NOISE_PRIORS: dict[str, Prior] = {
-    "sigma_deg_h": LogNormal(1.0, 3.0),
-    "sigma_gm_deg_h": LogNormal(0.05, 3.0),
-    "tau_gm_s": LogNormal(300.0, 2.0),
-}
+#: Paper A's FOG noise priors (densities on log x); the default priors are scaled to the log
+#: (:mod:`gyroid.prior_scales`).
+NOISE_PRIORS: dict[str, Prior] = FOG_NOISE_PRIORS
 NOISE_UNITS = {"sigma_deg_h": "deg/h", "sigma_gm_deg_h": "deg/h", "tau_gm_s": "s"}
 #: Length of the blocks whose summed log-likelihood ArviZ's LOO treats as one observation, s.
 LOO_BLOCK_S = 60.0
@@ -56,10 +55,16 @@ class BenchProblem(eqx.Module):
     sigma: Float[Array, " n"] | None  # known per-row white-noise sd, deg/h
     steps_s: Float[Array, " n"]  # time since the previous sample (first: the median step)
     block: Int[Array, " n"]  # LOO block of each row
-    priors: tuple[Prior, ...] = eqx.field(static=True)
+    # Priors as normal densities on the sampling coordinates (arrays, so that logs of one
+    # shape share one compilation whatever their log-scaled priors): ``prior_on`` is 0 for
+    # a flat prior.
+    prior_loc: Float[Array, " d"]
+    prior_scale: Float[Array, " d"]
+    prior_on: Float[Array, " d"]
     noise: str = eqx.field(static=True)
     n_blocks: int = eqx.field(static=True)
     step_s: float = eqx.field(static=True)
+    rate_window_s: float = eqx.field(static=True, default=RATE_WINDOW_S)
     # Linear-Gaussian fast path: (X'WX, weighted LS solution, residual sum at it).
     gram: Float[Array, "p p"] | None = None
     solution: Float[Array, " p"] | None = None
@@ -74,29 +79,29 @@ class BenchProblem(eqx.Module):
         *,
         noise: str = "white",
         priors: Mapping[str, Prior] | None = None,
+        prior_set: str = "default",
         flat_prior: bool = False,
         t0_C: float = T0_C,
+        rate_window_s: float = RATE_WINDOW_S,
         fast: bool = True,
     ) -> BenchProblem:
-        """Build the problem; ``priors`` overrides registry defaults by parameter name."""
+        """Build the problem. ``prior_set`` is ``default`` (scaled to this log),
+        ``paper_a_fog`` or ``flat`` (see :mod:`gyroid.prior_scales`); ``priors`` overrides
+        single parameters by name; ``flat_prior=True`` is ``prior_set="flat"``."""
         model = terms if isinstance(terms, DriftModel) else DriftModel.from_terms(terms)
         if noise not in NOISE_MODELS:
             raise GyroidInputError(f"--noise must be one of {', '.join(NOISE_MODELS)}")
-        inputs = log.inputs(t0_C=t0_C)
+        inputs = log.inputs(t0_C=t0_C, rate_window_s=rate_window_s)
         time_s = np.asarray(log.time_s)
         steps = np.diff(time_s)
         step = float(np.median(steps)) if steps.size else 1.0
         sigma = None if log.sigma_deg_h is None else jnp.asarray(log.sigma_deg_h)
         noise_names = _noise_names(noise, sigma is not None)
-        overrides = dict(priors or {})
-        unknown = set(overrides) - set(model.parameter_names) - set(noise_names)
-        if unknown:
-            raise GyroidInputError(f"no parameter named {sorted(unknown)[0]!r} in this model")
-        chosen: list[Prior] = []
-        for p in model.parameters:
-            chosen.append(Flat() if flat_prior else overrides.get(p.name, p.prior))
-        for name in noise_names:
-            chosen.append(overrides.get(name, NOISE_PRIORS[name]))
+        chosen, _ = choose_priors(model, inputs, np.asarray(log.drift_deg_h), noise_names,
+                                  prior_set="flat" if flat_prior else prior_set,
+                                  overrides=priors)
+        positive = [p.positive for p in model.parameters] + [True] * len(noise_names)
+        loc, scale, on = _prior_arrays(chosen, positive)
         duration = float(time_s[-1] - time_s[0])
         block_s = max(LOO_BLOCK_S, step, duration / MAX_LOO_BLOCKS * 1.0001)
         block = np.floor((time_s - time_s[0]) / block_s).astype(int)
@@ -108,10 +113,13 @@ class BenchProblem(eqx.Module):
             sigma=sigma,
             steps_s=jnp.asarray(np.concatenate([[step], steps])),
             block=jnp.asarray(block),
-            priors=tuple(chosen),
+            prior_loc=jnp.asarray(loc),
+            prior_scale=jnp.asarray(scale),
+            prior_on=jnp.asarray(on),
             noise=noise,
             n_blocks=int(block.max()) + 1,
             step_s=step,
+            rate_window_s=float(rate_window_s),
         )
         if fast and model.is_linear and noise == "white":
             problem = problem._with_sufficient_statistics()
@@ -152,6 +160,22 @@ class BenchProblem(eqx.Module):
         return tuple(p.positive for p in self.model.parameters) + (True,) * len(self.noise_names)
 
     @property
+    def priors(self) -> tuple[Prior, ...]:
+        """The priors in sampling order, as :mod:`gyroid.priors` objects."""
+        out: list[Prior] = []
+        for loc, scale, on, positive in zip(np.asarray(self.prior_loc),
+                                            np.asarray(self.prior_scale),
+                                            np.asarray(self.prior_on), self.positive,
+                                            strict=True):
+            if not on:
+                out.append(Flat())
+            elif positive:
+                out.append(LogNormal(float(np.exp(loc)), float(scale)))
+            else:
+                out.append(Normal(float(loc), float(scale)))
+        return tuple(out)
+
+    @property
     def n_model(self) -> int:
         return len(self.model.parameter_names)
 
@@ -190,6 +214,18 @@ class BenchProblem(eqx.Module):
         )
         return -0.5 * innovation**2 / variance - 0.5 * jnp.log(variance) - 0.5 * _LOG_2PI
 
+    def standardised_residuals(self, u: Float[Array, " d"]) -> Float[Array, " n"]:
+        """Residuals over their modelled sd (white) or Kalman innovations over theirs
+        (white+gm): independent N(0, 1) when the model and its noise model are right."""
+        residual = self.drift - self.predict(u)
+        white, values = self._noise_levels(u)
+        if self.noise == "white":
+            return residual / white
+        innovation, variance = self._innovations(
+            residual, white, values["sigma_gm_deg_h"], values["tau_gm_s"]
+        )
+        return innovation / jnp.sqrt(variance)
+
     def _innovations(self, residual, white, sd_gm, tau_s):
         return gauss_markov_innovations(residual, self.steps_s, white, sd_gm, tau_s)
 
@@ -225,10 +261,12 @@ class BenchProblem(eqx.Module):
 
     def prior_residuals(self, u: Float[Array, " d"]) -> Float[Array, " d"]:
         """Standardised prior residuals: ``-0.5 * sum(r**2)`` is the log prior + const."""
-        return jnp.stack([_prior_residual(prior, u[i]) for i, prior in enumerate(self.priors)])
+        return self.prior_on * (u - self.prior_loc) / self.prior_scale
 
     def log_prior(self, u: Float[Array, " d"]) -> Float[Array, ""]:
-        return sum(prior.log_density(u[i]) for i, prior in enumerate(self.priors))
+        r = self.prior_residuals(u)
+        return jnp.sum(-0.5 * r**2 - self.prior_on * (jnp.log(self.prior_scale)
+                                                       + 0.5 * _LOG_2PI))
 
     def log_posterior(self, u: Float[Array, " d"]) -> Float[Array, ""]:
         value = self.log_likelihood(u) + self.log_prior(u)
@@ -265,12 +303,23 @@ def gauss_markov_innovations(residual, steps_s, white, sd_gm, tau_s):
     return innovation, variance
 
 
-def _prior_residual(prior: Prior, u: Float[Array, ""]) -> Float[Array, ""]:
-    if isinstance(prior, Flat):
-        return jnp.zeros(())
-    if isinstance(prior, LogNormal):
-        return (u - math.log(prior.median)) / prior.log_sd
-    return (u - prior.loc) / prior.scale
+def _prior_arrays(priors, positive) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Priors to (loc, scale, on) of normal densities on the sampling coordinates."""
+    loc, scale, on = [], [], []
+    for prior, pos in zip(priors, positive, strict=True):
+        if isinstance(prior, Flat):
+            loc.append(0.0), scale.append(1.0), on.append(0.0)
+        elif isinstance(prior, LogNormal):
+            if not pos:
+                raise GyroidInputError(f"a log-normal prior ({prior.describe()}) needs a "
+                                       "positive parameter; use normal(MU,SD)")
+            loc.append(math.log(prior.median)), scale.append(prior.log_sd), on.append(1.0)
+        else:
+            if pos:
+                raise GyroidInputError(f"a normal prior ({prior.describe()}) on a positive "
+                                       "parameter: use lognormal(MEDIAN,LOG_SD)")
+            loc.append(prior.loc), scale.append(prior.scale), on.append(1.0)
+    return np.asarray(loc), np.asarray(scale), np.asarray(on)
 
 
 def _noise_names(noise: str, sigma_known: bool) -> tuple[str, ...]:

@@ -12,7 +12,13 @@ from gyroid.drift import DriftModel
 from gyroid.errors import GyroidInputError
 from gyroid.inputs import FIELD_COLUMNS, T0_C, DriftInputs, build_inputs
 from gyroid.outputs import atomic_write_text
-from gyroid.tables import check_time_increasing, read_csv_table
+from gyroid.tables import (
+    PLAUSIBLE,
+    ColumnMap,
+    check_plausible,
+    check_time_increasing,
+    read_log_table,
+)
 
 #: Columns of a bench log that gyroid reads, in the order it writes them.
 BENCH_COLUMNS = ("time_s", "drift_deg_h", "temperature_C", *FIELD_COLUMNS, "sigma_deg_h")
@@ -68,21 +74,34 @@ def check_temperature_celsius(values: np.ndarray, where: str = "temperature_C") 
         )
 
 
+ROLL_SIGNATURE = ("roll_rate_deg_s", "gs_angle_deg")
+
+
 def load_bench_log(
     path: str | Path,
     terms: str | Iterable[str] | DriftModel | None = None,
     *,
     t0_C: float = T0_C,
+    column_map: Iterable[ColumnMap] = (),
 ) -> BenchLog:
-    """Read and validate a bench log for a model with the given terms.
+    """Read and validate a bench log (.csv, .csv.gz, .parquet) for a model with the terms.
 
-    ``time_s`` and ``drift_deg_h`` are always needed; the terms add their columns. Every
-    needed column must be numeric and finite in every row; time must increase strictly;
-    temperatures must be in degC; ``sigma_deg_h``, where present, must be positive; the
-    selected terms must be identifiable on the log. The first problem found ends the load
-    with a :class:`GyroidInputError` that names the row or column.
+    ``time_s`` and ``drift_deg_h`` are always needed; the terms add their columns;
+    ``column_map`` reads a vendor's columns and units as contract columns (``--map``). Every
+    needed column must be numeric, finite and plausible in every row; time must increase
+    strictly; temperatures must be in degC; ``sigma_deg_h``, where present, must be
+    positive; the selected terms must be identifiable on the log. The first problem found
+    ends the load with a :class:`GyroidInputError` that names the row or column.
     """
-    table = read_csv_table(path)
+    table = read_log_table(path, tuple(column_map))
+    if not table.has("drift_deg_h") and all(table.has(c) for c in ROLL_SIGNATURE):
+        raise GyroidInputError(f"{table.path.name} is a roll log (it has roll_rate_deg_s and "
+                               "gs_angle_deg, no drift_deg_h): use 'gyroid roll fit' (or "
+                               "'gyroid discrepancy' with roll terms)")
+    if len(table.header) == 1:
+        raise GyroidInputError(f"{table.path.name}: the header has a single column "
+                               f"{table.header[0]!r}; gyroid reads comma-, semicolon- or "
+                               "tab-separated logs")
     if terms is None:
         model = None
     elif isinstance(terms, DriftModel):
@@ -92,8 +111,18 @@ def load_bench_log(
     needed = ["time_s", "drift_deg_h"]
     if model is not None:
         needed += [c for c in model.columns if c not in needed]
-    columns: dict[str, np.ndarray] = {name: table.number_column(name) for name in needed}
-    if "sigma_deg_h" in table.header:
+    advice = {
+        "time_s": "every log needs the sample time in s; map yours with --map "
+                  "time_s=COLUMN[:UNIT] (units s, ms, us, ns, min, h)",
+        "drift_deg_h": "gyroid always needs the measured drift (gyro output minus the known "
+                       "input rate); map your gyro's column with --map "
+                       "drift_deg_h=COLUMN[:UNIT] (units deg/h, deg/s, mdps, rad/s)",
+    }
+    columns: dict[str, np.ndarray] = {}
+    for name in needed:
+        columns[name] = table.number_column(name, advice.get(name))
+        check_plausible(table, name, columns[name])
+    if table.has("sigma_deg_h"):
         sigma = table.number_column("sigma_deg_h")
         bad = np.flatnonzero(sigma <= 0)
         if bad.size:
@@ -102,12 +131,13 @@ def load_bench_log(
                 f"{sigma[bad[0]]:g} is not a positive noise level; fix it or drop the column "
                 "to let gyroid estimate the noise"
             )
+        check_plausible(table, "sigma_deg_h", sigma)
         columns["sigma_deg_h"] = sigma
     # Known context columns that are clean are kept (e.g. for residual diagnostics).
     for name in BENCH_COLUMNS:
         if name not in columns:
             values = table.try_number_column(name)
-            if values is not None:
+            if values is not None and np.all(np.abs(values) < PLAUSIBLE.get(name, 1e12)):
                 columns[name] = values
     check_time_increasing(table, columns["time_s"])
     if "temperature_C" in needed:

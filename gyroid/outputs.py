@@ -54,16 +54,25 @@ def output_dir(out: str | Path) -> Iterator[Path]:
     does not write are left as they are; each written file replaces its old version
     atomically.
     """
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    if out.exists() and not out.is_dir():
-        from gyroid.errors import GyroidInputError
+    from gyroid.errors import GyroidInputError
 
+    out = Path(out)
+    if out.exists() and not out.is_dir():
         raise GyroidInputError(f"--out {out} is a file; give a folder")
-    staging = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.staging-"))
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        staging = Path(tempfile.mkdtemp(dir=out.parent, prefix=f".{out.name}.staging-"))
+    except OSError as error:
+        raise GyroidInputError(f"--out {out}: cannot write there ({error.strerror or error}); "
+                               "choose a folder you can write to") from None
     try:
         yield staging
-        out.mkdir(exist_ok=True)
+        try:
+            out.mkdir(exist_ok=True)
+        except OSError as error:
+            raise GyroidInputError(f"--out {out}: cannot write there "
+                                   f"({error.strerror or error}); choose a folder you can "
+                                   "write to") from None
         for item in sorted(staging.rglob("*")):
             target = out / item.relative_to(staging)
             if item.is_dir():

@@ -120,7 +120,8 @@ def _starts(problem: BenchProblem) -> list[np.ndarray]:
     positive = [i for i, flag in enumerate(problem.positive[: problem.n_model]) if flag]
     if not positive:
         return [np.zeros(problem.n_model)]
-    medians = [math.log(problem.priors[i].median) for i in positive]
+    # The registry's (physical) medians, whatever prior the fit uses (a flat one has none).
+    medians = [math.log(problem.model.parameters[i].prior.median) for i in positive]
     starts = []
     for combo in itertools.product(START_GRID, repeat=len(positive)):
         u = np.zeros(problem.n_model)
@@ -143,13 +144,20 @@ def _linear_gaussian(problem: BenchProblem) -> PointEstimate:
             precision[i], mean[i] = 1.0 / prior.scale**2, prior.loc
     known = problem.sigma is not None
     scale = 1.0 if known else math.sqrt(float(problem.rss_min) / max(n - p, 1))
-    for _ in range(1 if known else 2):
+    # Unknown noise: the mode's coefficients and scale solve each other; iterate to the
+    # fixed point (a prior that disagrees with the log takes more than two rounds).
+    for _ in range(1 if known else 200):
         a = gram / scale**2 + np.diag(precision)
         theta = np.linalg.solve(a, gram @ solution / scale**2 + precision * mean)
         delta = theta - solution
         rss = float(problem.rss_min) + float(delta @ gram @ delta)
-        if not known:
-            scale = math.sqrt(rss / max(n - p, 1))
+        if known:
+            break
+        new_scale = math.sqrt(rss / max(n - p, 1))
+        done = abs(new_scale - scale) <= 1e-12 * scale
+        scale = new_scale
+        if done:
+            break
     covariance = np.linalg.inv(gram / scale**2 + np.diag(precision))
     u, cov = theta, covariance
     if problem.noise_names:

@@ -24,6 +24,7 @@ import numpy as np
 
 from gyroid import paper_b as pb
 from gyroid._arviz import arviz as az
+from gyroid.derived import RATE_WINDOW_S
 from gyroid.drift import DriftModel
 from gyroid.errors import GyroidInputError
 from gyroid.flight import environment
@@ -118,6 +119,8 @@ class FittedDrift:
     model: DriftModel
     draws: np.ndarray  # (m, p)
     t0_C: float
+    rate_window_s: float = RATE_WINDOW_S  # the fit's dT/dt estimator window, s
+    trustworthy: bool = True  # the fit's own verdict (fit.json)
 
     @classmethod
     def from_dir(cls, folder: str | Path) -> FittedDrift:
@@ -131,7 +134,9 @@ class FittedDrift:
         model = DriftModel.from_terms(fit["terms"])
         posterior = az.from_netcdf(str(netcdf)).posterior
         columns = [np.asarray(posterior[name]).reshape(-1) for name in model.parameter_names]
-        return cls(model=model, draws=np.column_stack(columns), t0_C=fit.get("t0_C", T0_C))
+        return cls(model=model, draws=np.column_stack(columns), t0_C=fit.get("t0_C", T0_C),
+                   rate_window_s=float(fit.get("rate_window_s", RATE_WINDOW_S)),
+                   trustworthy=bool(fit.get("trustworthy", True)))
 
 
 def flight_environment(scenario: Scenario, t0_C: float = T0_C) -> DriftInputs:

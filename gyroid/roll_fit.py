@@ -28,9 +28,10 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
+from gyroid.checks import CheckReport, FitEvidence, fit_checks
 from gyroid.errors import GyroidInputError
 from gyroid.priors import LogNormal, Normal, Prior, natural_with_sd
-from gyroid.tables import check_time_increasing, read_csv_table
+from gyroid.tables import check_plausible, check_time_increasing, read_log_table
 
 _LOG_2PI = math.log(2.0 * math.pi)
 DEG = math.pi / 180.0
@@ -84,18 +85,33 @@ class RollLog:
     gs_angle_deg: np.ndarray
     gs_rate_deg_s: np.ndarray | None
     source: str = "<memory>"
+    notes: tuple[str, ...] = ()  # what loading changed (e.g. an unwrapped encoder angle)
 
     @property
     def n(self) -> int:
         return int(self.time_s.size)
 
 
-def load_roll_log(path) -> RollLog:
-    """Read and validate a roll log (contract section 4)."""
-    table = read_csv_table(path)
+def load_roll_log(path, column_map=()) -> RollLog:
+    """Read and validate a roll log (contract section 4; .csv, .csv.gz or .parquet).
+
+    A stabiliser angle that wraps (to [0, 360) or by one whole turn somewhere) is unwrapped
+    with a note when every jump is a whole number of turns away from what the SINS rate
+    predicts; a jump that is not is refused, naming its row."""
+    table = read_log_table(path, tuple(column_map))
+    if table.has("drift_deg_h") and not table.has("roll_rate_deg_s"):
+        raise GyroidInputError(f"{table.path.name} is a bench log (it has drift_deg_h, no "
+                               "roll_rate_deg_s): use 'gyroid fit' or 'gyroid discrepancy' "
+                               "with drift terms")
     time_s = table.number_column("time_s")
-    columns = {name: table.number_column(name) for name in ("roll_rate_deg_s", "gs_angle_deg")}
-    gs_rate = table.number_column("gs_rate_deg_s") if "gs_rate_deg_s" in table.header else None
+    columns = {name: table.number_column(name, "a roll log needs roll_rate_deg_s and "
+                                               "gs_angle_deg (contract section 4); map yours "
+                                               f"with --map {name}=COLUMN[:UNIT]")
+               for name in ("roll_rate_deg_s", "gs_angle_deg")}
+    gs_rate = table.number_column("gs_rate_deg_s") if table.has("gs_rate_deg_s") else None
+    for name, values in (("time_s", time_s), *columns.items(),
+                         *((("gs_rate_deg_s", gs_rate),) if gs_rate is not None else ())):
+        check_plausible(table, name, values)
     check_time_increasing(table, time_s)
     steps = np.diff(time_s)
     if steps.size and np.ptp(steps) > 1e-6 * np.median(steps):
@@ -104,8 +120,42 @@ def load_roll_log(path) -> RollLog:
                                f"step changes at {table.where(bad)}; resample the log")
     if table.n_rows < 50:
         raise GyroidInputError(f"{table.path.name}: {table.n_rows} rows are too few for a fit")
-    return RollLog(time_s, columns["roll_rate_deg_s"], columns["gs_angle_deg"], gs_rate,
-                   str(table.path))
+    angle, notes = unwrap_gs_angle(table, time_s, columns["roll_rate_deg_s"],
+                                   columns["gs_angle_deg"])
+    return RollLog(time_s, columns["roll_rate_deg_s"], angle, gs_rate, str(table.path),
+                   tuple(notes))
+
+
+#: A stabiliser-angle step further than this from the SINS-predicted step is a jump, deg.
+JUMP_TOLERANCE_DEG = 45.0
+
+
+def unwrap_gs_angle(table, time_s, roll_rate_deg_s, gs_angle_deg
+                    ) -> tuple[np.ndarray, list[str]]:
+    """Unwrap whole-turn jumps of the encoder angle (see :func:`load_roll_log`)."""
+    dt = np.diff(time_s)
+    predicted = 0.5 * (roll_rate_deg_s[1:] + roll_rate_deg_s[:-1]) * dt
+    surprise = np.diff(gs_angle_deg) - predicted
+    jumps = np.flatnonzero(np.abs(surprise) > JUMP_TOLERANCE_DEG)
+    if not jumps.size:
+        return gs_angle_deg, []
+    turns = np.round(surprise[jumps] / 360.0)
+    off = np.abs(surprise[jumps] - 360.0 * turns)
+    bad = jumps[(turns == 0) | (off > JUMP_TOLERANCE_DEG)]
+    if bad.size:
+        i = int(bad[0]) + 1
+        raise GyroidInputError(
+            f"{table.path.name}: gs_angle_deg jumps by {np.diff(gs_angle_deg)[i - 1]:.6g} deg at "
+            f"{table.where(i)} where the roll rate predicts {predicted[i - 1]:.6g} deg: not a "
+            "whole turn, so it cannot be unwrapped; fix the encoder log (gyroid needs the "
+            "unwrapped angle)")
+    correction = np.zeros(gs_angle_deg.size)
+    correction[jumps + 1] = -360.0 * turns
+    unwrapped = gs_angle_deg + np.cumsum(correction)
+    first = int(jumps[0]) + 1
+    note = (f"gs_angle_deg was wrapped: {jumps.size} whole-turn jump(s), the first at "
+            f"{table.where(first)}; unwrapped with the SINS rate as a guide")
+    return unwrapped, [note]
 
 
 #: Every roll-side parameter in one fixed order. The likelihood reads a model's parameters
@@ -176,7 +226,9 @@ class RollDensity(eqx.Module):
         """The stabiliser's angle at every sample, deg."""
         return self._predict_rows(v, slice(None))
 
-    def log_likelihood_rows(self, v):
+    def innovations(self, v):
+        """Kalman innovations of the stabiliser angle at the observed rows and their
+        variances, deg and deg^2."""
         p = self.parameters(v)
         residual = self.gs_angle[self.observed] - self._predict_rows(v, self.observed)
         steps = jnp.diff(self.observed, prepend=-1)  # rows since the previous observation
@@ -195,6 +247,11 @@ class RollDensity(eqx.Module):
 
         _, (innovation, total) = jax.lax.scan(kalman, (jnp.zeros(()), jnp.zeros(())),
                                               (residual, q))
+        return innovation, total
+
+    def log_likelihood_rows(self, v):
+        p = self.parameters(v)
+        innovation, total = self.innovations(v)
         rows = -0.5 * (innovation**2 / total + jnp.log(total) + _LOG_2PI)
         # Ideal stabiliser: every MEMS sample observes D0gs, m ~ N(D0gs, sigma_m); the
         # samples' log-densities summed onto the observed row that owns them.
@@ -235,6 +292,11 @@ class ModelDensity(eqx.Module):
 
     def log_likelihood_rows(self, u):
         return self.full.log_likelihood_rows(self.spread(u))
+
+    def standardised_residuals(self, u):
+        """Innovations over their sd: independent N(0, 1) when the model is right."""
+        innovation, total = self.full.innovations(self.spread(u))
+        return innovation / jnp.sqrt(total)
 
     def log_likelihood_blocks(self, u):
         return self.full.log_likelihood_blocks(self.spread(u))
@@ -478,6 +540,12 @@ class RollFit:
     point: RollPoint
     posterior: object
     summary: dict = field(default_factory=dict)
+    checks: CheckReport = field(default_factory=lambda: CheckReport(()))
+    notes: tuple[str, ...] = ()
+
+    @property
+    def trustworthy(self) -> bool:
+        return self.checks.trustworthy
 
     def to_json(self) -> dict:
         post = self.posterior
@@ -529,6 +597,8 @@ class RollFit:
             "units": {"D0": "deg/s", "D1": "relative", "D0gs": "deg/s", "D1gs": "relative",
                       "Denc": "deg", "psi0": "deg", "sigma_gs_deg": "deg",
                       "sigma_sins_deg_s": "deg/s"},
+            "notes": list(self.notes),
+            **self.checks.to_json(),
         }
 
 
@@ -538,7 +608,37 @@ def fit_roll_log(log: RollLog, *, seed: int = 0, settings=None) -> RollFit:
     problem = RollProblem.from_log(log)
     point = roll_point_estimate(problem)
     posterior = sample_posterior(problem, point, seed=seed, settings=settings)
-    return RollFit(problem, point, posterior)
+    fit = RollFit(problem, point, posterior, notes=log.notes)
+    fit.checks = fit_checks(roll_evidence(fit))
+    return fit
+
+
+_ROLL_HINTS = {
+    "D1": "D1 needs a flight whose roll angle advances further (a longer or faster roll)",
+    "D0": "D0 needs the stabiliser's MEMS output (gs_rate_deg_s) from an ideal stabiliser",
+    "D0gs": "D0gs needs the stabiliser's MEMS output (gs_rate_deg_s)",
+    "D1gs": "D1gs needs a stabiliser that is overloaded for part of the flight",
+    "enc_a": "the encoder error needs whole turns of roll", "enc_b": "the encoder error "
+    "needs whole turns of roll",
+}
+
+
+def roll_evidence(fit: RollFit) -> FitEvidence:
+    """What the self-checks need from a roll fit (its priors are physical, so they are also
+    the identifiability yardstick)."""
+    problem, point, post = fit.problem, fit.point, fit.posterior
+    n_model = sum(not n.startswith("sigma_") for n in problem.names)
+    draws_u = np.asarray(problem.to_sampling(jnp.asarray(post.draws)))
+    reference = {n: _normal_on_u(p)[1] for n, p in zip(problem.names, problem.priors,
+                                                       strict=True)}
+    residuals = np.asarray(problem.density.standardised_residuals(jnp.asarray(point.u)))
+    return FitEvidence(
+        names=problem.names, n_model=n_model, point_u=np.asarray(point.u),
+        point_converged=point.converged, point_message=point.message,
+        priors=problem.priors, reference_sd=reference, residuals=residuals,
+        sigma_given=False, noise="white", draws_u=draws_u, summary=post.summary,
+        hints=_ROLL_HINTS,
+    )
 
 
 # ----- the discrepancy workflow on roll logs ------------------------------------------------

@@ -1,0 +1,133 @@
+"""The self-checks against cases whose answer is known (white and correlated noise, priors
+that do or do not disagree with the data), and the contract's JSON shape."""
+
+import numpy as np
+import pytest
+
+from gyroid.checks import (
+    Check,
+    CheckReport,
+    FitEvidence,
+    block_variance_ratios,
+    fit_checks,
+    goodness_of_fit,
+    identifiability,
+    point_vs_posterior,
+    prior_data_conflict,
+    residual_whiteness,
+)
+from gyroid.priors import Flat, Normal
+
+
+def _ar1(rng, n, phi):
+    e = rng.standard_normal(n)
+    x = np.empty(n)
+    x[0] = e[0]
+    for i in range(1, n):
+        x[i] = phi * x[i - 1] + np.sqrt(1 - phi**2) * e[i]
+    return x
+
+
+def _evidence(draws, point, priors, *, residuals=None, sigma_given=False, reference=None,
+              names=("a",)):
+    return FitEvidence(
+        names=names, n_model=len(names), point_u=np.asarray(point, dtype=float),
+        point_converged=True, point_message="converged", priors=tuple(priors),
+        reference_sd=reference or {}, residuals=residuals, sigma_given=sigma_given,
+        noise="white", draws_u=np.asarray(draws, dtype=float)[None, :, :],
+        summary={n: {"r_hat": 1.0, "ess_bulk": 1000.0} for n in names},
+        hints={"a": "a needs a log in which x varies"},
+    )
+
+
+def test_white_noise_passes_the_whiteness_test_at_the_stated_rate():
+    """40 white series of 20 000: at Bonferroni p = 1e-4 the chance of any failure is 0.4 %."""
+    rng = np.random.default_rng(1)
+    results = [residual_whiteness(rng.standard_normal(20_000)) for _ in range(40)]
+    assert all(r.passed for r in results)
+
+
+def test_block_variance_ratio_is_one_for_white_noise_and_large_for_ar1():
+    rng = np.random.default_rng(2)
+    white = block_variance_ratios(rng.standard_normal(2**16))
+    # chi2(B-1)/(B-1) with B >= 16 blocks: within 5 sd of 1 at every scale.
+    assert all(abs(r - 1) < 5 * np.sqrt(2 / (b - 1)) for _, r, b in white)
+    # AR(1), phi = 0.99: the variance of long averages is (1 + phi) / (1 - phi) = 199 times.
+    correlated = dict((m, r) for m, r, _ in block_variance_ratios(_ar1(rng, 2**16, 0.99)))
+    assert correlated[2048] > 50
+
+
+def test_correlated_residuals_fail_as_an_error_under_white_noise_and_warn_under_gm():
+    rng = np.random.default_rng(3)
+    z = _ar1(rng, 20_000, 0.9)
+    check = residual_whiteness(z)
+    assert not check.passed and check.severity == "error"
+    assert "--noise white+gm" in check.message
+    assert residual_whiteness(z, correlated_noise_modelled=True).severity == "warning"
+
+
+def test_goodness_of_fit_against_a_stated_sigma():
+    rng = np.random.default_rng(4)
+    z = rng.standard_normal(20_000)
+    ok = goodness_of_fit(_evidence(np.zeros((10, 1)), [0.0], [Flat()], residuals=z,
+                                   sigma_given=True))
+    assert ok.passed
+    bad = goodness_of_fit(_evidence(np.zeros((10, 1)), [0.0], [Flat()], residuals=3 * z,
+                                    sigma_given=True))
+    assert not bad.passed and bad.severity == "error" and bad.value == pytest.approx(3, 0.02)
+    mild = goodness_of_fit(_evidence(np.zeros((10, 1)), [0.0], [Flat()], residuals=1.1 * z,
+                                     sigma_given=True))
+    assert not mild.passed and mild.severity == "warning"
+    unknown = goodness_of_fit(_evidence(np.zeros((10, 1)), [0.0], [Flat()], residuals=3 * z))
+    assert unknown.passed
+
+
+def test_a_prior_that_fights_the_data_is_an_error_and_a_misplaced_one_a_warning():
+    rng = np.random.default_rng(5)
+    # Posterior N(-1500, 1) under a N(0, 10) prior: pull = 1 * 1500 / 100 = 15 posterior sd.
+    draws = rng.normal(-1500.0, 1.0, size=(4000, 1))
+    check = prior_data_conflict(_evidence(draws, [-1500.0], [Normal(0.0, 10.0)]))
+    assert not check.passed and check.severity == "error"
+    assert check.value == pytest.approx(15.0, rel=0.05)
+    # Posterior N(-40, 0.1) under N(0, 10): 4 prior sd away, pull 0.04 posterior sd.
+    draws = rng.normal(-40.0, 0.1, size=(4000, 1))
+    check = prior_data_conflict(_evidence(draws, [-40.0], [Normal(0.0, 10.0)]))
+    assert not check.passed and check.severity == "warning"
+    assert prior_data_conflict(_evidence(draws, [-40.0], [Flat()])).passed
+
+
+def test_point_and_posterior_must_agree():
+    rng = np.random.default_rng(6)
+    draws = rng.normal(0.0, 1.0, size=(4000, 1))
+    assert point_vs_posterior(_evidence(draws, [0.1], [Flat()])).passed
+    far = point_vs_posterior(_evidence(draws, [5.0], [Flat()]))
+    assert not far.passed and far.severity == "error" and far.value == pytest.approx(5, 0.1)
+
+
+def test_identifiability_names_the_coefficient_and_what_to_vary():
+    rng = np.random.default_rng(7)
+    draws = rng.normal(0.0, 170.0, size=(4000, 1))
+    check = identifiability(_evidence(draws, [0.0], [Flat()], reference={"a": 200.0}))
+    assert not check.passed and check.severity == "error"
+    assert "does not identify a" in check.message and "x varies" in check.message
+    assert identifiability(_evidence(draws, [0.0], [Flat()], reference={"a": 2e4})).passed
+
+
+def test_report_json_has_the_contract_shape_and_verdict():
+    rng = np.random.default_rng(8)
+    evidence = _evidence(rng.normal(size=(4000, 1)), [0.0], [Normal(0.0, 10.0)],
+                         residuals=rng.standard_normal(5000), reference={"a": 10.0})
+    report = fit_checks(evidence)
+    data = report.to_json()
+    assert data["trustworthy"] is True
+    for name in ("convergence", "point_vs_posterior", "prior_data_conflict", "goodness_of_fit",
+                 "residual_whiteness", "identifiability"):
+        entry = data["checks"][name]
+        assert set(entry) == {"passed", "severity", "value", "threshold", "message"}
+        assert entry["severity"] in ("error", "warning")
+    warning = Check("x", False, "warning", 1.0, 0.5, "w")
+    error = Check("y", False, "error", 1.0, 0.5, "e")
+    assert (report + CheckReport((warning,))).trustworthy
+    combined = report + CheckReport((warning, error))
+    assert not combined.trustworthy
+    assert combined.lines()[0].startswith("error: y")

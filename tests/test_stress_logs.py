@@ -1,0 +1,102 @@
+"""Issue 13's failure modes on synthetic stress logs: every fit either recovers the truth
+within its intervals or says it must not be used (exit code 3)."""
+
+import json
+
+import numpy as np
+import pytest
+from helpers import fast_ramp_log, mems_burst_log, weak_field_log, write_log
+
+from gyroid.bench import simulate_magnetic_bench
+from gyroid.cli import main
+from gyroid.fit import fit_log
+from gyroid.logs import BenchLog
+from gyroid.noise import GyroNoise
+from gyroid.sampling import SamplerSettings
+
+QUICK = SamplerSettings(progress=False)
+
+
+def _within(result, truth, k=4.0):
+    return all(abs(result.posterior.summary[n]["mean"] - v) < k * result.posterior.summary[n]["sd"]
+               for n, v in truth.items())
+
+
+def test_mems_gyro_with_default_priors_is_recovered_and_trusted():
+    """Case 1: biases of thousands of deg/h. The default priors scale to the log."""
+    columns, truth = mems_burst_log(0)
+    result = fit_log(BenchLog(columns), "bias,temperature,temperature_sq", settings=QUICK)
+    assert result.trustworthy, result.checks.lines()
+    assert _within(result, truth)
+    assert result.checks.to_json()["checks"]["point_vs_posterior"]["value"] < 0.5
+
+
+def test_mems_gyro_under_fog_priors_is_refused(tmp_path, capsys):
+    """Case 1 as it was: paper A's FOG priors on a MEMS log must not give exit 0."""
+    columns, _ = mems_burst_log(0)
+    path = write_log(tmp_path / "mems.csv", columns)
+    code = main(["fit", str(path), "--terms", "bias,temperature,temperature_sq", "--out",
+                 str(tmp_path / "fit"), "--priors", "paper_a_fog", "--no-progress"])
+    assert code == 3
+    err = capsys.readouterr().err
+    assert "prior_data_conflict" in err and "NOT TRUSTWORTHY" in err
+    fit = json.loads((tmp_path / "fit" / "fit.json").read_text())
+    assert fit["trustworthy"] is False and fit["prior_set"] == "paper_a_fog"
+    assert fit["checks"]["prior_data_conflict"]["passed"] is False
+
+
+def test_fast_ramps_are_recovered_or_refused():
+    """Case 2: 15-minute ramps. The fixed 1200 s window smears every kink: the checks must
+    refuse that fit; the automatic window must recover the truth or refuse too."""
+    columns, truth = fast_ramp_log(1)
+    fixed = fit_log(BenchLog(columns), "thermal", rate_window_s=1200.0, settings=QUICK)
+    assert not fixed.trustworthy
+    assert not fixed.checks.to_json()["checks"]["goodness_of_fit"]["passed"]
+    auto = fit_log(BenchLog(columns), "thermal", settings=QUICK)
+    assert auto.problem.rate_window_s < 1200.0
+    assert (auto.trustworthy and _within(auto, truth)) or not auto.trustworthy
+
+
+def test_white_noise_model_on_correlated_noise_is_refused():
+    """Case 3: --noise white on Gauss-Markov noise: the intervals would be far too narrow."""
+    sim = simulate_magnetic_bench(seed=4, noise=GyroNoise(bias_instability_deg_h=0.1,
+                                                          correlation_time_s=300.0))
+    white = fit_log(sim.log, "magnetic", sample=False)
+    check = white.checks.to_json()["checks"]["residual_whiteness"]
+    assert not white.trustworthy and not check["passed"] and check["severity"] == "error"
+    gm = fit_log(sim.log, "magnetic", noise="white+gm", sample=False)
+    assert gm.checks.to_json()["checks"]["residual_whiteness"]["severity"] == "warning"
+    assert gm.trustworthy
+
+
+def test_magnetic_terms_on_a_weak_field_are_not_identified():
+    """Case 4: a field that varied by +/-2 uT cannot identify the magnetic coefficients."""
+    columns, _ = weak_field_log(2)
+    result = fit_log(BenchLog(columns), "magnetic", noise="white+gm", settings=QUICK)
+    check = result.checks.to_json()["checks"]["identifiability"]
+    assert not check["passed"] and check["severity"] == "error", check
+    assert "Hx_uT varies more" in check["message"] or "Hy_uT" in check["message"]
+    assert not result.trustworthy
+
+
+@pytest.mark.parametrize("fmt", ["csv", "csv.gz", "parquet"])
+def test_formats_read_alike(tmp_path, fmt):
+    from gyroid.logs import load_bench_log
+
+    columns, _ = mems_burst_log(3, hours=0.5)
+    path = write_log(tmp_path / "log.csv", columns)
+    if fmt == "csv.gz":
+        import gzip
+
+        target = tmp_path / "log.csv.gz"
+        target.write_bytes(gzip.compress(path.read_bytes()))
+    elif fmt == "parquet":
+        import pyarrow as pa
+        import pyarrow.parquet as pq
+
+        target = tmp_path / "log.parquet"
+        pq.write_table(pa.table(columns), target)
+    else:
+        target = path
+    log = load_bench_log(target, "bias,temperature")
+    np.testing.assert_allclose(log.drift_deg_h, columns["drift_deg_h"], rtol=1e-9)
