@@ -99,6 +99,7 @@ def test_console_script_exit_code_and_no_traceback(tmp_path):
     assert result.stderr.count("\n") == 1
 
 
+@pytest.mark.slow
 def test_reduced_demo_writes_a_report_whose_figures_exist(tmp_path):
     import re
 

@@ -44,6 +44,7 @@ def _roll_log(duration_s: float) -> RollLog:
     return RollLog(c["time_s"], c["roll_rate_deg_s"], c["gs_angle_deg"], c["gs_rate_deg_s"])
 
 
+@pytest.mark.slow
 def test_roll_candidate_models_share_one_optimiser(compile_log):
     log = _roll_log(7.3)  # a length no other test uses
     fits = [roll_point_estimate(RollProblem.from_log(log, terms))

@@ -10,6 +10,8 @@ from gyroid.bench import simulate_magnetic_bench, simulate_thermal_bench
 from gyroid.cli import main
 from gyroid.discrepancy import find_discrepancies
 
+pytestmark = pytest.mark.slow  # the whole module: end-to-end fits
+
 HIDDEN_THERMAL = {
     "warmup": {"w_warmup": 1.0, "tau_warmup_min": 20.0},
     "time_trend": {"w_trend": 0.05},

@@ -10,6 +10,8 @@ from gyroid.cli import main
 from gyroid.flight import FlightProfile, roll_log_text, simulate_flight
 from gyroid.roll_fit import RollLog, find_roll_discrepancies
 
+pytestmark = pytest.mark.slow  # the whole module: end-to-end fits
+
 SHORT = FlightProfile(duration_s=40.0)
 
 

@@ -6,6 +6,8 @@ import pytest
 
 from gyroid.cli import main
 
+pytestmark = pytest.mark.slow  # the whole module: end-to-end fits
+
 
 @pytest.fixture(scope="module")
 def fitted(tmp_path_factory):
