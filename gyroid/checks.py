@@ -40,13 +40,13 @@ Thresholds and where they come from:
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
 
-from gyroid.priors import Flat, LogNormal, Normal, Prior
+from gyroid.priors import LogNormal, Normal, Prior
 
 Severity = Literal["error", "warning"]
 
@@ -348,8 +348,3 @@ def identifiability(evidence: FitEvidence) -> Check:
                  f"this log does not identify {', '.join(poor)} (posterior sd up to "
                  f"{100 * worst:.0f} % of the reference scale): "
                  + (hints or "use a log that exercises them, or drop their terms"))
-
-
-def describe_priors(names: Sequence[str], priors: Sequence[Prior]) -> dict[str, str]:
-    return {n: p.describe() if isinstance(p, Normal | LogNormal | Flat) else str(p)
-            for n, p in zip(names, priors, strict=True)}
