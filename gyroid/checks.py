@@ -223,11 +223,16 @@ def prior_data_conflict(evidence: FitEvidence) -> Check:
         worst_tail = max(worst_tail, (float(tail), name), key=lambda t: t[0])
     pull, name = worst_pull
     if name is not None and pull > PRIOR_PULL_SD:
-        prior = evidence.priors[evidence.names.index(name)]
-        return Check("prior_data_conflict", False, "error", pull, PRIOR_PULL_SD,
+        i = evidence.names.index(name)
+        prior = evidence.priors[i]
+        # A noise parameter held up by its prior (e.g. a Gauss-Markov level the log does not
+        # show) does not bias the coefficients: a warning; a coefficient's is an error.
+        severity: Severity = "error" if i < evidence.n_model else "warning"
+        form = "lognormal(MEDIAN,LOG_SD)" if isinstance(prior, LogNormal) else "normal(MU,SD)"
+        return Check("prior_data_conflict", False, severity, pull, PRIOR_PULL_SD,
                      f"the prior of {name} ({prior.describe()}) disagrees with the log and "
-                     f"pulls its posterior by {pull:.1f} posterior sd; widen it (--prior "
-                     f"{name}=normal(MU,SD)) or use the default log-scaled priors")
+                     f"pulls its posterior by {pull:.1f} posterior sd; widen it with --prior "
+                     f"{name}={form}, or choose another --priors set")
     tail, tail_name = worst_tail
     if tail_name is not None and tail > PRIOR_TAIL_SD:
         return Check("prior_data_conflict", False, "warning", tail, PRIOR_TAIL_SD,

@@ -16,7 +16,7 @@ from gyroid.checks import (
     prior_data_conflict,
     residual_whiteness,
 )
-from gyroid.priors import Flat, Normal
+from gyroid.priors import Flat, LogNormal, Normal
 
 
 def _ar1(rng, n, phi):
@@ -131,3 +131,17 @@ def test_report_json_has_the_contract_shape_and_verdict():
     combined = report + CheckReport((warning, error))
     assert not combined.trustworthy
     assert combined.lines()[0].startswith("error: y")
+
+
+def test_a_noise_parameter_held_up_by_its_prior_is_only_a_warning():
+    rng = np.random.default_rng(9)
+    draws = np.column_stack([rng.normal(0.0, 1.0, 4000), rng.normal(-6.0, 1.5, 4000)])
+    evidence = FitEvidence(
+        names=("a", "sigma_gm_deg_h"), n_model=1, point_u=np.array([0.0, -6.0]),
+        point_converged=True, point_message="converged",
+        priors=(Flat(), LogNormal(0.1, 3.0)),
+        reference_sd={}, residuals=None, sigma_given=False, noise="white+gm",
+        draws_u=draws[None], summary=None)
+    check = prior_data_conflict(evidence)
+    assert not check.passed and check.severity == "warning"
+    assert "lognormal(" in check.message
