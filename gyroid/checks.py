@@ -32,6 +32,14 @@ Thresholds and where they come from:
   coefficient, is underrated. Above 2 (intervals at least 1.4x too narrow) it is an error
   under a white-noise model, else a warning. (Correlated noise ratios reach 10-30 at
   hundreds of samples; the rate estimator's smoothing on paper A's bench gives ~1.8.)
+  A log with gaps (burst sampling) adds one more member to the family: the segments
+  themselves as blocks, ``sum n_k (mean_k - mean)**2 / (K - 1)`` over K segments, the same
+  ratio for unequal blocks. Bias wander between bursts shows there and nowhere else.
+* outliers: a standardised residual beyond ``z_max``, where white Gaussian noise leaves
+  one of n samples out with probability 0.01 (``z_max = Phi^-1(1 - 0.005 / n)``, 4.9 for
+  n = 6000). Each moves a bias-like coefficient by ``z / sqrt(n)`` posterior sd; when the
+  outliers together move it by more than 1 posterior sd it is an error (spikes decide the
+  answer), else a warning naming the rows.
 * identifiability: a coefficient's posterior sd over its reference scale (the default
   prior's sd, set from the log's drift scale and the regressor's physical span: see
   :mod:`gyroid.prior_scales`). Above 0.5 the log does not pin the coefficient down.
@@ -40,13 +48,13 @@ Thresholds and where they come from:
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Literal
 
 import numpy as np
 
-from gyroid.priors import LogNormal, Normal, Prior
+from gyroid.priors import Flat, LogNormal, Normal, Prior
 
 Severity = Literal["error", "warning"]
 
@@ -60,6 +68,8 @@ GOF_SCALE_ERROR = 1.2
 WHITENESS_P = 1e-4
 WHITENESS_INFLATION = 2.0
 IDENTIFIED_RATIO = 0.5
+OUTLIER_FALSE_ALARM = 0.01
+OUTLIER_SHIFT_SD = 1.0
 
 
 @dataclass(frozen=True)
@@ -99,6 +109,12 @@ class CheckReport:
         return {"checks": {c.name: c.to_json() for c in self.checks},
                 "trustworthy": self.trustworthy}
 
+    @classmethod
+    def from_json(cls, record: Mapping) -> CheckReport:
+        """Back from a result's JSON (its ``"checks"`` mapping)."""
+        return cls(tuple(Check(name=name, **fields)
+                         for name, fields in record["checks"].items()))
+
     def lines(self) -> list[str]:
         """One line per failed check, errors first."""
         ordered = sorted(self.failed, key=lambda c: c.severity != "error")
@@ -119,7 +135,9 @@ class FitEvidence:
     lists every sampled parameter; the first ``n_model`` are model coefficients (checked
     for identifiability), the rest noise parameters. ``reference_sd`` gives, per model
     coefficient, the scale against which its posterior sd is judged. ``residuals`` are the
-    standardised residuals (or innovations), in time order.
+    standardised residuals (or innovations), in time order; ``segments`` the ``[start,
+    stop)`` index ranges of the log's contiguous stretches when it has gaps, and ``where``
+    turns a residual's index into the row it came from ('row 12 (line 13 of log.csv)').
     """
 
     names: tuple[str, ...]
@@ -135,6 +153,22 @@ class FitEvidence:
     draws_u: np.ndarray | None = None  # (walkers, draws, d)
     summary: Mapping[str, Mapping] | None = None  # r_hat, ess_bulk per name
     hints: Mapping[str, str] = field(default_factory=dict)  # per coefficient: what to vary
+    segments: tuple[tuple[int, int], ...] | None = None
+    where: Callable[[int], str] | None = None
+
+
+def point_fit_evidence(names: tuple[str, ...], n_model: int, point_u: np.ndarray,
+                       residuals: np.ndarray, *, noise: str, converged: bool = True,
+                       message: str = "converged",
+                       segments: tuple[tuple[int, int], ...] | None = None,
+                       where: Callable[[int], str] | None = None) -> FitEvidence:
+    """Evidence of a maximum-likelihood fit without priors or posterior (the discrepancy
+    workflow's): the checks that need draws report that they do not apply."""
+    return FitEvidence(names=tuple(names), n_model=n_model, point_u=np.asarray(point_u),
+                       point_converged=converged, point_message=message,
+                       priors=tuple(Flat() for _ in names), reference_sd={},
+                       residuals=np.asarray(residuals), sigma_given=False, noise=noise,
+                       segments=segments, where=where)
 
 
 def fit_checks(evidence: FitEvidence) -> CheckReport:
@@ -144,8 +178,9 @@ def fit_checks(evidence: FitEvidence) -> CheckReport:
         point_vs_posterior(evidence),
         prior_data_conflict(evidence),
         goodness_of_fit(evidence),
-        residual_whiteness(evidence.residuals, correlated_noise_modelled=evidence.noise
-                           not in ("white",)),
+        residual_whiteness(evidence.residuals, segments=evidence.segments,
+                           correlated_noise_modelled=evidence.noise not in ("white",)),
+        outliers(evidence.residuals, where=evidence.where),
         identifiability(evidence),
     ))
 
@@ -287,7 +322,25 @@ def block_variance_ratios(z: np.ndarray, min_blocks: int = 16
     return out
 
 
+def segment_variance_ratio(z: np.ndarray, segments: tuple[tuple[int, int], ...]
+                           ) -> tuple[float, int] | None:
+    """(``sum n_k (mean_k - mean)**2 / ((K - 1) var(z))``, K) over the log's K contiguous
+    segments: ``chi2(K-1)/(K-1)`` when ``z`` is white. None for fewer than 8 segments."""
+    if segments is None or len(segments) < 8:
+        return None
+    z = np.asarray(z, dtype=float)
+    z = z - z.mean()
+    var = float(np.mean(z**2))
+    if var <= 0:
+        return None
+    sizes = np.array([b - a for a, b in segments], dtype=float)
+    means = np.array([z[a:b].mean() for a, b in segments])
+    k = len(segments)
+    return float(np.sum(sizes * means**2) / ((k - 1) * var)), k
+
+
 def residual_whiteness(residuals: np.ndarray | None, *,
+                       segments: tuple[tuple[int, int], ...] | None = None,
                        correlated_noise_modelled: bool = False) -> Check:
     """Block-variance test of standardised residuals (see the module docstring)."""
     from scipy import stats
@@ -296,7 +349,11 @@ def residual_whiteness(residuals: np.ndarray | None, *,
     if residuals is None or np.asarray(residuals).size < 64:
         return Check("residual_whiteness", True, if_failed, None, WHITENESS_INFLATION,
                      "too few residuals to test for correlation")
-    ratios = block_variance_ratios(np.asarray(residuals))
+    ratios: list[tuple[int | str, float, int]] = list(
+        block_variance_ratios(np.asarray(residuals)))
+    between = segment_variance_ratio(np.asarray(residuals), segments)
+    if between is not None:
+        ratios.append(("segment", *between))
     if not ratios:
         return Check("residual_whiteness", True, if_failed, None, WHITENESS_INFLATION,
                      "too few residuals to test for correlation")
@@ -310,8 +367,10 @@ def residual_whiteness(residuals: np.ndarray | None, *,
     p = float(min(1.0, p_values[k] * len(ratios)))
     severe = inflation > WHITENESS_INFLATION
     severity: Severity = "error" if severe and not correlated_noise_modelled else "warning"
-    where = (f"blocks of {m} samples vary {inflation:.1f}x as much as white noise would "
-             f"(p = {p:.1g})")
+    blocks = (f"the {len(segments)} contiguous segments' means" if m == "segment" else
+              f"blocks of {m} samples")
+    where = f"{blocks} vary {inflation:.1f}x as much as white noise would (p = {p:.1g})"
+
     if correlated_noise_modelled:
         message = (f"the innovations are still correlated ({where}): an effect is missing or "
                    "the noise model is too simple; run gyroid discrepancy")
@@ -324,6 +383,39 @@ def residual_whiteness(residuals: np.ndarray | None, *,
                    f"to {math.sqrt(inflation):.2f}x too narrow")
     return Check("residual_whiteness", False, severity, inflation, WHITENESS_INFLATION,
                  message)
+
+
+def outliers(residuals: np.ndarray | None, *,
+             where: Callable[[int], str] | None = None) -> Check:
+    """Standardised residuals no Gaussian noise would leave (see the module docstring)."""
+    from scipy import stats
+
+    if residuals is None or np.asarray(residuals).size < 16:
+        return Check("outliers", True, "error", None, OUTLIER_SHIFT_SD,
+                     "too few residuals to look for outliers")
+    z = np.asarray(residuals, dtype=float)
+    n = z.size
+    z_max = float(stats.norm.isf(0.5 * OUTLIER_FALSE_ALARM / n))
+    rows = np.flatnonzero(np.abs(z) > z_max)
+    if rows.size == 0:
+        return Check("outliers", True, "error", 0.0, OUTLIER_SHIFT_SD,
+                     f"no residual beyond {z_max:.1f} sd")
+    shift = float(abs(z[rows].sum()) / math.sqrt(n))
+    worst = rows[np.argsort(-np.abs(z[rows]))][:3]
+    first = where(int(worst[0])) if where else f"row {int(worst[0]) + 1}"
+    named = ", ".join([f"{first} at {z[worst[0]]:+.0f} sd"]
+                      + [f"row {int(i) + 1} at {z[i]:+.0f} sd" for i in worst[1:]])
+    more = f" and {rows.size - worst.size} more" if rows.size > worst.size else ""
+    severity: Severity = "error" if shift > OUTLIER_SHIFT_SD else "warning"
+    if severity == "error":
+        consequence = (f"they move a bias-like coefficient by {shift:.1f} sd of its estimate, "
+                       "so the answer rests on them")
+    else:
+        consequence = (f"together they move a bias-like coefficient by {shift:.2f} sd of its "
+                       "estimate")
+    return Check("outliers", False, severity, shift, OUTLIER_SHIFT_SD,
+                 f"{rows.size} sample(s) lie beyond {z_max:.1f} sd of the model ({named}{more}); "
+                 f"{consequence}; remove spikes from the log, or find their cause")
 
 
 def identifiability(evidence: FitEvidence) -> Check:

@@ -9,6 +9,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from gyroid.allan import contiguous_segments
 from gyroid.checks import CheckReport, FitEvidence, fit_checks
 from gyroid.drift import DriftModel
 from gyroid.effects import PARAMETERS
@@ -202,4 +203,6 @@ def bench_evidence(result: FitResult, log: BenchLog) -> FitEvidence:
         draws_u=draws_u,
         summary=None if post is None else post.summary,
         hints=identifiability_hints(model, inputs),
+        segments=tuple(contiguous_segments(np.asarray(log.time_s))),
+        where=log.where,
     )

@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
-from dataclasses import dataclass
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -40,6 +40,8 @@ class BenchLog:
     columns: Mapping[str, np.ndarray]
     source: str = "<memory>"
     comments: tuple[str, ...] = ()
+    #: Names data row i (0-based) as the file has it, e.g. 'row 3 (line 7 of log.csv)'.
+    row_name: Callable[[int], str] | None = field(default=None, compare=False, repr=False)
 
     @property
     def n(self) -> int:
@@ -59,6 +61,10 @@ class BenchLog:
 
     def has(self, name: str) -> bool:
         return name in self.columns
+
+    def where(self, row: int) -> str:
+        """Data row ``row`` (0-based) as a user finds it in the file."""
+        return self.row_name(row) if self.row_name is not None else f"row {row + 1}"
 
     def inputs(self, *, t0_C: float = T0_C, **options) -> DriftInputs:
         """The drift model's inputs, derived quantities included."""
@@ -142,7 +148,8 @@ def load_bench_log(
     check_time_increasing(table, columns["time_s"])
     if "temperature_C" in needed:
         check_temperature_celsius(columns["temperature_C"])
-    log = BenchLog(columns=columns, source=str(table.path), comments=table.comments)
+    log = BenchLog(columns=columns, source=str(table.path), comments=table.comments,
+                   row_name=table.where)
     if model is not None:
         if log.n <= len(model.parameter_names):
             raise GyroidInputError(

@@ -12,9 +12,11 @@ from gyroid.checks import (
     fit_checks,
     goodness_of_fit,
     identifiability,
+    outliers,
     point_vs_posterior,
     prior_data_conflict,
     residual_whiteness,
+    segment_variance_ratio,
 )
 from gyroid.priors import Flat, LogNormal, Normal
 
@@ -64,6 +66,61 @@ def test_correlated_residuals_fail_as_an_error_under_white_noise_and_warn_under_
     assert not check.passed and check.severity == "error"
     assert "--noise white+gm" in check.message
     assert residual_whiteness(z, correlated_noise_modelled=True).severity == "warning"
+
+
+def _bursts(n_bursts=25, size=250):
+    return tuple((k * size, (k + 1) * size) for k in range(n_bursts))
+
+
+def test_bias_wander_between_bursts_fails_the_whiteness_test_and_white_bursts_pass():
+    """A burst-sampled log (25 bursts of 250, as the real TVAC log in tests/data): white
+    residuals pass; an offset per burst of 2 / sqrt(250) sd (between-burst variance ratio
+    1 + 2**2 = 5; that log measures 2.9, at the edge of what 25 bursts can show) fails, an
+    error under white noise; within each burst the residuals are white, so only the segment
+    test can see it."""
+    rng = np.random.default_rng(7)
+    segments = _bursts()
+    n = segments[-1][1]
+    passes = [residual_whiteness(rng.standard_normal(n), segments=segments) for _ in range(40)]
+    assert all(c.passed for c in passes)
+    wander = np.repeat(rng.standard_normal(len(segments)) * 2.0 / np.sqrt(250), 250)
+    z = rng.standard_normal(n) + wander
+    assert residual_whiteness(z).passed  # blind without the segments
+    ratio, k = segment_variance_ratio(z, segments)
+    assert k == 25 and ratio > 2.0
+    check = residual_whiteness(z, segments=segments)
+    assert not check.passed and check.severity == "error"
+    assert "25 contiguous segments" in check.message and "white+gm" in check.message
+    assert residual_whiteness(z, segments=segments, correlated_noise_modelled=True
+                              ).severity == "warning"
+
+
+def test_segment_ratio_is_chi2_over_dof_for_white_noise():
+    """Mean of K-1 = 24 dof chi2/dof over 400 white logs: 1 +/- 5 sqrt(2/24/400)."""
+    rng = np.random.default_rng(8)
+    segments = _bursts()
+    ratios = [segment_variance_ratio(rng.standard_normal(6250), segments)[0]
+              for _ in range(400)]
+    assert abs(np.mean(ratios) - 1) < 5 * np.sqrt(2 / 24 / 400)
+    assert segment_variance_ratio(rng.standard_normal(6250), _bursts(4, 1000)) is None
+
+
+def test_spikes_that_decide_the_answer_are_an_error_naming_their_rows():
+    """Three -37 sd spikes in 6250 samples (the real TVAC log's) shift a mean by
+    111 / sqrt(6250) = 1.4 posterior sd; one 6 sd spike by 0.08: a warning."""
+    rng = np.random.default_rng(9)
+    z = rng.standard_normal(6250)
+    assert outliers(z).passed
+    spiked = z.copy()
+    spiked[[2340, 2570, 3223]] = -37.0
+    check = outliers(spiked, where=lambda i: f"row {i + 1} (line {i + 2} of log.csv)")
+    assert not check.passed and check.severity == "error"
+    assert check.value == pytest.approx(abs(spiked[[2340, 2570, 3223]].sum()) / np.sqrt(6250))
+    assert "row 2341 (line 2342 of log.csv)" in check.message and "row 3224" in check.message
+    one = z.copy()
+    one[100] = 6.0
+    check = outliers(one)
+    assert not check.passed and check.severity == "warning" and "row 101" in check.message
 
 
 def test_goodness_of_fit_against_a_stated_sigma():
