@@ -43,5 +43,4 @@ def fitted_thermal(seed: int):
 
     sim = simulate_thermal_bench(seed=seed)
     fit = fit_log(sim.log, "thermal", seed=seed, settings=SamplerSettings(progress=False))
-    draws = fit.posterior.draws.reshape(-1, len(fit.problem.names))[:, : len(fit.model_names)]
-    return FittedDrift(model=fit.problem.model, draws=draws, t0_C=21.0)
+    return FittedDrift.from_result(fit)

@@ -123,6 +123,17 @@ class FittedDrift:
     trustworthy: bool = True  # the fit's own verdict (fit.json)
 
     @classmethod
+    def from_result(cls, result) -> FittedDrift:
+        """From a :class:`gyroid.fit.FitResult` with a posterior (draws of the model's
+        coefficients, noise parameters dropped)."""
+        model = result.problem.model
+        p = len(model.parameter_names)
+        draws = np.asarray(result.posterior.draws).reshape(-1, len(result.problem.names))[:, :p]
+        return cls(model=model, draws=draws, t0_C=result.t0_C,
+                   rate_window_s=float(result.problem.rate_window_s),
+                   trustworthy=result.trustworthy)
+
+    @classmethod
     def from_dir(cls, folder: str | Path) -> FittedDrift:
         folder = Path(folder)
         fit_json, netcdf = folder / "fit.json", folder / "posterior.nc"

@@ -411,6 +411,12 @@ def check_plausible(table: LogTable, name: str, values: np.ndarray) -> None:
         limit = f"within +/-{bound:g}"
     if bad.size:
         i = int(bad[0])
-        raise GyroidInputError(f"{table.path.name}: {table.where(i)}, column {name}: "
-                               f"{values[i]:g} is not a plausible value (expected {limit}); "
-                               "fix the row, or give the column's unit with --map")
+        source, column_map = table._source(name)
+        column = name if column_map is None else f"{source} (read as {name})"
+        many = f", nor are {bad.size - 1} more rows" if bad.size > 1 else ""
+        advice = ("fix the row, or give the column's unit with --map" if bad.size <= 1 else
+                  "if it holds raw sensor counts, convert them to physical units first, or "
+                  "give the column's unit with --map")
+        raise GyroidInputError(f"{table.path.name}: {table.where(i)}, column {column}: "
+                               f"{values[i]:g} is not a plausible value (expected {limit})"
+                               f"{many}; {advice}")

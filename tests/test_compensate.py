@@ -54,11 +54,9 @@ def fitted_short():
     protocol = ThermalProtocol(setpoints_C=(31.0, 35.0, 40.0))
     sim = simulate_thermal_bench(seed=21, protocol=protocol)
     result = fit_log(sim.log, "thermal", seed=1, settings=SamplerSettings(progress=False))
-    names = result.model_names
-    draws = result.posterior.draws.reshape(-1, len(result.problem.names))[:, : len(names)]
     from gyroid.fit import input_ranges
 
-    return (FittedDrift(model=result.problem.model, draws=draws, t0_C=21.0),
+    return (FittedDrift.from_result(result),
             input_ranges(result.problem.inputs, result.problem.model))
 
 

@@ -117,8 +117,7 @@ def test_held_out_compensation_matches_plain_least_squares(tmp_path):
     terms = "bias,temperature,temperature_sq"
     result = fit_log(BenchLog(train), terms, settings=QUICK)
     assert result.trustworthy
-    fitted = FittedDrift(model=result.problem.model,
-                         draws=result.posterior.draws.reshape(-1, 4)[:, :3], t0_C=21.0)
+    fitted = FittedDrift.from_result(result)
     ranges = {"temperature_C": [float(train["temperature_C"].min()),
                                 float(train["temperature_C"].max())]}
     comp = compensate(BenchLog(test), fitted, ranges)

@@ -1,0 +1,151 @@
+"""A real log: the PAN CubeSat's LSM6DSM MEMS gyro in thermal vacuum (tests/data/README.md).
+
+Every way it broke gyroid is a test: raw sensor counts, spikes, bias wander between bursts
+that no test on consecutive samples sees, and compensation judged on held-out bursts
+against what a researcher would write with NumPy."""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from gyroid.allan import allan_deviation, contiguous_segments
+from gyroid.cli import main
+from gyroid.compensate import compensate
+from gyroid.fit import fit_log, input_ranges
+from gyroid.logs import BenchLog, load_bench_log
+from gyroid.propagate import FittedDrift
+from gyroid.sampling import SamplerSettings
+from gyroid.tables import parse_column_maps
+
+LOG = Path(__file__).parent / "data" / "pan_lsm6dsm_tvac_2020-03-07.csv.gz"
+MAP = ["time_s=time (ms):ms", "drift_deg_h=gyrox rad/s:rad/s", "temperature_C=temp_degC"]
+#: Rows (0-based) of the three spikes the authors' own script drops.
+SPIKES = (2340, 2570, 3223)
+THERMAL = "bias,temperature,temperature_sq,temperature_rate"
+QUICK = SamplerSettings(progress=False)
+
+
+def _cli_map():
+    return [arg for item in MAP for arg in ("--map", item)]
+
+
+@pytest.fixture(scope="module")
+def pan_log() -> BenchLog:
+    return load_bench_log(LOG, tuple(THERMAL.split(",")), column_map=parse_column_maps(MAP))
+
+
+def _subset(log: BenchLog, mask: np.ndarray) -> BenchLog:
+    return BenchLog({k: v[mask] for k, v in log.columns.items()}, source=log.source)
+
+
+def _bursts(log: BenchLog) -> np.ndarray:
+    label = np.empty(log.n, dtype=int)
+    for k, (a, b) in enumerate(contiguous_segments(log.time_s)):
+        label[a:b] = k
+    return label
+
+
+def _plain_design(log: BenchLog) -> np.ndarray:
+    """A researcher's day of NumPy: dT/dt by central differences of burst means."""
+    t, temp = np.asarray(log.time_s), np.asarray(log.columns["temperature_C"])
+    segments = contiguous_segments(t)
+    t_mid = np.array([t[a:b].mean() for a, b in segments])
+    temp_mid = np.array([temp[a:b].mean() for a, b in segments])
+    rate = np.interp(t, t_mid, np.gradient(temp_mid, t_mid)) * 3600.0
+    x = temp - 21.0
+    return np.column_stack([np.ones_like(x), x, x**2, rate])
+
+
+def _rms(x) -> float:
+    return float(np.sqrt(np.mean(np.square(x))))
+
+
+def test_raw_sensor_counts_are_refused_with_advice(tmp_path, capsys):
+    args = ["fit", str(LOG), "--terms", "thermal", "--out", str(tmp_path / "fit"),
+            "--no-progress", "--map", "time_s=time (ms):ms",
+            "--map", "drift_deg_h=gyrox rad/s:rad/s", "--map", "temperature_C=temp"]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert "column temp (read as temperature_C): 65236" in err and "raw sensor counts" in err
+    assert not (tmp_path / "fit").exists()
+
+
+def test_the_real_log_is_refused_naming_its_spikes_and_its_bias_wander(tmp_path, capsys):
+    """Before issue 13 this gave exit 0; now exit 3, with the rows and the reason."""
+    code = main(["fit", str(LOG), "--terms", "thermal", "--out", str(tmp_path / "fit"),
+                 "--no-progress", *_cli_map()])
+    out = capsys.readouterr()
+    assert code == 3
+    assert "outliers" in out.err and "row 2341 (line 2342 of" in out.err
+    assert "25 contiguous segments" in out.err and "--noise white+gm" in out.err
+    assert (tmp_path / "fit" / "fit.json").exists()
+
+
+def test_discrepancy_on_the_real_log_reads_vendor_columns_and_checks_itself(tmp_path, capsys):
+    import json
+
+    code = main(["discrepancy", str(LOG), "--terms", "thermal", "--out", str(tmp_path / "d"),
+                 *_cli_map()])
+    assert code == 3
+    assert "outliers" in capsys.readouterr().err
+    report = json.loads((tmp_path / "d" / "discrepancy.json").read_text())
+    assert report["trustworthy"] is False and not report["checks"]["outliers"]["passed"]
+
+
+def test_without_its_spikes_the_bias_wander_alone_makes_it_untrustworthy(pan_log):
+    keep = np.ones(pan_log.n, dtype=bool)
+    keep[list(SPIKES)] = False
+    result = fit_log(_subset(pan_log, keep), THERMAL, settings=QUICK)
+    failed = {c.name: c for c in result.checks.failed}
+    assert set(failed) == {"residual_whiteness"}
+    assert failed["residual_whiteness"].severity == "error"
+    assert "contiguous segments" in failed["residual_whiteness"].message
+
+
+def test_held_out_bursts_are_compensated_as_well_as_numpy_least_squares(pan_log):
+    """Fitted on even bursts, judged on odd ones (inside the fitted temperature range):
+    within 15 % of plain least squares on the same terms and far better than removing a
+    constant, per sample and per burst mean. Compensation still says the fit's intervals
+    must not be used."""
+    keep = np.ones(pan_log.n, dtype=bool)
+    keep[list(SPIKES)] = False
+    burst = _bursts(pan_log)
+    train = _subset(pan_log, keep & (burst % 2 == 0))
+    test = _subset(pan_log, keep & (burst % 2 == 1))
+    result = fit_log(train, THERMAL, settings=QUICK)
+    comp = compensate(test, FittedDrift.from_result(result),
+                      input_ranges(result.problem.inputs, result.problem.model))
+    beta = np.linalg.lstsq(_plain_design(train), train.drift_deg_h, rcond=None)[0]
+    plain = test.drift_deg_h - _plain_design(test) @ beta
+    constant = test.drift_deg_h - train.drift_deg_h.mean()
+    assert _rms(comp.compensated_deg_h) <= 1.15 * _rms(plain)
+    assert _rms(comp.compensated_deg_h) < 0.5 * _rms(constant)
+
+    def burst_means(x):
+        return [np.mean(x[a:b]) for a, b in contiguous_segments(test.time_s)]
+
+    assert _rms(burst_means(comp.compensated_deg_h)) <= 1.15 * _rms(burst_means(plain))
+    assert _rms(burst_means(comp.compensated_deg_h)) < 0.2 * _rms(burst_means(constant))
+    failed = {c.name for c in comp.checks.failed}
+    assert failed == {"fit_trustworthy"} and not comp.checks.trustworthy
+
+
+def test_a_colder_held_out_third_is_flagged_as_extrapolation(pan_log):
+    keep = np.ones(pan_log.n, dtype=bool)
+    keep[list(SPIKES)] = False
+    burst = _bursts(pan_log)
+    result = fit_log(_subset(pan_log, keep & (burst < 17)), "bias,temperature",
+                     settings=QUICK)
+    comp = compensate(_subset(pan_log, keep & (burst >= 17)), FittedDrift.from_result(result),
+                      input_ranges(result.problem.inputs, result.problem.model))
+    check = {c.name: c for c in comp.checks.checks}["extrapolation"]
+    assert not check.passed and check.severity == "error"
+
+
+def test_allan_deviation_claims_no_tau_beyond_its_bursts(pan_log):
+    """25 bursts of 5 s: averaging times up to a quarter burst, pooled over all bursts."""
+    adev = allan_deviation(np.asarray(pan_log.drift_deg_h), 0.02, time_s=pan_log.time_s)
+    merit = adev.figures_of_merit()
+    assert merit["segments"] == 25
+    assert merit["tau_range_s"][1] <= 5.0 / 4 + 1e-9
