@@ -395,7 +395,8 @@ def roll_fit(data, out, seed, mappings, progress) -> None:
               help="Reference temperature t0, degC.")
 @click.option("--max-added", default=3, show_default=True, type=int,
               help="Stop after adding this many effects.")
-def discrepancy(data, terms, out, t0_C, max_added) -> None:
+@_map_option
+def discrepancy(data, terms, out, t0_C, max_added, mappings) -> None:
     """Find what the model TERMS misses in DATA.csv, add it, refit, show the gap shrink."""
     from gyroid.discrepancy import find_discrepancies, regressors
     from gyroid.logs import load_bench_log
@@ -403,11 +404,13 @@ def discrepancy(data, terms, out, t0_C, max_added) -> None:
     from gyroid.plotting import discrepancy_figure, save
     from gyroid.tables import read_log_table
 
+    maps = _parse_maps(mappings)
     header = read_log_table(data).header
-    if "roll_rate_deg_s" in header and "drift_deg_h" not in header:
-        _roll_discrepancy(data, terms, out, max_added)
+    targets = {m.target for m in maps}
+    if "roll_rate_deg_s" in {*header, *targets} and "drift_deg_h" not in {*header, *targets}:
+        _roll_discrepancy(data, terms, out, max_added, maps)
         return
-    log = load_bench_log(data, terms, t0_C=t0_C)
+    log = load_bench_log(data, terms, t0_C=t0_C, column_map=maps)
     click.echo(f"searching what {terms} misses in {data} ({log.n} rows) ...", err=True)
     report = find_discrepancies(log, terms, max_added=max_added, t0_C=t0_C,
                                 progress=lambda m: click.echo(m, err=True))
@@ -424,6 +427,7 @@ def discrepancy(data, terms, out, t0_C, max_added) -> None:
     if not report.steps:
         click.echo("nothing is missing: no candidate effect reaches dBIC > 10")
     click.echo(f"wrote {out / 'discrepancy.json'} and {out / 'discrepancy.png'}")
+    report_checks(report.checks)
 
 
 @cli.command()
@@ -456,13 +460,14 @@ def demo(out, seed) -> None:
     click.echo(f"report: {report}")
 
 
-def _roll_discrepancy(data: Path, terms: str, out: Path, max_added: int) -> None:
+def _roll_discrepancy(data: Path, terms: str, out: Path, max_added: int, maps) -> None:
     """The discrepancy workflow on a roll log (terms: roll effects or 'ideal')."""
+    from gyroid.checks import CheckReport
     from gyroid.outputs import json_text
     from gyroid.plotting import roll_discrepancy_figure, save
     from gyroid.roll_fit import find_roll_discrepancies, load_roll_log
 
-    log = load_roll_log(data)
+    log = load_roll_log(data, column_map=maps)
     click.echo(f"searching what {terms} misses in roll log {data} ({log.n} rows) ...", err=True)
     residuals: dict = {}
     report = find_roll_discrepancies(log, terms, max_added=max_added, residuals=residuals,
@@ -475,6 +480,7 @@ def _roll_discrepancy(data: Path, terms: str, out: Path, max_added: int) -> None
     if not report["steps"]:
         click.echo("nothing is missing: no roll-side candidate reaches dBIC > 10")
     click.echo(f"wrote {out / 'discrepancy.json'} and {out / 'discrepancy.png'}")
+    report_checks(CheckReport.from_json(report))
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -26,6 +26,8 @@ import numpy as np
 import optimistix as optx
 from scipy.optimize import minimize
 
+from gyroid.allan import contiguous_segments
+from gyroid.checks import CheckReport, fit_checks, point_fit_evidence
 from gyroid.drift import DriftModel
 from gyroid.effects import EFFECTS, resolve_terms
 from gyroid.errors import GyroidInputError
@@ -124,6 +126,7 @@ class DiscrepancyReport:
     residual_after: np.ndarray = field(default=None, repr=False)
     time_s: np.ndarray = field(default=None, repr=False)
     skipped: dict[str, str] = field(default_factory=dict)
+    checks: CheckReport | None = None
 
     @property
     def added(self) -> list[str]:
@@ -158,6 +161,7 @@ class DiscrepancyReport:
             "noise": self.noise.as_dict(),
             "rate_window_s": self.rate_window_s,
             "skipped_candidates": self.skipped,
+            **(self.checks.to_json() if self.checks is not None else {}),
         }
 
 
@@ -365,6 +369,19 @@ def _where(
     return out[:top]
 
 
+def _final_checks(log: BenchLog, fit: ModelFit, noise: NoiseLevels, steps_s) -> CheckReport:
+    """The self-checks of the final model: its innovations under the estimated noise."""
+    innovation, variance = gauss_markov_innovations(
+        jnp.asarray(fit.residual), steps_s, noise.white, noise.gm, noise.tau_s)
+    names = tuple(fit.values)
+    evidence = point_fit_evidence(
+        names, len(names), np.asarray(list(fit.values.values())),
+        np.asarray(innovation / jnp.sqrt(variance)), noise="white+gm",
+        message="whitened least squares", segments=tuple(contiguous_segments(log.time_s)),
+        where=log.where)
+    return fit_checks(evidence)
+
+
 def _correlations(residual: np.ndarray, regs: dict[str, np.ndarray]) -> dict[str, float]:
     out = {}
     for name, values in regs.items():
@@ -462,6 +479,7 @@ def find_discrepancies(
         say(f"  added {best}: dBIC = {scores[best]:.1f}")
         current, fit_now, noise = DriftModel(terms=with_fit.terms), with_fit, new_noise
     return DiscrepancyReport(
+        checks=_final_checks(log, fit_now, noise, steps_s),
         baseline_terms=baseline_terms,
         final_terms=current.terms,
         steps=steps,

@@ -28,7 +28,7 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
-from gyroid.checks import CheckReport, FitEvidence, fit_checks
+from gyroid.checks import CheckReport, FitEvidence, fit_checks, point_fit_evidence
 from gyroid.errors import GyroidInputError
 from gyroid.priors import LogNormal, Normal, Prior, natural_with_sd
 from gyroid.tables import check_plausible, check_time_increasing, read_log_table
@@ -684,8 +684,9 @@ def find_roll_discrepancies(log: RollLog, terms="ideal", *, max_added: int = 3, 
     current = resolve_roll_terms(terms)
     baseline_problem = RollProblem.from_log(log, current)
     current = baseline_problem.terms
-    log_lik, _, residual = _max_log_likelihood(baseline_problem)
+    log_lik, final_point, residual = _max_log_likelihood(baseline_problem)
     baseline_residual = residual
+    final_problem = baseline_problem
     baseline_rms = float(np.sqrt(np.mean(residual**2)))
     regs = roll_regressors(baseline_problem)
     n = int(baseline_problem.observed.shape[0])
@@ -701,16 +702,17 @@ def find_roll_discrepancies(log: RollLog, terms="ideal", *, max_added: int = 3, 
                                  "stabiliser")
                 continue
             say(f"  trying {name} ...")
-            trial_ll, _, trial_residual = _max_log_likelihood(problem)
+            trial_ll, trial_point, trial_residual = _max_log_likelihood(problem)
             k = len(effect["parameters"])
             scores[name] = 2.0 * (trial_ll - log_lik) - k * math.log(n)
-            fits[name] = (trial_ll, trial_residual, problem)
+            fits[name] = (trial_ll, trial_residual, problem, trial_point)
         if not scores:
             break
         best = max(scores, key=scores.get)
         if scores[best] <= ROLL_ADD_THRESHOLD:
             break
-        trial_ll, trial_residual, problem = fits[best]
+        trial_ll, trial_residual, problem, final_point = fits[best]
+        final_problem = problem
         change = residual - trial_residual
         name, r = max(((k, float(np.corrcoef(change, v)[0, 1])) for k, v in regs.items()
                        if np.ptp(v) > 0), key=lambda kv: abs(kv[1]))
@@ -730,6 +732,12 @@ def find_roll_discrepancies(log: RollLog, terms="ideal", *, max_added: int = 3, 
     if residuals is not None:
         residuals.update(before=baseline_residual, after=residual,
                          time_s=np.asarray(baseline_problem.time_s))
+    n_model = sum(not name.startswith("sigma_") for name in final_problem.names)
+    u = jnp.asarray(final_point.u)
+    checks = fit_checks(point_fit_evidence(
+        final_problem.names, n_model, np.asarray(u),
+        np.asarray(final_problem.density.standardised_residuals(u)), noise="white",
+        converged=final_point.converged, message=final_point.message))
     return {
         "log_kind": "roll",
         "baseline_terms": list(baseline_problem.terms),
@@ -741,4 +749,5 @@ def find_roll_discrepancies(log: RollLog, terms="ideal", *, max_added: int = 3, 
         "steps": steps,
         "threshold_dbic": ROLL_ADD_THRESHOLD,
         "skipped_candidates": skipped,
+        **checks.to_json(),
     }
