@@ -440,7 +440,7 @@ def identifiability(evidence: FitEvidence) -> Check:
                      "every coefficient is pinned down by this log" if worst_name is None
                      else f"every coefficient is pinned down by this log (worst: {worst_name},"
                           f" posterior sd {100 * worst:.0f} % of its reference scale)")
-    hints = "; ".join(evidence.hints[n] for n in poor if n in evidence.hints)
+    hints = "; ".join(dict.fromkeys(evidence.hints[n] for n in poor if n in evidence.hints))
     return Check("identifiability", False, "error", worst, IDENTIFIED_RATIO,
                  f"this log does not identify {', '.join(poor)} (posterior sd up to "
                  f"{100 * worst:.0f} % of the reference scale): "

@@ -616,7 +616,8 @@ def fit_roll_log(log: RollLog, *, seed: int = 0, settings=None) -> RollFit:
 _ROLL_HINTS = {
     "D1": "D1 needs a flight whose roll angle advances further (a longer or faster roll)",
     "D0": "D0 needs the stabiliser's MEMS output (gs_rate_deg_s) from an ideal stabiliser",
-    "D0gs": "D0gs needs the stabiliser's MEMS output (gs_rate_deg_s)",
+    "D0gs": "D0gs is told apart from D0 only by the stabiliser's MEMS output "
+            "(gs_rate_deg_s) logged while the stabiliser holds the platform",
     "D1gs": "D1gs needs a stabiliser that is overloaded for part of the flight",
     "enc_a": "the encoder error needs whole turns of roll", "enc_b": "the encoder error "
     "needs whole turns of roll",
