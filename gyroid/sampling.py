@@ -127,15 +127,17 @@ def sample_posterior(
     # emcee draws its moves from its own RandomState: seed it from ours.
     sampler.random_state = np.random.RandomState(int(rng.integers(2**31))).get_state()
     state = _initial_walkers(batch, point, n_walkers, rng)
-    bar = tqdm(total=settings.burn_steps, desc="emcee", unit="step",
-               disable=not settings.progress, leave=False)
+    # The run's length is found as it goes (50 autocorrelation times), so the bar counts
+    # steps without a total (a percentage would jump back when the target grows) and shows
+    # the current target beside the count.
+    bar = tqdm(desc="emcee", unit=" steps", disable=not settings.progress, leave=False)
+    bar.set_postfix_str(f"burn-in {settings.burn_steps}")
     state = _advance(sampler, state, settings.burn_steps, bar)
     burn = settings.burn_steps
     chunk = settings.chunk_steps
     while True:
         chunk = min(chunk, settings.max_steps - sampler.iteration)
-        bar.total += chunk
-        bar.refresh()
+        bar.set_postfix_str(f"target ~{sampler.iteration + chunk} (<= {settings.max_steps})")
         state = _advance(sampler, state, chunk, bar)
         kept = sampler.iteration - burn
         tau = sampler.get_autocorr_time(discard=burn, tol=0)
