@@ -39,7 +39,8 @@ Thresholds and where they come from:
   one of n samples out with probability 0.01 (``z_max = Phi^-1(1 - 0.005 / n)``, 4.9 for
   n = 6000). Each moves a bias-like coefficient by ``z / sqrt(n)`` posterior sd; when the
   outliers together move it by more than 1 posterior sd it is an error (spikes decide the
-  answer), else a warning naming the rows.
+  answer), else a warning naming the rows. Outliers that mostly sit next to each other are
+  called structure, not spikes.
 * identifiability: a coefficient's posterior sd over its reference scale (the default
   prior's sd, set from the log's drift scale and the regressor's physical span: see
   :mod:`gyroid.prior_scales`). Above 0.5 the log does not pin the coefficient down.
@@ -413,9 +414,15 @@ def outliers(residuals: np.ndarray | None, *,
     else:
         consequence = (f"together they move a bias-like coefficient by {shift:.2f} sd of its "
                        "estimate")
+    # Isolated excursions are spikes; neighbours beyond z_max are a stretch the model
+    # misses (or correlated noise), which removing rows would hide rather than mend.
+    in_runs = np.isin(rows - 1, rows) | np.isin(rows + 1, rows)
+    advice = ("most come in runs of neighbouring rows: structure the model or the noise model "
+              "misses, not spikes; run gyroid discrepancy" if in_runs.mean() > 0.5 else
+              "remove spikes from the log, or find their cause")
     return Check("outliers", False, severity, shift, OUTLIER_SHIFT_SD,
                  f"{rows.size} sample(s) lie beyond {z_max:.1f} sd of the model ({named}{more}); "
-                 f"{consequence}; remove spikes from the log, or find their cause")
+                 f"{consequence}; {advice}")
 
 
 def identifiability(evidence: FitEvidence) -> Check:

@@ -117,6 +117,11 @@ def test_spikes_that_decide_the_answer_are_an_error_naming_their_rows():
     assert not check.passed and check.severity == "error"
     assert check.value == pytest.approx(abs(spiked[[2340, 2570, 3223]].sum()) / np.sqrt(6250))
     assert "row 2341 (line 2342 of log.csv)" in check.message and "row 3224" in check.message
+    assert "remove spikes" in check.message
+    stretch = z.copy()
+    stretch[1000:1030] -= 8.0  # a stretch the model misses, not spikes
+    check = outliers(stretch)
+    assert not check.passed and "runs of neighbouring rows" in check.message
     one = z.copy()
     one[100] = 6.0
     check = outliers(one)
