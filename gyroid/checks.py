@@ -36,7 +36,7 @@ Thresholds and where they come from:
   themselves as blocks, ``sum n_k (mean_k - mean)**2 / (K - 1)`` over K segments, the same
   ratio for unequal blocks. Bias wander between bursts shows there and nowhere else.
 * outliers: a standardised residual beyond ``z_max``, where white Gaussian noise leaves
-  one of n samples out with probability 0.01 (``z_max = Phi^-1(1 - 0.005 / n)``, 4.9 for
+  one of n samples out with probability 0.01 (``z_max = Phi^-1(1 - 0.005 / n)``, 4.8 for
   n = 6000). Each moves a bias-like coefficient by ``z / sqrt(n)`` posterior sd; when the
   outliers together move it by more than 1 posterior sd it is an error (spikes decide the
   answer), else a warning naming the rows. Outliers that mostly sit next to each other are
