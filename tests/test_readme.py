@@ -69,9 +69,11 @@ def test_every_readme_command_and_option_exists():
             assert option in result.output, f"gyroid {' '.join(group)} has no {option}"
 
 
-def test_every_repository_path_the_readme_names_exists():
-    tops = ("gyroid/", "tests/", "experiments/", "benchmarks/", "paper_figures/", ".ci/")
-    words = {w.rstrip(".,:;)") for code in re.findall(r"`([^`]+)`", README)
+def test_every_repository_path_the_readme_and_docs_name_exists():
+    tops = ("gyroid/", "tests/", "experiments/", "benchmarks/", "paper_figures/", ".ci/",
+            "docs/")
+    texts = [README, *(p.read_text() for p in (ROOT / "docs").glob("*.md"))]
+    words = {w.rstrip(".,:;)") for text in texts for code in re.findall(r"`([^`]+)`", text)
              for w in code.split()}
     paths = {w for w in words if w.startswith(tops)}
     assert paths, "the README names no repository paths"
