@@ -378,9 +378,15 @@ def roll_fit(data, out, seed, mappings, progress) -> None:
              stage / "pair")
     for name, s in summary["parameters"].items():
         click.echo(f"  {name:>5s} = {s['mean']:.6g} +/- {s['sd']:.2g}")
+    derived = []
     for item in summary["confounded"]:
+        if item.get("follows_from"):
+            derived.append(f"{' and '.join(item['parameters'])} (r = {item['correlation']:.3f})")
+            continue
         click.echo(f"warning: {' and '.join(item['parameters'])} are confounded (r = "
                    f"{item['correlation']:.3f}): {item['suggestion']}", err=True)
+    if derived:
+        click.echo(f"warning: as a consequence, also confounded: {', '.join(derived)}", err=True)
     click.echo(f"wrote {out / 'roll_fit.json'} and {out / 'posterior.nc'}")
     report_checks(result.checks)
 
@@ -388,7 +394,9 @@ def roll_fit(data, out, seed, mappings, progress) -> None:
 @cli.command()
 @click.argument("data", type=click.Path(path_type=Path))
 @click.option("--terms", required=True, metavar="TERMS",
-              help="The model to start from: effects or a preset (thermal, magnetic, full).")
+              help="The model to start from. Bench log: " + _terms_help() + " Roll log: "
+                   "presets ideal, loop, or roll effects (sf_error, gs_bias, roll_bias, "
+                   "gs_rate_leak, encoder_error, sf_nonlinearity).")
 @click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder for discrepancy.json and discrepancy.png.")
 @click.option("--t0", "t0_C", default=21.0, show_default=True, type=float,
@@ -397,7 +405,11 @@ def roll_fit(data, out, seed, mappings, progress) -> None:
               help="Stop after adding this many effects.")
 @_map_option
 def discrepancy(data, terms, out, t0_C, max_added, mappings) -> None:
-    """Find what the model TERMS misses in DATA.csv, add it, refit, show the gap shrink."""
+    """Find what the model TERMS misses in DATA, add it, refit, show the gap shrink.
+
+    DATA is a bench log (contract section 1) or a roll log (section 4: roll_rate_deg_s,
+    gs_angle_deg), as .csv, .csv.gz or .parquet. Exit code 3 when a self-check of the
+    final model fails."""
     from gyroid.discrepancy import find_discrepancies, regressors
     from gyroid.logs import load_bench_log
     from gyroid.outputs import json_text

@@ -572,14 +572,26 @@ class RollFit:
             ("D0", "D1"): "vary the roll rate (a ramp or a reversal): D1 scales with it, D0 "
                           "does not",
         }
-        for i, a_name in enumerate(loop_names):
-            for j in range(i + 1, len(loop_names)):
-                r = float(corr[i, j])
-                if abs(r) > CONFOUNDING_THRESHOLD:
-                    pair = (a_name, loop_names[j])
-                    confounded.append({"parameters": list(pair), "correlation": r,
-                                       "identified": "only their combination",
-                                       "suggestion": advice.get(pair, "vary the manoeuvre")})
+        pairs = {(a_name, loop_names[j]): float(corr[i, j])
+                 for i, a_name in enumerate(loop_names) for j in range(i + 1, len(loop_names))
+                 if abs(corr[i, j]) > CONFOUNDING_THRESHOLD}
+        # A pair without advice of its own is usually a consequence of advised pairs that
+        # share a parameter with it (D0 ~ D0gs and D1 ~ D1gs make D0gs ~ D1gs): say so.
+        advised = [pair for pair in pairs if pair in advice]
+        for pair, r in pairs.items():
+            item = {"parameters": list(pair), "correlation": r,
+                    "identified": "only their combination"}
+            if pair in advice:
+                item["suggestion"] = advice[pair]
+            else:
+                causes = [p for p in advised if set(p) & set(pair)]
+                item["follows_from"] = [list(p) for p in causes]
+                item["suggestion"] = (
+                    "separates once " + " and ".join(f"{a} and {b}" for a, b in causes)
+                    + " are separated" if causes else
+                    "no manoeuvre in gyroid's catalogue separates them: report their "
+                    "combination")
+            confounded.append(item)
         return {
             "terms": list(self.problem.terms),
             "parameters": {n: summary[n] for n in (*loop_names, *(["Denc"] if derived else []))},

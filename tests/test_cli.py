@@ -178,3 +178,16 @@ def test_fit_refuses_a_malformed_log_and_writes_nothing(tmp_path, capsys, simula
     err = capsys.readouterr().err
     assert expected in err and "Traceback" not in err
     assert not out.exists()
+
+
+def test_discrepancy_help_names_both_log_kinds_and_every_effect():
+    from click.testing import CliRunner
+
+    from gyroid.cli import cli
+    from gyroid.effects import EFFECTS
+    from gyroid.roll_fit import ROLL_EFFECTS, ROLL_PRESETS
+
+    text = " ".join(CliRunner().invoke(cli, ["discrepancy", "--help"]).output.split())
+    assert "bench log" in text and "roll log" in text
+    for name in (*EFFECTS, *ROLL_EFFECTS, *ROLL_PRESETS):
+        assert name in text, name

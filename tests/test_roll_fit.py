@@ -44,6 +44,11 @@ def test_confounded_pairs_are_reported_without_the_stabiliser_rate(tmp_path, fit
     assert {"D0", "D0gs"} in pairs
     assert "gs_rate_deg_s" in next(i["suggestion"] for i in fit["confounded"]
                                    if set(i["parameters"]) == {"D0", "D0gs"})
+    # A pair without advice of its own names the advised pairs it follows from.
+    for item in fit["confounded"]:
+        for cause in item.get("follows_from", []):
+            assert set(cause) in pairs and set(cause) & set(item["parameters"])
+        assert item["suggestion"] != "vary the manoeuvre"
 
 
 def test_a_bench_log_is_refused_as_a_roll_log(tmp_path):
