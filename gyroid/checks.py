@@ -158,6 +158,15 @@ class FitEvidence:
     where: Callable[[int], str] | None = None
 
 
+def fit_verdict(trustworthy: bool, use: str) -> Check:
+    """A result built on a fit inherits its verdict (``use``: what the result does with it,
+    e.g. 'compensating with it')."""
+    return Check("fit_trustworthy", trustworthy, "error", None, None,
+                 "the fit's own self-checks passed" if trustworthy else
+                 "the fit was marked not trustworthy (see its fit.json checks); refit "
+                 f"before {use}")
+
+
 def point_fit_evidence(names: tuple[str, ...], n_model: int, point_u: np.ndarray,
                        residuals: np.ndarray, *, noise: str, converged: bool = True,
                        message: str = "converged",

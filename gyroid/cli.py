@@ -273,6 +273,7 @@ def compensate(data, fit_dir, out, seed, mappings) -> None:
               help="Monte-Carlo draws for the distributions.")
 def propagate(fit_dir, out, scenario, seed, draws) -> None:
     """Push a fit's posterior through paper B's correction loop: dK, roll and lateral error."""
+    from gyroid.checks import CheckReport
     from gyroid.outputs import json_text
     from gyroid.plotting import dk_distribution, save, sobol_bars
     from gyroid.propagate import FittedDrift, dk_samples_csv, load_scenario
@@ -283,16 +284,23 @@ def propagate(fit_dir, out, scenario, seed, draws) -> None:
     fitted = FittedDrift.from_dir(fit_dir)
     chosen = load_scenario(scenario)
     click.echo(f"propagating {fit_dir} through scenario {chosen.name} ...", err=True)
-    result, samples = run(fitted, chosen, draws=draws, seed=seed)
+    result, samples = run(fitted, chosen, draws=draws, seed=seed,
+                          progress=lambda m: click.echo(m, err=True))
     with output_dir(out) as stage:
         (stage / "propagate.json").write_text(json_text(result))
         (stage / "dk_samples.csv").write_text(dk_samples_csv(samples["dK"]))
         save(dk_distribution(samples["dK"], result["closed_form"]["dK_eq7"],
                              result["closed_form"]["dK_printed"]), stage / "dk_distribution")
-        save(sobol_bars(result["drivers"], result["drivers_total"]), stage / "drivers")
+        save(sobol_bars(result["drivers_first_order"], result["drivers_total"],
+                            result["interactions"]),
+             stage / "drivers")
     dk = result["dK"]
     click.echo(f"dK = {dk['mean']:.3g} +/- {dk['sd']:.2g} (95 % {dk['ci95'][0]:.3g} ... "
                f"{dk['ci95'][1]:.3g}); wrote {out / 'propagate.json'}")
+    shares = sorted(result["drivers"].items(), key=lambda kv: -kv[1])
+    click.echo("its spread comes from (shares with interactions): " + ", ".join(
+        f"{name} {share:.2f}" for name, share in shares if share >= 0.01))
+    report_checks(CheckReport.from_json(result))
 
 
 @cli.group()

@@ -19,7 +19,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyroid.allan import AllanDeviation, allan_deviation
-from gyroid.checks import Check, CheckReport
+from gyroid.checks import Check, CheckReport, fit_verdict
 from gyroid.fit import input_ranges
 from gyroid.logs import BENCH_COLUMNS, BenchLog
 from gyroid.propagate import FittedDrift
@@ -128,11 +128,7 @@ def compensation_checks(drift: np.ndarray, compensated: np.ndarray, outside: lis
         if ratio <= 1.01 else
         f"compensation makes the drift's spread about its mean {ratio:.2f}x larger than "
         "removing a constant would: do not use this model on this log")
-    verdict = Check("fit_trustworthy", fit_trustworthy, "error", None, None,
-                    "the fit's own self-checks passed" if fit_trustworthy else
-                    "the fit was marked not trustworthy (see its fit.json checks); refit "
-                    "before compensating with it")
-    return CheckReport((extrapolation, gain, verdict))
+    return CheckReport((extrapolation, gain, fit_verdict(fit_trustworthy, "compensating with it")))
 
 
 def _input_values(name: str, inputs) -> np.ndarray:

@@ -272,8 +272,9 @@ def dk_distribution(dk: np.ndarray, recomputed: float, printed: float) -> plt.Fi
         return fig
 
 
-def sobol_bars(first: dict[str, float], total: dict[str, float]) -> plt.Figure:
-    """First-order and total Sobol indices of dK."""
+def sobol_bars(first: dict[str, float], total: dict[str, float],
+               interactions: dict | None = None) -> plt.Figure:
+    """First-order and total Sobol indices of dK, with the share left to interactions."""
     names = list(first)
     y = np.arange(len(names))
     with plt.rc_context(STYLE):
@@ -282,8 +283,13 @@ def sobol_bars(first: dict[str, float], total: dict[str, float]) -> plt.Figure:
         ax.barh(y - 0.2, [total[n] for n in names], height=0.4, color="white", edgecolor="0.0",
                 hatch="//", label="total")
         ax.set_yticks(y, names)
+        ax.set_xlim(0.0, 1.0)
         ax.set_xlabel("share of the variance of dK, fraction")
         ax.legend(frameon=False, loc="lower right")
+        if interactions is not None:
+            who = " x ".join(interactions["involving"]) or "none above 0.05"
+            ax.set_title(f"{interactions['share']:.2f} of the variance is interactions "
+                         f"({who})", fontsize="medium")
         return fig
 
 

@@ -14,6 +14,7 @@ from __future__ import annotations
 import json
 import math
 import tomllib
+from collections.abc import Callable
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 
@@ -24,6 +25,7 @@ import numpy as np
 
 from gyroid import paper_b as pb
 from gyroid._arviz import arviz as az
+from gyroid.checks import CheckReport, fit_verdict
 from gyroid.derived import RATE_WINDOW_S
 from gyroid.drift import DriftModel
 from gyroid.errors import GyroidInputError
@@ -297,17 +299,23 @@ def _stats(values: np.ndarray) -> dict:
 
 
 def propagate(fitted: FittedDrift, scenario: Scenario, *, draws: int = 2000, seed: int = 0,
-              sobol_n: int = 1000) -> tuple[dict, dict[str, np.ndarray]]:
-    """Propagate the posterior through the scenario; returns (propagate.json, raw samples)."""
+              sobol_n: int = 1000, progress: Callable[[str], None] | None = None
+              ) -> tuple[dict, dict[str, np.ndarray]]:
+    """Propagate the posterior through the scenario; returns (propagate.json, raw samples).
+    ``progress`` is told each stage as it starts."""
+    say = progress or (lambda _message: None)
     rng = np.random.default_rng(seed)
     evaluator = _Evaluator(model=fitted.model, env=flight_environment(scenario, fitted.t0_C),
                            scenario=scenario)
     samplers = _samplers(scenario, fitted.draws)
     inputs = {name: sample(rng, draws) for name, sample in samplers.items()}
+    say(f"  {draws} flights through paper B's loop ...")
     out = _evaluate(evaluator, inputs)
     times = [t for t in REPORT_TIMES_S if t <= scenario.duration_s]
+    say(f"  Sobol indices: {(len(samplers) + 2) * sobol_n} more flights ...")
     sobol = sobol_indices(samplers, lambda x: _evaluate(evaluator, x, dk_only=True)["dK"],
                           sobol_n, rng)
+    say("  local sensitivities and the delta method (JAX gradients) ...")
     nominal = _nominal_inputs(scenario, fitted.draws)
     local = _local_sensitivity(evaluator, nominal)
     delta = _delta_method(evaluator, nominal, scenario, fitted.draws)
@@ -324,8 +332,7 @@ def propagate(fitted: FittedDrift, scenario: Scenario, *, draws: int = 2000, see
         "sf_residual_ppm": _stats(out["sf_residual_ppm"]),
         "dpsi_deg": {f"{t:g}": _stats(out["dpsi_deg"][:, i]) for i, t in enumerate(times)},
         "dr_z_m": {f"{t:g}": _stats(out["dr_z_m"][:, i]) for i, t in enumerate(times)},
-        "drivers": {DRIVER_NAMES[k]: max(v["S1"], 0.0) for k, v in sobol.items()},
-        "drivers_total": {DRIVER_NAMES[k]: max(v["ST"], 0.0) for k, v in sobol.items()},
+        **driver_shares(sobol),
         "sobol_samples": sobol_n,
         "local_sensitivity": local,
         "delta_method": delta,
@@ -334,8 +341,40 @@ def propagate(fitted: FittedDrift, scenario: Scenario, *, draws: int = 2000, see
                                 "sees Denc (sin a_i - sin a_(i-1)), set by the phase"},
         "fitted": {"terms": list(fitted.model.terms),
                    "posterior_draws": int(fitted.draws.shape[0])},
+        **CheckReport((fit_verdict(fitted.trustworthy, "propagating it"),)).to_json(),
     }
     return result, out
+
+
+#: An input takes part in interactions when its total Sobol index exceeds its first-order
+#: index by more than this (a few times the estimators' noise at the default 1000 samples).
+INTERACTION_MARGIN = 0.05
+
+
+def driver_shares(sobol: dict[str, dict[str, float]]) -> dict:
+    """propagate.json's variance decomposition of dK from first-order (S1) and total (ST)
+    Sobol indices. ``drivers`` are the total indices normalised to sum to 1: each input's
+    share of dK's variance with its interactions counted, so an input that acts only
+    jointly with another (the encoder error with the period's end phase) is not shown as
+    negligible, as its first-order index would show it."""
+    first = {DRIVER_NAMES[k]: max(v["S1"], 0.0) for k, v in sobol.items()}
+    total = {DRIVER_NAMES[k]: max(v["ST"], 0.0) for k, v in sobol.items()}
+    norm = sum(total.values())
+    return {
+        "drivers": {k: (v / norm if norm > 0 else 0.0) for k, v in total.items()},
+        "drivers_definition": "total Sobol indices normalised to sum to 1 (interactions "
+                              "included); drivers_first_order and drivers_total are the raw "
+                              "indices",
+        "drivers_first_order": first,
+        "drivers_total": total,
+        "interactions": {
+            "share": max(0.0, 1.0 - sum(first.values())),
+            "involving": sorted(k for k in total if total[k] - first[k] > INTERACTION_MARGIN),
+            "meaning": "the part of dK's variance no input explains alone (1 - sum of the "
+                       "first-order indices) and the inputs whose total index exceeds their "
+                       "first-order one",
+        },
+    }
 
 
 def _nominal_inputs(scenario: Scenario, draws: np.ndarray) -> dict[str, float | np.ndarray]:
@@ -386,7 +425,11 @@ def _delta_method(evaluator: _Evaluator, nominal: dict, scenario: Scenario,
     variance += float(grads[2]) ** 2 * scenario.mems_sf_error_sd**2
     variance += float(grads[3]) ** 2 * (scenario.mems_bias_sd_deg_h / 3600.0) ** 2
     return {"mean": float(_dk_of(evaluator)(*args)), "sd": math.sqrt(variance),
-            "excludes": "encoder phase"}
+            "excludes": "encoder phase",
+            "note": "first order: 'mean' is dK at the nominal inputs (posterior mean, encoder "
+                    "phase 0), not an average. It differs from the Monte-Carlo mean when the "
+                    "encoder phase is drawn uniformly: dK depends on it through sines, far "
+                    "from linearly, and averages over it to another value"}
 
 
 def dk_samples_csv(dk: np.ndarray) -> str:

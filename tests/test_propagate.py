@@ -85,3 +85,14 @@ def test_cli_propagates_a_fitted_bench(tmp_path):
     assert abs(data["dK"]["mean"]) < 1e-3
     assert (out / "dk_distribution.png").exists() and (out / "drivers.png").exists()
     assert main(["propagate", str(tmp_path), "--out", str(tmp_path / "x")]) == 2
+    # drivers: shares of the variance with interactions counted, summing to 1, and the
+    # encoder error (which acts only with the period's end phase) is not shown as zero.
+    assert sum(data["drivers"].values()) == pytest.approx(1.0)
+    assert data["drivers"]["encoder error"] > 0.2 > data["drivers_first_order"]["encoder error"]
+    assert "encoder error" in data["interactions"]["involving"]
+    assert data["trustworthy"] and data["checks"]["fit_trustworthy"]["passed"]
+    # A fit marked untrustworthy makes its propagation untrustworthy: exit 3.
+    fit_json = json.loads((fit / "fit.json").read_text())
+    (fit / "fit.json").write_text(json.dumps({**fit_json, "trustworthy": False}))
+    assert main(["propagate", str(fit), "--out", str(tmp_path / "p2"), "--draws", "100"]) == 3
+    assert not json.loads((tmp_path / "p2" / "propagate.json").read_text())["trustworthy"]
