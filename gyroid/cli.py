@@ -114,6 +114,7 @@ def simulate(
 ) -> None:
     """Simulate paper A's thermal or magnetic bench with known truth."""
     from gyroid.bench import preset_parameters, simulate_magnetic_bench, simulate_thermal_bench
+    from gyroid.derived import RATE_WINDOW_S
     from gyroid.logs import bench_log_text
     from gyroid.noise import GyroNoise
     from gyroid.outputs import json_text
@@ -140,7 +141,8 @@ def simulate(
         (stage / "truth.json").write_text(json_text(sim.truth))
         if bench == "thermal":
             fig = thermal_run(
-                sim.log, sim.log.inputs().rate_C_h, None if average_s else sim.true_drift_deg_h
+                sim.log, sim.log.inputs().rate_C_h, None if average_s else sim.true_drift_deg_h,
+                rate_window_s=RATE_WINDOW_S,
             )
         else:
             fig = magnetic_sweep(sim.log)

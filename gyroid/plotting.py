@@ -37,69 +37,105 @@ def save(fig: plt.Figure, path: Path, *, pdf: bool = False) -> list[Path]:
     return written
 
 
+def _break_gaps(hours: np.ndarray, *series: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Insert NaN rows where the sampling stops for more than 5 intervals, so that lines are
+    not drawn across a gap (e.g. the magnetic bench's azimuth turn)."""
+    steps = np.diff(hours)
+    if steps.size == 0:
+        return (hours, *series)
+    cut = np.flatnonzero(steps > 5.0 * np.median(steps)) + 1
+    return tuple(np.insert(np.asarray(x, dtype=float), cut, np.nan) for x in (hours, *series))
+
+
 def thermal_run(
-    log: BenchLog, rate_C_h: np.ndarray, true_drift: np.ndarray | None = None
+    log: BenchLog, rate_C_h: np.ndarray, true_drift: np.ndarray | None = None,
+    rate_window_s: float | None = None,
 ) -> plt.Figure:
-    """Paper A Fig. 1 style: drift, temperature and its rate against time."""
+    """Paper A Fig. 1 style: drift, temperature and its rate against time. The logged 1 Hz
+    drift is drawn over the true drift (when known); its noise is shown in its own panel,
+    because at the heating peaks' scale it is thinner than a line. ``rate_C_h`` is dT/dt as
+    gyroid estimates it from the logged temperature (window ``rate_window_s``)."""
     with plt.rc_context(STYLE):
-        fig, axes = plt.subplots(3, 1, figsize=(6.5, 6.5), sharex=True)
+        rows = 4 if true_drift is not None else 3
+        fig, axes = plt.subplots(rows, 1, figsize=(6.5, 1.9 * rows + 0.8), sharex=True)
         hours = (log.time_s - log.time_s[0]) / 3600.0
-        axes[0].plot(hours, log.drift_deg_h, color="0.6", lw=0.4, ls="-", label="logged (1 Hz)")
+        drift = np.asarray(log.drift_deg_h)
+        axes[0].plot(hours, drift, color="0.6", lw=0.5, ls="-", label="logged (1 Hz)")
         if true_drift is not None:
-            axes[0].plot(hours, true_drift, color="0.0", lw=1.2, ls="-", label="true drift")
+            axes[0].plot(hours, true_drift, color="0.0", lw=0.7, ls="-", label="true drift")
         axes[0].set_ylabel("drift, deg/h")
-        axes[0].legend(loc="upper left", frameon=False)
-        axes[1].plot(hours, log.columns["temperature_C"], color="0.0", lw=1.0)
-        axes[1].set_ylabel("temperature, degC")
-        axes[2].plot(hours, rate_C_h, color="0.0", lw=1.0)
-        axes[2].set_ylabel("dT/dt, degC/h")
-        axes[2].set_xlabel("time since start, h")
+        axes[0].legend(loc="upper right", frameon=False)
+        k = 1
+        if true_drift is not None:
+            axes[1].plot(hours, drift - true_drift, color="0.4", lw=0.3, ls="-")
+            axes[1].set_ylabel("logged - true,\ndeg/h")
+            k = 2
+        axes[k].plot(hours, log.columns["temperature_C"], color="0.0", lw=1.0)
+        axes[k].set_ylabel("temperature, degC")
+        axes[k + 1].plot(hours, rate_C_h, color="0.0", lw=1.0)
+        window = f", {rate_window_s / 60:.0f} min window" if rate_window_s else ""
+        axes[k + 1].set_ylabel(f"dT/dt, degC/h\n(estimated{window})")
+        axes[k + 1].set_xlabel("time since start, h")
         fig.align_ylabels(axes)
         return fig
 
 
-def magnetic_sweep(log: BenchLog) -> plt.Figure:
-    """Field projections and drift against time for a Helmholtz sweep log."""
+def magnetic_sweep(log: BenchLog, model_deg_h: np.ndarray | None = None) -> plt.Figure:
+    """Field projections and drift against time for a Helmholtz sweep log, with a fitted
+    model's drift over the data when given. Lines break at gaps (the azimuth turn)."""
     with plt.rc_context(STYLE):
-        fig, axes = plt.subplots(2, 1, figsize=(6.5, 4.8), sharex=True)
+        fig, axes = plt.subplots(2, 1, figsize=(6.5, 5.0), sharex=True)
         hours = (log.time_s - log.time_s[0]) / 3600.0
-        axes[0].plot(hours, log.drift_deg_h, color="0.5", lw=0.4, ls="-")
+        h, drift = _break_gaps(hours, log.drift_deg_h)
+        axes[0].plot(h, drift, color="0.6", lw=0.4, ls="-", label="logged drift")
+        if model_deg_h is not None:
+            axes[0].plot(h, _break_gaps(hours, model_deg_h)[1], color="0.0", lw=1.2, ls="-",
+                         label="fitted model")
+            axes[0].legend(loc="upper left", frameon=False, ncol=2)
         axes[0].set_ylabel("drift, deg/h")
+        styles = {"Hx_uT": ("-", 1.0), "Hy_uT": ("--", 1.0), "Hz_uT": (":", 1.6)}
         for name in FIELD_COLUMNS:
             if log.has(name):
-                axes[1].plot(hours, log.columns[name], lw=1.0, label=name.split("_")[0])
+                ls, lw = styles[name]
+                axes[1].plot(h, _break_gaps(hours, log.columns[name])[1], color="0.0", lw=lw,
+                             ls=ls, label=name.split("_")[0])
         axes[1].set_ylabel("field, uT")
         axes[1].set_xlabel("time since start, h")
-        axes[1].legend(loc="upper right", frameon=False, ncol=3)
+        axes[1].legend(loc="lower center", bbox_to_anchor=(0.5, 1.0), frameon=False, ncol=3)
         fig.align_ylabels(axes)
         return fig
 
 
 def fit_overview(time_s: np.ndarray, drift: np.ndarray, predictions: np.ndarray,
                  point_prediction: np.ndarray) -> plt.Figure:
-    """Data with the posterior 95 % band of the modelled drift, and residuals against time."""
+    """Data with the modelled drift; the posterior 95 % band of the model about its point
+    estimate (at the data's scale it is thinner than a line, so it has its own panel); and
+    the residuals against time."""
     with plt.rc_context(STYLE):
-        fig, axes = plt.subplots(2, 1, figsize=(6.5, 5.0), sharex=True,
-                                 gridspec_kw={"height_ratios": [2, 1]})
+        fig, axes = plt.subplots(3, 1, figsize=(6.5, 6.4), sharex=True,
+                                 gridspec_kw={"height_ratios": [2, 1, 1]})
         hours = (time_s - time_s[0]) / 3600.0
         lo, hi = np.percentile(predictions, [2.5, 97.5], axis=0)
         axes[0].plot(hours, drift, color="0.65", lw=0.4, ls="-", label="logged drift")
-        axes[0].fill_between(hours, lo, hi, color="0.2", alpha=0.35, lw=0,
-                             label="model, 95 % posterior band")
         axes[0].plot(hours, point_prediction, color="0.0", lw=0.9, ls="-",
                      label="model at the point estimate")
         axes[0].set_ylabel("drift, deg/h")
         axes[0].legend(loc="best", frameon=False)
+        axes[1].fill_between(hours, lo - point_prediction, hi - point_prediction, color="0.6",
+                             lw=0, label="model's 95 % posterior band")
+        axes[1].axhline(0.0, color="0.0", lw=0.6, ls=":")
+        axes[1].set_ylabel("model - point\nestimate, deg/h")
+        axes[1].legend(loc="upper right", frameon=False)
         residual = drift - point_prediction
-        axes[1].plot(hours, residual, color="0.55", lw=0.4, ls="-")
+        axes[2].plot(hours, residual, color="0.55", lw=0.4, ls="-")
         window = max(1, int(round(60.0 / max(np.median(np.diff(time_s)), 1e-9))))
         if window > 1 and residual.size > window:
             smooth = np.convolve(residual, np.ones(window) / window, mode="same")
-            axes[1].plot(hours, smooth, color="0.0", lw=1.0, ls="-", label="60 s mean")
-            axes[1].legend(loc="upper right", frameon=False)
-        axes[1].axhline(0.0, color="0.0", lw=0.6, ls=":")
-        axes[1].set_ylabel("residual, deg/h")
-        axes[1].set_xlabel("time since start, h")
+            axes[2].plot(hours, smooth, color="0.0", lw=1.0, ls="-", label="60 s mean")
+            axes[2].legend(loc="upper right", frameon=False)
+        axes[2].axhline(0.0, color="0.0", lw=0.6, ls=":")
+        axes[2].set_ylabel("residual, deg/h")
+        axes[2].set_xlabel("time since start, h")
         fig.align_ylabels(axes)
         return fig
 
@@ -308,24 +344,27 @@ def compensation_figure(time_s: np.ndarray, before: np.ndarray, after: np.ndarra
 
 
 def allan_figure(before, after) -> plt.Figure:
-    """Log-log Allan deviation before and after, with the standard slopes marked."""
+    """Log-log Allan deviation before and after, with the after-curve's angle random walk
+    (slope -1/2 through its shortest tau) and bias-instability level drawn as references
+    (the before-curve of a thermal run is the drift itself, not noise: no slope fits it)."""
     with plt.rc_context(STYLE):
         fig, ax = plt.subplots(figsize=(5.5, 4.0))
         for adev, style, label in ((before, "s", "before"), (after, "o", "after")):
             ax.fill_between(adev.tau_s, adev.lower_deg_h, adev.upper_deg_h, color="0.85", lw=0)
             ax.loglog(adev.tau_s, adev.adev_deg_h, style + "-", color="0.0" if label == "after"
                       else "0.5", ms=3, lw=1.0, label=f"{label} compensation")
+        merit = after.figures_of_merit()
         tau = after.tau_s
-        anchor = after.adev_deg_h[0]
-        for slope, text in ((-0.5, "-1/2: angle random walk"), (0.0, "0: bias instability"),
-                            (0.5, "+1/2: rate random walk")):
-            ax.loglog(tau, anchor * (tau / tau[0]) ** slope * (1 if slope < 0 else 0.3), ":",
-                      color="0.3", lw=0.8)
-            ax.annotate(text, (tau[-1], anchor * (tau[-1] / tau[0]) ** slope
-                               * (1 if slope < 0 else 0.3)), fontsize=6, ha="right")
+        arw = merit["arw_deg_rt_h"] * 60.0 / np.sqrt(tau)  # deg/h at tau s
+        ax.loglog(tau, arw, ":", color="0.2", lw=0.9,
+                  label=f"angle random walk {merit['arw_deg_rt_h']:.2g} deg/sqrt(h) (-1/2)")
+        if merit["bias_instability_resolved"]:
+            ax.axhline(merit["bias_instability_deg_h"], color="0.2", lw=0.9, ls="--",
+                       label=f"bias instability {merit['bias_instability_deg_h']:.2g} deg/h "
+                             f"at {merit['bias_instability_tau_s']:.3g} s")
         ax.set_xlabel("averaging time tau, s")
         ax.set_ylabel("Allan deviation, deg/h")
-        ax.legend(frameon=False, loc="lower left")
+        ax.legend(frameon=False, loc="upper left", fontsize=7)
         return fig
 
 

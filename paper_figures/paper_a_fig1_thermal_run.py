@@ -4,10 +4,12 @@ import json
 
 import paths
 
+from gyroid.derived import RATE_WINDOW_S
 from gyroid.logs import load_bench_log
 from gyroid.plotting import save, thermal_run
 
 log = load_bench_log(paths.data("thermal", "bench.csv"), "thermal")
 truth = json.loads(paths.data("thermal", "truth.json").read_text())
-save(thermal_run(log, log.inputs().rate_C_h), paths.figure("paper_a_fig1_thermal_run"), pdf=True)
+save(thermal_run(log, log.inputs().rate_C_h, rate_window_s=RATE_WINDOW_S),
+     paths.figure("paper_a_fig1_thermal_run"), pdf=True)
 print("thermal run, truth:", truth["parameters"])
