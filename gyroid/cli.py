@@ -250,6 +250,7 @@ def compensate(data, fit_dir, out, seed, mappings) -> None:
     fitted = FittedDrift.from_dir(fit_dir)
     maps = _parse_maps(mappings)
     log = load_bench_log(data, fitted.model, t0_C=fitted.t0_C, column_map=maps)
+    click.echo(f"compensating {data} ({log.n} rows) with {fit_dir} ...", err=True)
     result = run(log, fitted, fitted_ranges_from(fit_dir), seed=seed)
     with output_dir(out) as stage:
         (stage / "compensated.csv").write_text(compensated_csv(log, result))
