@@ -384,6 +384,10 @@ def residual_whiteness(residuals: np.ndarray | None, *,
     if correlated_noise_modelled:
         message = (f"the innovations are still correlated ({where}): an effect is missing or "
                    "the noise model is too simple; run gyroid discrepancy")
+    elif severe and m == "segment":
+        message = (f"the bias wanders between the log's bursts ({where}), so the intervals are "
+                   "too narrow; refit with --segment-means (one row per burst: the wander "
+                   "becomes the noise), or --noise white+gm")
     elif severe:
         message = (f"the residuals are correlated ({where}), so the intervals are too narrow; "
                    "refit with --noise white+gm, or look for a missing effect with gyroid "
@@ -396,21 +400,25 @@ def residual_whiteness(residuals: np.ndarray | None, *,
 
 
 def outliers(residuals: np.ndarray | None, *,
-             where: Callable[[int], str] | None = None) -> Check:
-    """Standardised residuals no Gaussian noise would leave (see the module docstring)."""
+             where: Callable[[int], str] | None = None, name: str = "outliers",
+             bias_sd_ratio: float = 1.0) -> Check:
+    """Standardised residuals no Gaussian noise would leave (see the module docstring).
+    ``bias_sd_ratio``: the fit's sd of a bias-like coefficient over ``s / sqrt(n)`` of these
+    residuals (1 when the fit is of these very samples; larger for a fit of their means,
+    whose noise includes wander the samples do not show)."""
     from scipy import stats
 
     if residuals is None or np.asarray(residuals).size < 16:
-        return Check("outliers", True, "error", None, OUTLIER_SHIFT_SD,
+        return Check(name, True, "error", None, OUTLIER_SHIFT_SD,
                      "too few residuals to look for outliers")
     z = np.asarray(residuals, dtype=float)
     n = z.size
     z_max = float(stats.norm.isf(0.5 * OUTLIER_FALSE_ALARM / n))
     rows = np.flatnonzero(np.abs(z) > z_max)
     if rows.size == 0:
-        return Check("outliers", True, "error", 0.0, OUTLIER_SHIFT_SD,
+        return Check(name, True, "error", 0.0, OUTLIER_SHIFT_SD,
                      f"no residual beyond {z_max:.1f} sd")
-    shift = float(abs(z[rows].sum()) / math.sqrt(n))
+    shift = float(abs(z[rows].sum()) / math.sqrt(n) / bias_sd_ratio)
     worst = rows[np.argsort(-np.abs(z[rows]))][:3]
     first = where(int(worst[0])) if where else f"row {int(worst[0]) + 1}"
     named = ", ".join([f"{first} at {z[worst[0]]:+.0f} sd"]
@@ -429,7 +437,7 @@ def outliers(residuals: np.ndarray | None, *,
     advice = ("most come in runs of neighbouring rows: structure the model or the noise model "
               "misses, not spikes; run gyroid discrepancy" if in_runs.mean() > 0.5 else
               "remove spikes from the log, or find their cause")
-    return Check("outliers", False, severity, shift, OUTLIER_SHIFT_SD,
+    return Check(name, False, severity, shift, OUTLIER_SHIFT_SD,
                  f"{rows.size} sample(s) lie beyond {z_max:.1f} sd of the model ({named}{more}); "
                  f"{consequence}; {advice}")
 

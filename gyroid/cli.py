@@ -198,11 +198,15 @@ def report_checks(checks) -> None:
 @click.option("--rate-window", "rate_window", default="auto", show_default=True,
               metavar="auto|SECONDS",
               help="Window of the dT/dt estimator; auto chooses it from the data.")
+@click.option("--segment-means", is_flag=True,
+              help="Burst-sampled log: fit one row per contiguous segment (its mean), so "
+                   "the bias's wander between bursts is the estimated noise; the samples "
+                   "are still checked for spikes.")
 @_map_option
 @click.option("--progress/--no-progress", default=True, show_default=True,
               help="Show the sampler's progress bar.")
 def fit(data, terms, out, seed, noise, t0_C, prior_choice, prior_items, flat_prior,
-        rate_window, mappings, progress) -> None:
+        rate_window, segment_means, mappings, progress) -> None:
     """Fit the drift model TERMS to a bench log DATA (point estimate, posterior, checks).
 
     DATA is a bench log (.csv, .csv.gz or .parquet; contract section 1). Exit code 3 when a
@@ -220,7 +224,8 @@ def fit(data, terms, out, seed, noise, t0_C, prior_choice, prior_items, flat_pri
     click.echo(f"fitting {terms} to {data} ({log.n} rows) ...", err=True)
     result = fit_log(log, terms, noise=noise, seed=seed, priors=overrides,
                      prior_set="flat" if flat_prior else prior_set, t0_C=t0_C,
-                     rate_window_s=window, settings=SamplerSettings(progress=progress))
+                     rate_window_s=window, settings=SamplerSettings(progress=progress),
+                     segment_means=segment_means)
     with output_dir(out) as stage:
         write_fit_outputs(stage, log, result)
     click.echo(result.point.summary())

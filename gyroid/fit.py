@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
@@ -10,12 +11,13 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyroid.allan import contiguous_segments
-from gyroid.checks import CheckReport, FitEvidence, fit_checks
+from gyroid.checks import CheckReport, FitEvidence, fit_checks, outliers
 from gyroid.drift import DriftModel
 from gyroid.effects import PARAMETERS
 from gyroid.inputs import T0_C
 from gyroid.likelihood import NOISE_UNITS, BenchProblem
 from gyroid.logs import BenchLog
+from gyroid.logs import segment_means as segment_means_of
 from gyroid.point import PointEstimate, point_estimate
 from gyroid.prior_scales import (
     PriorBasis,
@@ -41,6 +43,10 @@ class FitResult:
     prior_basis: PriorBasis | None = None
     rate_window_choice: str = "given"
     checks: CheckReport = field(default_factory=lambda: CheckReport(()))
+    #: When the log's bursts were averaged first: {"segments": K, "rows": n}.
+    segment_means: dict | None = None
+    #: The log the model was fitted to (the segment means when they were fitted).
+    fitted_log: BenchLog | None = field(default=None, repr=False)
 
     @property
     def trustworthy(self) -> bool:
@@ -88,6 +94,7 @@ class FitResult:
             "prior_basis": None if self.prior_basis is None else self.prior_basis.to_json(),
             "rate_window_s": self.problem.rate_window_s,
             "rate_window_choice": self.rate_window_choice,
+            "segment_means": self.segment_means,
             "convergence": {
                 "point_estimate": self.point.message,
                 "point_converged": self.point.converged,
@@ -159,10 +166,18 @@ def fit_log(
     rate_window_s: float | None = None,
     sample: bool = True,
     settings: SamplerSettings | None = None,
+    segment_means: bool = False,
 ) -> FitResult:
     """Fit a bench log: point estimate, then (``sample=True``) the emcee posterior, then
     the self-checks. ``rate_window_s=None`` chooses the rate estimator's window from the
-    data (:mod:`gyroid.rate_window`)."""
+    data (:mod:`gyroid.rate_window`). ``segment_means=True`` fits one row per contiguous
+    segment of a burst-sampled log (its mean), so that the bias's wander between bursts is
+    the noise the model estimates rather than a correlation it ignores; the samples are
+    still checked for spikes, which the means would hide."""
+    samples = log
+    if segment_means:
+        log, deviations, within_sd = segment_means_of(
+            log, contiguous_segments(np.asarray(log.time_s)))
     model = terms if isinstance(terms, DriftModel) else DriftModel.from_terms(terms)
     if rate_window_s is None:
         rate_window_s, _ = choose_rate_window(log, model, t0_C=t0_C)
@@ -177,8 +192,18 @@ def fit_log(
     _, basis = default_priors(model, problem.inputs, np.asarray(log.drift_deg_h))
     result = FitResult(problem=problem, point=point, posterior=posterior, seed=seed, t0_C=t0_C,
                        prior_set=chosen_set, prior_basis=basis,
-                       rate_window_choice=window_choice)
+                       rate_window_choice=window_choice,
+                       segment_means={"segments": log.n, "rows": samples.n}
+                       if segment_means else None, fitted_log=log)
     result.checks = fit_checks(bench_evidence(result, log))
+    if segment_means:
+        # A spike shifts the bias by its deviation / n; judge that against this fit's sd of
+        # the bias (about sigma / sqrt(K) of the K means), not the samples' s / sqrt(n).
+        sigma = result.point.value.get("sigma_deg_h", within_sd)
+        ratio = (sigma / math.sqrt(log.n)) / (within_sd / math.sqrt(samples.n))
+        result.checks = result.checks + CheckReport((outliers(
+            deviations, where=samples.where, name="outliers_within_segments",
+            bias_sd_ratio=max(ratio, 1e-12)),))
     return result
 
 

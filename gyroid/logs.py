@@ -71,6 +71,33 @@ class BenchLog:
         return build_inputs(self.columns, t0_C=t0_C, **options)
 
 
+#: Fewest contiguous segments a log of bursts needs for a fit of their means.
+MIN_SEGMENTS = 8
+
+
+def segment_means(log: BenchLog, segments: list[tuple[int, int]]
+                  ) -> tuple[BenchLog, np.ndarray, float]:
+    """One row per contiguous segment (burst) of ``log``: every column's mean over it
+    (``sigma_deg_h`` dropped: it describes a sample, not the wander between bursts); each
+    sample's drift minus its segment's mean over the pooled within-segment sd (for the spike
+    check the averaging would hide); and that sd, deg/h."""
+    if len(segments) < MIN_SEGMENTS:
+        raise GyroidInputError(
+            f"a fit of segment means needs a log of bursts with at least {MIN_SEGMENTS} "
+            f"contiguous segments; {log.source} has {len(segments)}: fit its samples instead")
+    columns = {name: np.array([values[a:b].mean() for a, b in segments])
+               for name, values in log.columns.items() if name != "sigma_deg_h"}
+    drift = np.asarray(log.drift_deg_h, dtype=float)
+    deviation = np.concatenate([drift[a:b] - drift[a:b].mean() for a, b in segments])
+    dof = log.n - len(segments)
+    scale = float(np.sqrt(np.sum(deviation**2) / dof)) if dof > 0 else 0.0
+    within = deviation / scale if scale > 0 else np.zeros_like(deviation)
+    comments = (*log.comments, f"means of the {len(segments)} contiguous segments of "
+                f"{log.source} ({log.n} rows)")
+    return BenchLog(columns=columns, source=f"{log.source} (segment means)",
+                    comments=comments), within, scale
+
+
 def check_temperature_celsius(values: np.ndarray, where: str = "temperature_C") -> None:
     """Refuse temperatures that look like kelvin."""
     if values.size and float(np.median(values)) > 150.0 and float(np.min(values)) > 100.0:

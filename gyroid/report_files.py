@@ -23,6 +23,8 @@ def write_fit_outputs(folder: Path, log: BenchLog, result: FitResult,
     if result.posterior is not None:
         result.posterior.idata.to_netcdf(str(folder / "posterior.nc"))
         written.append(folder / "posterior.nc")
+    if result.fitted_log is not None:
+        log = result.fitted_log  # e.g. the segment means, not the samples
     point_prediction = np.asarray(result.problem.predict(jnp.asarray(result.point.u)))
     written += save(fit_overview(log.time_s, log.drift_deg_h, result.predict_draws(),
                                  point_prediction), folder / "fit")

@@ -30,10 +30,12 @@ def write_log(path: Path, columns: dict[str, np.ndarray]) -> Path:
 # ----- stress logs: other gyro grades and shapes than paper A's bench ------------------------
 
 
-def mems_burst_log(seed: int, *, hours: float = 3.0) -> tuple[dict[str, np.ndarray], dict]:
+def mems_burst_log(seed: int, *, hours: float = 3.0, wander_deg_h: float = 0.0
+                   ) -> tuple[dict[str, np.ndarray], dict]:
     """A consumer MEMS gyro in a thermal-vacuum test: bias of -1500 deg/h, 30 deg/h/degC,
     the temperature falling steadily from 40 to 0 degC, 5 s bursts at 50 Hz every 5 min,
-    white noise of 200 deg/h (like the real log in issue 13)."""
+    white noise of 200 deg/h (like the real log in issue 13); ``wander_deg_h``: the sd of
+    an independent bias offset per burst (the real log's wander between bursts)."""
     rng = np.random.default_rng(seed)
     starts = np.arange(0.0, hours * 3600.0, 300.0)
     time_s = (starts[:, None] + np.arange(250)[None, :] / 50.0).ravel()
@@ -41,6 +43,7 @@ def mems_burst_log(seed: int, *, hours: float = 3.0) -> tuple[dict[str, np.ndarr
     truth = {"w0": -1500.0, "w1": 30.0, "w2": 0.5}
     t = temperature - 21.0
     drift = truth["w0"] + truth["w1"] * t + truth["w2"] * t**2
+    drift = drift + np.repeat(wander_deg_h * rng.standard_normal(starts.size), 250)
     columns = {"time_s": time_s, "drift_deg_h": drift + 200.0 * rng.standard_normal(time_s.size),
                "temperature_C": temperature + 0.05 * rng.standard_normal(time_s.size)}
     return columns, truth

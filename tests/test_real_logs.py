@@ -93,6 +93,22 @@ def test_discrepancy_on_the_real_log_reads_vendor_columns_and_checks_itself(tmp_
     assert report["trustworthy"] is False and not report["checks"]["outliers"]["passed"]
 
 
+def test_segment_means_give_a_trusted_fit_of_the_real_log(tmp_path, capsys):
+    """One row per burst: the wander becomes the noise and every error-level check passes;
+    the spikes are still named (a warning: they move the bias by 0.7 of this fit's sd)."""
+    import json
+
+    code = main(["fit", str(LOG), "--terms", "thermal", "--out", str(tmp_path / "fit"),
+                 "--no-progress", "--segment-means", *_cli_map()])
+    assert code == 0
+    assert "row 2341" in capsys.readouterr().err
+    fit = json.loads((tmp_path / "fit" / "fit.json").read_text())
+    assert fit["segment_means"] == {"segments": 25, "rows": 6250} and fit["trustworthy"]
+    assert fit["checks"]["outliers_within_segments"]["severity"] == "warning"
+    # Its intervals are honest: several times the per-sample fit's, which ignored the wander.
+    assert fit["posterior"]["w1"]["sd"] > 2 * 1.38
+
+
 def test_without_its_spikes_the_bias_wander_alone_makes_it_untrustworthy(pan_log):
     keep = np.ones(pan_log.n, dtype=bool)
     keep[list(SPIKES)] = False

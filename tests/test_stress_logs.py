@@ -131,3 +131,25 @@ def test_held_out_compensation_matches_plain_least_squares(tmp_path):
     assert rms_gyroid <= 1.15 * rms_plain
     assert rms_gyroid < np.std(test["drift_deg_h"])
     assert comp.checks.trustworthy, comp.checks.lines()
+
+
+def test_bias_wander_between_bursts_is_refused_per_sample_and_covered_by_segment_means():
+    """Bursts whose bias wanders (30 deg/h per burst against 200 / sqrt(250) = 12.6 for a
+    burst's white noise): the per-sample white fit must not pass; the fit of the 36 burst
+    means is trusted and its 95 % intervals cover the truth: 30 intervals over 10 seeds,
+    at least 25 (a binomial tail of 0.2 % at the nominal 95 %)."""
+    columns, truth = mems_burst_log(0, wander_deg_h=30.0)
+    per_sample = fit_log(BenchLog(columns), "bias,temperature,temperature_sq", settings=QUICK)
+    assert not per_sample.trustworthy
+    assert "--segment-means" in per_sample.checks.lines()[0]
+    covered = 0
+    for seed in range(10):
+        columns, truth = mems_burst_log(seed, wander_deg_h=30.0)
+        result = fit_log(BenchLog(columns), "bias,temperature,temperature_sq", seed=seed,
+                         settings=QUICK, segment_means=True)
+        assert result.trustworthy, result.checks.lines()
+        assert result.segment_means == {"segments": 36, "rows": 9000}
+        for name, value in truth.items():
+            lo, hi = result.posterior.summary[name]["ci95"]
+            covered += lo <= value <= hi
+    assert covered >= 25
