@@ -348,6 +348,19 @@ def bench_demo():
     return {"seconds": seconds, "peak_rss_mb": peak_kb / 1024.0}
 
 
+def bench_problems(seed: int):
+    """The 6 h log's problem (paper A's FOG priors: the registry's fixed scales, which the
+    NumPy baseline writes out; the default priors are scaled to each log), its flat-prior
+    twin, and the baseline's design matrix, data and prior scales."""
+    log = six_hour_log(seed)
+    problem = BenchProblem.from_log(log, "full", prior_set="paper_a_fog")
+    flat = BenchProblem.from_log(log, "full", flat_prior=True)
+    design = np.asarray(problem.model.design(problem.inputs))
+    y = np.asarray(problem.drift)
+    scales = np.array([p.prior.scale for p in problem.model.parameters])
+    return problem, flat, design, y, scales
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="fewer repeats and draws")
@@ -355,14 +368,7 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     args = parser.parse_args()
     repeats = 5 if args.quick else 20
-    log = six_hour_log(args.seed)
-    # Paper A's FOG priors: the registry's fixed scales, which the NumPy baseline writes out
-    # (the default priors are scaled to each log).
-    problem = BenchProblem.from_log(log, "full", prior_set="paper_a_fog")
-    flat = BenchProblem.from_log(log, "full", flat_prior=True)
-    design = np.asarray(problem.model.design(problem.inputs))
-    y = np.asarray(problem.drift)
-    scales = np.array([p.prior.scale for p in problem.model.parameters])
+    problem, flat, design, y, scales = bench_problems(args.seed)
     results = {}
     for name, run in (
         ("likelihood_throughput", lambda: bench_likelihood(problem, design, y, scales, repeats)),
