@@ -81,7 +81,8 @@ def test_every_repository_path_the_readme_and_docs_name_exists():
     assert not missing, f"the README names paths that are not in the repository: {missing}"
 
 
-#: Tour commands whose exit code 3 the README announces (a self-check refuses the result).
+#: Tour commands whose exit code 3 the README announces (a self-check refuses the result);
+#: the real log fitted by its burst means is trusted.
 REFUSED = (("roll", "fit"), ("fit", "tests/data/pan_lsm6dsm_tvac_2020-03-07.csv.gz"))
 
 
@@ -96,7 +97,7 @@ def test_the_tour_runs_as_written(tmp_path, monkeypatch):
     for args in _commands():
         if args[:1] == ["demo"]:
             continue  # the first set-up command; test_demo covers it
-        expected = 3 if tuple(args[:2]) in REFUSED else 0
+        expected = 3 if tuple(args[:2]) in REFUSED and "--segment-means" not in args else 0
         assert main(args) == expected, f"gyroid {' '.join(args)}"
     for block in re.findall(r"```python\n(.*?)```", README, flags=re.S):
         exec(compile(block, "README.md", "exec"), {})
