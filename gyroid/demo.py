@@ -245,7 +245,8 @@ def run_demo(out: str | Path, *, seed: int = 0, echo: Callable[[str], None] = pr
             ]
             figure("fig_discrepancy", "Residuals before and after adding the named effect "
                    "(top), the baseline residual against the regressor that explains it, and "
-                   "the RMS at each step.")
+                   "the RMS of the 60 s means before and after (per-sample RMS in the labels: "
+                   "there the white noise dominates).")
         cs = comp.summary
         before, after = cs["allan_before"], cs["allan_after"]
         lines += [
