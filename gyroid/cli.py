@@ -419,8 +419,12 @@ def roll_fit(data, out, seed, mappings, progress) -> None:
               help="Reference temperature t0, degC.")
 @click.option("--max-added", default=3, show_default=True, type=int,
               help="Stop after adding this many effects.")
+@click.option("--extra-columns", is_flag=True,
+              help="Offer every other numeric column of the log (pressure, supply voltage, "
+                   "a second thermometer...) as a candidate cause extra:COLUMN, on the same "
+                   "evidence scale as the catalogue.")
 @_map_option
-def discrepancy(data, terms, out, t0_C, max_added, mappings) -> None:
+def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings) -> None:
     """Find what the model TERMS misses in DATA, add it, refit, show the gap shrink.
 
     DATA is a bench log (contract section 1) or a roll log (section 4: roll_rate_deg_s,
@@ -438,8 +442,10 @@ def discrepancy(data, terms, out, t0_C, max_added, mappings) -> None:
     if "roll_rate_deg_s" in {*header, *targets} and "drift_deg_h" not in {*header, *targets}:
         _roll_discrepancy(data, terms, out, max_added, maps)
         return
-    log = load_bench_log(data, terms, t0_C=t0_C, column_map=maps)
-    click.echo(f"searching what {terms} misses in {data} ({log.n} rows) ...", err=True)
+    log = load_bench_log(data, terms, t0_C=t0_C, column_map=maps, extra_columns=extra_columns)
+    click.echo(f"searching what {terms} misses in {data} ({log.n} rows"
+               + (f"; extra columns {', '.join(log.extra_columns)}" if log.extra_columns else "")
+               + ") ...", err=True)
     report = find_discrepancies(log, terms, max_added=max_added, t0_C=t0_C,
                                 progress=lambda m: click.echo(m, err=True))
     regs = regressors(log.inputs(t0_C=t0_C, rate_window_s=report.rate_window_s))
@@ -452,8 +458,11 @@ def discrepancy(data, terms, out, t0_C, max_added, mappings) -> None:
         save(discrepancy_figure(report, regs.get(name), name), stage / "discrepancy")
     for step in report.steps:
         click.echo(f"added {step.effect}: {step.evidence}")
-    if not report.steps:
-        click.echo("nothing is missing: no candidate effect reaches dBIC > 10")
+    if report.unexplained is not None:
+        click.echo(f"unexplained: {report.unexplained['evidence']}")
+    elif not report.steps:
+        click.echo("nothing is missing: no candidate effect reaches dBIC > 10, and no "
+                   "flexible function of time finds structure left")
     click.echo(f"wrote {out / 'discrepancy.json'} and {out / 'discrepancy.png'}")
     report_checks(report.checks)
 

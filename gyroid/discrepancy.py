@@ -26,10 +26,11 @@ import numpy as np
 import optimistix as optx
 from scipy.optimize import minimize
 
+from gyroid import effects as registry
 from gyroid.allan import contiguous_segments
 from gyroid.checks import CheckReport, fit_checks, point_fit_evidence
 from gyroid.drift import DriftModel
-from gyroid.effects import EFFECTS, resolve_terms
+from gyroid.effects import EFFECTS, EXTRA_PREFIX, resolve_terms
 from gyroid.errors import GyroidInputError
 from gyroid.inputs import T0_C, DriftInputs
 from gyroid.likelihood import NOISE_PRIORS, gauss_markov_innovations
@@ -72,6 +73,8 @@ def regressors(x: DriftInputs) -> dict[str, np.ndarray]:
     for k, axis in enumerate("xyz"):
         out[f"H{axis}"] = np.asarray(x.field_rel[:, k])
         out[f"sign of the last H{axis} change"] = np.asarray(x.field_sign[:, k])
+    for k, name in enumerate(x.extra_names):
+        out[name] = np.asarray(x.extra[:, k])
     return out
 
 
@@ -127,6 +130,7 @@ class DiscrepancyReport:
     time_s: np.ndarray = field(default=None, repr=False)
     skipped: dict[str, str] = field(default_factory=dict)
     checks: CheckReport | None = None
+    unexplained: dict | None = None
 
     @property
     def added(self) -> list[str]:
@@ -161,6 +165,7 @@ class DiscrepancyReport:
             "noise": self.noise.as_dict(),
             "rate_window_s": self.rate_window_s,
             "skipped_candidates": self.skipped,
+            "unexplained": self.unexplained,
             **(self.checks.to_json() if self.checks is not None else {}),
         }
 
@@ -207,14 +212,16 @@ def _fit(model: DriftModel, inputs: DriftInputs, y, steps_s, noise: NoiseLevels)
         return _profile(model, inputs, y, jnp.asarray(u, dtype=float), steps_s, noise_args)
 
     if positive:
-        medians = np.log([p.prior.median for p in positive])
+        grids = [np.log(p.start_values(inputs)) if p.start_values is not None else
+                 math.log(p.prior.median) + np.log(TAU_GRID) for p in positive]
         best_u, best = None, -np.inf
-        for combo in itertools.product(TAU_GRID, repeat=len(positive)):
-            u = medians + np.log(combo)
+        for combo in itertools.product(*grids):
+            u = np.asarray(combo, dtype=float)
             value = float(profile(u)[0])
             if value > best:
                 best_u, best = u, value
-        bounds = [(m + math.log(0.01), m + math.log(50.0)) for m in medians]
+        bounds = [(float(g.min()) + math.log(0.2), float(g.max()) + math.log(50.0 / 15.0))
+                  for g in grids]
         method = "Nelder-Mead" if len(positive) > 1 else "Powell"
         options = {"xatol": 1e-4, "fatol": 1e-4} if len(positive) > 1 else {"xtol": 1e-4}
         found = minimize(
@@ -316,7 +323,7 @@ def _applicable(
     effect: str, terms: tuple[str, ...], log: BenchLog, inputs: DriftInputs
 ) -> str | None:
     """Why a candidate cannot be tried on this log (None when it can)."""
-    e = EFFECTS[effect]
+    e = registry.effect(effect)
     missing = [c for c in e.columns if not log.has(c)]
     if missing:
         return f"the log has no {missing[0]} column"
@@ -369,6 +376,108 @@ def _where(
     return out[:top]
 
 
+#: Cosines of elapsed time, cos(k pi tau) for k = 1..FLEXIBLE_TERMS over the log (tau from
+#: 0 to 1): the flexible term that stands for structure no catalogued effect describes.
+#: Twelve resolve features of about a twelfth of the log. Such slow structure is seen
+#: through the log's 60 s means, not its samples, so their dBIC penalty is 12 log(number
+#: of 60 s means): 12 log n would ask a slow effect to beat white noise sample by sample,
+#: which the Gauss-Markov part of the noise model already soaks (a 0.1 deg/h two-hour
+#: oscillation gave 2 dlogL = 115 on 12 terms, p ~ 1e-18, and dBIC -11 with log n).
+FLEXIBLE_TERMS = 12
+FLEXIBLE_BLOCK_S = 60.0
+#: The noise model's correlation time counts as pinned at its cap above this fraction.
+TAU_AT_CAP = 0.98
+
+
+def _flexible_basis(time_s: np.ndarray) -> np.ndarray:
+    tau = (time_s - time_s[0]) / max(float(time_s[-1] - time_s[0]), 1e-9)
+    return np.cos(np.pi * np.outer(tau, np.arange(1, FLEXIBLE_TERMS + 1)))
+
+
+def _whitened_fit(residual: np.ndarray, basis: np.ndarray, steps_s, noise: NoiseLevels):
+    """Log-likelihood of ``residual`` less its best whitened fit on ``basis`` under
+    ``noise``, and that fit (deg/h per row)."""
+    stacked = jnp.concatenate([jnp.asarray(residual)[:, None], jnp.asarray(basis)], axis=1)
+    innovations, variance = gauss_markov_innovations(stacked, steps_s, noise.white, noise.gm,
+                                                     noise.tau_s)
+    scale = 1.0 / jnp.sqrt(variance)
+    target, columns = innovations[:, 0] * scale, innovations[:, 1:] * scale[:, None]
+    coef, *_ = jnp.linalg.lstsq(columns, target)
+    rss = float(jnp.sum((target - columns @ coef) ** 2))
+    log_lik = (-0.5 * rss - 0.5 * float(jnp.sum(jnp.log(variance)))
+               - 0.5 * residual.size * _LOG_2PI)
+    return log_lik, np.asarray(basis) @ np.asarray(coef)
+
+
+def _noise_log_likelihood(residual: np.ndarray, steps_s, noise: NoiseLevels) -> float:
+    innovation, variance = gauss_markov_innovations(jnp.asarray(residual), steps_s, noise.white,
+                                                    noise.gm, noise.tau_s)
+    return float(-0.5 * jnp.sum(innovation**2 / variance + jnp.log(variance))
+                 - 0.5 * residual.size * _LOG_2PI)
+
+
+def find_unexplained(log: BenchLog, fit: ModelFit, noise: NoiseLevels, steps_s,
+                     regs: dict[str, np.ndarray]) -> dict | None:
+    """Structure the final model leaves: a smooth function of time (FLEXIBLE_TERMS cosines)
+    against the final residual, the noise re-estimated with it, scored by dBIC on the
+    candidates' scale. None unless it beats ``ADD_THRESHOLD``; then where it is, what it
+    lines up with, and whether the noise model had run into its correlation-time cap (slow
+    structure taken for noise)."""
+    time_s = np.asarray(log.time_s)
+    residual = np.asarray(fit.residual)
+    basis = _flexible_basis(time_s)
+    base = _noise_log_likelihood(residual, steps_s, noise)
+    flexible_noise = noise
+    for _ in range(2):
+        _, curve = _whitened_fit(residual, basis, steps_s, flexible_noise)
+        flexible_noise = estimate_noise(residual - curve, steps_s)
+    log_lik, curve = _whitened_fit(residual, basis, steps_s, flexible_noise)
+    blocks = max((time_s[-1] - time_s[0]) / FLEXIBLE_BLOCK_S, FLEXIBLE_TERMS + 2.0)
+    score = 2.0 * (log_lik - base) - FLEXIBLE_TERMS * math.log(min(blocks, residual.size))
+    pinned = noise.tau_s >= TAU_AT_CAP * MAX_NOISE_TAU_S
+    if score <= ADD_THRESHOLD and not pinned:
+        return None
+    span = time_s[-1] - time_s[0]
+    window = max(span / 40.0, 60.0)
+    index = np.minimum(np.floor((time_s - time_s[0]) / window).astype(int),
+                       max(int(span // window) - 1, 0))
+    # Where: the flexible curve's stretches when it won; else (the noise model pinned at
+    # its cap) the final residual's own slow part.
+    shape = curve if score > ADD_THRESHOLD else residual
+    means = np.bincount(index, weights=shape) / np.maximum(np.bincount(index), 1)
+    strong = np.flatnonzero(np.abs(means) >= 0.5 * np.abs(means).max())
+    where = []
+    for k in strong:  # merge neighbouring windows into stretches, h
+        start, end = float(k * window / 3600.0), float(min((k + 1) * window, span) / 3600.0)
+        if where and abs(where[-1][1] - start) < 1e-9:
+            where[-1][1] = end
+        else:
+            where.append([start, end])
+    correlations = {name: float(np.corrcoef(_block_means(shape, time_s),
+                                            _block_means(values, time_s))[0, 1])
+                    for name, values in regs.items() if np.ptp(values) > 0}
+    best = max(correlations, key=lambda k: abs(correlations[k]), default=None)
+    lines_up = best if best is not None and abs(correlations[best]) >= 0.5 else None
+    if score > ADD_THRESHOLD:
+        found = (f"a smooth function of time ({FLEXIBLE_TERMS} cosines) explains structure "
+                 f"that no catalogued effect does: dBIC = {score:.1f} over the final model "
+                 f"(penalty on the number of 60 s means; threshold {ADD_THRESHOLD:g})")
+    else:
+        found = (f"the noise model's correlation time ran into its cap of "
+                 f"{MAX_NOISE_TAU_S:g} s (Gauss-Markov sd {noise.gm:.3g} deg/h): structure "
+                 "slower than the noise model allows is being called noise (a smooth function "
+                 f"of time scores dBIC = {score:.1f}; a step or a jump is not smooth)")
+    evidence = (
+        found + "; it is largest at " + ", ".join(f"{a:.2f}-{b:.2f} h" for a, b in where[:3])
+        + (f" and lines up with {lines_up} (r = {correlations[lines_up]:.2f} on 60 s means)"
+           if lines_up else " and lines up with no logged quantity")
+        + ". The named effects, if any, may be stand-ins for it: log the quantity that "
+          "drives it, or offer it with --extra-columns")
+    return {"evidence": evidence, "score": score, "where": where,
+            "lines_up_with": lines_up, "noise_tau_at_cap": bool(pinned),
+            "flexible_terms": FLEXIBLE_TERMS}
+
+
 def _final_checks(log: BenchLog, fit: ModelFit, noise: NoiseLevels, steps_s) -> CheckReport:
     """The self-checks of the final model: its innovations under the estimated noise."""
     innovation, variance = gauss_markov_innovations(
@@ -409,7 +518,9 @@ def find_discrepancies(
     steps_s = jnp.asarray(np.concatenate([[np.median(np.diff(time_s))], np.diff(time_s)]))
     y = np.asarray(log.drift_deg_h)
     n = y.size
-    pool = candidates or tuple(name for name in EFFECTS if name not in baseline_terms)
+    pool = candidates or tuple(
+        [name for name in EFFECTS if name not in baseline_terms]
+        + [EXTRA_PREFIX + column for column in log.extra_columns])
     regs = regressors(inputs)
 
     fit_now, noise = _fit_with_noise(current, inputs, y, steps_s, NoiseLevels(1.0, 1e-6, 300.0))
@@ -456,7 +567,7 @@ def find_discrepancies(
             )
         regressor, r = _explaining_regressor(
             fit_now.residual, fit_now.residual - with_fit.residual, regs, time_s,
-            EFFECTS[best].signature)
+            registry.effect(best).signature)
         evidence = (
             f"residuals follow {regressor} (r = {r:.2f} on 60 s means); adding {best} cuts "
             f"the RMS from {fit_now.rms_ols:.3g} to {with_fit.rms_ols:.3g} deg/h; "
@@ -478,7 +589,9 @@ def find_discrepancies(
         )
         say(f"  added {best}: dBIC = {scores[best]:.1f}")
         current, fit_now, noise = DriftModel(terms=with_fit.terms), with_fit, new_noise
+    say("  testing the final model against a flexible term ...")
     return DiscrepancyReport(
+        unexplained=find_unexplained(log, fit_now, noise, steps_s, regs),
         checks=_final_checks(log, fit_now, noise, steps_s),
         baseline_terms=baseline_terms,
         final_terms=current.terms,

@@ -9,7 +9,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from gyroid.effects import EFFECTS, Effect, Parameter, Params, resolve_terms
+from gyroid import effects as registry
+from gyroid.effects import Effect, Parameter, Params, resolve_terms
 from gyroid.errors import GyroidInputError
 from gyroid.inputs import FIELD_COLUMNS, DriftInputs
 
@@ -45,7 +46,7 @@ class DriftModel(eqx.Module):
 
     @property
     def effects(self) -> tuple[Effect, ...]:
-        return tuple(EFFECTS[name] for name in self.terms)
+        return tuple(registry.effect(name) for name in self.terms)
 
     @property
     def parameters(self) -> tuple[Parameter, ...]:
@@ -59,7 +60,8 @@ class DriftModel(eqx.Module):
     def columns(self) -> tuple[str, ...]:
         """Log columns the selected effects need (besides time and drift)."""
         needed = {c for e in self.effects for c in e.columns}
-        return tuple(c for c in ("temperature_C", *FIELD_COLUMNS) if c in needed)
+        known = ("temperature_C", *FIELD_COLUMNS)
+        return (*(c for c in known if c in needed), *sorted(needed - set(known)))
 
     @property
     def is_linear(self) -> bool:

@@ -8,15 +8,18 @@ discrepancy search all read this one registry.
 Paper A's effects: ``bias``, ``temperature``, ``temperature_sq``, ``temperature_rate``,
 ``magnetic_x``, ``magnetic_y``, ``magnetic_z``. Candidate effects (what the discrepancy
 workflow may find missing): ``thermal_lag``, ``warmup``, ``time_trend``,
-``magnetic_hysteresis``, ``temperature_cubic``.
+``magnetic_hysteresis``, ``temperature_cubic``, ``bias_step``.
 """
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
+import jax
 import jax.numpy as jnp
+import numpy as np
 from jaxtyping import Array, Float
 
 from gyroid.derived import lagged_temperature
@@ -40,6 +43,9 @@ class Parameter:
     #: coefficient move the drift by ten times the log's drift scale (regressor units:
     #: degC for w1, degC^2 for w2, degC/h for wD, H/H0 for the field terms, h for w_trend).
     span: float = 1.0
+    #: For a positive parameter whose plausible values depend on the log (a step's time):
+    #: the starting values to try, from the log's inputs (else multiples of the median).
+    start_values: Callable[[DriftInputs], np.ndarray] | None = None
 
 
 @dataclass(frozen=True)
@@ -100,6 +106,23 @@ def _thermal_lag(params: Params, x: DriftInputs) -> Float[Array, " n"]:
     w2 = params.get("w2", zero)
     w3 = params.get("w3", zero)
     return w1 * (lagged - t) + w2 * (lagged**2 - t**2) + w3 * (lagged**3 - t**3)
+
+
+#: A bias step's edge, as a fraction of the log's duration (a logistic, so that its time is
+#: a smooth parameter), and the grid of step times tried, fractions of the duration.
+STEP_EDGE_FRACTION = 1.0 / 200.0
+STEP_GRID = np.linspace(0.01, 0.99, 99)
+
+
+def _bias_step(params: Params, x: DriftInputs) -> Float[Array, " n"]:
+    elapsed = x.time_h - x.time_h[0]
+    edge_h = jnp.maximum(elapsed[-1] * STEP_EDGE_FRACTION, 1e-6)
+    return params["w_step"] * jax.nn.sigmoid((elapsed - params["t_step_h"]) / edge_h)
+
+
+def _step_times(x: DriftInputs) -> np.ndarray:
+    elapsed = np.asarray(x.time_h) - float(np.asarray(x.time_h)[0])
+    return STEP_GRID * max(float(elapsed[-1]), 1e-6)
 
 
 def _warmup(params: Params, x: DriftInputs) -> Float[Array, " n"]:
@@ -259,6 +282,20 @@ EFFECTS: dict[str, Effect] = {
             design=lambda x: x.field_sign,
         ),
         Effect(
+            name="bias_step",
+            signature="elapsed time",
+            formula=("w_step from t_step_h on (h since the log's start; a logistic edge of "
+                     "1/200 of the log's duration)"),
+            parameters=(
+                Parameter("w_step", "deg/h", "size of the bias step", Normal(0.0, 10.0)),
+                Parameter("t_step_h", "h", "time of the step since the log's start",
+                          LogNormal(5.0, 2.0), positive=True, start_values=_step_times),
+            ),
+            columns=(),
+            paper=False,
+            nonlinear=_bias_step,
+        ),
+        Effect(
             name="temperature_cubic",
             signature="temperature^3",
             formula="w3 t^3",
@@ -272,6 +309,41 @@ EFFECTS: dict[str, Effect] = {
         ),
     )
 }
+
+#: Prefix of the effects made from a user's own columns (``--extra-columns``).
+EXTRA_PREFIX = "extra:"
+
+
+@functools.cache
+def extra_effect(column: str) -> Effect:
+    """``extra:COLUMN``: linear in the column's deviation from its mean."""
+    def design(x: DriftInputs) -> Float[Array, "n 1"]:
+        k = x.extra_names.index(column)
+        return x.extra[:, k : k + 1]
+
+    return Effect(
+        name=EXTRA_PREFIX + column, signature=column,
+        formula=f"w_extra_{column} ({column} - mean)",
+        parameters=(Parameter(f"w_extra_{column}", f"deg/h per unit of {column}",
+                              f"sensitivity to the logged {column}", Normal(0.0, 10.0)),),
+        columns=(column,), paper=False, design=design)
+
+
+def effect(name: str) -> Effect:
+    """A registry effect, or an ``extra:COLUMN`` effect."""
+    if name.startswith(EXTRA_PREFIX):
+        return extra_effect(name[len(EXTRA_PREFIX):])
+    return EFFECTS[name]
+
+
+def parameter(name: str) -> Parameter:
+    """A registry parameter, or an extra effect's ``w_extra_COLUMN``."""
+    if name in PARAMETERS:
+        return PARAMETERS[name]
+    if name.startswith("w_extra_"):
+        return extra_effect(name[len("w_extra_"):]).parameters[0]
+    raise KeyError(name)
+
 
 PRESETS: dict[str, tuple[str, ...]] = {
     "thermal": ("bias", "temperature", "temperature_sq", "temperature_rate"),
@@ -300,7 +372,7 @@ def resolve_terms(spec: str | tuple[str, ...] | list[str]) -> tuple[str, ...]:
             continue
         if item in PRESETS:
             chosen.update(PRESETS[item])
-        elif item in EFFECTS:
+        elif item in EFFECTS or (item.startswith(EXTRA_PREFIX) and len(item) > len(EXTRA_PREFIX)):
             chosen.add(item)
         else:
             known = ", ".join([*PRESETS, *EFFECTS])
@@ -310,10 +382,11 @@ def resolve_terms(spec: str | tuple[str, ...] | list[str]) -> tuple[str, ...]:
     if not chosen:
         raise GyroidInputError("--terms is empty; give e.g. 'thermal', 'magnetic' or 'full'")
     for name in chosen:
-        missing = [need for need in EFFECTS[name].needs_effects if need not in chosen]
+        missing = [need for need in effect(name).needs_effects if need not in chosen]
         if missing:
             raise GyroidInputError(
                 f"term {name!r} acts on the temperature terms; add {', '.join(missing)!s} "
                 "to --terms"
             )
-    return tuple(name for name in EFFECTS if name in chosen)
+    extras = sorted(name for name in chosen if name.startswith(EXTRA_PREFIX))
+    return (*(name for name in EFFECTS if name in chosen), *extras)

@@ -13,7 +13,7 @@ import numpy as np
 from gyroid.allan import contiguous_segments
 from gyroid.checks import CheckReport, FitEvidence, fit_checks, outliers
 from gyroid.drift import DriftModel
-from gyroid.effects import PARAMETERS
+from gyroid.effects import parameter
 from gyroid.inputs import T0_C
 from gyroid.likelihood import NOISE_UNITS, BenchProblem
 from gyroid.logs import BenchLog
@@ -77,7 +77,7 @@ class FitResult:
             "point_sd": {k: self.point.sd[k] for k in names},
             "posterior": {},
             "rms_residual_deg_h": self.point.rms_residual_deg_h,
-            "units": {k: PARAMETERS[k].unit for k in names},
+            "units": {k: parameter(k).unit for k in names},
             "t0_C": self.t0_C,
             "seed": self.seed,
             "noise": {

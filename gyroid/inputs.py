@@ -38,6 +38,9 @@ class DriftInputs(eqx.Module):
     field_rel: Float[Array, "n 3"]  # field projections over H0, dimensionless
     field_sign: Float[Array, "n 3"]  # sign of the last change of each component
     t0_C: float = eqx.field(static=True, default=T0_C)
+    #: A user's own logged quantities (--extra-columns), each minus its mean: (n, m).
+    extra: Float[Array, "n m"] | None = None
+    extra_names: tuple[str, ...] = eqx.field(static=True, default=())
 
     @property
     def n(self) -> int:
@@ -53,6 +56,7 @@ def inputs_from_arrays(
     *,
     t0_C: float = T0_C,
     origin_s: float | None = None,
+    extra: Mapping[str, np.ndarray] | None = None,
 ) -> DriftInputs:
     """DriftInputs from given quantities (the simulators' truth, a flight's environment):
     elapsed time from ``origin_s`` (default: the first sample), field (n, 3) in uT."""
@@ -68,6 +72,9 @@ def inputs_from_arrays(
         field_rel=jnp.asarray(np.asarray(field_uT) / H0_UT),
         field_sign=jnp.asarray(sign),
         t0_C=float(t0_C),
+        extra=None if not extra else jnp.asarray(np.column_stack(
+            [np.asarray(v, dtype=float) - np.mean(v) for v in extra.values()])),
+        extra_names=tuple(extra or ()),
     )
 
 
@@ -77,8 +84,10 @@ def build_inputs(
     t0_C: float = T0_C,
     rate_window_s: float = RATE_WINDOW_S,
     deadband_uT: float = HYSTERESIS_DEADBAND_UT,
+    extra_columns: tuple[str, ...] = (),
 ) -> DriftInputs:
-    """Build :class:`DriftInputs` from log columns (``time_s`` required, the rest optional)."""
+    """Build :class:`DriftInputs` from log columns (``time_s`` required, the rest optional;
+    ``extra_columns`` name the user's own columns that ``extra:COLUMN`` effects read)."""
     time_s = np.asarray(columns["time_s"], dtype=float)
     n = time_s.size
     if "temperature_C" in columns:
@@ -93,4 +102,5 @@ def build_inputs(
         if name in columns:
             field[:, k] = np.asarray(columns[name], dtype=float)
             sign[:, k] = field_change_sign(field[:, k], deadband_uT)
-    return inputs_from_arrays(time_s, temperature, rate, field, sign, t0_C=t0_C)
+    return inputs_from_arrays(time_s, temperature, rate, field, sign, t0_C=t0_C,
+                              extra={name: columns[name] for name in extra_columns})

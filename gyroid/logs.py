@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 
 from gyroid.drift import DriftModel
+from gyroid.effects import EXTRA_PREFIX
 from gyroid.errors import GyroidInputError
 from gyroid.inputs import FIELD_COLUMNS, T0_C, DriftInputs, build_inputs
 from gyroid.outputs import atomic_write_text
@@ -42,6 +43,8 @@ class BenchLog:
     comments: tuple[str, ...] = ()
     #: Names data row i (0-based) as the file has it, e.g. 'row 3 (line 7 of log.csv)'.
     row_name: Callable[[int], str] | None = field(default=None, compare=False, repr=False)
+    #: The user's own numeric columns offered as ``extra:COLUMN`` effects (--extra-columns).
+    extra_columns: tuple[str, ...] = ()
 
     @property
     def n(self) -> int:
@@ -68,7 +71,8 @@ class BenchLog:
 
     def inputs(self, *, t0_C: float = T0_C, **options) -> DriftInputs:
         """The drift model's inputs, derived quantities included."""
-        return build_inputs(self.columns, t0_C=t0_C, **options)
+        return build_inputs(self.columns, t0_C=t0_C, extra_columns=self.extra_columns,
+                            **options)
 
 
 #: Fewest contiguous segments a log of bursts needs for a fit of their means.
@@ -116,8 +120,11 @@ def load_bench_log(
     *,
     t0_C: float = T0_C,
     column_map: Iterable[ColumnMap] = (),
+    extra_columns: bool = False,
 ) -> BenchLog:
     """Read and validate a bench log (.csv, .csv.gz, .parquet) for a model with the terms.
+    ``extra_columns=True`` keeps every other numeric, finite, varying column as a
+    candidate cause ``extra:COLUMN`` (and a term that names one needs it).
 
     ``time_s`` and ``drift_deg_h`` are always needed; the terms add their columns;
     ``column_map`` reads a vendor's columns and units as contract columns (``--map``). Every
@@ -175,8 +182,24 @@ def load_bench_log(
     check_time_increasing(table, columns["time_s"])
     if "temperature_C" in needed:
         check_temperature_celsius(columns["temperature_C"])
+    extras: list[str] = []
+    wanted = {name[len(EXTRA_PREFIX):] for name in (model.terms if model else ())
+              if name.startswith(EXTRA_PREFIX)}
+    if extra_columns or wanted:
+        taken = {m.source for m in table.maps} | set(BENCH_COLUMNS)
+        for name in table.header:
+            if name in taken:
+                continue
+            values = columns[name] if name in columns else table.try_number_column(name)
+            if values is not None and np.ptp(values) > 0:
+                columns[name] = values
+                extras.append(name)
+        for name in sorted(wanted - set(extras)):
+            raise GyroidInputError(f"{table.path.name}: term extra:{name} needs a numeric, "
+                                   f"varying column {name!r}; the header has "
+                                   f"{', '.join(table.header)}")
     log = BenchLog(columns=columns, source=str(table.path), comments=table.comments,
-                   row_name=table.where)
+                   row_name=table.where, extra_columns=tuple(extras))
     if model is not None:
         if log.n <= len(model.parameter_names):
             raise GyroidInputError(

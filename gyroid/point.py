@@ -120,13 +120,19 @@ def _starts(problem: BenchProblem) -> list[np.ndarray]:
     positive = [i for i, flag in enumerate(problem.positive[: problem.n_model]) if flag]
     if not positive:
         return [np.zeros(problem.n_model)]
-    # The registry's (physical) medians, whatever prior the fit uses (a flat one has none).
-    medians = [math.log(problem.model.parameters[i].prior.median) for i in positive]
+    # Per positive parameter: its own starting values from the log (a step's time), else
+    # multiples of the registry's (physical) median, whatever prior the fit uses.
+    grids = []
+    for i in positive:
+        parameter = problem.model.parameters[i]
+        if parameter.start_values is not None:
+            grids.append(np.log(parameter.start_values(problem.inputs)))
+        else:
+            grids.append(math.log(parameter.prior.median) + np.log(START_GRID))
     starts = []
-    for combo in itertools.product(START_GRID, repeat=len(positive)):
+    for combo in itertools.product(*grids):
         u = np.zeros(problem.n_model)
-        for i, median, factor in zip(positive, medians, combo, strict=True):
-            u[i] = median + math.log(factor)
+        u[positive] = combo
         starts.append(u)
     return starts
 

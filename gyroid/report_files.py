@@ -7,7 +7,7 @@ from pathlib import Path
 import jax.numpy as jnp
 import numpy as np
 
-from gyroid.effects import PARAMETERS
+from gyroid.effects import parameter
 from gyroid.fit import FitResult
 from gyroid.logs import BenchLog
 from gyroid.outputs import json_text
@@ -31,6 +31,6 @@ def write_fit_outputs(folder: Path, log: BenchLog, result: FitResult,
     if result.posterior is not None:
         names = list(result.model_names)
         flat = result.posterior.draws.reshape(-1, len(result.problem.names))[:, : len(names)]
-        units = {n: PARAMETERS[n].unit for n in names}
+        units = {n: parameter(n).unit for n in names}
         written += save(pair_plot(flat, names, units, truth), folder / "pair")
     return written

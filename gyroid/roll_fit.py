@@ -762,5 +762,17 @@ def find_roll_discrepancies(log: RollLog, terms="ideal", *, max_added: int = 3, 
         "steps": steps,
         "threshold_dbic": ROLL_ADD_THRESHOLD,
         "skipped_candidates": skipped,
+        "unexplained": _roll_unexplained(checks),
         **checks.to_json(),
     }
+
+
+def _roll_unexplained(checks: CheckReport) -> dict | None:
+    """A roll log's left-over structure: the final model's Kalman innovations are not white
+    (no flexible term is fitted on the roll side yet; its score is null)."""
+    whiteness = next(c for c in checks.checks if c.name == "residual_whiteness")
+    if whiteness.passed:
+        return None
+    return {"evidence": "the final model's stabiliser-angle innovations are not white: "
+                        + whiteness.message,
+            "score": None, "where": [], "lines_up_with": None}

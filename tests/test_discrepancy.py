@@ -17,6 +17,7 @@ HIDDEN_THERMAL = {
     "time_trend": {"w_trend": 0.05},
     "temperature_cubic": {"w3": 2e-5},
     "thermal_lag": {"tau_lag_min": 10.0},
+    "bias_step": {"w_step": 0.4, "t_step_h": 5.0},
 }
 HIDDEN_MAGNETIC = {
     "magnetic_hysteresis": {"hys_x": 0.0, "hys_y": 0.03, "hys_z": 0.06},
@@ -27,6 +28,7 @@ HIDDEN_MAGNETIC = {
 
 def _check(report, expected):
     assert report.added == expected, [s.evidence for s in report.steps]
+    assert report.unexplained is None, report.unexplained
     assert report.rms_final_deg_h <= report.rms_baseline_deg_h
     for step in report.steps:
         assert step.score > 10 and step.rms_after_deg_h <= step.rms_before_deg_h
@@ -78,7 +80,8 @@ def test_cli_writes_the_contract_json(tmp_path):
     assert main(["discrepancy", str(out / "bench.csv"), "--terms", "magnetic",
                  "--out", str(disc)]) == 0
     data = json.loads((disc / "discrepancy.json").read_text())
-    assert data["added"] == ["warmup"]
+    assert data["added"] == ["warmup"] and data["unexplained"] is None
+    assert data["trustworthy"] is True
     assert data["baseline_terms"] == ["bias", "magnetic_x", "magnetic_y", "magnetic_z"]
     assert data["final_terms"] == [*data["baseline_terms"], "warmup"]
     assert data["rms_final_deg_h"] <= data["rms_baseline_deg_h"]
@@ -102,3 +105,48 @@ def test_where_reports_whole_windows_only():
     (tail,) = [r for r in rows if r["end_s"] == log.time_s[-1]]
     assert tail["end_s"] - tail["start_s"] >= window - 2 * np.median(np.diff(log.time_s))
     assert all(abs(r["z"]) < 5 for r in rows)  # pure noise: standardised means stay small
+
+
+def test_a_step_outside_the_catalogue_is_reported_unexplained():
+    """Without bias_step among the candidates, a 0.4 deg/h step is soaked up by the noise
+    model, whose correlation time then sits at its cap: reported, never 'nothing missing'."""
+    from gyroid.effects import CANDIDATES
+
+    sim = simulate_thermal_bench(seed=5, effects={"bias_step": {"w_step": 0.4,
+                                                                "t_step_h": 5.0}})
+    report = find_discrepancies(sim.log, "thermal",
+                                candidates=tuple(c for c in CANDIDATES if c != "bias_step"))
+    assert report.unexplained is not None
+    assert report.unexplained["noise_tau_at_cap"] or report.unexplained["score"] > 10
+
+
+def _pressure_log(tmp_path):
+    """A thermal bench whose drift also follows a logged chamber pressure (a two-hour
+    oscillation, 0.1 deg/h rms), with a supply voltage that does nothing."""
+    from gyroid.logs import write_bench_log
+
+    sim = simulate_thermal_bench(seed=7)
+    columns = dict(sim.log.columns)
+    t = columns["time_s"]
+    rng = np.random.default_rng(1)
+    pressure = 1e-3 * (1 + 0.5 * np.sin(2 * np.pi * t / 7000.0)) + 1e-5 * rng.standard_normal(
+        t.size)
+    columns["drift_deg_h"] = columns["drift_deg_h"] + 300.0 * (pressure - pressure.mean())
+    columns["pressure_mbar"] = pressure
+    columns["supply_V"] = 28.0 + 0.05 * rng.standard_normal(t.size)
+    path = tmp_path / "pressure.csv"
+    write_bench_log(path, columns)
+    return path
+
+
+def test_a_cause_in_an_unlisted_column_is_unexplained_then_found_with_extra_columns(tmp_path):
+    path = _pressure_log(tmp_path)
+    assert main(["discrepancy", str(path), "--terms", "thermal", "--out",
+                 str(tmp_path / "off")]) == 0
+    off = json.loads((tmp_path / "off" / "discrepancy.json").read_text())
+    assert off["added"] == [] and off["unexplained"]["score"] > 10
+    assert main(["discrepancy", str(path), "--terms", "thermal", "--out", str(tmp_path / "on"),
+                 "--extra-columns"]) == 0
+    on = json.loads((tmp_path / "on" / "discrepancy.json").read_text())
+    assert on["added"] == ["extra:pressure_mbar"] and on["unexplained"] is None
+    assert on["steps"][0]["regressor"] == "pressure_mbar"

@@ -25,6 +25,7 @@ CONTRACT_CANDIDATES = {
     "warmup",
     "time_trend",
     "magnetic_hysteresis",
+    "bias_step",
     "temperature_cubic",
 }
 
@@ -121,3 +122,22 @@ def test_model_is_float64(rich_inputs):
     model = DriftModel.from_terms("full")
     out = model.predict(jnp.ones(len(model.parameter_names)), rich_inputs)
     assert out.dtype == jnp.float64
+
+
+def test_a_bias_step_and_an_extra_column_effect_contribute_as_documented():
+    import numpy as np
+
+    from gyroid.effects import effect
+    from gyroid.inputs import build_inputs
+
+    t = np.arange(0.0, 36000.0, 10.0)  # 10 h
+    pressure = np.sin(t / 3000.0)
+    x = build_inputs({"time_s": t, "pressure": pressure}, extra_columns=("pressure",))
+    step = np.asarray(effect("bias_step").contribution({"w_step": 0.5, "t_step_h": 4.0}, x))
+    hours = t / 3600.0
+    # A logistic edge of 1/200 of the log (3 min): 0 well before, 0.5 well after, half at 4 h.
+    assert np.allclose(step[hours < 3.0], 0.0, atol=1e-6)  # 20 edge widths: e^-20
+    assert np.allclose(step[hours > 5.0], 0.5, atol=1e-6)
+    assert abs(step[np.argmin(abs(hours - 4.0))] - 0.25) < 1e-9
+    extra = np.asarray(effect("extra:pressure").contribution({"w_extra_pressure": 2.0}, x))
+    assert np.allclose(extra, 2.0 * (pressure - pressure.mean()))
