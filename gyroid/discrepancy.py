@@ -376,6 +376,9 @@ def _where(
     return out[:top]
 
 
+#: Below this |correlation| (on 60 s means) a regressor is not offered as what the residuals
+#: follow.
+MIN_FOLLOW_R = 0.2
 #: Cosines of elapsed time, cos(k pi tau) for k = 1..FLEXIBLE_TERMS over the log (tau from
 #: 0 to 1): the flexible term that stands for structure no catalogued effect describes.
 #: Twelve resolve features of about a twelfth of the log. Such slow structure is seen
@@ -568,8 +571,12 @@ def find_discrepancies(
         regressor, r = _explaining_regressor(
             fit_now.residual, fit_now.residual - with_fit.residual, regs, time_s,
             registry.effect(best).signature)
+        follows = (f"residuals follow {regressor} (r = {r:.2f} on 60 s means)"
+                   if abs(r) >= MIN_FOLLOW_R else
+                   f"the residuals line up with no single logged quantity (at most r = "
+                   f"{r:.2f}, with {regressor}, on 60 s means)")
         evidence = (
-            f"residuals follow {regressor} (r = {r:.2f} on 60 s means); adding {best} cuts "
+            f"{follows}; adding {best} cuts "
             f"the RMS from {fit_now.rms_ols:.3g} to {with_fit.rms_ols:.3g} deg/h; "
             f"dBIC = {scores[best]:.1f} (threshold {ADD_THRESHOLD:g})"
             + (f"; nearly interchangeable here with {', '.join(rivals)}" if rivals else "")
@@ -624,6 +631,10 @@ def _explaining_regressor(residual: np.ndarray, change: np.ndarray,
     first keeps white noise from hiding the relation). Ties go to the effect's signature."""
     residual_m = _block_means(residual, time_s)
     change_m = _block_means(change, time_s)
+    if signature in regs and np.ptp(regs[signature]) > 0:
+        # The quantity the chosen effect's form reads is the one to name.
+        values_m = _block_means(regs[signature], time_s)
+        return signature, float(np.corrcoef(residual_m, values_m)[0, 1])
     best = (signature, 0.0, -1.0)
     for name, values in regs.items():
         values_m = _block_means(values, time_s)
