@@ -376,6 +376,8 @@ def _where(
     return out[:top]
 
 
+#: Effects that read nothing but the clock (their evidence says they may be stand-ins).
+TIME_ONLY_SIGNATURES = ("elapsed time", "start-up transient")
 #: Below this |correlation| (on 60 s means) a regressor is not offered as what the residuals
 #: follow.
 MIN_FOLLOW_R = 0.2
@@ -580,6 +582,9 @@ def find_discrepancies(
             f"the RMS from {fit_now.rms_ols:.3g} to {with_fit.rms_ols:.3g} deg/h; "
             f"dBIC = {scores[best]:.1f} (threshold {ADD_THRESHOLD:g})"
             + (f"; nearly interchangeable here with {', '.join(rivals)}" if rivals else "")
+            + ("; it is a function of time alone, so it says when, not why: on a longer log "
+               "it may prove a stand-in for a slow cause"
+               if registry.effect(best).signature in TIME_ONLY_SIGNATURES else "")
         )
         steps.append(
             Step(
