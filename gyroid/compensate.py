@@ -20,6 +20,8 @@ import numpy as np
 
 from gyroid.allan import AllanDeviation, allan_deviation
 from gyroid.checks import Check, CheckReport, fit_verdict
+from gyroid.effects import EXTRA_PREFIX
+from gyroid.errors import GyroidInputError
 from gyroid.fit import input_ranges
 from gyroid.logs import BENCH_COLUMNS, BenchLog
 from gyroid.propagate import FittedDrift
@@ -42,6 +44,12 @@ class Compensation:
 def compensate(log: BenchLog, fitted: FittedDrift, fitted_ranges: dict[str, list[float]],
                *, max_draws: int = 400, seed: int = 0) -> Compensation:
     """Apply a fit's posterior to ``log``."""
+    extra = [name for name in fitted.model.terms if name.startswith(EXTRA_PREFIX)]
+    if extra:
+        raise GyroidInputError(
+            f"the fit has {', '.join(extra)}: such a term is linear in its column's deviation "
+            "from the fitted log's own mean, which a new log does not share, so it cannot "
+            "compensate another run; refit without it (it is for finding causes)")
     inputs = log.inputs(t0_C=fitted.t0_C, rate_window_s=fitted.rate_window_s)
     rng = np.random.default_rng(seed)
     draws = fitted.draws

@@ -28,6 +28,7 @@ from gyroid._arviz import arviz as az
 from gyroid.checks import CheckReport, fit_verdict
 from gyroid.derived import RATE_WINDOW_S
 from gyroid.drift import DriftModel
+from gyroid.effects import EXTRA_PREFIX
 from gyroid.errors import GyroidInputError
 from gyroid.flight import environment
 from gyroid.inputs import T0_C, DriftInputs, inputs_from_arrays
@@ -304,6 +305,10 @@ def propagate(fitted: FittedDrift, scenario: Scenario, *, draws: int = 2000, see
     """Propagate the posterior through the scenario; returns (propagate.json, raw samples).
     ``progress`` is told each stage as it starts."""
     say = progress or (lambda _message: None)
+    extra = [name for name in fitted.model.terms if name.startswith(EXTRA_PREFIX)]
+    if extra:
+        raise GyroidInputError(f"the fit has {', '.join(extra)}: a flight scenario has no such "
+                               "quantity; refit without it to propagate")
     rng = np.random.default_rng(seed)
     evaluator = _Evaluator(model=fitted.model, env=flight_environment(scenario, fitted.t0_C),
                            scenario=scenario)

@@ -156,3 +156,31 @@ def test_allan_deviation_of_a_burst_log_claims_no_tau_it_cannot_resolve():
     # White noise: sigma(tau) = s / sqrt(tau / tau0) at every resolved tau (5 % at tau0).
     expected = 30.0 / np.sqrt(adev.tau_s / 0.02)
     np.testing.assert_allclose(adev.adev_deg_h[:5], expected[:5], rtol=0.05)
+
+
+def test_extra_column_terms_are_fitted_but_refused_where_they_cannot_apply(tmp_path, capsys):
+    """fit --terms ...,extra:COLUMN works; compensate and propagate refuse such a fit with one
+    message (its term is relative to the fitted log's own mean; a flight has no column)."""
+    import numpy as np
+
+    from gyroid.cli import main
+    from gyroid.logs import write_bench_log
+
+    rng = np.random.default_rng(0)
+    t = np.arange(0.0, 7200.0)
+    pressure = 1.0 + 0.5 * np.sin(t / 600.0)
+    columns = {"time_s": t, "drift_deg_h": 1.0 + 0.2 * pressure + 0.3 * rng.standard_normal(
+        t.size), "pressure": pressure}
+    write_bench_log(tmp_path / "log.csv", columns)
+    assert main(["fit", str(tmp_path / "log.csv"), "--terms", "bias,extra:pressure", "--out",
+                 str(tmp_path / "fit"), "--no-progress"]) in (0, 3)
+    fit = __import__("json").loads((tmp_path / "fit" / "fit.json").read_text())
+    post = fit["posterior"]["w_extra_pressure"]
+    assert abs(post["mean"] - 0.2) < 4 * post["sd"]
+    assert main(["fit", str(tmp_path / "log.csv"), "--terms", "bias,extra:nope", "--out",
+                 str(tmp_path / "f2")]) == 2
+    capsys.readouterr()
+    assert main(["compensate", str(tmp_path / "log.csv"), "--fit", str(tmp_path / "fit"),
+                 "--out", str(tmp_path / "c")]) == 2
+    assert "extra:pressure" in capsys.readouterr().err
+    assert main(["propagate", str(tmp_path / "fit"), "--out", str(tmp_path / "p")]) == 2
