@@ -23,31 +23,54 @@ RATE_POLY_DEGREE = 5
 HYSTERESIS_DEADBAND_UT = 10.0
 
 
+def _edge_slopes(
+    window: np.ndarray, positions: np.ndarray, width_x: np.ndarray, degree: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Slopes, per unit of position, at ``positions`` of the degree-``degree`` least-squares
+    polynomial through ``window`` (sampled at ``width_x``), and each slope's variance per unit
+    sample variance, ``d(x)' (V'V)^-1 d(x)``. Memory O(window + positions)."""
+    vander = np.vander(width_x, degree + 1, increasing=True)
+    gram_inv = np.linalg.inv(vander.T @ vander)
+    coefficients = gram_inv @ (vander.T @ window)
+    d = np.zeros((positions.size, degree + 1))
+    d[:, 1:] = np.vander(positions, degree, increasing=True) * np.arange(1, degree + 1)
+    return d @ coefficients, np.einsum("ij,jk,ik->i", d, gram_inv, d)
+
+
 def _local_polynomial_slope(values: np.ndarray, half: int, degree: int, step: float) -> np.ndarray:
     """Slope of a local least-squares polynomial over ``2 half + 1`` uniform samples.
 
     Positions are scaled to [-1, 1] so the fit stays well conditioned for long windows; the
-    interior is one FFT convolution, and the first and last ``half`` samples take the slope
-    of the polynomial fitted to the first or last full window.
+    interior is one FFT convolution. The first and last ``half`` samples take the slope of a
+    polynomial fitted to the first or last full window, of the highest degree (at most
+    ``degree``) whose slope there is no noisier than the interior's: a degree-5 slope at the
+    window's very end is 8 times noisier than at its centre, and that error, strongly
+    correlated over the first and last half window, would masquerade as a start-up transient.
     """
     from scipy.signal import oaconvolve  # here: importing scipy.signal costs 0.7 s at start-up
 
     width = 2 * half + 1
     x = np.arange(-half, half + 1) / half
     vander = np.vander(x, degree + 1, increasing=True)
-    solve = np.linalg.pinv(vander)  # (degree + 1, width): values -> polynomial coefficients
+    centre = np.linalg.pinv(vander)[1]  # values -> the slope at the window's centre
+    reference = float(centre @ centre)
     scale = 1.0 / (half * step)
     out = np.empty(values.size)
-    out[half : values.size - half] = oaconvolve(values, solve[1][::-1] * scale, mode="valid")
-    powers = np.arange(1, degree + 1)
-
-    def edge_slopes(window: np.ndarray, positions: np.ndarray) -> np.ndarray:
-        coefficients = solve @ window
-        derivative = np.vander(positions, degree, increasing=True) @ (powers * coefficients[1:])
-        return derivative * scale
-
-    out[:half] = edge_slopes(values[:width], x[:half])
-    out[values.size - half :] = edge_slopes(values[-width:], x[half + 1 :])
+    out[half : values.size - half] = oaconvolve(values, centre[::-1] * scale, mode="valid")
+    # The last window read backwards is a first window with the slope's sign flipped.
+    first, last = np.zeros(half), np.zeros(half)
+    chosen = np.zeros(half, dtype=bool)
+    for p in range(degree, 0, -1):
+        slope_first, variance = _edge_slopes(values[:width], x[:half], x, p)
+        slope_last, _ = _edge_slopes(values[-width:][::-1], x[:half], x, p)
+        use = ~chosen & (variance <= reference * (1.0 + 1e-9))
+        first[use] = slope_first[use] * scale
+        last[use] = -slope_last[use] * scale
+        chosen |= use
+        if chosen.all():
+            break
+    out[:half] = first
+    out[values.size - half :] = last[::-1]
     return out
 
 
@@ -62,7 +85,9 @@ def temperature_rate_deg_c_per_h(
     window of ``window_s`` seconds (a Savitzky-Golay differentiator). It has **zero lag**
     and no bias for any temperature history that is locally a polynomial of degree <= 5;
     within ``window_s / 2`` of either end of the log the window is one-sided (the polynomial
-    fitted to the first or last window: still unbiased, noisier). White thermometer noise
+    fitted to the first or last window, its degree lowered towards the ends, to 2 at the
+    very first and last samples, so that the noise is never larger than in the interior;
+    unbiased for a temperature that is locally quadratic there). White thermometer noise
     of ``s`` degC at a sample interval ``d`` s over a window of ``N`` samples gives a rate
     noise of ``s * 3600 * sqrt(229.7 / (d**2 N**3))`` degC/h: 0.013 degC/h for 0.01 degC at
     1 Hz and the default 1200 s window, against about 50 degC/h for a plain first

@@ -37,6 +37,27 @@ def test_rate_noise_matches_the_documented_formula():
     assert interior.std() == pytest.approx(predicted, rel=0.2)
 
 
+def test_rate_is_no_noisier_at_the_ends_of_the_log_than_inside():
+    # Found on null bench logs: a degree-5 slope at the window's end was 8x noisier than
+    # inside, and its error, correlated over the first half window, was taken for warmup.
+    rng = np.random.default_rng(14)
+    time_s = np.arange(0.0, 2 * RATE_WINDOW_S)
+    draws = np.array([
+        temperature_rate_deg_c_per_h(time_s, 21.0 + 0.01 * rng.standard_normal(time_s.size))
+        for _ in range(200)
+    ])
+    n = RATE_WINDOW_S + 1
+    interior = 0.01 * 3600.0 * np.sqrt(229.7 / n**3)
+    half = int(RATE_WINDOW_S / 2)
+    ends = np.concatenate([draws[:, :half], draws[:, -half:]], axis=1)
+    # 200 draws: a sample sd has a 5 % sampling error; 1.2 is 4 of them (it was 8x before).
+    assert np.all(ends.std(axis=0) < 1.2 * interior)
+    # ... and a locally quadratic temperature is still followed without bias at the ends.
+    hours = time_s / 3600.0
+    estimate = temperature_rate_deg_c_per_h(time_s, 21.0 + 2.0 * hours + 0.5 * hours**2)
+    np.testing.assert_allclose(estimate, 2.0 + hours, atol=1e-9)
+
+
 def test_rate_has_no_lag_on_a_smooth_transition_and_handles_irregular_sampling():
     rng = np.random.default_rng(13)
     time_s = np.sort(rng.uniform(0.0, 6 * 3600.0, 15000))
