@@ -30,9 +30,10 @@ from gyroid.derived import RATE_WINDOW_S
 from gyroid.drift import DriftModel
 from gyroid.errors import GyroidInputError
 from gyroid.inputs import T0_C
+from gyroid.kalman import gauss_markov_innovations
 from gyroid.logs import BenchLog
 from gyroid.prior_scales import FOG_NOISE_PRIORS, choose_priors
-from gyroid.priors import Flat, LogNormal, Normal, Prior
+from gyroid.priors import Flat, LogNormal, Normal, Prior, prior_arrays
 
 NOISE_MODELS = ("white", "white+gm")
 #: Paper A's FOG noise priors (densities on log x); the default priors are scaled to the log
@@ -101,7 +102,7 @@ class BenchProblem(eqx.Module):
                                   prior_set="flat" if flat_prior else prior_set,
                                   overrides=priors)
         positive = [p.positive for p in model.parameters] + [True] * len(noise_names)
-        loc, scale, on = _prior_arrays(chosen, positive)
+        loc, scale, on = prior_arrays(chosen, positive)
         duration = float(time_s[-1] - time_s[0])
         block_s = max(LOO_BLOCK_S, step, duration / MAX_LOO_BLOCKS * 1.0001)
         block = np.floor((time_s - time_s[0]) / block_s).astype(int)
@@ -271,55 +272,6 @@ class BenchProblem(eqx.Module):
     def log_posterior(self, u: Float[Array, " d"]) -> Float[Array, ""]:
         value = self.log_likelihood(u) + self.log_prior(u)
         return jnp.where(jnp.isfinite(value), value, -jnp.inf)
-
-
-def gauss_markov_innovations(residual, steps_s, white, sd_gm, tau_s):
-    """Innovations of white + Gauss-Markov noise and their variances (a Kalman filter).
-
-    The residual is ``g + w``: ``g`` a stationary Gauss-Markov state of sd ``sd_gm`` and
-    correlation time ``tau_s``, ``w`` white of sd ``white`` (scalar or per row). The filter
-    is exact for any sampling (``phi_k = exp(-step_k / tau)``), so ``-0.5 sum(innovation**2
-    / variance + log(2 pi variance))`` is the exact Gaussian log-likelihood. ``residual``
-    may have trailing columns (each filtered alike: the filter is linear in the data).
-    """
-    phi = jnp.exp(-steps_s / tau_s)
-    r = jnp.broadcast_to(white**2, steps_s.shape)
-    q = sd_gm**2
-    extra = residual.shape[1:]
-
-    def step(carry, row):
-        mean, var = carry  # of g_k after the previous update
-        e_k, phi_k, r_k = row
-        prior_mean = phi_k * mean
-        prior_var = phi_k**2 * var + q * (1.0 - phi_k**2)
-        total = prior_var + r_k
-        innovation = e_k - prior_mean
-        gain = prior_var / total
-        return (prior_mean + gain * innovation, (1.0 - gain) * prior_var), (innovation, total)
-
-    # Start from the stationary state: mean 0, variance q (phi_0 then plays no role).
-    start = (jnp.zeros(extra), jnp.asarray(q, dtype=float))
-    _, (innovation, variance) = jax.lax.scan(step, start, (residual, phi, r))
-    return innovation, variance
-
-
-def _prior_arrays(priors, positive) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Priors to (loc, scale, on) of normal densities on the sampling coordinates."""
-    loc, scale, on = [], [], []
-    for prior, pos in zip(priors, positive, strict=True):
-        if isinstance(prior, Flat):
-            loc.append(0.0), scale.append(1.0), on.append(0.0)
-        elif isinstance(prior, LogNormal):
-            if not pos:
-                raise GyroidInputError(f"a log-normal prior ({prior.describe()}) needs a "
-                                       "positive parameter; use normal(MU,SD)")
-            loc.append(math.log(prior.median)), scale.append(prior.log_sd), on.append(1.0)
-        else:
-            if pos:
-                raise GyroidInputError(f"a normal prior ({prior.describe()}) on a positive "
-                                       "parameter: use lognormal(MEDIAN,LOG_SD)")
-            loc.append(prior.loc), scale.append(prior.scale), on.append(1.0)
-    return np.asarray(loc), np.asarray(scale), np.asarray(on)
 
 
 def _noise_names(noise: str, sigma_known: bool) -> tuple[str, ...]:

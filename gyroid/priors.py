@@ -15,6 +15,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from gyroid.errors import GyroidInputError
+
 
 @dataclass(frozen=True)
 class Normal:
@@ -76,3 +78,23 @@ def natural_with_sd(u, covariance, positive) -> tuple[np.ndarray, np.ndarray]:
     x = natural_from_sampling(u, positive)
     sd_u = np.sqrt(np.clip(np.diag(covariance), 0.0, None))
     return x, np.where(positive, x * sd_u, sd_u)
+
+
+def prior_arrays(priors, positive) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Priors to (loc, scale, on) of normal densities on the sampling coordinates (``on``
+    0 for a flat prior); a prior that does not suit its parameter is refused."""
+    loc, scale, on = [], [], []
+    for prior, pos in zip(priors, positive, strict=True):
+        if isinstance(prior, Flat):
+            loc.append(0.0), scale.append(1.0), on.append(0.0)
+        elif isinstance(prior, LogNormal):
+            if not pos:
+                raise GyroidInputError(f"a log-normal prior ({prior.describe()}) needs a "
+                                       "positive parameter; use normal(MU,SD)")
+            loc.append(math.log(prior.median)), scale.append(prior.log_sd), on.append(1.0)
+        else:
+            if pos:
+                raise GyroidInputError(f"a normal prior ({prior.describe()}) on a positive "
+                                       "parameter: use lognormal(MEDIAN,LOG_SD)")
+            loc.append(prior.loc), scale.append(prior.scale), on.append(1.0)
+    return np.asarray(loc), np.asarray(scale), np.asarray(on)

@@ -1,0 +1,78 @@
+"""The one Kalman filter of gyroid: a scalar state seen through white noise.
+
+Both noise models gyroid fits are this filter with a different state:
+
+* bench logs: the residual is a stationary Gauss-Markov bias plus white noise
+  (:func:`gauss_markov_innovations`);
+* roll logs: the residual of the stabiliser angle is the SINS gyro's noise integrated into
+  the angle (a random walk from zero) plus the encoder's white read-out noise
+  (:func:`random_walk_innovations`).
+
+The innovations and their variances give the exact Gaussian log-likelihood,
+``-0.5 sum(innovation**2 / variance + log(2 pi variance))``, and standardised innovations
+(``innovation / sqrt(variance)``) that are independent N(0, 1) when the model is right:
+what the whiteness check reads.
+"""
+
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+from jaxtyping import Array, Float
+
+
+def scalar_state_innovations(
+    observed: Float[Array, "n ..."],
+    phi: Float[Array, " n"],
+    q: Float[Array, " n"],
+    r: Float[Array, " n"],
+    start_var: Float[Array, ""],
+) -> tuple[Float[Array, "n ..."], Float[Array, " n"]]:
+    """Innovations and their variances of ``observed_k = x_k + e_k``.
+
+    State ``x_k = phi_k x_(k-1) + eta_k`` with ``eta_k ~ N(0, q_k)``, white ``e_k ~ N(0,
+    r_k)``, and ``x_0`` before the first step ``~ N(0, start_var)``. ``observed`` may have
+    trailing columns, each filtered alike (the filter is linear in the data; the variances
+    do not depend on it).
+    """
+
+    def step(carry, row):
+        mean, var = carry  # of x after the previous update
+        e_k, phi_k, q_k, r_k = row
+        prior_mean = phi_k * mean
+        prior_var = phi_k**2 * var + q_k
+        total = prior_var + r_k
+        innovation = e_k - prior_mean
+        gain = prior_var / total
+        return (prior_mean + gain * innovation, (1.0 - gain) * prior_var), (innovation, total)
+
+    start = (jnp.zeros(observed.shape[1:]), jnp.asarray(start_var, dtype=float))
+    _, (innovation, variance) = jax.lax.scan(step, start, (observed, phi, q, r))
+    return innovation, variance
+
+
+def gauss_markov_innovations(residual, steps_s, white, sd_gm, tau_s):
+    """Innovations of white + Gauss-Markov noise and their variances.
+
+    The residual is ``g + w``: ``g`` a stationary Gauss-Markov state of sd ``sd_gm`` and
+    correlation time ``tau_s`` (s), ``w`` white of sd ``white`` (scalar or per row). Exact
+    for any sampling (``phi_k = exp(-step_k / tau)``, ``steps_s`` the time since the
+    previous row); the state starts stationary (mean 0, variance ``sd_gm**2``).
+    """
+    phi = jnp.exp(-steps_s / tau_s)
+    q = sd_gm**2 * (1.0 - phi**2)
+    r = jnp.broadcast_to(white**2, steps_s.shape)
+    return scalar_state_innovations(residual, phi, q, r, sd_gm**2)
+
+
+def random_walk_innovations(residual, steps, walk_sd, white):
+    """Innovations of a random walk from zero plus white noise, and their variances.
+
+    ``steps``: samples since the previous observed row; the walk adds ``walk_sd**2`` of
+    variance per sample (an angle random walk sampled every ``steps`` samples); ``white``:
+    the read-out noise's sd at each observed row.
+    """
+    steps = jnp.asarray(steps, dtype=float)
+    q = walk_sd**2 * steps
+    r = jnp.broadcast_to(white**2, steps.shape)
+    return scalar_state_innovations(residual, jnp.ones_like(steps), q, r, jnp.zeros(()))
