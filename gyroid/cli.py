@@ -372,7 +372,8 @@ def roll_fit(data, out, seed, mappings, progress) -> None:
 
     from gyroid.outputs import json_text
     from gyroid.plotting import pair_plot, roll_residual_figure, save
-    from gyroid.roll_fit import fit_roll_log, load_roll_log
+    from gyroid.roll_fit import fit_roll_log
+    from gyroid.roll_log import load_roll_log
     from gyroid.sampling import SamplerSettings
 
     log = load_roll_log(data, _parse_maps(mappings))
@@ -456,13 +457,8 @@ def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings) -> N
     with output_dir(out) as stage:
         (stage / "discrepancy.json").write_text(json_text(report.to_json()))
         save(discrepancy_figure(report, regs.get(name), name), stage / "discrepancy")
-    for step in report.steps:
-        click.echo(f"added {step.effect}: {step.evidence}")
-    if report.unexplained is not None:
-        click.echo(f"unexplained: {report.unexplained['evidence']}")
-    elif not report.steps:
-        click.echo("nothing is missing: no candidate effect reaches dBIC > 10, and no "
-                   "flexible function of time finds structure left")
+    for line in report.summary_lines():
+        click.echo(line)
     click.echo(f"wrote {out / 'discrepancy.json'} and {out / 'discrepancy.png'}")
     report_checks(report.checks)
 
@@ -499,25 +495,22 @@ def demo(out, seed) -> None:
 
 def _roll_discrepancy(data: Path, terms: str, out: Path, max_added: int, maps) -> None:
     """The discrepancy workflow on a roll log (terms: roll effects or 'ideal')."""
-    from gyroid.checks import CheckReport
     from gyroid.outputs import json_text
     from gyroid.plotting import roll_discrepancy_figure, save
-    from gyroid.roll_fit import find_roll_discrepancies, load_roll_log
+    from gyroid.roll_discrepancy import find_roll_discrepancies
+    from gyroid.roll_log import load_roll_log
 
     log = load_roll_log(data, column_map=maps)
     click.echo(f"searching what {terms} misses in roll log {data} ({log.n} rows) ...", err=True)
-    residuals: dict = {}
-    report = find_roll_discrepancies(log, terms, max_added=max_added, residuals=residuals,
+    report = find_roll_discrepancies(log, terms, max_added=max_added,
                                      progress=lambda m: click.echo(m, err=True))
     with output_dir(out) as stage:
-        (stage / "discrepancy.json").write_text(json_text(report))
-        save(roll_discrepancy_figure(residuals, report), stage / "discrepancy")
-    for step in report["steps"]:
-        click.echo(f"added {step['effect']}: {step['evidence']}")
-    if not report["steps"]:
-        click.echo("nothing is missing: no roll-side candidate reaches dBIC > 10")
+        (stage / "discrepancy.json").write_text(json_text(report.to_json()))
+        save(roll_discrepancy_figure(report), stage / "discrepancy")
+    for line in report.summary_lines():
+        click.echo(line)
     click.echo(f"wrote {out / 'discrepancy.json'} and {out / 'discrepancy.png'}")
-    report_checks(CheckReport.from_json(report))
+    report_checks(report.checks)
 
 
 def main(argv: list[str] | None = None) -> int:

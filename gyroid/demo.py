@@ -240,8 +240,8 @@ def run_demo(out: str | Path, *, seed: int = 0, echo: Callable[[str], None] = pr
                 "model; files `discrepancy/`.", "",
                 *(f"- added **{s.effect}**: {s.evidence}" for s in report_disc.steps),
                 *(["- nothing added"] if not report_disc.steps else []),
-                f"- RMS {report_disc.rms_baseline_deg_h:.4f} -> "
-                f"{report_disc.rms_final_deg_h:.4f} deg/h", "",
+                f"- RMS {report_disc.rms_baseline:.4f} -> "
+                f"{report_disc.rms_final:.4f} deg/h", "",
             ]
             figure("fig_discrepancy", "Residuals before and after adding the named effect "
                    "(top), the baseline residual against the regressor that explains it, and "

@@ -2,7 +2,7 @@
 explains it, and how much does adding it close the gap?
 
 Evidence. Every comparison uses the exact Gaussian likelihood under a white + Gauss-Markov
-noise model (:func:`gyroid.likelihood.gauss_markov_innovations`), so slowly wandering noise
+noise model (:func:`gyroid.kalman.gauss_markov_innovations`), so slowly wandering noise
 (bias instability) is not mistaken for an effect. A candidate effect is scored by the BIC
 difference ``dBIC = 2 (logL_with - logL_without) - k log n`` (``k`` its parameters, ``n``
 rows), the large-sample (Laplace) approximation to twice the log Bayes factor. A candidate
@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import itertools
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import equinox as eqx
 import jax
@@ -29,18 +29,24 @@ from scipy.optimize import minimize
 from gyroid import effects as registry
 from gyroid.allan import contiguous_segments
 from gyroid.checks import CheckReport, fit_checks, point_fit_evidence
+from gyroid.discrepancy_report import (
+    DiscrepancyReport,
+    Step,
+    Trial,
+    Unexplained,
+    add_while_evidence,
+)
 from gyroid.drift import DriftModel
 from gyroid.effects import EFFECTS, EXTRA_PREFIX, resolve_terms
 from gyroid.errors import GyroidInputError
 from gyroid.inputs import T0_C, DriftInputs
-from gyroid.likelihood import NOISE_PRIORS, gauss_markov_innovations
+from gyroid.kalman import gauss_markov_innovations
+from gyroid.likelihood import NOISE_PRIORS
 from gyroid.logs import BenchLog
 from gyroid.rate_window import choose_rate_window
 
 #: dBIC a candidate must reach to be added.
 ADD_THRESHOLD = 10.0
-#: Two candidates scoring within this of each other are interchangeable on the log.
-AMBIGUITY_DBIC = 6.0
 #: Rate-estimator windows tried on logs whose model reads dT/dt, s.
 RATE_WINDOWS_S = (300.0, 600.0, 1200.0)
 #: Multiples of a time constant's prior median used as starting grid.
@@ -98,76 +104,6 @@ class ModelFit:
     n_parameters: int
     residual: np.ndarray  # data minus model at the whitened-LS optimum, deg/h
     rms_ols: float  # RMS of the ordinary least-squares fit of the same model, deg/h
-
-
-@dataclass
-class Step:
-    effect: str
-    evidence: str
-    rms_before_deg_h: float
-    rms_after_deg_h: float
-    score: float  # dBIC, noise re-estimated
-    screening: dict[str, float]  # dBIC of every candidate tried at this step
-    interchangeable_with: list[str]
-    regressor: str
-    correlation: float
-
-
-@dataclass
-class DiscrepancyReport:
-    baseline_terms: tuple[str, ...]
-    final_terms: tuple[str, ...]
-    steps: list[Step]
-    rms_baseline_deg_h: float
-    rms_final_deg_h: float
-    rate_window_s: float
-    noise: NoiseLevels
-    where: list[dict]
-    lines_up_with: dict[str, float]
-    ambiguous: list[dict] = field(default_factory=list)
-    residual_before: np.ndarray = field(default=None, repr=False)
-    residual_after: np.ndarray = field(default=None, repr=False)
-    time_s: np.ndarray = field(default=None, repr=False)
-    skipped: dict[str, str] = field(default_factory=dict)
-    checks: CheckReport | None = None
-    unexplained: dict | None = None
-
-    @property
-    def added(self) -> list[str]:
-        return [s.effect for s in self.steps]
-
-    def to_json(self) -> dict:
-        return {
-            "baseline_terms": list(self.baseline_terms),
-            "added": self.added,
-            "final_terms": list(self.final_terms),
-            "rms_baseline_deg_h": self.rms_baseline_deg_h,
-            "rms_final_deg_h": self.rms_final_deg_h,
-            "steps": [
-                {
-                    "effect": s.effect,
-                    "evidence": s.evidence,
-                    "rms_before_deg_h": s.rms_before_deg_h,
-                    "rms_after_deg_h": s.rms_after_deg_h,
-                    "score": s.score,
-                    "score_kind": "dBIC = 2 dlogL - k log n, noise re-estimated",
-                    "candidates_dbic": s.screening,
-                    "interchangeable_with": s.interchangeable_with,
-                    "regressor": s.regressor,
-                    "correlation": s.correlation,
-                }
-                for s in self.steps
-            ],
-            "threshold_dbic": ADD_THRESHOLD,
-            "ambiguous": self.ambiguous,
-            "where": self.where,
-            "lines_up_with": self.lines_up_with,
-            "noise": self.noise.as_dict(),
-            "rate_window_s": self.rate_window_s,
-            "skipped_candidates": self.skipped,
-            "unexplained": self.unexplained,
-            **(self.checks.to_json() if self.checks is not None else {}),
-        }
 
 
 # ----- whitened least squares ------------------------------------------------------------
@@ -422,7 +358,7 @@ def _noise_log_likelihood(residual: np.ndarray, steps_s, noise: NoiseLevels) -> 
 
 
 def find_unexplained(log: BenchLog, fit: ModelFit, noise: NoiseLevels, steps_s,
-                     regs: dict[str, np.ndarray]) -> dict | None:
+                     regs: dict[str, np.ndarray]) -> Unexplained | None:
     """Structure the final model leaves: a smooth function of time (FLEXIBLE_TERMS cosines)
     against the final residual, the noise re-estimated with it, scored by dBIC on the
     candidates' scale. None unless it beats ``ADD_THRESHOLD``; then where it is, what it
@@ -478,9 +414,7 @@ def find_unexplained(log: BenchLog, fit: ModelFit, noise: NoiseLevels, steps_s,
            if lines_up else " and lines up with no logged quantity")
         + ". The named effects, if any, may be stand-ins for it: log the quantity that "
           "drives it, or offer it with --extra-columns")
-    return {"evidence": evidence, "score": score, "where": where,
-            "lines_up_with": lines_up, "noise_tau_at_cap": bool(pinned),
-            "flexible_terms": FLEXIBLE_TERMS}
+    return Unexplained(evidence, score, where, lines_up, bool(pinned), FLEXIBLE_TERMS)
 
 
 def _final_checks(log: BenchLog, fit: ModelFit, noise: NoiseLevels, steps_s) -> CheckReport:
@@ -515,110 +449,74 @@ def find_discrepancies(
 ) -> DiscrepancyReport:
     """Fit ``terms``, find what is missing from the registry's effects, add it, repeat."""
     say = progress or (lambda _msg: None)
-    current = DriftModel.from_terms(terms)
-    baseline_terms = current.terms
-    window = _choose_rate_window(log, current, t0_C)
+    start = DriftModel.from_terms(terms)
+    window = _choose_rate_window(log, start, t0_C)
     inputs = log.inputs(t0_C=t0_C, rate_window_s=window)
     time_s = log.time_s
     steps_s = jnp.asarray(np.concatenate([[np.median(np.diff(time_s))], np.diff(time_s)]))
     y = np.asarray(log.drift_deg_h)
-    n = y.size
     pool = candidates or tuple(
-        [name for name in EFFECTS if name not in baseline_terms]
+        [name for name in EFFECTS if name not in start.terms]
         + [EXTRA_PREFIX + column for column in log.extra_columns])
     regs = regressors(inputs)
 
-    fit_now, noise = _fit_with_noise(current, inputs, y, steps_s, NoiseLevels(1.0, 1e-6, 300.0))
-    baseline_fit = fit_now
-    steps: list[Step] = []
-    skipped: dict[str, str] = {}
-    ambiguous: list[dict] = []
-    while len(steps) < max_added:
-        scores: dict[str, float] = {}
-        fits: dict[str, tuple[ModelFit, NoiseLevels]] = {}
-        for name in pool:
-            if name in current.terms:
-                continue
-            reason = _applicable(name, current.terms, log, inputs)
-            if reason:
-                skipped[name] = reason
-                continue
-            say(f"  trying {name} ...")
-            model = DriftModel(terms=resolve_terms((*current.terms, name)))
-            trial, trial_noise = _fit_with_noise(model, inputs, y, steps_s, noise)
-            k = trial.n_parameters - fit_now.n_parameters
-            gain = 2.0 * (trial.log_likelihood - fit_now.log_likelihood)
-            scores[name] = gain - k * math.log(n)
-            fits[name] = (trial, trial_noise)
-        if not scores:
-            break
-        best = max(scores, key=scores.get)
-        if scores[best] <= ADD_THRESHOLD:
-            break
-        with_fit, new_noise = fits[best]
-        rivals = [
-            name
-            for name, s in scores.items()
-            if name != best and s > ADD_THRESHOLD and scores[best] - s < AMBIGUITY_DBIC
-        ]
-        if rivals:
-            ambiguous.append(
-                {
-                    "step": len(steps) + 1,
-                    "chosen": best,
-                    "rivals": rivals,
-                    "dbic": {r: scores[r] for r in [best, *rivals]},
-                }
-            )
-        regressor, r = _explaining_regressor(
-            fit_now.residual, fit_now.residual - with_fit.residual, regs, time_s,
-            registry.effect(best).signature)
+    def trial(model: DriftModel, noise: NoiseLevels) -> Trial:
+        fit, new_noise = _fit_with_noise(model, inputs, y, steps_s, noise)
+        return Trial(model.terms, fit.log_likelihood, fit.n_parameters, (fit, new_noise))
+
+    def try_adding(current: Trial, name: str) -> Trial | str:
+        reason = _applicable(name, current.terms, log, inputs)
+        if reason:
+            return reason
+        return trial(DriftModel(terms=resolve_terms((*current.terms, name))), current.fit[1])
+
+    def describe(best, current, chosen, scores, rivals) -> Step:
+        before, after = current.fit[0], chosen.fit[0]
+        signature = registry.effect(best).signature
+        regressor, r = _explaining_regressor(before.residual, before.residual - after.residual,
+                                             regs, time_s, signature)
         follows = (f"residuals follow {regressor} (r = {r:.2f} on 60 s means)"
                    if abs(r) >= MIN_FOLLOW_R else
                    f"the residuals line up with no single logged quantity (at most r = "
                    f"{r:.2f}, with {regressor}, on 60 s means)")
         evidence = (
-            f"{follows}; adding {best} cuts "
-            f"the RMS from {fit_now.rms_ols:.3g} to {with_fit.rms_ols:.3g} deg/h; "
-            f"dBIC = {scores[best]:.1f} (threshold {ADD_THRESHOLD:g})"
+            f"{follows}; adding {best} cuts the RMS from {before.rms_ols:.3g} to "
+            f"{after.rms_ols:.3g} deg/h; dBIC = {scores[best]:.1f} (threshold {ADD_THRESHOLD:g})"
             + (f"; nearly interchangeable here with {', '.join(rivals)}" if rivals else "")
             + ("; it is a function of time alone, so it says when, not why: on a longer log "
                "it may prove a stand-in for a slow cause"
-               if registry.effect(best).signature in TIME_ONLY_SIGNATURES else "")
+               if signature in TIME_ONLY_SIGNATURES else "")
         )
-        steps.append(
-            Step(
-                best,
-                evidence,
-                fit_now.rms_ols,
-                with_fit.rms_ols,
-                scores[best],
-                scores,
-                rivals,
-                regressor,
-                r,
-            )
-        )
-        say(f"  added {best}: dBIC = {scores[best]:.1f}")
-        current, fit_now, noise = DriftModel(terms=with_fit.terms), with_fit, new_noise
+        return Step(best, evidence, before.rms_ols, after.rms_ols, scores[best], scores, rivals,
+                    regressor, r)
+
+    search = add_while_evidence(
+        trial(start, NoiseLevels(1.0, 1e-6, 300.0)), pool, try_adding=try_adding,
+        describe=describe, n=y.size, threshold=ADD_THRESHOLD, max_added=max_added,
+        progress=say)
+    baseline_fit = search.baseline.fit[0]
+    fit_now, noise = search.final.fit
     say("  testing the final model against a flexible term ...")
     return DiscrepancyReport(
+        log_kind="bench",
         unexplained=find_unexplained(log, fit_now, noise, steps_s, regs),
         checks=_final_checks(log, fit_now, noise, steps_s),
-        baseline_terms=baseline_terms,
-        final_terms=current.terms,
-        steps=steps,
-        rms_baseline_deg_h=baseline_fit.rms_ols,
-        rms_final_deg_h=min(fit_now.rms_ols, baseline_fit.rms_ols),
+        baseline_terms=start.terms,
+        final_terms=search.final.terms,
+        steps=search.steps,
+        rms_baseline=baseline_fit.rms_ols,
+        rms_final=min(fit_now.rms_ols, baseline_fit.rms_ols),
+        rms_unit="deg/h",
+        threshold_dbic=ADD_THRESHOLD,
         rate_window_s=window,
         noise=noise,
         where=_where(time_s, baseline_fit.residual, inputs, noise, log),
         lines_up_with=_correlations(baseline_fit.residual, regs),
-        ambiguous=ambiguous,
+        ambiguous=search.ambiguous,
         residual_before=baseline_fit.residual,
         residual_after=fit_now.residual,
         time_s=time_s,
-        skipped=skipped,
+        skipped=search.skipped,
     )
 
 

@@ -67,8 +67,8 @@ class Effect:
     nonlinear: Callable[[Params, DriftInputs], Float[Array, " n"]] | None = None
     reads: tuple[str, ...] = field(default=())
     needs_effects: tuple[str, ...] = field(default=())
-    #: What the residuals of a model lacking this effect line up with (a key of
-    #: ``gyroid.discrepancy.REGRESSORS``).
+    #: What the residuals of a model lacking this effect line up with (a key of what
+    #: :func:`gyroid.discrepancy.regressors` returns).
     signature: str = "elapsed time"
 
     @property
@@ -358,11 +358,18 @@ CANDIDATES: tuple[str, ...] = tuple(name for name, e in EFFECTS.items() if not e
 PARAMETERS: dict[str, Parameter] = {p.name: p for e in EFFECTS.values() for p in e.parameters}
 
 
-def resolve_terms(spec: str | tuple[str, ...] | list[str]) -> tuple[str, ...]:
-    """Expand a comma list of effect names and presets into effect names, registry order.
+def expand_terms(
+    spec: str | tuple[str, ...] | list[str],
+    presets: Mapping[str, tuple[str, ...]],
+    names: Mapping[str, object],
+    *,
+    what: str = "term",
+    also: Callable[[str], bool] = lambda _item: False,
+) -> set[str]:
+    """The effect names a comma list of presets and names stands for (bench and roll).
 
-    >>> resolve_terms("magnetic,time_trend")
-    ('bias', 'magnetic_x', 'magnetic_y', 'magnetic_z', 'time_trend')
+    ``also`` accepts further items (the bench's ``extra:COLUMN``); anything else is refused
+    with the known names.
     """
     items = spec.split(",") if isinstance(spec, str) else list(spec)
     chosen: set[str] = set()
@@ -370,15 +377,26 @@ def resolve_terms(spec: str | tuple[str, ...] | list[str]) -> tuple[str, ...]:
         item = raw.strip()
         if not item:
             continue
-        if item in PRESETS:
-            chosen.update(PRESETS[item])
-        elif item in EFFECTS or (item.startswith(EXTRA_PREFIX) and len(item) > len(EXTRA_PREFIX)):
+        if item in presets:
+            chosen.update(presets[item])
+        elif item in names or also(item):
             chosen.add(item)
         else:
-            known = ", ".join([*PRESETS, *EFFECTS])
+            known = ", ".join([*presets, *names])
             raise GyroidInputError(
-                f"unknown term {item!r} in --terms; use a preset or effect name: {known}"
+                f"unknown {what} {item!r} in --terms; use a preset or effect name: {known}"
             )
+    return chosen
+
+
+def resolve_terms(spec: str | tuple[str, ...] | list[str]) -> tuple[str, ...]:
+    """Expand a comma list of effect names and presets into effect names, registry order.
+
+    >>> resolve_terms("magnetic,time_trend")
+    ('bias', 'magnetic_x', 'magnetic_y', 'magnetic_z', 'time_trend')
+    """
+    chosen = expand_terms(spec, PRESETS, EFFECTS, also=lambda item: (
+        item.startswith(EXTRA_PREFIX) and len(item) > len(EXTRA_PREFIX)))
     if not chosen:
         raise GyroidInputError("--terms is empty; give e.g. 'thermal', 'magnetic' or 'full'")
     for name in chosen:

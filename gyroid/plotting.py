@@ -283,9 +283,9 @@ def discrepancy_figure(report, regressor_values: np.ndarray | None, regressor_na
         # noise dominates (quoted in the labels). Bars from zero: the gap is not inflated.
         ax3 = fig.add_subplot(grid[1, 1])
         rms_means = [float(np.sqrt(np.mean(before**2))), float(np.sqrt(np.mean(after**2)))]
-        labels = [f"baseline\n({report.rms_baseline_deg_h:.3g} per sample)",
+        labels = [f"baseline\n({report.rms_baseline:.3g} per sample)",
                   ("+ " + ", ".join(report.added) if report.added else "nothing added")
-                  + f"\n({report.rms_final_deg_h:.3g} per sample)"]
+                  + f"\n({report.rms_final:.3g} per sample)"]
         ax3.bar([0, 1], rms_means, width=0.5, color=["0.6", "0.0"])
         ax3.set_xticks([0, 1], labels, fontsize=7)
         ax3.set_ylim(0.0, 1.15 * max(rms_means))
@@ -384,21 +384,23 @@ def roll_residual_figure(time_s: np.ndarray, residual_deg: np.ndarray) -> plt.Fi
         return fig
 
 
-def roll_discrepancy_figure(residuals: dict, report: dict) -> plt.Figure:
-    """Stabiliser-angle residuals before/after the added roll effects, and RMS per step."""
+def roll_discrepancy_figure(report) -> plt.Figure:
+    """Stabiliser-angle residuals before/after the added roll effects, and RMS per step
+    (bars from zero)."""
     with plt.rc_context(STYLE):
         fig, (ax, ax2) = plt.subplots(1, 2, figsize=(8.0, 3.4),
                                       gridspec_kw={"width_ratios": [2, 1]})
-        t = residuals["time_s"]
-        ax.plot(t, residuals["before"], color="0.6", lw=0.6, ls="-", label="baseline")
-        ax.plot(t, residuals["after"], color="0.0", lw=0.6, ls="-",
-                label="after adding: " + (", ".join(report["added"]) or "nothing"))
+        t = report.time_s
+        ax.plot(t, report.residual_before, color="0.6", lw=0.6, ls="-", label="baseline")
+        ax.plot(t, report.residual_after, color="0.0", lw=0.6, ls="-",
+                label="after adding: " + (", ".join(report.added) or "nothing"))
         ax.set_xlabel("time since start, s")
         ax.set_ylabel("stabiliser angle - model, deg")
         ax.legend(frameon=False, fontsize=7)
-        rms = [report["rms_baseline_deg_h"], *[s["rms_after_deg_h"] for s in report["steps"]]]
-        ax2.plot(range(len(rms)), rms, "o-", color="0.0")
-        ax2.set_xticks(range(len(rms)), ["baseline", *report["added"]], rotation=20, fontsize=7)
+        rms = [report.rms_baseline, *[s.rms_after for s in report.steps]]
+        ax2.bar(range(len(rms)), rms, color="0.5", edgecolor="0.0", width=0.6)
+        ax2.set_xticks(range(len(rms)), ["baseline", *report.added], rotation=20, fontsize=7)
+        ax2.set_ylim(0.0, 1.15 * max(rms))
         ax2.set_ylabel("RMS residual, deg")
         ax2.set_xlabel("model step")
         fig.tight_layout()

@@ -185,7 +185,7 @@ def test_discrepancy_help_names_both_log_kinds_and_every_effect():
 
     from gyroid.cli import cli
     from gyroid.effects import EFFECTS
-    from gyroid.roll_fit import ROLL_EFFECTS, ROLL_PRESETS
+    from gyroid.roll_effects import ROLL_EFFECTS, ROLL_PRESETS
 
     text = " ".join(CliRunner().invoke(cli, ["discrepancy", "--help"]).output.split())
     assert "bench log" in text and "roll log" in text

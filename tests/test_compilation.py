@@ -11,7 +11,9 @@ from helpers import SHORT_MAGNETIC
 from gyroid.bench import simulate_magnetic_bench
 from gyroid.flight import FlightProfile, simulate_flight
 from gyroid.likelihood import BenchProblem, log_posterior_batcher
-from gyroid.roll_fit import ALL_PARAMETERS, RollLog, RollProblem, roll_point_estimate
+from gyroid.roll_fit import roll_point_estimate
+from gyroid.roll_log import RollLog
+from gyroid.roll_problem import ALL_PARAMETERS, RollProblem
 from gyroid.sampling import SamplerSettings
 
 

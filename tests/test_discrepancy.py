@@ -29,9 +29,9 @@ HIDDEN_MAGNETIC = {
 def _check(report, expected):
     assert report.added == expected, [s.evidence for s in report.steps]
     assert report.unexplained is None, report.unexplained
-    assert report.rms_final_deg_h <= report.rms_baseline_deg_h
+    assert report.rms_final <= report.rms_baseline
     for step in report.steps:
-        assert step.score > 10 and step.rms_after_deg_h <= step.rms_before_deg_h
+        assert step.score > 10 and step.rms_after <= step.rms_before
 
 
 @pytest.mark.parametrize("effect", list(HIDDEN_THERMAL))
@@ -117,7 +117,7 @@ def test_a_step_outside_the_catalogue_is_reported_unexplained():
     report = find_discrepancies(sim.log, "thermal",
                                 candidates=tuple(c for c in CANDIDATES if c != "bias_step"))
     assert report.unexplained is not None
-    assert report.unexplained["noise_tau_at_cap"] or report.unexplained["score"] > 10
+    assert report.unexplained.noise_tau_at_cap or report.unexplained.score > 10
 
 
 def _pressure_log(tmp_path):

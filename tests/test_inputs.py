@@ -13,7 +13,7 @@ from gyroid.cli import main
 from gyroid.errors import GyroidInputError
 from gyroid.flight import FlightProfile, roll_log_text, simulate_flight
 from gyroid.logs import load_bench_log
-from gyroid.roll_fit import load_roll_log
+from gyroid.roll_log import load_roll_log
 
 
 @pytest.fixture(scope="module")

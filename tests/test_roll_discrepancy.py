@@ -8,7 +8,8 @@ import pytest
 
 from gyroid.cli import main
 from gyroid.flight import FlightProfile, roll_log_text, simulate_flight
-from gyroid.roll_fit import RollLog, find_roll_discrepancies
+from gyroid.roll_discrepancy import find_roll_discrepancies
+from gyroid.roll_log import RollLog
 
 pytestmark = pytest.mark.slow  # the whole module: end-to-end fits
 
@@ -33,8 +34,10 @@ def _log(sim) -> RollLog:
 def test_names_the_hidden_roll_effect(hidden, params, profile):
     report = find_roll_discrepancies(_log(simulate_flight(params=params, profile=profile,
                                                           seed=8)), "ideal")
-    assert report["added"] == [hidden], report["steps"]
-    assert report["rms_final_deg_h"] <= report["rms_baseline_deg_h"]
+    assert report.added == [hidden], report.steps
+    assert report.rms_final <= report.rms_baseline
+    # The same report as a bench log's, through the same loop.
+    assert report.to_json()["log_kind"] == "roll" and report.steps[0].score > 20
 
 
 def test_a_clean_flight_adds_nothing(tmp_path):
