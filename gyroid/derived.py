@@ -23,18 +23,55 @@ RATE_POLY_DEGREE = 5
 HYSTERESIS_DEADBAND_UT = 10.0
 
 
-def _edge_slopes(
+def _edge_fit(
     window: np.ndarray, positions: np.ndarray, width_x: np.ndarray, degree: int
-) -> tuple[np.ndarray, np.ndarray]:
-    """Slopes, per unit of position, at ``positions`` of the degree-``degree`` least-squares
-    polynomial through ``window`` (sampled at ``width_x``), and each slope's variance per unit
-    sample variance, ``d(x)' (V'V)^-1 d(x)``. Memory O(window + positions)."""
+) -> tuple[np.ndarray, np.ndarray, float]:
+    """The degree-``degree`` least-squares polynomial through ``window`` (sampled at
+    ``width_x``): its slopes, per unit of position, at ``positions``, each slope's variance
+    per unit sample variance (``d(x)' (V'V)^-1 d(x)``), and the fit's residual sum of
+    squares. Memory O(window + positions)."""
     vander = np.vander(width_x, degree + 1, increasing=True)
     gram_inv = np.linalg.inv(vander.T @ vander)
     coefficients = gram_inv @ (vander.T @ window)
+    rss = float(np.sum((window - vander @ coefficients) ** 2))
     d = np.zeros((positions.size, degree + 1))
     d[:, 1:] = np.vander(positions, degree, increasing=True) * np.arange(1, degree + 1)
-    return d @ coefficients, np.einsum("ij,jk,ik->i", d, gram_inv, d)
+    return d @ coefficients, np.einsum("ij,jk,ik->i", d, gram_inv, d), rss
+
+
+#: An end window's temperature counts as a lower-degree polynomial unless an F test against
+#: the full degree rejects it at this level.
+EDGE_DEGREE_LEVEL = 1e-3
+
+
+def _edge_slopes(window: np.ndarray, x: np.ndarray, half: int, degree: int,
+                 reference: float) -> np.ndarray:
+    """Slopes at the first ``half`` positions of ``window`` (one end of the log).
+
+    The lowest degree the window supports (an F test against ``degree``) is the floor, so
+    the slope is unbiased as far as the data can tell; above it, each position takes the
+    highest degree whose slope is no noisier than the interior's (``reference``): a degree-5
+    slope at the window's very end is 8 times noisier than at its centre, and that error,
+    correlated over the half window, would masquerade as a start-up transient."""
+    from scipy.stats import f as f_dist
+
+    fits = {p: _edge_fit(window, x[:half], x, p) for p in range(1, degree + 1)}
+    dof = window.size - degree - 1
+    noise_var = max(fits[degree][2] / dof, 1e-12 * max(float(np.var(window)), 1.0))
+    floor = degree
+    for p in range(1, degree):
+        statistic = (fits[p][2] - fits[degree][2]) / (degree - p) / noise_var
+        if statistic < f_dist.ppf(1.0 - EDGE_DEGREE_LEVEL, degree - p, dof):
+            floor = p
+            break
+    out = np.zeros(half)
+    chosen = np.zeros(half, dtype=bool)
+    for p in range(degree, floor - 1, -1):
+        slope, variance, _ = fits[p]
+        use = ~chosen if p == floor else ~chosen & (variance <= reference * (1.0 + 1e-9))
+        out[use] = slope[use]
+        chosen |= use
+    return out
 
 
 def _local_polynomial_slope(values: np.ndarray, half: int, degree: int, step: float) -> np.ndarray:
@@ -42,10 +79,8 @@ def _local_polynomial_slope(values: np.ndarray, half: int, degree: int, step: fl
 
     Positions are scaled to [-1, 1] so the fit stays well conditioned for long windows; the
     interior is one FFT convolution. The first and last ``half`` samples take the slope of a
-    polynomial fitted to the first or last full window, of the highest degree (at most
-    ``degree``) whose slope there is no noisier than the interior's: a degree-5 slope at the
-    window's very end is 8 times noisier than at its centre, and that error, strongly
-    correlated over the first and last half window, would masquerade as a start-up transient.
+    polynomial fitted to the first or last full window (:func:`_edge_slopes` chooses its
+    degree).
     """
     from scipy.signal import oaconvolve  # here: importing scipy.signal costs 0.7 s at start-up
 
@@ -57,20 +92,10 @@ def _local_polynomial_slope(values: np.ndarray, half: int, degree: int, step: fl
     scale = 1.0 / (half * step)
     out = np.empty(values.size)
     out[half : values.size - half] = oaconvolve(values, centre[::-1] * scale, mode="valid")
+    out[:half] = _edge_slopes(values[:width], x, half, degree, reference) * scale
     # The last window read backwards is a first window with the slope's sign flipped.
-    first, last = np.zeros(half), np.zeros(half)
-    chosen = np.zeros(half, dtype=bool)
-    for p in range(degree, 0, -1):
-        slope_first, variance = _edge_slopes(values[:width], x[:half], x, p)
-        slope_last, _ = _edge_slopes(values[-width:][::-1], x[:half], x, p)
-        use = ~chosen & (variance <= reference * (1.0 + 1e-9))
-        first[use] = slope_first[use] * scale
-        last[use] = -slope_last[use] * scale
-        chosen |= use
-        if chosen.all():
-            break
-    out[:half] = first
-    out[values.size - half :] = last[::-1]
+    last = _edge_slopes(values[-width:][::-1], x, half, degree, reference)
+    out[values.size - half :] = -last[::-1] * scale
     return out
 
 
@@ -85,9 +110,10 @@ def temperature_rate_deg_c_per_h(
     window of ``window_s`` seconds (a Savitzky-Golay differentiator). It has **zero lag**
     and no bias for any temperature history that is locally a polynomial of degree <= 5;
     within ``window_s / 2`` of either end of the log the window is one-sided (the polynomial
-    fitted to the first or last window, its degree lowered towards the ends, to 2 at the
-    very first and last samples, so that the noise is never larger than in the interior;
-    unbiased for a temperature that is locally quadratic there). White thermometer noise
+    fitted to the first or last window; towards the ends its degree is lowered, to 2 at the
+    very first and last samples, so that the noise is never larger than in the interior,
+    but never below the degree an F test finds the window's temperature needs, so that a
+    log starting or ending mid-transition is not followed with a bias). White thermometer noise
     of ``s`` degC at a sample interval ``d`` s over a window of ``N`` samples gives a rate
     noise of ``s * 3600 * sqrt(229.7 / (d**2 N**3))`` degC/h: 0.013 degC/h for 0.01 degC at
     1 Hz and the default 1200 s window, against about 50 degC/h for a plain first

@@ -58,6 +58,18 @@ def test_rate_is_no_noisier_at_the_ends_of_the_log_than_inside():
     np.testing.assert_allclose(estimate, 2.0 + hours, atol=1e-9)
 
 
+def test_a_log_starting_mid_transition_is_followed_without_bias_at_its_ends():
+    # Lowering the degree at the ends (for noise) must not bend a curved start: an F test
+    # keeps the degree the end window needs (a stretched 2 h schedule showed 50 degC/h of
+    # error at its start without it).
+    time_s = np.arange(0.0, 4 * 3600.0)
+    hours = time_s / 3600.0
+    temperature = 30.0 + 5.0 * np.tanh((hours - 0.25) / 0.3)
+    true_rate = 5.0 / 0.3 / np.cosh((hours - 0.25) / 0.3) ** 2
+    estimate = temperature_rate_deg_c_per_h(time_s, temperature)
+    assert np.max(np.abs(estimate - true_rate)) < 0.01 * true_rate.max()
+
+
 def test_rate_has_no_lag_on_a_smooth_transition_and_handles_irregular_sampling():
     rng = np.random.default_rng(13)
     time_s = np.sort(rng.uniform(0.0, 6 * 3600.0, 15000))
