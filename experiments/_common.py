@@ -38,7 +38,7 @@ def fitted_thermal(seed: int):
     """A thermal bench simulated with paper A's truth, fitted (emcee), as a FittedDrift."""
     from gyroid.bench import simulate_thermal_bench
     from gyroid.fit import fit_log
-    from gyroid.propagate import FittedDrift
+    from gyroid.fitted import FittedDrift
     from gyroid.sampling import SamplerSettings
 
     sim = simulate_thermal_bench(seed=seed)

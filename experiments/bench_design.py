@@ -24,9 +24,11 @@ import numpy as np  # noqa: E402
 from _common import results_dir, save_run  # noqa: E402
 
 from gyroid.bench import ThermalProtocol, simulate_thermal_bench  # noqa: E402
+from gyroid.fitted import FittedDrift  # noqa: E402
 from gyroid.likelihood import BenchProblem  # noqa: E402
 from gyroid.point import point_estimate  # noqa: E402
-from gyroid.propagate import PRESETS, FittedDrift, propagate  # noqa: E402
+from gyroid.propagate import propagate  # noqa: E402
+from gyroid.scenarios import PRESETS  # noqa: E402
 
 DESIGNS = {
     "paper A (31...55, 40 min soaks)": ThermalProtocol(),

@@ -1,9 +1,24 @@
 """gyroid: Bayesian identification of gyroscope error models.
 
 Paper A's fibre-optic-gyro drift as a sum of named effects (temperature, its rate, magnetic
-field, and candidate effects), paper A's benches simulated with known truth, and the tools
-to fit, compensate and check them. All models run in JAX with float64.
+field, and candidate effects) and paper B's roll-gyro scale-factor correction loop: benches
+and flights simulated with known truth, fits that check themselves, compensation,
+propagation to the correction coefficient's error, and the discrepancy workflow. All models
+run in JAX with float64.
+
+The public surface, by job (each name's module is where it lives):
+
+* effects and models: ``EFFECTS``, ``PRESETS``, ``CANDIDATES``, ``Effect``, ``Parameter``,
+  ``resolve_terms``, ``DriftModel``; ``ROLL_EFFECTS``, ``resolve_roll_terms``;
+* logs: ``BenchLog``, ``load_bench_log``, ``write_bench_log``, ``RollLog``,
+  ``load_roll_log``;
+* simulation: ``simulate_thermal_bench``, ``simulate_magnetic_bench``, ``GyroNoise``;
+* workflows: ``fit_log``, ``fit_roll_log``, ``compensate``, ``propagate``,
+  ``find_discrepancies``, ``find_roll_discrepancies``;
+* results read back: ``FittedDrift``; scenarios: ``Scenario``, ``SCENARIOS``.
 """
+
+from importlib.metadata import PackageNotFoundError, version
 
 import jax
 
@@ -22,25 +37,67 @@ from gyroid.errors import GyroidInputError  # noqa: E402
 from gyroid.inputs import DriftInputs, build_inputs  # noqa: E402
 from gyroid.logs import BenchLog, load_bench_log, write_bench_log  # noqa: E402
 from gyroid.noise import GyroNoise  # noqa: E402
+from gyroid.roll_effects import ROLL_EFFECTS, resolve_roll_terms  # noqa: E402
+from gyroid.roll_log import RollLog, load_roll_log  # noqa: E402
 
-__version__ = "0.1.0"
+#: Imported on first use (the workflows pull in emcee, ArviZ and plotting; the command line
+#: stays quick to start): public name -> (module, name there).
+_LAZY = {
+    "compensate": ("gyroid.compensate", "compensate"),
+    "find_discrepancies": ("gyroid.discrepancy", "find_discrepancies"),
+    "fit_log": ("gyroid.fit", "fit_log"),
+    "FittedDrift": ("gyroid.fitted", "FittedDrift"),
+    "propagate": ("gyroid.propagate", "propagate"),
+    "find_roll_discrepancies": ("gyroid.roll_discrepancy", "find_roll_discrepancies"),
+    "fit_roll_log": ("gyroid.roll_fit", "fit_roll_log"),
+    "SCENARIOS": ("gyroid.scenarios", "PRESETS"),
+    "Scenario": ("gyroid.scenarios", "Scenario"),
+}
+
+
+def __getattr__(name: str):
+    if name in _LAZY:
+        import importlib
+
+        module, attribute = _LAZY[name]
+        return getattr(importlib.import_module(module), attribute)
+    raise AttributeError(f"module 'gyroid' has no attribute {name!r}")
+
+
+try:
+    __version__ = version("gyroid")
+except PackageNotFoundError:  # running from a source tree that was never installed
+    __version__ = "0+unknown"
 
 __all__ = [
     "CANDIDATES",
     "EFFECTS",
     "PRESETS",
+    "ROLL_EFFECTS",
+    "SCENARIOS",
     "BenchLog",
     "DriftInputs",
     "DriftModel",
     "Effect",
+    "FittedDrift",
     "GyroNoise",
     "GyroidInputError",
     "MagneticProtocol",
     "Parameter",
+    "RollLog",
+    "Scenario",
     "SimulatedBench",
     "ThermalProtocol",
     "build_inputs",
+    "compensate",
+    "find_discrepancies",
+    "find_roll_discrepancies",
+    "fit_log",
+    "fit_roll_log",
     "load_bench_log",
+    "load_roll_log",
+    "propagate",
+    "resolve_roll_terms",
     "resolve_terms",
     "simulate_magnetic_bench",
     "simulate_thermal_bench",

@@ -10,9 +10,7 @@ instead of extrapolated silently.
 
 from __future__ import annotations
 
-import json
 from dataclasses import dataclass
-from pathlib import Path
 
 import jax
 import jax.numpy as jnp
@@ -20,14 +18,11 @@ import numpy as np
 
 from gyroid.allan import AllanDeviation, allan_deviation
 from gyroid.checks import Check, CheckReport, fit_verdict
-from gyroid.effects import EXTRA_PREFIX
+from gyroid.effects import EXTRA_PREFIX, effect
 from gyroid.errors import GyroidInputError
 from gyroid.fit import input_ranges
-from gyroid.logs import BENCH_COLUMNS, BenchLog
-from gyroid.propagate import FittedDrift
-
-#: Effects whose contribution depends on elapsed time (extrapolating them in time matters).
-_TIME_EFFECTS = {"warmup", "time_trend"}
+from gyroid.fitted import FittedDrift
+from gyroid.logs import BenchLog
 
 
 @dataclass
@@ -73,7 +68,8 @@ def compensate(log: BenchLog, fitted: FittedDrift, fitted_ranges: dict[str, list
     new_ranges = input_ranges(inputs, fitted.model)
     outside = []
     for name, (lo, hi) in new_ranges.items():
-        if name == "elapsed_h" and not _TIME_EFFECTS & set(fitted.model.terms):
+        if name == "elapsed_h" and not any(effect(t).reads_only_clock
+                                           for t in fitted.model.terms):
             continue
         if name not in fitted_ranges:
             continue
@@ -149,19 +145,3 @@ def _input_values(name: str, inputs) -> np.ndarray:
     if name == "elapsed_h":
         return np.asarray(inputs.time_h)
     return np.asarray(inputs.field_rel[:, FIELD_COLUMNS.index(name)]) * H0_UT
-
-
-def fitted_ranges_from(folder: str | Path) -> dict[str, list[float]]:
-    return json.loads((Path(folder) / "fit.json").read_text()).get("input_ranges", {})
-
-
-def compensated_csv(log: BenchLog, result: Compensation) -> str:
-    """The input's contract columns (those gyroid read, under their contract names) plus
-    the three compensation columns."""
-    names = [c for c in BENCH_COLUMNS if c in log.columns]
-    columns = [log.columns[c] for c in names]
-    names += ["drift_model_deg_h", "drift_model_sd_deg_h", "drift_compensated_deg_h"]
-    columns += [result.model_deg_h, result.model_sd_deg_h, result.compensated_deg_h]
-    data = np.column_stack(columns)
-    lines = [",".join(names)] + [",".join(f"{v:.10g}" for v in row) for row in data]
-    return "\n".join(lines) + "\n"

@@ -29,6 +29,9 @@ from gyroid.priors import LogNormal, Normal, Prior
 
 Params = Mapping[str, Float[Array, ""]]
 
+#: Signatures of the effects that read nothing but the clock.
+CLOCK_SIGNATURES = ("elapsed time", "start-up transient")
+
 
 @dataclass(frozen=True)
 class Parameter:
@@ -74,6 +77,12 @@ class Effect:
     @property
     def parameter_names(self) -> tuple[str, ...]:
         return tuple(p.name for p in self.parameters)
+
+    @property
+    def reads_only_clock(self) -> bool:
+        """True for an effect of elapsed time alone (warmup, time_trend, bias_step): it says
+        when, not why, and extrapolating it beyond the fitted span is extrapolation."""
+        return self.signature in CLOCK_SIGNATURES
 
     @property
     def linear(self) -> bool:

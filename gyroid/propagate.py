@@ -11,12 +11,8 @@ input drives dK's uncertainty, JAX derivatives give the local sensitivities.
 
 from __future__ import annotations
 
-import json
 import math
-import tomllib
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, fields, replace
-from pathlib import Path
 
 import equinox as eqx
 import jax
@@ -24,12 +20,11 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyroid import paper_b as pb
-from gyroid._arviz import arviz as az
 from gyroid.checks import CheckReport, fit_verdict
-from gyroid.derived import RATE_WINDOW_S
 from gyroid.drift import DriftModel
 from gyroid.effects import EXTRA_PREFIX
 from gyroid.errors import GyroidInputError
+from gyroid.fitted import FittedDrift
 from gyroid.flight import environment
 from gyroid.inputs import T0_C, DriftInputs, inputs_from_arrays
 from gyroid.roll import (
@@ -39,118 +34,10 @@ from gyroid.roll import (
     correction_coefficients,
     navigation_errors,
 )
+from gyroid.scenarios import Scenario
 from gyroid.sensitivity import sobol_indices
 
 REPORT_TIMES_S = (10.0, 60.0, 120.0)
-
-
-@dataclass(frozen=True)
-class Scenario:
-    """A flight scenario. Defaults: paper B's worked example (roll 900 deg/s, dt 5 s,
-    uncompensated rate 300 deg/s, MEMS SF error 280 ppm, encoder 0.33 deg), with the fitted
-    FOG as the SINS roll gyro in a flight whose temperature rises 5 degC in 120 s."""
-
-    name: str = "paper_b_worked"
-    roll_rate_deg_s: float = 900.0
-    period_s: float = 5.0
-    duration_s: float = 120.0
-    sample_s: float = 0.05
-    sins_sf_error: float = pb.SINS_SF_ERROR  # D1, what the loop corrects
-    uncompensated_deg_s: float = 300.0
-    uncompensated_sd_deg_s: float = 5.0
-    mems_sf_error: float = pb.MEMS_SF_ERROR
-    mems_sf_error_sd: float = 28e-6
-    mems_bias_deg_h: float = 12.2
-    mems_bias_sd_deg_h: float = 1.2
-    encoder_deg: float = pb.ENCODER_ERROR_DEG
-    encoder_phase: str = "uniform"  # or a fixed phase in rad, as a number in a string
-    fitted_gyro_role: str = "sins"  # "sins" (the roll gyro) or "stabiliser" (the GS gyro)
-    period_index: int = -1  # which correction period's dK: -1 draws it uniformly
-    temperature_start_C: float = T0_C
-    temperature_rise_C: float = 5.0
-    earth_field_uT: tuple[float, float] = (20.0, 45.0)  # along the roll axis, across it
-
-    def as_dict(self) -> dict:
-        return asdict(self)
-
-
-PRESETS = {
-    "paper_b_worked": Scenario(),
-    "paper_b_worked_stabiliser": Scenario(name="paper_b_worked_stabiliser",
-                                          fitted_gyro_role="stabiliser"),
-    "ideal_stabiliser": Scenario(name="ideal_stabiliser", uncompensated_deg_s=0.0,
-                                 uncompensated_sd_deg_s=0.0),
-    "table2": Scenario(name="table2", roll_rate_deg_s=3600.0, uncompensated_deg_s=280.0,
-                       uncompensated_sd_deg_s=5.0),
-}
-
-
-def load_scenario(spec: str | None) -> Scenario:
-    """A preset name, or a JSON/TOML file of Scenario fields (unknown keys are refused)."""
-    if spec is None:
-        return PRESETS["paper_b_worked"]
-    if spec in PRESETS:
-        return PRESETS[spec]
-    path = Path(spec)
-    if not path.exists():
-        raise GyroidInputError(f"--scenario {spec!r} is neither a preset "
-                               f"({', '.join(PRESETS)}) nor a file")
-    text = path.read_text()
-    try:
-        data = tomllib.loads(text) if path.suffix == ".toml" else json.loads(text)
-    except (json.JSONDecodeError, tomllib.TOMLDecodeError) as error:
-        raise GyroidInputError(f"{path.name}: not valid {path.suffix[1:]}: {error}") from None
-    known = {f.name for f in fields(Scenario)}
-    unknown = sorted(set(data) - known)
-    if unknown:
-        raise GyroidInputError(f"{path.name}: unknown scenario key {unknown[0]!r}; known: "
-                               f"{', '.join(sorted(known))}")
-    if "earth_field_uT" in data:
-        data["earth_field_uT"] = tuple(data["earth_field_uT"])
-    scenario = replace(PRESETS["paper_b_worked"], name=path.stem, **data)
-    if scenario.fitted_gyro_role not in ("sins", "stabiliser"):
-        raise GyroidInputError(f"{path.name}: fitted_gyro_role must be 'sins' or 'stabiliser'")
-    if scenario.period_s > scenario.duration_s or scenario.sample_s <= 0:
-        raise GyroidInputError(f"{path.name}: need 0 < sample_s and period_s <= duration_s")
-    return scenario
-
-
-@dataclass(frozen=True)
-class FittedDrift:
-    """A fit's drift model and posterior draws (natural units)."""
-
-    model: DriftModel
-    draws: np.ndarray  # (m, p)
-    t0_C: float
-    rate_window_s: float = RATE_WINDOW_S  # the fit's dT/dt estimator window, s
-    trustworthy: bool = True  # the fit's own verdict (fit.json)
-
-    @classmethod
-    def from_result(cls, result) -> FittedDrift:
-        """From a :class:`gyroid.fit.FitResult` with a posterior (draws of the model's
-        coefficients, noise parameters dropped)."""
-        model = result.problem.model
-        p = len(model.parameter_names)
-        draws = np.asarray(result.posterior.draws).reshape(-1, len(result.problem.names))[:, :p]
-        return cls(model=model, draws=draws, t0_C=result.t0_C,
-                   rate_window_s=float(result.problem.rate_window_s),
-                   trustworthy=result.trustworthy)
-
-    @classmethod
-    def from_dir(cls, folder: str | Path) -> FittedDrift:
-        folder = Path(folder)
-        fit_json, netcdf = folder / "fit.json", folder / "posterior.nc"
-        for path in (fit_json, netcdf):
-            if not path.exists():
-                raise GyroidInputError(f"{folder} has no {path.name}: give the --out folder "
-                                       "of 'gyroid fit'")
-        fit = json.loads(fit_json.read_text())
-        model = DriftModel.from_terms(fit["terms"])
-        posterior = az.from_netcdf(str(netcdf)).posterior
-        columns = [np.asarray(posterior[name]).reshape(-1) for name in model.parameter_names]
-        return cls(model=model, draws=np.column_stack(columns), t0_C=fit.get("t0_C", T0_C),
-                   rate_window_s=float(fit.get("rate_window_s", RATE_WINDOW_S)),
-                   trustworthy=bool(fit.get("trustworthy", True)))
 
 
 def flight_environment(scenario: Scenario, t0_C: float = T0_C) -> DriftInputs:
@@ -435,8 +322,3 @@ def _delta_method(evaluator: _Evaluator, nominal: dict, scenario: Scenario,
                     "phase 0), not an average. It differs from the Monte-Carlo mean when the "
                     "encoder phase is drawn uniformly: dK depends on it through sines, far "
                     "from linearly, and averages over it to another value"}
-
-
-def dk_samples_csv(dk: np.ndarray) -> str:
-    """The propagated dK samples as a one-column CSV."""
-    return "dK\n" + "\n".join(f"{v:.10g}" for v in np.asarray(dk)) + "\n"

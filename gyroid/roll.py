@@ -35,6 +35,23 @@ from gyroid.paper_b import DEG, G
 MEMS_SATURATION_DEG_S = 330.0
 
 
+def sins_scale(D1, D2, rate_deg_s):
+    """The SINS roll gyro's scale factor ``1 + D1 + D2 |w| / 1000`` at roll rate ``w``."""
+    return 1.0 + D1 + D2 * jnp.abs(rate_deg_s) / 1000.0
+
+
+def encoder_error_deg(angle_deg, a_deg, b_deg):
+    """The encoder's error periodic per revolution, ``a sin(psi) + b cos(psi)``, deg. The
+    simulator's ``Denc sin(psi + phase)`` is ``a = Denc cos(phase)``, ``b = Denc sin(phase)``;
+    a fit reports ``Denc = hypot(a, b)``, ``phase = atan2(b, a)``."""
+    return a_deg * jnp.sin(angle_deg * DEG) + b_deg * jnp.cos(angle_deg * DEG)
+
+
+def encoder_terms(Denc, phase_rad):
+    """``(a, b)`` of :func:`encoder_error_deg` for an amplitude and phase."""
+    return Denc * jnp.cos(phase_rad), Denc * jnp.sin(phase_rad)
+
+
 class RollParams(eqx.Module):
     """Roll-loop error parameters (contract section 4 names)."""
 
@@ -124,7 +141,7 @@ class LoopResult(eqx.Module):
 def _gyro_outputs(params: RollParams, flight: Flight, n: int):
     """The SINS output w_x and the stabiliser MEMS output m over the first ``n`` samples."""
     w = flight.roll_rate_deg_s[:n]
-    scale = 1.0 + params.D1 + params.D2 * jnp.abs(w) / 1000.0
+    scale = sins_scale(params.D1, params.D2, w)
     sins = params.D0 + flight.sins_drift_deg_s[:n] + scale * w + flight.sins_noise_deg_s[:n]
     w_h = flight.uncompensated_deg_s[:n]
     gs_bias = params.D0gs if flight.gs_drift_deg_s is None else (
@@ -140,7 +157,7 @@ def sensor_signals(params: RollParams, flight: Flight):
     true_angle = jnp.cumsum(flight.roll_rate_deg_s) * dt
     sins, mems = _gyro_outputs(params, flight, flight.n)
     platform_error = jnp.cumsum(mems - flight.uncompensated_deg_s) * dt
-    encoder = params.Denc * jnp.sin(true_angle * DEG + params.encoder_phase)
+    encoder = encoder_error_deg(true_angle, *encoder_terms(params.Denc, params.encoder_phase))
     gs_angle = true_angle + platform_error + encoder + flight.gs_noise_deg
     return true_angle, sins, gs_angle, mems
 

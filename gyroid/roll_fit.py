@@ -13,9 +13,10 @@ import numpy as np
 import optimistix as optx
 
 from gyroid.checks import CheckReport, FitEvidence, fit_checks
+from gyroid.paper_b import DEG
 from gyroid.priors import natural_with_sd, prior_arrays
 from gyroid.roll_log import RollLog
-from gyroid.roll_problem import DEG, RollDensity, RollProblem
+from gyroid.roll_problem import RollDensity, RollProblem
 
 
 @dataclass

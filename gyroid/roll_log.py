@@ -25,6 +25,14 @@ class RollLog:
     def n(self) -> int:
         return int(self.time_s.size)
 
+    @classmethod
+    def from_columns(cls, columns, source: str = "<memory>") -> RollLog:
+        """From contract-named arrays (e.g. a simulated flight's ``columns``), unchecked."""
+        rate = columns.get("gs_rate_deg_s")
+        return cls(np.asarray(columns["time_s"]), np.asarray(columns["roll_rate_deg_s"]),
+                   np.asarray(columns["gs_angle_deg"]),
+                   None if rate is None else np.asarray(rate), source)
+
 
 def load_roll_log(path, column_map=()) -> RollLog:
     """Read and validate a roll log (contract section 4; .csv, .csv.gz or .parquet).

@@ -29,11 +29,12 @@ import numpy as np
 
 from gyroid.kalman import random_walk_innovations
 from gyroid.priors import Prior, prior_arrays
+from gyroid.roll import encoder_error_deg, sins_scale
 from gyroid.roll_effects import ROLL_EFFECTS, ROLL_NUISANCE, resolve_roll_terms
 from gyroid.roll_log import RollLog
 
 _LOG_2PI = math.log(2.0 * math.pi)
-DEG = math.pi / 180.0
+
 #: The stabiliser angle enters the likelihood at about this many rows (see RollProblem).
 MAX_OBSERVED_ROWS = 1000
 
@@ -93,13 +94,14 @@ class RollDensity(eqx.Module):
         p = self.parameters(v)
         t = self.time_s[rows]
         if self.has_d2:
-            scale = 1.0 + p["D1"] + p["D2"] * jnp.abs(self.sins) / 1000.0
+            # The simulator's scale factor, read at the measured rate (|w_x| for |w|).
+            scale = sins_scale(p["D1"], p["D2"], self.sins)
             psi = (jnp.cumsum((self.sins - p["D0"]) / scale) * self.sample_s)[rows]
         else:  # int (w_x - D0) / (1 + D1) dt
             psi = (self.cum_sins[rows] - p["D0"] * t) / (1.0 + p["D1"])
         # int (D1gs m + D0gs) / (1 + D1gs) dt; with D1gs = 0 (absent) this is D0gs t.
         platform = (p["D1gs"] * self.cum_gs_rate[rows] + p["D0gs"] * t) / (1.0 + p["D1gs"])
-        encoder = p["enc_a"] * jnp.sin(psi * DEG) + p["enc_b"] * jnp.cos(psi * DEG)
+        encoder = encoder_error_deg(psi, p["enc_a"], p["enc_b"])
         return p["psi0"] + psi + platform + encoder
 
     def predict(self, v):

@@ -10,8 +10,8 @@ from gyroid.bench import ThermalProtocol, simulate_thermal_bench
 from gyroid.cli import main
 from gyroid.compensate import compensate
 from gyroid.fit import fit_log
+from gyroid.fitted import FittedDrift
 from gyroid.noise import gauss_markov
-from gyroid.propagate import FittedDrift
 from gyroid.sampling import SamplerSettings
 
 
@@ -108,3 +108,22 @@ def test_cli_writes_the_contract_files(tmp_path):
     assert (out / "allan.png").exists() and (out / "compensation.png").exists()
     assert main(["compensate", str(sim / "bench.csv"), "--fit", str(tmp_path), "--out",
                  str(tmp_path / "x")]) == 2
+
+
+@pytest.mark.parametrize("terms", ["thermal,bias_step", "thermal,warmup", "thermal"])
+def test_a_clock_effect_beyond_the_fitted_span_is_extrapolation(terms):
+    # Found in review: bias_step was missing from a hand-kept list of time effects, so a
+    # step fitted on 3 h was silently carried to a 10 h log. The registry says it now.
+    from gyroid.drift import DriftModel
+    from gyroid.fit import input_ranges
+
+    sim = simulate_thermal_bench(seed=4)
+    model = DriftModel.from_terms(terms)
+    values = {"w0": 1.2, "w1": -0.1, "w2": 0.004, "wD": 2.0, "w_step": 0.0, "t_step_h": 1.0,
+              "w_warmup": 0.0, "tau_warmup_min": 20.0}
+    draws = np.tile([values[n] for n in model.parameter_names], (20, 1))
+    ranges = input_ranges(sim.log.inputs(), model)
+    ranges["elapsed_h"] = [0.0, 3.0]  # as if fitted on the first 3 h
+    result = compensate(sim.log, FittedDrift(model=model, draws=draws, t0_C=21.0), ranges)
+    flagged = {item["input"] for item in result.summary["extrapolation"]}
+    assert ("elapsed_h" in flagged) == (terms != "thermal")

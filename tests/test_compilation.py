@@ -42,8 +42,7 @@ def test_a_new_log_of_the_same_shape_reuses_the_log_posterior(compile_log):
 def _roll_log(duration_s: float) -> RollLog:
     sim = simulate_flight(params={"D0": 0.0, "Denc": 0.0},
                           profile=FlightProfile(duration_s=duration_s), seed=5)
-    c = sim.columns
-    return RollLog(c["time_s"], c["roll_rate_deg_s"], c["gs_angle_deg"], c["gs_rate_deg_s"])
+    return RollLog.from_columns(sim.columns)
 
 
 @pytest.mark.slow
@@ -91,7 +90,7 @@ def test_precomputed_sums_equal_the_per_sample_path():
                           profile=FlightProfile(duration_s=7.3, gs_capacity_deg_s=2400.0),
                           seed=6)
     c = sim.columns
-    log = RollLog(c["time_s"], c["roll_rate_deg_s"], c["gs_angle_deg"], c["gs_rate_deg_s"])
+    log = RollLog.from_columns(c)
     sums = RollProblem.from_log(log, "loop")
     per_sample = RollProblem.from_log(log, "loop,sf_nonlinearity")
     assert "D1gs" in sums.names and not sums.density.full.has_d2

@@ -93,7 +93,8 @@ def test_cli_writes_the_contract_json(tmp_path):
 def test_where_reports_whole_windows_only():
     """The last samples of a log join the last window: no window of a few samples at the end
     (whose mean is mostly noise) can top the list."""
-    from gyroid.discrepancy import NoiseLevels, _where
+    from gyroid.residual_structure import where_largest as _where
+    from gyroid.whitened_fit import NoiseLevels
 
     sim = simulate_magnetic_bench(seed=3)
     log = sim.log

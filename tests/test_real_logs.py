@@ -13,8 +13,8 @@ from gyroid.allan import allan_deviation, contiguous_segments
 from gyroid.cli import main
 from gyroid.compensate import compensate
 from gyroid.fit import fit_log, input_ranges
+from gyroid.fitted import FittedDrift
 from gyroid.logs import BenchLog, load_bench_log
-from gyroid.propagate import FittedDrift
 from gyroid.sampling import SamplerSettings
 from gyroid.tables import parse_column_maps
 

@@ -16,11 +16,6 @@ pytestmark = pytest.mark.slow  # the whole module: end-to-end fits
 SHORT = FlightProfile(duration_s=40.0)
 
 
-def _log(sim) -> RollLog:
-    c = sim.columns
-    return RollLog(c["time_s"], c["roll_rate_deg_s"], c["gs_angle_deg"], c["gs_rate_deg_s"])
-
-
 @pytest.mark.parametrize(
     ("hidden", "params", "profile"),
     [
@@ -32,8 +27,8 @@ def _log(sim) -> RollLog:
     ],
 )
 def test_names_the_hidden_roll_effect(hidden, params, profile):
-    report = find_roll_discrepancies(_log(simulate_flight(params=params, profile=profile,
-                                                          seed=8)), "ideal")
+    flight = simulate_flight(params=params, profile=profile, seed=8)
+    report = find_roll_discrepancies(RollLog.from_columns(flight.columns), "ideal")
     assert report.added == [hidden], report.steps
     assert report.rms_final <= report.rms_baseline
     # The same report as a bench log's, through the same loop.

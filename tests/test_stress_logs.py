@@ -108,7 +108,7 @@ def test_held_out_compensation_matches_plain_least_squares(tmp_path):
     the bursts in between. gyroid's defaults are within 15 % of a plain NumPy least-squares
     fit of the same terms, and better than removing a constant."""
     from gyroid.compensate import compensate
-    from gyroid.propagate import FittedDrift
+    from gyroid.fitted import FittedDrift
 
     columns, _ = mems_burst_log(5)
     burst = (columns["time_s"] // 300.0).astype(int)
