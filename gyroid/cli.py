@@ -109,13 +109,25 @@ def cli() -> None:
     type=float,
     help="Write window averages over this many seconds (paper A: 60), with sigma_deg_h.",
 )
+@click.option("--hours", default=None, type=float,
+              help="Stretch the bench's schedule to last this long, h (every phase alike).")
+@click.option("--rate-hz", "rate_hz", default=None, type=float,
+              help="Sample rate, Hz (default: the paper's 1 Hz).")
 def simulate(
-    bench, out, seed, overrides, effects, arw, bias_instability, correlation_time, average_s
+    bench, out, seed, overrides, effects, arw, bias_instability, correlation_time, average_s,
+    hours, rate_hz,
 ) -> None:
-    """Simulate paper A's thermal or magnetic bench with known truth."""
-    from gyroid.bench import preset_parameters, simulate_magnetic_bench, simulate_thermal_bench
+    """Simulate paper A's thermal or magnetic bench with known truth (of any length and
+    sample rate with --hours and --rate-hz)."""
+    from gyroid.bench import (
+        MagneticProtocol,
+        ThermalProtocol,
+        preset_parameters,
+        simulate_magnetic_bench,
+        simulate_thermal_bench,
+    )
     from gyroid.derived import RATE_WINDOW_S
-    from gyroid.logs import bench_log_text
+    from gyroid.logs import write_bench_log
     from gyroid.noise import GyroNoise
     from gyroid.outputs import json_text
     from gyroid.plotting import magnetic_sweep, save, thermal_run
@@ -128,21 +140,28 @@ def simulate(
     )
     if arw < 0 or bias_instability < 0 or correlation_time <= 0:
         raise GyroidInputError("noise levels must be >= 0 and the correlation time > 0")
+    if (hours is not None and hours <= 0) or (rate_hz is not None and rate_hz <= 0):
+        raise GyroidInputError("--hours and --rate-hz must be positive")
     simulator = simulate_thermal_bench if bench == "thermal" else simulate_magnetic_bench
+    protocol = (ThermalProtocol() if bench == "thermal" else MagneticProtocol()).stretched(
+        hours, rate_hz)
     sim = simulator(
         parameters=parameters,
         effects=_parse_effects(effects),
         noise=noise,
         seed=seed,
         average_s=average_s,
+        protocol=protocol,
     )
     with output_dir(out) as stage:
-        (stage / "bench.csv").write_text(bench_log_text(sim.log.columns, sim.log.comments))
+        write_bench_log(stage / "bench.csv", sim.log.columns, sim.log.comments)
         (stage / "truth.json").write_text(json_text(sim.truth))
         if bench == "thermal":
+            # The default window suits paper A's hour-long transitions; it shrinks with them.
+            window = RATE_WINDOW_S * protocol.transition_min / ThermalProtocol().transition_min
             fig = thermal_run(
-                sim.log, sim.log.inputs().rate_C_h, None if average_s else sim.true_drift_deg_h,
-                rate_window_s=RATE_WINDOW_S,
+                sim.log, sim.log.inputs(rate_window_s=window).rate_C_h,
+                None if average_s else sim.true_drift_deg_h, rate_window_s=window,
             )
         else:
             fig = magnetic_sweep(sim.log)
@@ -246,11 +265,9 @@ def compensate(data, fit_dir, out, seed, mappings) -> None:
     """Compensate a new bench log DATA with a fitted drift model; Allan deviation before and
     after. Exit code 3 when a self-check (extrapolation, gain) says not to use it."""
     from gyroid.compensate import compensate as run
-    from gyroid.compensate import compensated_csv, fitted_ranges_from
+    from gyroid.fitted import FittedDrift, fitted_ranges_from
     from gyroid.logs import load_bench_log
-    from gyroid.outputs import json_text
-    from gyroid.plotting import allan_figure, compensation_figure, save
-    from gyroid.propagate import FittedDrift
+    from gyroid.report_files import write_compensate_outputs
 
     fitted = FittedDrift.from_dir(fit_dir)
     maps = _parse_maps(mappings)
@@ -258,11 +275,7 @@ def compensate(data, fit_dir, out, seed, mappings) -> None:
     click.echo(f"compensating {data} ({log.n} rows) with {fit_dir} ...", err=True)
     result = run(log, fitted, fitted_ranges_from(fit_dir), seed=seed)
     with output_dir(out) as stage:
-        (stage / "compensated.csv").write_text(compensated_csv(log, result))
-        (stage / "compensate.json").write_text(json_text(result.summary))
-        save(compensation_figure(log.time_s, log.drift_deg_h, result.compensated_deg_h),
-             stage / "compensation")
-        save(allan_figure(result.adev_before, result.adev_after), stage / "allan")
+        write_compensate_outputs(stage, log, result)
     s = result.summary
     click.echo(f"RMS {s['rms_before_deg_h']:.3g} -> {s['rms_after_deg_h']:.3g} deg/h "
                f"({100 * s['fraction_removed']:.0f} % removed); wrote {out / 'compensated.csv'}")
@@ -282,10 +295,10 @@ def compensate(data, fit_dir, out, seed, mappings) -> None:
 def propagate(fit_dir, out, scenario, seed, draws) -> None:
     """Push a fit's posterior through paper B's correction loop: dK, roll and lateral error."""
     from gyroid.checks import CheckReport
-    from gyroid.outputs import json_text
-    from gyroid.plotting import dk_distribution, save, sobol_bars
-    from gyroid.propagate import FittedDrift, dk_samples_csv, load_scenario
+    from gyroid.fitted import FittedDrift
     from gyroid.propagate import propagate as run
+    from gyroid.report_files import write_propagate_outputs
+    from gyroid.scenarios import load_scenario
 
     if draws < 10:
         raise GyroidInputError("--draws must be at least 10")
@@ -295,13 +308,7 @@ def propagate(fit_dir, out, scenario, seed, draws) -> None:
     result, samples = run(fitted, chosen, draws=draws, seed=seed,
                           progress=lambda m: click.echo(m, err=True))
     with output_dir(out) as stage:
-        (stage / "propagate.json").write_text(json_text(result))
-        (stage / "dk_samples.csv").write_text(dk_samples_csv(samples["dK"]))
-        save(dk_distribution(samples["dK"], result["closed_form"]["dK_eq7"],
-                             result["closed_form"]["dK_printed"]), stage / "dk_distribution")
-        save(sobol_bars(result["drivers_first_order"], result["drivers_total"],
-                            result["interactions"]),
-             stage / "drivers")
+        write_propagate_outputs(stage, result, samples)
     dk = result["dK"]
     click.echo(f"dK = {dk['mean']:.3g} +/- {dk['sd']:.2g} (95 % {dk['ci95'][0]:.3g} ... "
                f"{dk['ci95'][1]:.3g}); wrote {out / 'propagate.json'}")
@@ -367,11 +374,7 @@ def roll_simulate(out, seed, overrides, roll_profile, rate, duration, period, ov
 def roll_fit(data, out, seed, mappings, progress) -> None:
     """Fit the loop parameters (D0, D1, D0gs, D1gs, Denc) to a roll log ROLL (.csv, .csv.gz
     or .parquet; contract section 4). Exit code 3 when a self-check fails."""
-    import jax.numpy as jnp
-    import numpy as np
-
-    from gyroid.outputs import json_text
-    from gyroid.plotting import pair_plot, roll_residual_figure, save
+    from gyroid.report_files import write_roll_fit_outputs
     from gyroid.roll_fit import fit_roll_log
     from gyroid.roll_log import load_roll_log
     from gyroid.sampling import SamplerSettings
@@ -381,18 +384,9 @@ def roll_fit(data, out, seed, mappings, progress) -> None:
         click.echo(f"note: {note}", err=True)
     click.echo(f"fitting the roll loop to {data} ({log.n} rows) ...", err=True)
     result = fit_roll_log(log, seed=seed, settings=SamplerSettings(progress=progress))
-    summary = result.to_json()
-    problem = result.problem
-    residual = np.asarray(problem.gs_angle - problem.predict(jnp.asarray(result.point.u)))
-    loop = [n for n in ("D0", "D1", "D0gs", "D1gs", "enc_a", "enc_b") if n in problem.names]
-    flat = result.posterior.draws.reshape(-1, len(problem.names))
-    draws = flat[:, [problem.names.index(n) for n in loop]]
     with output_dir(out) as stage:
-        (stage / "roll_fit.json").write_text(json_text(summary))
-        result.posterior.idata.to_netcdf(str(stage / "posterior.nc"))
-        save(roll_residual_figure(log.time_s, residual), stage / "roll_fit")
-        save(pair_plot(draws, loop, summary["units"] | {"enc_a": "deg", "enc_b": "deg"}),
-             stage / "pair")
+        write_roll_fit_outputs(stage, log, result)
+    summary = result.to_json()
     for name, s in summary["parameters"].items():
         click.echo(f"  {name:>5s} = {s['mean']:.6g} +/- {s['sd']:.2g}")
     derived = []
@@ -431,32 +425,30 @@ def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings) -> N
     DATA is a bench log (contract section 1) or a roll log (section 4: roll_rate_deg_s,
     gs_angle_deg), as .csv, .csv.gz or .parquet. Exit code 3 when a self-check of the
     final model fails."""
-    from gyroid.discrepancy import find_discrepancies, regressors
+    from gyroid.discrepancy import find_discrepancies
     from gyroid.logs import load_bench_log
-    from gyroid.outputs import json_text
-    from gyroid.plotting import discrepancy_figure, save
-    from gyroid.tables import read_log_table
+    from gyroid.report_files import write_discrepancy_outputs
+    from gyroid.roll_discrepancy import find_roll_discrepancies
+    from gyroid.roll_log import load_roll_log
+    from gyroid.tables import log_kind
 
     maps = _parse_maps(mappings)
-    header = read_log_table(data).header
-    targets = {m.target for m in maps}
-    if "roll_rate_deg_s" in {*header, *targets} and "drift_deg_h" not in {*header, *targets}:
-        _roll_discrepancy(data, terms, out, max_added, maps)
-        return
-    log = load_bench_log(data, terms, t0_C=t0_C, column_map=maps, extra_columns=extra_columns)
-    click.echo(f"searching what {terms} misses in {data} ({log.n} rows"
-               + (f"; extra columns {', '.join(log.extra_columns)}" if log.extra_columns else "")
-               + ") ...", err=True)
-    report = find_discrepancies(log, terms, max_added=max_added, t0_C=t0_C,
-                                progress=lambda m: click.echo(m, err=True))
-    regs = regressors(log.inputs(t0_C=t0_C, rate_window_s=report.rate_window_s))
-    if report.steps:
-        name = report.steps[0].regressor
+
+    def say(message: str) -> None:
+        click.echo(message, err=True)
+
+    if log_kind(data, maps) == "roll":
+        log = load_roll_log(data, column_map=maps)
+        say(f"searching what {terms} misses in roll log {data} ({log.n} rows) ...")
+        report = find_roll_discrepancies(log, terms, max_added=max_added, progress=say)
     else:
-        name = next(iter(report.lines_up_with), "elapsed time")
+        log = load_bench_log(data, terms, t0_C=t0_C, column_map=maps,
+                             extra_columns=extra_columns)
+        extra = f"; extra columns {', '.join(log.extra_columns)}" if log.extra_columns else ""
+        say(f"searching what {terms} misses in {data} ({log.n} rows{extra}) ...")
+        report = find_discrepancies(log, terms, max_added=max_added, t0_C=t0_C, progress=say)
     with output_dir(out) as stage:
-        (stage / "discrepancy.json").write_text(json_text(report.to_json()))
-        save(discrepancy_figure(report, regs.get(name), name), stage / "discrepancy")
+        write_discrepancy_outputs(stage, report, log, t0_C)
     for line in report.summary_lines():
         click.echo(line)
     click.echo(f"wrote {out / 'discrepancy.json'} and {out / 'discrepancy.png'}")
@@ -491,26 +483,6 @@ def demo(out, seed) -> None:
 
     report = run_demo(out, seed=seed, echo=click.echo)
     click.echo(f"report: {report}")
-
-
-def _roll_discrepancy(data: Path, terms: str, out: Path, max_added: int, maps) -> None:
-    """The discrepancy workflow on a roll log (terms: roll effects or 'ideal')."""
-    from gyroid.outputs import json_text
-    from gyroid.plotting import roll_discrepancy_figure, save
-    from gyroid.roll_discrepancy import find_roll_discrepancies
-    from gyroid.roll_log import load_roll_log
-
-    log = load_roll_log(data, column_map=maps)
-    click.echo(f"searching what {terms} misses in roll log {data} ({log.n} rows) ...", err=True)
-    report = find_roll_discrepancies(log, terms, max_added=max_added,
-                                     progress=lambda m: click.echo(m, err=True))
-    with output_dir(out) as stage:
-        (stage / "discrepancy.json").write_text(json_text(report.to_json()))
-        save(roll_discrepancy_figure(report), stage / "discrepancy")
-    for line in report.summary_lines():
-        click.echo(line)
-    click.echo(f"wrote {out / 'discrepancy.json'} and {out / 'discrepancy.png'}")
-    report_checks(report.checks)
 
 
 def main(argv: list[str] | None = None) -> int:

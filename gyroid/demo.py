@@ -20,23 +20,26 @@ from gyroid.bench import ThermalProtocol, simulate_magnetic_bench, simulate_ther
 from gyroid.classic import magnetic_k
 from gyroid.compensate import compensate
 from gyroid.derived import RATE_WINDOW_S
-from gyroid.discrepancy import find_discrepancies, regressors
+from gyroid.discrepancy import find_discrepancies
 from gyroid.fit import fit_log, input_ranges
+from gyroid.fitted import FittedDrift
 from gyroid.logs import bench_log_text
 from gyroid.outputs import json_text, output_dir
 from gyroid.plotting import (
-    allan_figure,
-    discrepancy_figure,
-    dk_distribution,
     magnetic_sweep,
     save,
-    sobol_bars,
     thermal_run,
 )
-from gyroid.propagate import PRESETS, FittedDrift, dk_samples_csv, propagate
-from gyroid.report_files import write_fit_outputs
+from gyroid.propagate import propagate
+from gyroid.report_files import (
+    write_compensate_outputs,
+    write_discrepancy_outputs,
+    write_fit_outputs,
+    write_propagate_outputs,
+)
 from gyroid.reproduce import write_reproduction
 from gyroid.sampling import SamplerSettings
+from gyroid.scenarios import PRESETS
 
 
 @dataclass(frozen=True)
@@ -113,13 +116,7 @@ def run_demo(out: str | Path, *, seed: int = 0, echo: Callable[[str], None] = pr
         prop, samples = propagate(fitted, scenario, draws=size.propagate_draws, seed=seed,
                                   sobol_n=size.sobol_samples)
         (stage / "propagate").mkdir()
-        (stage / "propagate" / "propagate.json").write_text(json_text(prop))
-        (stage / "propagate" / "dk_samples.csv").write_text(dk_samples_csv(samples["dK"]))
-        save(dk_distribution(samples["dK"], prop["closed_form"]["dK_eq7"],
-                             prop["closed_form"]["dK_printed"]), stage / "fig_dk")
-        save(sobol_bars(prop["drivers_first_order"], prop["drivers_total"],
-                            prop["interactions"]),
-             stage / "fig_drivers")
+        write_propagate_outputs(stage / "propagate", prop, samples)
 
         report_disc = None
         if size.discrepancy:
@@ -131,11 +128,7 @@ def run_demo(out: str | Path, *, seed: int = 0, echo: Callable[[str], None] = pr
             (stage / "discrepancy").mkdir()
             (stage / "discrepancy" / "bench.csv").write_text(
                 bench_log_text(hidden.log.columns, hidden.log.comments))
-            (stage / "discrepancy" / "discrepancy.json").write_text(
-                json_text(report_disc.to_json()))
-            regs = regressors(hidden.log.inputs(rate_window_s=report_disc.rate_window_s))
-            name = report_disc.steps[0].regressor if report_disc.steps else "elapsed time"
-            save(discrepancy_figure(report_disc, regs.get(name), name), stage / "fig_discrepancy")
+            write_discrepancy_outputs(stage / "discrepancy", report_disc, hidden.log)
         else:
             echo("[4/6] discrepancy workflow skipped (reduced demo)")
 
@@ -145,8 +138,7 @@ def run_demo(out: str | Path, *, seed: int = 0, echo: Callable[[str], None] = pr
         comp = compensate(second.log, fitted, input_ranges(tf_problem.inputs,
                                                            tf_problem.model))
         (stage / "compensate").mkdir()
-        (stage / "compensate" / "compensate.json").write_text(json_text(comp.summary))
-        save(allan_figure(comp.adev_before, comp.adev_after), stage / "fig_allan")
+        write_compensate_outputs(stage / "compensate", second.log, comp)
         (stage / "reproduce").mkdir()
         repro = write_reproduction(stage / "reproduce")
 
@@ -227,10 +219,11 @@ def run_demo(out: str | Path, *, seed: int = 0, echo: Callable[[str], None] = pr
               "interactions (" + (", ".join(prop["interactions"]["involving"]) or "none")
             + ").", "",
         ]
-        figure("fig_dk", "Distribution of dK over posterior draws and correction periods, "
-               "with paper B's eq. 7 value; the printed 0.093 is 500 times larger.")
-        figure("fig_drivers", "First-order and total Sobol indices of dK (the title gives the "
-               "share of the variance that is interactions): the encoder error acts through "
+        figure("propagate/dk_distribution", "Distribution of dK over posterior draws and "
+               "correction periods, with paper B's eq. 7 value; the printed 0.093 is 500 times "
+               "larger.")
+        figure("propagate/drivers", "First-order and total Sobol indices of dK (the title gives "
+               "the share of the variance that is interactions): the encoder error acts through "
                "its phase at each period's end, so it matters only jointly with the period.")
         if report_disc is not None:
             lines += [
@@ -243,7 +236,7 @@ def run_demo(out: str | Path, *, seed: int = 0, echo: Callable[[str], None] = pr
                 f"- RMS {report_disc.rms_baseline:.4f} -> "
                 f"{report_disc.rms_final:.4f} deg/h", "",
             ]
-            figure("fig_discrepancy", "Residuals before and after adding the named effect "
+            figure("discrepancy/discrepancy", "Residuals before and after adding the named effect "
                    "(top), the baseline residual against the regressor that explains it, and "
                    "the RMS of the 60 s means before and after (per-sample RMS in the labels: "
                    "there the white noise dominates).")
@@ -268,7 +261,7 @@ def run_demo(out: str | Path, *, seed: int = 0, echo: Callable[[str], None] = pr
                    i["input"] for i in cs["extrapolation"]) + ".")
             + " Files `compensate/`.", "",
         ]
-        figure("fig_allan", "Allan deviation of the drift before and after compensation, "
+        figure("compensate/allan", "Allan deviation of the drift before and after compensation, "
                "with 68 % intervals and the standard slopes; what remains after is the white "
                "noise and a small correlated part from the estimated dT/dt.")
         lines += ["## 6. Both papers reproduced and audited", "",

@@ -47,20 +47,57 @@ def _break_gaps(hours: np.ndarray, *series: np.ndarray) -> tuple[np.ndarray, ...
     return tuple(np.insert(np.asarray(x, dtype=float), cut, np.nan) for x in (hours, *series))
 
 
+#: Most points a line in a figure draws; longer logs are drawn every k-th sample.
+MAX_PLOTTED_POINTS = 5000
+
+
+def plot_step(n: int) -> int:
+    """Draw every k-th of ``n`` samples, so that at most ``MAX_PLOTTED_POINTS`` are drawn."""
+    return max(1, -(-n // MAX_PLOTTED_POINTS))
+
+
+def _every(n: int) -> tuple[slice, str]:
+    """The samples to draw of ``n`` and a label suffix saying so when thinned."""
+    step = plot_step(n)
+    return slice(None, None, step), ("" if step == 1 else f", every {step}th sample drawn")
+
+
+def moving_mean(values: np.ndarray, window: int) -> np.ndarray:
+    """Centred moving mean over ``window`` samples (shorter at the ends), by cumulative sums:
+    O(n) whatever the window."""
+    values = np.asarray(values, dtype=float)
+    n = values.size
+    half = window // 2
+    total = np.concatenate([[0.0], np.cumsum(values)])
+    lo = np.clip(np.arange(n) - half, 0, n)
+    hi = np.clip(np.arange(n) - half + window, 0, n)
+    return (total[hi] - total[lo]) / (hi - lo)
+
+
+def _rate_label(time_s: np.ndarray) -> str:
+    step = float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
+    return f"{1.0 / step:.3g} Hz" if step <= 1.0 else f"{step:.3g} s samples"
+
+
 def thermal_run(
     log: BenchLog, rate_C_h: np.ndarray, true_drift: np.ndarray | None = None,
     rate_window_s: float | None = None,
 ) -> plt.Figure:
-    """Paper A Fig. 1 style: drift, temperature and its rate against time. The logged 1 Hz
+    """Paper A Fig. 1 style: drift, temperature and its rate against time. The logged
     drift is drawn over the true drift (when known); its noise is shown in its own panel,
     because at the heating peaks' scale it is thinner than a line. ``rate_C_h`` is dT/dt as
     gyroid estimates it from the logged temperature (window ``rate_window_s``)."""
     with plt.rc_context(STYLE):
         rows = 4 if true_drift is not None else 3
         fig, axes = plt.subplots(rows, 1, figsize=(6.5, 1.9 * rows + 0.8), sharex=True)
-        hours = (log.time_s - log.time_s[0]) / 3600.0
-        drift = np.asarray(log.drift_deg_h)
-        axes[0].plot(hours, drift, color="0.6", lw=0.5, ls="-", label="logged (1 Hz)")
+        shown, thinned = _every(log.n)
+        hours = ((log.time_s - log.time_s[0]) / 3600.0)[shown]
+        drift = np.asarray(log.drift_deg_h)[shown]
+        temperature = np.asarray(log.columns["temperature_C"])[shown]
+        rate_C_h = np.asarray(rate_C_h)[shown]
+        true_drift = None if true_drift is None else np.asarray(true_drift)[shown]
+        axes[0].plot(hours, drift, color="0.6", lw=0.5, ls="-",
+                     label=f"logged ({_rate_label(log.time_s)}{thinned})")
         if true_drift is not None:
             axes[0].plot(hours, true_drift, color="0.0", lw=0.7, ls="-", label="true drift")
         axes[0].set_ylabel("drift, deg/h")
@@ -70,7 +107,7 @@ def thermal_run(
             axes[1].plot(hours, drift - true_drift, color="0.4", lw=0.3, ls="-")
             axes[1].set_ylabel("logged - true,\ndeg/h")
             k = 2
-        axes[k].plot(hours, log.columns["temperature_C"], color="0.0", lw=1.0)
+        axes[k].plot(hours, temperature, color="0.0", lw=1.0)
         axes[k].set_ylabel("temperature, degC")
         axes[k + 1].plot(hours, rate_C_h, color="0.0", lw=1.0)
         window = f", {rate_window_s / 60:.0f} min window" if rate_window_s else ""
@@ -85,19 +122,22 @@ def magnetic_sweep(log: BenchLog, model_deg_h: np.ndarray | None = None) -> plt.
     model's drift over the data when given. Lines break at gaps (the azimuth turn)."""
     with plt.rc_context(STYLE):
         fig, axes = plt.subplots(2, 1, figsize=(6.5, 5.0), sharex=True)
-        hours = (log.time_s - log.time_s[0]) / 3600.0
-        h, drift = _break_gaps(hours, log.drift_deg_h)
-        axes[0].plot(h, drift, color="0.6", lw=0.4, ls="-", label="logged drift")
+        shown, thinned = _every(log.n)
+        hours = ((log.time_s - log.time_s[0]) / 3600.0)[shown]
+        h, drift = _break_gaps(hours, np.asarray(log.drift_deg_h)[shown])
+        axes[0].plot(h, drift, color="0.6", lw=0.4, ls="-", label="logged drift" + thinned)
         if model_deg_h is not None:
-            axes[0].plot(h, _break_gaps(hours, model_deg_h)[1], color="0.0", lw=1.2, ls="-",
-                         label="fitted model")
+            axes[0].plot(h, _break_gaps(hours, np.asarray(model_deg_h)[shown])[1], color="0.0",
+                         lw=1.2, ls="-", label="fitted model")
+        if model_deg_h is not None or thinned:
             axes[0].legend(loc="upper left", frameon=False, ncol=2)
         axes[0].set_ylabel("drift, deg/h")
         styles = {"Hx_uT": ("-", 1.0), "Hy_uT": ("--", 1.0), "Hz_uT": (":", 1.6)}
         for name in FIELD_COLUMNS:
             if log.has(name):
                 ls, lw = styles[name]
-                axes[1].plot(h, _break_gaps(hours, log.columns[name])[1], color="0.0", lw=lw,
+                field = np.asarray(log.columns[name])[shown]
+                axes[1].plot(h, _break_gaps(hours, field)[1], color="0.0", lw=lw,
                              ls=ls, label=name.split("_")[0])
         axes[1].set_ylabel("field, uT")
         axes[1].set_xlabel("time since start, h")
@@ -110,27 +150,32 @@ def fit_overview(time_s: np.ndarray, drift: np.ndarray, predictions: np.ndarray,
                  point_prediction: np.ndarray) -> plt.Figure:
     """Data with the modelled drift; the posterior 95 % band of the model about its point
     estimate (at the data's scale it is thinner than a line, so it has its own panel); and
-    the residuals against time."""
+    the residuals against time. ``predictions`` are draws of the model at every
+    :func:`plot_step`-th sample (what :meth:`gyroid.fit.FitResult.predict_draws` gives with
+    that ``every``); long logs are drawn thinned the same way."""
+    shown, thinned = _every(np.asarray(time_s).size)
     with plt.rc_context(STYLE):
         fig, axes = plt.subplots(3, 1, figsize=(6.5, 6.4), sharex=True,
                                  gridspec_kw={"height_ratios": [2, 1, 1]})
-        hours = (time_s - time_s[0]) / 3600.0
+        hours = ((time_s - time_s[0]) / 3600.0)[shown]
+        point = np.asarray(point_prediction)[shown]
         lo, hi = np.percentile(predictions, [2.5, 97.5], axis=0)
-        axes[0].plot(hours, drift, color="0.65", lw=0.4, ls="-", label="logged drift")
-        axes[0].plot(hours, point_prediction, color="0.0", lw=0.9, ls="-",
+        axes[0].plot(hours, np.asarray(drift)[shown], color="0.65", lw=0.4, ls="-",
+                     label="logged drift" + thinned)
+        axes[0].plot(hours, point, color="0.0", lw=0.9, ls="-",
                      label="model at the point estimate")
         axes[0].set_ylabel("drift, deg/h")
         axes[0].legend(loc="best", frameon=False)
-        axes[1].fill_between(hours, lo - point_prediction, hi - point_prediction, color="0.6",
+        axes[1].fill_between(hours, lo - point, hi - point, color="0.6",
                              lw=0, label="model's 95 % posterior band")
         axes[1].axhline(0.0, color="0.0", lw=0.6, ls=":")
         axes[1].set_ylabel("model - point\nestimate, deg/h")
         axes[1].legend(loc="upper right", frameon=False)
-        residual = drift - point_prediction
-        axes[2].plot(hours, residual, color="0.55", lw=0.4, ls="-")
+        residual = np.asarray(drift) - np.asarray(point_prediction)
+        axes[2].plot(hours, residual[shown], color="0.55", lw=0.4, ls="-")
         window = max(1, int(round(60.0 / max(np.median(np.diff(time_s)), 1e-9))))
         if window > 1 and residual.size > window:
-            smooth = np.convolve(residual, np.ones(window) / window, mode="same")
+            smooth = moving_mean(residual, window)[shown]
             axes[2].plot(hours, smooth, color="0.0", lw=1.0, ls="-", label="60 s mean")
             axes[2].legend(loc="upper right", frameon=False)
         axes[2].axhline(0.0, color="0.0", lw=0.6, ls=":")
@@ -275,7 +320,7 @@ def discrepancy_figure(report, regressor_values: np.ndarray | None, regressor_na
         ax2 = fig.add_subplot(grid[1, 0])
         if regressor_values is not None:
             ax2.plot(means(regressor_values), before, ".", color="0.2", ms=2.5)
-        from gyroid.discrepancy import REGRESSOR_UNITS
+        from gyroid.residual_structure import REGRESSOR_UNITS
 
         ax2.set_xlabel(f"{regressor_name}, {REGRESSOR_UNITS.get(regressor_name, '-')}")
         ax2.set_ylabel("baseline residual, deg/h")

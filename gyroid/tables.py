@@ -378,6 +378,13 @@ def _read_parquet(path: Path, maps) -> LogTable:
                     maps, False, empty)
 
 
+def log_kind(path: str | Path, maps: tuple[ColumnMap, ...] = ()) -> str:
+    """``"roll"`` for a roll log (contract section 4: roll_rate_deg_s and no drift_deg_h,
+    after the column maps), else ``"bench"``."""
+    names = {*read_log_table(path).header, *(m.target for m in maps)}
+    return "roll" if "roll_rate_deg_s" in names and "drift_deg_h" not in names else "bench"
+
+
 def check_time_increasing(table: LogTable, time_s: np.ndarray) -> None:
     """Refuse a time column that is not strictly increasing, naming the first bad row."""
     steps = np.diff(time_s)
