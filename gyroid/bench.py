@@ -16,7 +16,7 @@ and its analytic rate, true field) plus gyro noise; the log holds the *measured*
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import jax.numpy as jnp
 import numpy as np
@@ -54,6 +54,16 @@ class ThermalProtocol:
     def duration_s(self) -> float:
         steps = len(self.setpoints_C) + int(self.return_to_lab)
         return 60.0 * (self.initial_min + steps * (self.transition_min + self.soak_min))
+
+    def stretched(self, hours: float | None = None, rate_hz: float | None = None
+                  ) -> ThermalProtocol:
+        """The same schedule lasting ``hours`` (every phase scaled alike) and sampled at
+        ``rate_hz``: long and fast logs (``gyroid simulate --hours --rate-hz``)."""
+        factor = 1.0 if hours is None else hours * 3600.0 / self.duration_s
+        return replace(self, initial_min=self.initial_min * factor,
+                       transition_min=self.transition_min * factor,
+                       soak_min=self.soak_min * factor,
+                       sample_s=self.sample_s if rate_hz is None else 1.0 / rate_hz)
 
     def levels_C(self) -> tuple[float, ...]:
         levels = tuple(self.setpoints_C)
@@ -104,6 +114,19 @@ class MagneticProtocol:
     temperature_wander_C: float = 0.2  # amplitude of a slow lab-temperature wander
     wander_period_h: float = 3.0
     sample_s: float = 1.0
+
+    @property
+    def duration_s(self) -> float:
+        gap = self.turn_gap_s if "z" in self.axes[1:] else 0.0
+        return len(self.axes) * self.sweep_levels_uT().size * self.dwell_s + gap
+
+    def stretched(self, hours: float | None = None, rate_hz: float | None = None
+                  ) -> MagneticProtocol:
+        """The same sweeps lasting ``hours`` (dwell and turn scaled alike) and sampled at
+        ``rate_hz``."""
+        factor = 1.0 if hours is None else hours * 3600.0 / self.duration_s
+        return replace(self, dwell_s=self.dwell_s * factor, turn_gap_s=self.turn_gap_s * factor,
+                       sample_s=self.sample_s if rate_hz is None else 1.0 / rate_hz)
 
     def sweep_levels_uT(self) -> np.ndarray:
         """Field values of one axis sweep, in order: 0, 50, ..., 300, 250, ..., -300, ..., 0."""

@@ -6,7 +6,6 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 
@@ -15,7 +14,7 @@ from gyroid.checks import CheckReport, FitEvidence, fit_checks, outliers
 from gyroid.drift import DriftModel
 from gyroid.effects import parameter
 from gyroid.inputs import T0_C
-from gyroid.likelihood import NOISE_UNITS, BenchProblem
+from gyroid.likelihood import NOISE_UNITS, BenchProblem, problem_batcher
 from gyroid.logs import BenchLog
 from gyroid.logs import segment_means as segment_means_of
 from gyroid.point import PointEstimate, point_estimate
@@ -56,15 +55,19 @@ class FitResult:
     def model_names(self) -> tuple[str, ...]:
         return self.problem.model.parameter_names
 
-    def predict_draws(self, n_draws: int = 200, seed: int = 0) -> np.ndarray:
-        """Modelled drift (deg/h) for ``n_draws`` posterior draws: (n_draws, n)."""
+    def predict_draws(self, n_draws: int = 200, seed: int = 0, every: int = 1) -> np.ndarray:
+        """Modelled drift (deg/h) for ``n_draws`` posterior draws at every ``every``-th row:
+        (n_draws, ceil(n / every)). Computed a few draws at a time (memory O(n))."""
         if self.posterior is None:
-            return np.asarray(self.problem.predict(jnp.asarray(self.point.u)))[None]
+            return np.asarray(self.problem.predict(jnp.asarray(self.point.u)))[None, ::every]
         flat = self.posterior.draws.reshape(-1, len(self.problem.names))
         rng = np.random.default_rng(seed)
         pick = rng.choice(flat.shape[0], size=min(n_draws, flat.shape[0]), replace=False)
-        u = self.problem.to_sampling(jnp.asarray(flat[pick]))
-        return np.asarray(jax.vmap(self.problem.predict)(u))
+        u = np.asarray(self.problem.to_sampling(jnp.asarray(flat[pick])))
+        predict = problem_batcher(self.problem, "predict")
+        chunk = int(np.clip(2e7 // max(self.problem.n, 1), 1, 64))
+        return np.concatenate([np.asarray(predict(u[start:start + chunk]))[:, ::every]
+                               for start in range(0, u.shape[0], chunk)])
 
     def to_json(self) -> dict:
         """The contract's ``fit.json`` (plus noise, units and convergence sections)."""

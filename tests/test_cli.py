@@ -7,7 +7,7 @@ import sys
 import numpy as np
 import pytest
 
-from gyroid import load_bench_log
+from gyroid import MagneticProtocol, ThermalProtocol, load_bench_log
 from gyroid.cli import main
 
 
@@ -59,6 +59,24 @@ def test_simulate_with_a_candidate_effect(tmp_path):
     assert "time_trend" in truth["effects"]
 
 
+@pytest.mark.parametrize("bench", ["thermal", "magnetic"])
+def test_simulate_any_length_and_rate(tmp_path, bench):
+    out = tmp_path / "sim"
+    assert main(["simulate", bench, "--hours", "0.25", "--rate-hz", "20", "--out",
+                 str(out)]) == 0
+    log = load_bench_log(out / "bench.csv", "bias")
+    steps = np.diff(log.time_s)
+    assert np.median(steps) == pytest.approx(0.05)
+    # The whole schedule in a quarter of an hour, every row written.
+    span_h = (log.time_s[-1] - log.time_s[0] + 0.05) / 3600.0
+    assert span_h == pytest.approx(0.25, rel=1e-3)
+    protocol = (ThermalProtocol() if bench == "thermal" else MagneticProtocol()).stretched(
+        0.25, 20.0)
+    expected = (int(round(protocol.duration_s / protocol.sample_s)) if bench == "thermal"
+                else protocol.schedule()[0].size)
+    assert log.n == expected
+
+
 @pytest.mark.parametrize(
     ("args", "expected"),
     [
@@ -66,6 +84,7 @@ def test_simulate_with_a_candidate_effect(tmp_path):
         (["--effect", "warm_up:x=1"], "unknown effect 'warm_up'"),
         (["--set", "w1"], "is not NAME=NUMBER"),
         (["--set", "wq=1"], "parameter 'wq' belongs to no effect"),
+        (["--rate-hz", "0"], "--hours and --rate-hz must be positive"),
     ],
 )
 def test_bad_options_end_with_one_message_and_write_nothing(tmp_path, capsys, args, expected):

@@ -97,6 +97,11 @@ def test_sufficient_statistics_equal_the_direct_sum(known_sigma):
         u = jnp.asarray(rng.normal(size=len(fast.names)) * 0.3)
         assert float(fast.log_likelihood(u)) == pytest.approx(float(direct.log_likelihood(u)),
                                                               rel=1e-10, abs=1e-7)
+        # LOO's block log-likelihoods from the blocks' own statistics, rows never touched.
+        np.testing.assert_allclose(np.asarray(fast.log_likelihood_blocks(u)),
+                                   np.asarray(direct.log_likelihood_blocks(u)),
+                                   rtol=1e-10, atol=1e-7)
+    assert fast.block_gram.shape[0] == fast.n_blocks > 1
 
 
 def test_correlated_noise_likelihood_is_the_exact_gaussian():
