@@ -19,3 +19,29 @@ def test_benchmark_jobs_agree_with_their_baselines():
     problem, flat, design, y, scales = bench.bench_problems(0)
     assert bench.bench_likelihood(problem, design, y, scales, 1)
     assert bench.bench_point(flat, design, y, 1)
+
+
+def test_the_bare_script_baseline_fits_the_same_coefficients(tmp_path):
+    """benchmarks/scaling.py compares gyroid with benchmarks/bare_thermal_fit.py: that
+    comparison is only fair if the bare script answers the same question."""
+    import json
+    import subprocess
+    import sys
+
+    from gyroid.bench import ThermalProtocol, simulate_thermal_bench
+    from gyroid.fit import fit_log
+    from gyroid.logs import write_bench_log
+    from gyroid.sampling import SamplerSettings
+
+    protocol = ThermalProtocol()
+    rate_hz = 2e4 / protocol.duration_s
+    sim = simulate_thermal_bench(seed=3, protocol=protocol.stretched(None, rate_hz))
+    path = write_bench_log(tmp_path / "log.parquet", sim.log.columns)
+    out = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "bare_thermal_fit.py"),
+                          str(path)], capture_output=True, text=True, check=True)
+    bare = json.loads(out.stdout.strip().splitlines()[-1])["mean"]
+    ours = fit_log(sim.log, "thermal", settings=SamplerSettings(progress=False))
+    for name in ("w1", "wD"):
+        summary = ours.posterior.summary[name]
+        # Different dT/dt estimators: agreement within 3 posterior sd is the claim.
+        assert abs(bare[name] - summary["mean"]) < 3 * summary["sd"], name

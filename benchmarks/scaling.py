@@ -1,0 +1,123 @@
+"""How gyroid's cost grows with a log's length, against the bare script a competent
+researcher writes in an hour (benchmarks/bare_thermal_fit.py), in one run.
+
+    python benchmarks/scaling.py --rows 1e4 1e5 1e6 1e7 --json benchmarks/results_scaling.json
+
+For each length: a thermal bench log (paper A's schedule, sampled fast enough to give that
+many rows over 10.3 h), written as parquet; then, each in a fresh process with its wall time
+and peak memory (the process and its children):
+
+* ``load``: gyroid's reader (validation included) against ``pyarrow.parquet.read_table``;
+* ``fit``: ``gyroid fit LOG --terms thermal`` end to end (reading, rate window choice,
+  point fit, emcee to convergence, checks, fit.json, posterior.nc, figures);
+* ``bare``: the bare script (read, Savitzky-Golay dT/dt, normal equations, emcee on
+  sufficient statistics with DE moves for 3000 steps; no checks, no files);
+* ``discrepancy``: ``gyroid discrepancy LOG --terms thermal`` (up to ``--discrepancy-rows``).
+
+Both fits must agree (w1 and wD within 3 posterior sd of each other) or the row says so.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+_MEASURE = (
+    "import json, resource, subprocess, sys, time\n"
+    "start = time.perf_counter()\n"
+    "done = subprocess.run(sys.argv[1:], capture_output=True, text=True)\n"
+    "print(json.dumps({'seconds': time.perf_counter() - start, 'code': done.returncode,\n"
+    "  'peak_mb': resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024,\n"
+    "  'stdout': done.stdout[-2000:], 'stderr': done.stderr[-2000:]}))\n"
+)
+_LOAD = (
+    "import json, sys, time, resource\n"
+    "start = time.perf_counter()\n"
+    "if sys.argv[1] == 'gyroid':\n"
+    "    from gyroid.logs import load_bench_log\n"
+    "    load_bench_log(sys.argv[2], 'thermal')\n"
+    "else:\n"
+    "    import pyarrow.parquet as pq\n"
+    "    pq.read_table(sys.argv[2])\n"
+    "print(json.dumps({'seconds': time.perf_counter() - start,\n"
+    "  'peak_mb': resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}))\n"
+)
+
+
+def measure(*command: str) -> dict:
+    """Wall time and peak memory of ``command`` in a fresh process."""
+    out = subprocess.run([sys.executable, "-c", _MEASURE, *command], capture_output=True,
+                         text=True, check=True)
+    return json.loads(out.stdout)
+
+
+def make_log(rows: int, folder: Path) -> Path:
+    from gyroid.bench import ThermalProtocol, simulate_thermal_bench
+    from gyroid.logs import write_bench_log
+
+    protocol = ThermalProtocol()
+    rate_hz = rows / protocol.duration_s
+    sim = simulate_thermal_bench(seed=1, protocol=protocol.stretched(None, rate_hz))
+    path = folder / f"thermal_{rows:.0e}.parquet"
+    write_bench_log(path, sim.log.columns)
+    return path
+
+
+def one_length(rows: int, folder: Path, discrepancy_rows: int) -> dict:
+    log = make_log(rows, folder)
+    row: dict = {"rows": rows}
+    for reader in ("gyroid", "pyarrow"):
+        out = subprocess.run([sys.executable, "-c", _LOAD, reader, str(log)],
+                             capture_output=True, text=True, check=True)
+        row[f"load_{reader}"] = json.loads(out.stdout)
+    fit_dir = folder / f"fit_{rows:.0e}"
+    fit = measure(sys.executable, "-m", "gyroid", "fit", str(log), "--terms", "thermal",
+                  "--out", str(fit_dir), "--no-progress")
+    row["fit"] = {k: fit[k] for k in ("seconds", "peak_mb", "code")}
+    bare = measure(sys.executable, str(HERE / "bare_thermal_fit.py"), str(log))
+    row["bare"] = {k: bare[k] for k in ("seconds", "peak_mb", "code")}
+    if bare["code"] == 0:
+        row["bare"].update(json.loads(bare["stdout"].strip().splitlines()[-1]))
+    if fit["code"] in (0, 3):
+        posterior = json.loads((fit_dir / "fit.json").read_text())["posterior"]
+        row["fit"]["mean"] = {k: posterior[k]["mean"] for k in ("w0", "w1", "w2", "wD")}
+        row["fit"]["sd"] = {k: posterior[k]["sd"] for k in ("w0", "w1", "w2", "wD")}
+        if bare["code"] == 0:
+            row["agree"] = all(
+                abs(row["fit"]["mean"][k] - row["bare"]["mean"][k]) < 3 * row["fit"]["sd"][k]
+                for k in ("w1", "wD"))
+    else:
+        row["fit"]["stderr"] = fit["stderr"]
+    if rows <= discrepancy_rows:
+        disc = measure(sys.executable, "-m", "gyroid", "discrepancy", str(log), "--terms",
+                       "thermal", "--out", str(folder / f"disc_{rows:.0e}"))
+        row["discrepancy"] = {k: disc[k] for k in ("seconds", "peak_mb", "code")}
+    return row
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rows", nargs="+", type=float, default=[1e4, 1e5, 1e6])
+    parser.add_argument("--discrepancy-rows", type=float, default=1e6)
+    parser.add_argument("--json", type=Path, default=None)
+    args = parser.parse_args()
+    results = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for rows in args.rows:
+            started = time.perf_counter()
+            row = one_length(int(rows), Path(tmp), int(args.discrepancy_rows))
+            results.append(row)
+            print(json.dumps(row), f"({time.perf_counter() - started:.0f} s)", flush=True)
+    if args.json:
+        args.json.write_text(json.dumps({"command": " ".join(sys.argv), "results": results},
+                                        indent=1))
+
+
+if __name__ == "__main__":
+    main()
