@@ -27,14 +27,19 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-import gyroid
-from gyroid.bench import MagneticProtocol, ThermalProtocol, simulate_thermal_bench
-from gyroid.likelihood import BenchProblem, log_posterior_batcher
-from gyroid.logs import BenchLog
-from gyroid.paper_b import G
-from gyroid.point import point_estimate
-from gyroid.roll import Flight, RollParams, correction_coefficients, navigation_errors
-from gyroid.sampling import SamplerSettings, sample_posterior, summarise_draws
+from gyroid.inference.likelihood import BenchProblem, log_posterior_batcher
+from gyroid.inference.point import point_estimate
+from gyroid.inference.sampling import SamplerSettings, sample_posterior, summarise_draws
+from gyroid.io.logs import BenchLog
+from gyroid.models.paper_b import G
+from gyroid.models.roll import Flight, RollParams, correction_coefficients, navigation_errors
+from gyroid.simulation.bench import (
+    PAPER_A_DEVICE_2,
+    PAPER_A_THERMAL,
+    MagneticProtocol,
+    ThermalProtocol,
+    simulate_thermal_bench,
+)
 
 
 def _median_time(fn, repeats: int) -> float:
@@ -54,7 +59,7 @@ def six_hour_log(seed: int = 0) -> BenchLog:
     sim = simulate_thermal_bench(
         seed=seed,
         protocol=protocol,
-        parameters={**gyroid.bench.PAPER_A_THERMAL, **gyroid.bench.PAPER_A_DEVICE_2},
+        parameters={**PAPER_A_THERMAL, **PAPER_A_DEVICE_2},
     )
     n = 6 * 3600
     columns = {k: v[:n] for k, v in sim.log.columns.items()}
@@ -324,9 +329,9 @@ import json, sys, time
 start = time.perf_counter()
 sys.path.insert(0, "benchmarks")
 from run import six_hour_log
-from gyroid.likelihood import BenchProblem
-from gyroid.point import point_estimate
-from gyroid.sampling import SamplerSettings, sample_posterior
+from gyroid.inference.likelihood import BenchProblem
+from gyroid.inference.point import point_estimate
+from gyroid.inference.sampling import SamplerSettings, sample_posterior
 out = {"import_s": time.perf_counter() - start}
 problem = BenchProblem.from_log(six_hour_log(0), "full")
 settings = SamplerSettings(progress=False)

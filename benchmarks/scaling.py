@@ -40,7 +40,7 @@ _LOAD = (
     "import json, sys, time, resource\n"
     "start = time.perf_counter()\n"
     "if sys.argv[1] == 'gyroid':\n"
-    "    from gyroid.logs import load_bench_log\n"
+    "    from gyroid.io.logs import load_bench_log\n"
     "    load_bench_log(sys.argv[2], 'thermal')\n"
     "else:\n"
     "    import pyarrow.parquet as pq\n"
@@ -58,8 +58,8 @@ def measure(*command: str) -> dict:
 
 
 def make_log(rows: int, folder: Path) -> Path:
-    from gyroid.bench import ThermalProtocol, simulate_thermal_bench
-    from gyroid.logs import write_bench_log
+    from gyroid.io.logs import write_bench_log
+    from gyroid.simulation.bench import ThermalProtocol, simulate_thermal_bench
 
     protocol = ThermalProtocol()
     rate_hz = rows / protocol.duration_s

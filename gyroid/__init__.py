@@ -24,34 +24,34 @@ import jax
 
 jax.config.update("jax_enable_x64", True)
 
-from gyroid.bench import (  # noqa: E402
+from gyroid.errors import GyroidInputError  # noqa: E402
+from gyroid.io.logs import BenchLog, load_bench_log, write_bench_log  # noqa: E402
+from gyroid.io.roll_log import RollLog, load_roll_log  # noqa: E402
+from gyroid.models.drift import DriftModel  # noqa: E402
+from gyroid.models.effects import CANDIDATES, EFFECTS, PRESETS, Effect, Parameter, resolve_terms  # noqa: E402
+from gyroid.models.inputs import DriftInputs, build_inputs  # noqa: E402
+from gyroid.models.roll_effects import ROLL_EFFECTS, resolve_roll_terms  # noqa: E402
+from gyroid.simulation.bench import (  # noqa: E402
     MagneticProtocol,
     SimulatedBench,
     ThermalProtocol,
     simulate_magnetic_bench,
     simulate_thermal_bench,
 )
-from gyroid.drift import DriftModel  # noqa: E402
-from gyroid.effects import CANDIDATES, EFFECTS, PRESETS, Effect, Parameter, resolve_terms  # noqa: E402
-from gyroid.errors import GyroidInputError  # noqa: E402
-from gyroid.inputs import DriftInputs, build_inputs  # noqa: E402
-from gyroid.logs import BenchLog, load_bench_log, write_bench_log  # noqa: E402
-from gyroid.noise import GyroNoise  # noqa: E402
-from gyroid.roll_effects import ROLL_EFFECTS, resolve_roll_terms  # noqa: E402
-from gyroid.roll_log import RollLog, load_roll_log  # noqa: E402
+from gyroid.simulation.noise import GyroNoise  # noqa: E402
 
 #: Imported on first use (the workflows pull in emcee, ArviZ and plotting; the command line
 #: stays quick to start): public name -> (module, name there).
 _LAZY = {
-    "compensate": ("gyroid.compensate", "compensate"),
-    "find_discrepancies": ("gyroid.discrepancy", "find_discrepancies"),
-    "fit_log": ("gyroid.fit", "fit_log"),
-    "FittedDrift": ("gyroid.fitted", "FittedDrift"),
-    "propagate": ("gyroid.propagate", "propagate"),
-    "find_roll_discrepancies": ("gyroid.roll_discrepancy", "find_roll_discrepancies"),
-    "fit_roll_log": ("gyroid.roll_fit", "fit_roll_log"),
-    "SCENARIOS": ("gyroid.scenarios", "PRESETS"),
-    "Scenario": ("gyroid.scenarios", "Scenario"),
+    "compensate": ("gyroid.workflows.compensate", "compensate"),
+    "find_discrepancies": ("gyroid.workflows.discrepancy", "find_discrepancies"),
+    "fit_log": ("gyroid.inference.fit", "fit_log"),
+    "FittedDrift": ("gyroid.io.fitted", "FittedDrift"),
+    "propagate": ("gyroid.workflows.propagate", "propagate"),
+    "find_roll_discrepancies": ("gyroid.workflows.roll_discrepancy", "find_roll_discrepancies"),
+    "fit_roll_log": ("gyroid.inference.roll_fit", "fit_roll_log"),
+    "SCENARIOS": ("gyroid.workflows.scenarios", "PRESETS"),
+    "Scenario": ("gyroid.workflows.scenarios", "Scenario"),
 }
 
 

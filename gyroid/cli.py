@@ -10,7 +10,7 @@ from pathlib import Path
 import click
 
 from gyroid.errors import GyroidInputError, UntrustworthyResult
-from gyroid.outputs import output_dir
+from gyroid.io.outputs import output_dir
 
 
 def _parse_assignments(text: str, what: str) -> dict[str, float]:
@@ -43,7 +43,7 @@ def _map_option(function):
 
 
 def _parse_maps(items: tuple[str, ...]):
-    from gyroid.tables import parse_column_maps
+    from gyroid.io.tables import parse_column_maps
 
     return parse_column_maps(items)
 
@@ -119,18 +119,18 @@ def simulate(
 ) -> None:
     """Simulate paper A's thermal or magnetic bench with known truth (of any length and
     sample rate with --hours and --rate-hz)."""
-    from gyroid.bench import (
+    from gyroid.io.logs import write_bench_log
+    from gyroid.io.outputs import json_text
+    from gyroid.models.derived import RATE_WINDOW_S
+    from gyroid.plotting import magnetic_sweep, save, thermal_run
+    from gyroid.simulation.bench import (
         MagneticProtocol,
         ThermalProtocol,
         preset_parameters,
         simulate_magnetic_bench,
         simulate_thermal_bench,
     )
-    from gyroid.derived import RATE_WINDOW_S
-    from gyroid.logs import write_bench_log
-    from gyroid.noise import GyroNoise
-    from gyroid.outputs import json_text
-    from gyroid.plotting import magnetic_sweep, save, thermal_run
+    from gyroid.simulation.noise import GyroNoise
 
     parameters = preset_parameters(bench) | _parse_assignments(overrides, "--set")
     noise = GyroNoise(
@@ -170,7 +170,7 @@ def simulate(
 
 
 def _terms_help() -> str:
-    from gyroid.effects import CANDIDATES, EFFECTS, PRESETS
+    from gyroid.models.effects import CANDIDATES, EFFECTS, PRESETS
 
     paper = [n for n in EFFECTS if n not in CANDIDATES]
     return (f"Comma list of effects or presets. Presets: {', '.join(PRESETS)}. Paper A's "
@@ -230,12 +230,12 @@ def fit(data, terms, out, seed, noise, t0_C, prior_choice, prior_items, flat_pri
 
     DATA is a bench log (.csv, .csv.gz or .parquet; contract section 1). Exit code 3 when a
     self-check says the result must not be used."""
-    from gyroid.fit import fit_log
-    from gyroid.logs import load_bench_log
-    from gyroid.prior_scales import resolve_prior_option
-    from gyroid.rate_window import parse_rate_window
-    from gyroid.report_files import write_fit_outputs
-    from gyroid.sampling import SamplerSettings
+    from gyroid.inference.fit import fit_log
+    from gyroid.inference.sampling import SamplerSettings
+    from gyroid.io.logs import load_bench_log
+    from gyroid.io.report_files import write_fit_outputs
+    from gyroid.models.prior_scales import resolve_prior_option
+    from gyroid.models.rate_window import parse_rate_window
 
     prior_set, overrides = resolve_prior_option(prior_choice, prior_items)
     window = parse_rate_window(rate_window)
@@ -264,10 +264,10 @@ def fit(data, terms, out, seed, noise, t0_C, prior_choice, prior_items, flat_pri
 def compensate(data, fit_dir, out, seed, mappings) -> None:
     """Compensate a new bench log DATA with a fitted drift model; Allan deviation before and
     after. Exit code 3 when a self-check (extrapolation, gain) says not to use it."""
-    from gyroid.compensate import compensate as run
-    from gyroid.fitted import FittedDrift, fitted_ranges_from
-    from gyroid.logs import load_bench_log
-    from gyroid.report_files import write_compensate_outputs
+    from gyroid.io.fitted import FittedDrift, fitted_ranges_from
+    from gyroid.io.logs import load_bench_log
+    from gyroid.io.report_files import write_compensate_outputs
+    from gyroid.workflows.compensate import compensate as run
 
     fitted = FittedDrift.from_dir(fit_dir)
     maps = _parse_maps(mappings)
@@ -294,11 +294,11 @@ def compensate(data, fit_dir, out, seed, mappings) -> None:
               help="Monte-Carlo draws for the distributions.")
 def propagate(fit_dir, out, scenario, seed, draws) -> None:
     """Push a fit's posterior through paper B's correction loop: dK, roll and lateral error."""
-    from gyroid.checks import CheckReport
-    from gyroid.fitted import FittedDrift
-    from gyroid.propagate import propagate as run
-    from gyroid.report_files import write_propagate_outputs
-    from gyroid.scenarios import load_scenario
+    from gyroid.inference.checks import CheckReport
+    from gyroid.io.fitted import FittedDrift
+    from gyroid.io.report_files import write_propagate_outputs
+    from gyroid.workflows.propagate import propagate as run
+    from gyroid.workflows.scenarios import load_scenario
 
     if draws < 10:
         raise GyroidInputError("--draws must be at least 10")
@@ -345,8 +345,8 @@ def roll() -> None:
 def roll_simulate(out, seed, overrides, roll_profile, rate, duration, period, overload,
                   gs_capacity) -> None:
     """Simulate a flight with known truth: roll.csv (contract section 4) and truth.json."""
-    from gyroid.flight import FlightProfile, roll_log_text, simulate_flight
-    from gyroid.outputs import json_text
+    from gyroid.io.outputs import json_text
+    from gyroid.simulation.flight import FlightProfile, roll_log_text, simulate_flight
 
     if duration <= 0 or period <= 0 or period > duration:
         raise GyroidInputError("--duration and --period must be positive, period <= duration")
@@ -374,10 +374,10 @@ def roll_simulate(out, seed, overrides, roll_profile, rate, duration, period, ov
 def roll_fit(data, out, seed, mappings, progress) -> None:
     """Fit the loop parameters (D0, D1, D0gs, D1gs, Denc) to a roll log ROLL (.csv, .csv.gz
     or .parquet; contract section 4). Exit code 3 when a self-check fails."""
-    from gyroid.report_files import write_roll_fit_outputs
-    from gyroid.roll_fit import fit_roll_log
-    from gyroid.roll_log import load_roll_log
-    from gyroid.sampling import SamplerSettings
+    from gyroid.inference.roll_fit import fit_roll_log
+    from gyroid.inference.sampling import SamplerSettings
+    from gyroid.io.report_files import write_roll_fit_outputs
+    from gyroid.io.roll_log import load_roll_log
 
     log = load_roll_log(data, _parse_maps(mappings))
     for note in log.notes:
@@ -425,12 +425,12 @@ def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings) -> N
     DATA is a bench log (contract section 1) or a roll log (section 4: roll_rate_deg_s,
     gs_angle_deg), as .csv, .csv.gz or .parquet. Exit code 3 when a self-check of the
     final model fails."""
-    from gyroid.discrepancy import find_discrepancies
-    from gyroid.logs import load_bench_log
-    from gyroid.report_files import write_discrepancy_outputs
-    from gyroid.roll_discrepancy import find_roll_discrepancies
-    from gyroid.roll_log import load_roll_log
-    from gyroid.tables import log_kind
+    from gyroid.io.logs import load_bench_log
+    from gyroid.io.report_files import write_discrepancy_outputs
+    from gyroid.io.roll_log import load_roll_log
+    from gyroid.io.tables import log_kind
+    from gyroid.workflows.discrepancy import find_discrepancies
+    from gyroid.workflows.roll_discrepancy import find_roll_discrepancies
 
     maps = _parse_maps(mappings)
 
@@ -460,7 +460,7 @@ def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings) -> N
               help="Folder for reproduce.json, tables.md and the figures.")
 def reproduce(out) -> None:
     """Recompute both papers' tables and audit them against their own formulas."""
-    from gyroid.reproduce import write_reproduction
+    from gyroid.papers.reproduce import write_reproduction
 
     with output_dir(out) as stage:
         result = write_reproduction(stage)

@@ -16,30 +16,30 @@ from pathlib import Path
 import jax.numpy as jnp
 import numpy as np
 
-from gyroid.bench import ThermalProtocol, simulate_magnetic_bench, simulate_thermal_bench
-from gyroid.classic import magnetic_k
-from gyroid.compensate import compensate
-from gyroid.derived import RATE_WINDOW_S
-from gyroid.discrepancy import find_discrepancies
-from gyroid.fit import fit_log, input_ranges
-from gyroid.fitted import FittedDrift
-from gyroid.logs import bench_log_text
-from gyroid.outputs import json_text, output_dir
-from gyroid.plotting import (
-    magnetic_sweep,
-    save,
-    thermal_run,
-)
-from gyroid.propagate import propagate
-from gyroid.report_files import (
+from gyroid.inference.fit import fit_log, input_ranges
+from gyroid.inference.sampling import SamplerSettings
+from gyroid.io.fitted import FittedDrift
+from gyroid.io.logs import bench_log_text
+from gyroid.io.outputs import json_text, output_dir
+from gyroid.io.report_files import (
     write_compensate_outputs,
     write_discrepancy_outputs,
     write_fit_outputs,
     write_propagate_outputs,
 )
-from gyroid.reproduce import write_reproduction
-from gyroid.sampling import SamplerSettings
-from gyroid.scenarios import PRESETS
+from gyroid.models.derived import RATE_WINDOW_S
+from gyroid.papers.classic import magnetic_k
+from gyroid.papers.reproduce import write_reproduction
+from gyroid.plotting import (
+    magnetic_sweep,
+    save,
+    thermal_run,
+)
+from gyroid.simulation.bench import ThermalProtocol, simulate_magnetic_bench, simulate_thermal_bench
+from gyroid.workflows.compensate import compensate
+from gyroid.workflows.discrepancy import find_discrepancies
+from gyroid.workflows.propagate import propagate
+from gyroid.workflows.scenarios import PRESETS
 
 
 @dataclass(frozen=True)

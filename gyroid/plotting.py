@@ -10,8 +10,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from gyroid.inputs import FIELD_COLUMNS  # noqa: E402
-from gyroid.logs import BenchLog  # noqa: E402
+from gyroid.io.logs import BenchLog  # noqa: E402
+from gyroid.models.inputs import FIELD_COLUMNS  # noqa: E402
 
 STYLE = {
     "figure.dpi": 110,
@@ -151,8 +151,9 @@ def fit_overview(time_s: np.ndarray, drift: np.ndarray, predictions: np.ndarray,
     """Data with the modelled drift; the posterior 95 % band of the model about its point
     estimate (at the data's scale it is thinner than a line, so it has its own panel); and
     the residuals against time. ``predictions`` are draws of the model at every
-    :func:`plot_step`-th sample (what :meth:`gyroid.fit.FitResult.predict_draws` gives with
-    that ``every``); long logs are drawn thinned the same way."""
+    :func:`plot_step`-th sample (what
+    :meth:`gyroid.inference.fit.FitResult.predict_draws` gives with that ``every``); long
+    logs are drawn thinned the same way."""
     shown, thinned = _every(np.asarray(time_s).size)
     with plt.rc_context(STYLE):
         fig, axes = plt.subplots(3, 1, figsize=(6.5, 6.4), sharex=True,
@@ -249,7 +250,7 @@ def paper_a_table(reproduce: dict) -> plt.Figure:
 
 def paper_b_lateral(reproduce: dict) -> plt.Figure:
     """Paper B Table 2: lateral error by eq. 8, exactly, as printed, and the g t^2/2 bound."""
-    from gyroid import paper_b as pb
+    from gyroid.models import paper_b as pb
 
     times = np.linspace(0.5, 125.0, 300)
     with plt.rc_context(STYLE):
@@ -320,7 +321,7 @@ def discrepancy_figure(report, regressor_values: np.ndarray | None, regressor_na
         ax2 = fig.add_subplot(grid[1, 0])
         if regressor_values is not None:
             ax2.plot(means(regressor_values), before, ".", color="0.2", ms=2.5)
-        from gyroid.residual_structure import REGRESSOR_UNITS
+        from gyroid.workflows.residual_structure import REGRESSOR_UNITS
 
         ax2.set_xlabel(f"{regressor_name}, {REGRESSOR_UNITS.get(regressor_name, '-')}")
         ax2.set_ylabel("baseline residual, deg/h")

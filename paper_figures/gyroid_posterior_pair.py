@@ -5,8 +5,8 @@ import json
 import numpy as np
 import paths
 
-from gyroid._arviz import arviz as az
-from gyroid.effects import PARAMETERS
+from gyroid.io._arviz import arviz as az
+from gyroid.models.effects import PARAMETERS
 from gyroid.plotting import pair_plot, save
 
 fit = json.loads(paths.data("thermal", "fit", "fit.json").read_text())

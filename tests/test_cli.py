@@ -167,7 +167,7 @@ def test_fit_writes_the_contract_outputs(tmp_path, simulated_magnetic):
     assert 0.25 < fit["rms_residual_deg_h"] < 0.35
     for name in ("posterior.nc", "fit.png", "pair.png"):
         assert (out / name).exists()
-    from gyroid._arviz import arviz as az
+    from gyroid.io._arviz import arviz as az
 
     idata = az.from_netcdf(str(out / "posterior.nc"))
     assert set(names) <= set(idata.posterior.data_vars)
@@ -203,8 +203,8 @@ def test_discrepancy_help_names_both_log_kinds_and_every_effect():
     from click.testing import CliRunner
 
     from gyroid.cli import cli
-    from gyroid.effects import EFFECTS
-    from gyroid.roll_effects import ROLL_EFFECTS, ROLL_PRESETS
+    from gyroid.models.effects import EFFECTS
+    from gyroid.models.roll_effects import ROLL_EFFECTS, ROLL_PRESETS
 
     text = " ".join(CliRunner().invoke(cli, ["discrepancy", "--help"]).output.split())
     assert "bench log" in text and "roll log" in text

@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 from helpers import SHORT_MAGNETIC
 
-from gyroid.bench import simulate_magnetic_bench
-from gyroid.flight import FlightProfile, simulate_flight
-from gyroid.likelihood import BenchProblem, log_posterior_batcher
-from gyroid.roll_fit import roll_point_estimate
-from gyroid.roll_log import RollLog
-from gyroid.roll_problem import ALL_PARAMETERS, RollProblem
-from gyroid.sampling import SamplerSettings
+from gyroid.inference.likelihood import BenchProblem, log_posterior_batcher
+from gyroid.inference.roll_fit import roll_point_estimate
+from gyroid.inference.roll_problem import ALL_PARAMETERS, RollProblem
+from gyroid.inference.sampling import SamplerSettings
+from gyroid.io.roll_log import RollLog
+from gyroid.simulation.bench import simulate_magnetic_bench
+from gyroid.simulation.flight import FlightProfile, simulate_flight
 
 
 def _compilations(caplog, name: str) -> int:

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from gyroid.derived import (
+from gyroid.models.derived import (
     RATE_WINDOW_S,
     field_change_sign,
     lagged_temperature,

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from gyroid import GyroNoise
-from gyroid.bench import simulate_magnetic_bench, simulate_thermal_bench
 from gyroid.cli import main
-from gyroid.discrepancy import find_discrepancies
+from gyroid.simulation.bench import simulate_magnetic_bench, simulate_thermal_bench
+from gyroid.workflows.discrepancy import find_discrepancies
 
 pytestmark = pytest.mark.slow  # the whole module: end-to-end fits
 
@@ -93,8 +93,8 @@ def test_cli_writes_the_contract_json(tmp_path):
 def test_where_reports_whole_windows_only():
     """The last samples of a log join the last window: no window of a few samples at the end
     (whose mean is mostly noise) can top the list."""
-    from gyroid.residual_structure import where_largest as _where
-    from gyroid.whitened_fit import NoiseLevels
+    from gyroid.inference.whitened_fit import NoiseLevels
+    from gyroid.workflows.residual_structure import where_largest as _where
 
     sim = simulate_magnetic_bench(seed=3)
     log = sim.log
@@ -111,7 +111,7 @@ def test_where_reports_whole_windows_only():
 def test_a_step_outside_the_catalogue_is_reported_unexplained():
     """Without bias_step among the candidates, a 0.4 deg/h step is soaked up by the noise
     model, whose correlation time then sits at its cap: reported, never 'nothing missing'."""
-    from gyroid.effects import CANDIDATES
+    from gyroid.models.effects import CANDIDATES
 
     sim = simulate_thermal_bench(seed=5, effects={"bias_step": {"w_step": 0.4,
                                                                 "t_step_h": 5.0}})
@@ -124,7 +124,7 @@ def test_a_step_outside_the_catalogue_is_reported_unexplained():
 def _pressure_log(tmp_path):
     """A thermal bench whose drift also follows a logged chamber pressure (a two-hour
     oscillation, 0.1 deg/h rms), with a supply voltage that does nothing."""
-    from gyroid.logs import write_bench_log
+    from gyroid.io.logs import write_bench_log
 
     sim = simulate_thermal_bench(seed=7)
     columns = dict(sim.log.columns)

@@ -7,19 +7,19 @@ from helpers import SHORT_MAGNETIC
 from scipy import stats
 
 from gyroid import BenchLog, GyroNoise
-from gyroid.bench import (
+from gyroid.inference.fit import fit_log
+from gyroid.inference.likelihood import BenchProblem
+from gyroid.inference.point import point_estimate
+from gyroid.inference.sampling import SamplerSettings
+from gyroid.io.datasets import paper_a_table_log, paper_a_thermal_table
+from gyroid.papers.classic import setpoint_table_fit
+from gyroid.simulation.bench import (
     PAPER_A_DEVICE_2,
     PAPER_A_THERMAL,
     MagneticProtocol,
     simulate_magnetic_bench,
     simulate_thermal_bench,
 )
-from gyroid.classic import setpoint_table_fit
-from gyroid.datasets import paper_a_table_log, paper_a_thermal_table
-from gyroid.fit import fit_log
-from gyroid.likelihood import BenchProblem
-from gyroid.point import point_estimate
-from gyroid.sampling import SamplerSettings
 
 QUICK = SamplerSettings(progress=False)
 

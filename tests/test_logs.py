@@ -5,8 +5,8 @@ import pytest
 from helpers import SHORT_MAGNETIC, SHORT_THERMAL, write_log
 
 from gyroid import GyroidInputError, load_bench_log
-from gyroid.bench import simulate_magnetic_bench, simulate_thermal_bench
-from gyroid.logs import bench_log_text
+from gyroid.io.logs import bench_log_text
+from gyroid.simulation.bench import simulate_magnetic_bench, simulate_thermal_bench
 
 
 @pytest.fixture(scope="module")

@@ -9,14 +9,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from gyroid.allan import allan_deviation, contiguous_segments
 from gyroid.cli import main
-from gyroid.compensate import compensate
-from gyroid.fit import fit_log, input_ranges
-from gyroid.fitted import FittedDrift
-from gyroid.logs import BenchLog, load_bench_log
-from gyroid.sampling import SamplerSettings
-from gyroid.tables import parse_column_maps
+from gyroid.inference.fit import fit_log, input_ranges
+from gyroid.inference.sampling import SamplerSettings
+from gyroid.io.fitted import FittedDrift
+from gyroid.io.logs import BenchLog, load_bench_log
+from gyroid.io.tables import parse_column_maps
+from gyroid.workflows.allan import allan_deviation, contiguous_segments
+from gyroid.workflows.compensate import compensate
 
 LOG = Path(__file__).parent / "data" / "pan_lsm6dsm_tvac_2020-03-07.csv.gz"
 MAP = ["time_s=time (ms):ms", "drift_deg_h=gyrox rad/s:rad/s", "temperature_C=temp_degC"]

@@ -1,0 +1,3 @@
+"""Reading logs (CSV, .csv.gz, parquet; vendors' columns and units), writing each step's files
+atomically, reading a fit back.
+"""

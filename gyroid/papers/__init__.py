@@ -1,0 +1,2 @@
+"""Paper A's classical estimators and the reproduction and audit of both papers' tables.
+"""
