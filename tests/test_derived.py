@@ -115,3 +115,51 @@ def test_field_change_sign_follows_a_noisy_sweep():
     sign = field_change_sign(field)
     expected = np.repeat([0, 1, 1, -1, -1, -1, 1], 100)
     np.testing.assert_array_equal(sign, expected)
+
+
+def _schmitt_reference(field, deadband):
+    """The detector written as the plain loop it is (the library runs it as a JAX scan)."""
+    out, state, low, high = np.zeros(field.size), 0.0, field[0], field[0]
+    for i, h in enumerate(field):
+        if state >= 0.0:
+            high = max(high, h)
+        if state <= 0.0:
+            low = min(low, h)
+        if state <= 0.0 and h > low + deadband:
+            state, high = 1.0, h
+        elif state >= 0.0 and h < high - deadband:
+            state, low = -1.0, h
+        out[i] = state
+    return out
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_field_change_sign_equals_the_plain_loop(seed):
+    rng = np.random.default_rng(seed)
+    levels = np.repeat(rng.choice([-300.0, -50.0, 0.0, 50.0, 100.0, 300.0], size=60), 30)
+    field = levels + rng.normal(0.0, 2.0 + 3.0 * seed, levels.size)
+    np.testing.assert_array_equal(field_change_sign(field, 10.0),
+                                  _schmitt_reference(field, 10.0))
+
+
+def test_rate_window_scores_by_projection_equal_full_least_squares():
+    # choose_rate_window projects each window's dT/dt off the other columns (QR once)
+    # instead of refitting: the residual sums must be the least-squares ones.
+    import jax.numpy as jnp
+
+    from gyroid.models.drift import DriftModel
+    from gyroid.models.rate_window import choose_rate_window
+    from gyroid.simulation.bench import simulate_thermal_bench
+
+    log = simulate_thermal_bench(seed=2).log
+    model = DriftModel.from_terms("thermal")
+    grid = np.array([300.0, 1200.0, 3600.0])
+    best, scores = choose_rate_window(log, model, t0_C=21.0, grid=grid)
+    inputs = log.inputs(t0_C=21.0)
+    for window in grid:
+        rate = temperature_rate_deg_c_per_h(log.time_s, log.columns["temperature_C"], window)
+        design = np.asarray(model.design(
+            type(inputs)(**{**vars(inputs), "rate_C_h": jnp.asarray(rate)})))
+        residual = np.linalg.lstsq(design, log.drift_deg_h, rcond=None)[1][0]
+        assert scores[window] == pytest.approx(residual, rel=1e-9)
+    assert best == min(scores, key=scores.get)

@@ -207,3 +207,18 @@ def test_nonlinear_effect_is_recovered_with_several_starts():
     assert point.converged and point.n_starts > 1
     for name, value in {"w_warmup": 3.0, "tau_warmup_min": 25.0, **PAPER_A_THERMAL}.items():
         assert abs(point.value[name] - value) < 4.5 * point.sd[name], name
+
+
+def test_posterior_predictions_of_a_linear_model_are_its_design_rows_times_the_draws():
+    # predict_draws takes the design matrix's rows for a linear model (memory O(n), not
+    # draws x n); it must give what running the model per draw gives.
+    import jax
+
+    sim = simulate_magnetic_bench(seed=3, protocol=SHORT_MAGNETIC)
+    result = fit_log(sim.log, "magnetic", settings=SamplerSettings(progress=False))
+    fast = result.predict_draws(n_draws=25, seed=4, every=3)
+    flat = result.posterior.draws.reshape(-1, len(result.problem.names))
+    pick = np.random.default_rng(4).choice(flat.shape[0], size=25, replace=False)
+    u = result.problem.to_sampling(jnp.asarray(flat[pick]))
+    direct = np.asarray(jax.vmap(result.problem.predict)(u))[:, ::3]
+    np.testing.assert_allclose(fast, direct, rtol=1e-10, atol=1e-10)

@@ -162,7 +162,7 @@ class LogTable:
     def _floats(self, source: str) -> np.ndarray:
         column = self.raw[source]
         if column.dtype.kind in "fiub":
-            return column.astype(float)
+            return np.asarray(column, dtype=float)  # no copy when already float64
         text = np.asarray(column, dtype=object)
         out = np.full(text.size, np.nan)
         for i, cell in enumerate(text):

@@ -123,7 +123,9 @@ class DriftModel(eqx.Module):
                 )
         scale = np.linalg.norm(matrix, axis=0)
         scale[scale == 0] = 1.0
-        singular, vectors = np.linalg.svd(matrix / scale, full_matrices=False)[1:]
+        # The singular values and right vectors of the n x p matrix are those of its QR
+        # factor R (p x p): no n x p factor U is formed.
+        singular, vectors = np.linalg.svd(np.linalg.qr(matrix / scale, mode="r"))[1:]
         if singular[-1] < 1e-8 * singular[0]:
             weights = np.abs(vectors[-1])
             involved = [names[j] for j in np.argsort(-weights) if weights[j] > 0.1]

@@ -59,22 +59,41 @@ def _design(model: DriftModel, inputs) -> np.ndarray:
 
 def choose_rate_window(log: BenchLog, model: DriftModel, *, t0_C: float,
                        grid: np.ndarray | None = None) -> tuple[float, dict[float, float]]:
-    """The window (s) with the least residual sum of squares, and the RSS per window."""
+    """The window (s) with the least residual sum of squares, and the RSS per window.
+
+    For a linear model only the dT/dt column changes between windows: the other columns
+    are orthogonalised once (QR) and each window costs one projection of its dT/dt, O(n p)
+    with no n x p matrix per window."""
     inputs = log.inputs(t0_C=t0_C)
     if not reads_rate(model) or not log.has("temperature_C"):
         return RATE_WINDOW_S, {}
     time_s = np.asarray(log.time_s)
     temperature = np.asarray(log.columns["temperature_C"])
-    drift = np.asarray(log.drift_deg_h)
     weights = 1.0 / np.asarray(log.sigma_deg_h) if log.sigma_deg_h is not None else 1.0
+    y = np.asarray(log.drift_deg_h) * weights
+    windows = window_grid(time_s) if grid is None else grid
+
+    def rate(window: float) -> np.ndarray:
+        return temperature_rate_deg_c_per_h(time_s, temperature, float(window))
+
     scores: dict[float, float] = {}
-    for window in window_grid(time_s) if grid is None else grid:
-        rate = temperature_rate_deg_c_per_h(time_s, temperature, float(window))
-        trial = eqx.tree_at(lambda x: x.rate_C_h, inputs, jnp.asarray(rate))
-        design = _design(model, trial) * np.reshape(weights, (-1, 1))
-        y = drift * weights
-        coefficients, *_ = np.linalg.lstsq(design, y, rcond=None)
-        scores[float(window)] = float(np.sum((y - design @ coefficients) ** 2))
+    if model.is_linear:
+        rate_column = model.parameter_names.index("wD")
+        design = _design(model, inputs) * np.reshape(weights, (-1, 1))
+        q, _ = np.linalg.qr(np.delete(design, rate_column, axis=1))
+        del design
+        y_perp = y - q @ (q.T @ y)
+        for window in windows:
+            r = rate(window) * weights
+            r_perp = r - q @ (q.T @ r)
+            scores[float(window)] = float(y_perp @ y_perp - (r_perp @ y_perp) ** 2
+                                          / (r_perp @ r_perp))
+    else:
+        for window in windows:
+            trial = eqx.tree_at(lambda x: x.rate_C_h, inputs, jnp.asarray(rate(window)))
+            design = _design(model, trial) * np.reshape(weights, (-1, 1))
+            coefficients, *_ = np.linalg.lstsq(design, y, rcond=None)
+            scores[float(window)] = float(np.sum((y - design @ coefficients) ** 2))
     best = min(scores, key=scores.get)
     return best, scores
 
