@@ -102,6 +102,14 @@ def test_sufficient_statistics_equal_the_direct_sum(known_sigma):
                                    np.asarray(direct.log_likelihood_blocks(u)),
                                    rtol=1e-10, atol=1e-7)
     assert fast.block_gram.shape[0] == fast.n_blocks > 1
+    # The host (NumPy) log-posterior emcee calls equals the JAX one, walkers at once.
+    from gyroid.inference.likelihood import log_posterior_batcher
+
+    u = rng.normal(size=(16, len(fast.names))) * 0.3
+    np.testing.assert_allclose(fast.host_log_posterior()(u),
+                               np.asarray(log_posterior_batcher(fast)(jnp.asarray(u))),
+                               rtol=1e-11, atol=1e-8)
+    assert direct.host_log_posterior() is None
 
 
 def test_correlated_noise_likelihood_is_the_exact_gaussian():

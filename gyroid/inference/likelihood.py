@@ -265,6 +265,37 @@ class BenchProblem(eqx.Module):
             return -0.5 * rss / sd**2 - self.n * jnp.log(sd) - 0.5 * self.n * _LOG_2PI
         return jnp.sum(self.log_likelihood_rows(u))
 
+    def host_log_posterior(self):
+        """The log-posterior of many walkers, ``u (w, d) -> (w,)``, in NumPy on the
+        sufficient statistics: what emcee calls every step. For a linear model with white
+        noise a step then costs a (w, p) x (p, p) product and no JAX dispatch, whose
+        overhead had made gyroid's steps 1.7x dearer than a NumPy script's
+        (benchmarks/run.py); None for other models."""
+        if self.gram is None:
+            return None
+        gram, solution = np.asarray(self.gram), np.asarray(self.solution)
+        rss_min, n, p = float(self.rss_min), self.n, self.n_model
+        loc, scale = np.asarray(self.prior_loc), np.asarray(self.prior_scale)
+        on = np.asarray(self.prior_on)
+        constant = -float(np.sum(on * (np.log(scale) + 0.5 * _LOG_2PI))) - 0.5 * n * _LOG_2PI
+        known = None if self.sigma is None else float(self.log_sigma_sum)
+
+        def log_posterior(u: np.ndarray) -> np.ndarray:
+            u = np.atleast_2d(np.asarray(u, dtype=float))
+            delta = u[:, :p] - solution
+            rss = rss_min + np.einsum("ki,ij,kj->k", delta, gram, delta)
+            if known is not None:
+                log_lik = -0.5 * rss - known
+            else:
+                log_sd = u[:, p]
+                log_lik = -0.5 * rss * np.exp(-2.0 * log_sd) - n * log_sd
+            z = on * (u - loc) / scale
+            with np.errstate(over="ignore", invalid="ignore"):
+                value = log_lik - 0.5 * np.sum(z**2, axis=1) + constant
+            return np.where(np.isfinite(value), value, -np.inf)
+
+        return log_posterior
+
     def log_likelihood_blocks(self, u: Float[Array, " d"]) -> Float[Array, " b"]:
         """Log-likelihood summed over blocks of ``LOO_BLOCK_S`` (what LOO leaves out); from
         the blocks' sufficient statistics where the likelihood is linear-Gaussian."""
