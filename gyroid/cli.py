@@ -456,6 +456,46 @@ def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings) -> N
 
 
 @cli.command()
+@click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.option("--terms", required=True, metavar="TERMS", help=_terms_help())
+@click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="Folder for one sub-folder of fit files per log, batch.csv and batch.json.")
+@click.option("--workers", default=2, show_default=True, type=int,
+              help="Worker processes of the local Dask cluster.")
+@click.option("--scheduler", default=None, metavar="ADDRESS",
+              help="An existing Dask scheduler (e.g. tcp://host:8786) instead of a local "
+                   "cluster; its workers must see the same file system.")
+@click.option("--seed", default=0, show_default=True, type=int, help="Random seed of emcee.")
+@click.option("--noise", type=click.Choice(["white", "white+gm"]), default="white",
+              show_default=True, help="Noise model of every fit.")
+def batch(logs, terms, out, workers, scheduler, seed, noise) -> None:
+    """Fit many bench logs LOGS of one gyro type (a production lot, repeated runs), one fit
+    each, in parallel on Dask. A log that cannot be fitted fails alone (batch.json says
+    why). Exit code 3 when a log failed or a fit is not trustworthy."""
+    from gyroid.io.outputs import json_text
+    from gyroid.models.effects import resolve_terms
+    from gyroid.workflows.batch import run_batch
+
+    resolve_terms(terms)  # a wrong --terms is one message, before any worker starts
+    click.echo(f"fitting {len(logs)} logs with {workers} workers ...", err=True)
+    result = run_batch(logs, terms, out, workers=workers, scheduler=scheduler, seed=seed,
+                       noise=noise, progress=lambda m: click.echo(m, err=True))
+    with output_dir(out) as stage:
+        (stage / "batch.json").write_text(json_text(result.to_json()))
+        (stage / "batch.csv").write_text(result.csv_text())
+    failed = [o for o in result.outcomes if o.failed]
+    doubtful = [o for o in result.outcomes if not o.failed and not o.trustworthy]
+    click.echo(f"{len(logs) - len(failed)} fitted, {len(failed)} failed; wrote "
+               f"{out / 'batch.csv'} and {out / 'batch.json'}")
+    for outcome in failed:
+        click.echo(f"failed: {outcome.log}: {outcome.message}", err=True)
+    for outcome in doubtful:
+        click.echo(f"not trustworthy: {outcome.log} (see its fit.json checks)", err=True)
+    if failed or doubtful:
+        raise UntrustworthyResult()
+
+
+@cli.command()
 @click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder for reproduce.json, tables.md and the figures.")
 def reproduce(out) -> None:

@@ -1,0 +1,50 @@
+"""gyroid batch: many logs on Dask, one bad log failing alone (contract section 3)."""
+
+import csv
+import json
+
+import pytest
+from helpers import SHORT_THERMAL, write_log
+
+from gyroid.cli import main
+from gyroid.simulation.bench import simulate_thermal_bench
+
+
+@pytest.mark.slow
+def test_a_lot_is_fitted_on_dask_and_a_bad_log_fails_alone(tmp_path, capsys):
+    logs = []
+    for seed in (1, 2):
+        sim = simulate_thermal_bench(seed=seed, protocol=SHORT_THERMAL)
+        logs.append(write_log(tmp_path / f"unit{seed}.csv", sim.log.columns))
+    bad = tmp_path / "bad.csv"
+    bad.write_text("time_s,drift_deg_h,temperature_C\n0,1,20\n1,x,20\n2,1,21\n")
+    out = tmp_path / "lot"
+    code = main(["batch", str(logs[0]), str(bad), str(logs[1]), "--terms", "thermal",
+                 "--out", str(out), "--workers", "2"])
+    assert code == 3  # a log failed: the lot's summary is incomplete
+    summary = json.loads((out / "batch.json").read_text())
+    assert summary["workers"] == 2 and summary["scheduler"] == "LocalCluster"
+    assert summary["logs"] == [str(logs[0]), str(bad), str(logs[1])]
+    assert [f["log"] for f in summary["failed"]] == [str(bad)]
+    assert "row 2" in summary["failed"][0]["message"]
+    rows = list(csv.DictReader((out / "batch.csv").open()))
+    assert [r["log"] for r in rows] == [str(logs[0]), str(logs[1])]
+    for row, log in zip(rows, logs, strict=True):
+        fit = json.loads((out / log.stem / "fit.json").read_text())
+        assert (out / log.stem / "posterior.nc").exists()
+        assert float(row["w1_mean"]) == pytest.approx(fit["posterior"]["w1"]["mean"])
+        assert row["trustworthy"] == str(fit["trustworthy"])
+        assert int(row["n_samples"]) == fit["n_samples"]
+    assert "failed: " in capsys.readouterr().err
+
+
+def test_logs_that_would_share_a_folder_are_refused_before_any_work(tmp_path, capsys):
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    for folder in ("a", "b"):
+        (tmp_path / folder / "unit.csv").write_text("time_s,drift_deg_h\n0,1\n")
+    code = main(["batch", str(tmp_path / "a" / "unit.csv"), str(tmp_path / "b" / "unit.csv"),
+                 "--terms", "thermal", "--out", str(tmp_path / "lot")])
+    assert code == 2
+    assert "same folder 'unit'" in capsys.readouterr().err
+    assert not (tmp_path / "lot").exists()
