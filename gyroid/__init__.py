@@ -18,11 +18,28 @@ The public surface, by job (each name's module is where it lives):
 * results read back: ``FittedDrift``; scenarios: ``Scenario``, ``SCENARIOS``.
 """
 
+import os
 from importlib.metadata import PackageNotFoundError, version
 
 import jax
 
 jax.config.update("jax_enable_x64", True)
+
+
+def _persistent_compilation_cache() -> None:
+    """JAX's persistent compilation cache in the user's cache folder, so that a command
+    reuses the programs an earlier one compiled. ``GYROID_JAX_CACHE=off`` turns it off, a
+    path moves it; JAX's own ``JAX_COMPILATION_CACHE_DIR`` wins when set."""
+    setting = os.environ.get("GYROID_JAX_CACHE", "").strip()
+    if setting.lower() in ("off", "0", "no", "false") or os.environ.get(
+            "JAX_COMPILATION_CACHE_DIR"):
+        return
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    jax.config.update("jax_compilation_cache_dir", setting or os.path.join(base, "gyroid", "jax"))
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
+
+
+_persistent_compilation_cache()
 
 from gyroid.errors import GyroidInputError  # noqa: E402
 from gyroid.io.logs import BenchLog, load_bench_log, write_bench_log  # noqa: E402

@@ -10,3 +10,22 @@ def test_every_exported_name_resolves_and_the_version_is_the_installed_one():
         assert getattr(gyroid, name) is not None, name
     assert gyroid.__version__ == version("gyroid")
     assert callable(gyroid.fit_log) and callable(gyroid.find_roll_discrepancies)
+
+
+def test_the_compilation_cache_is_on_by_default_and_can_be_moved_or_switched_off(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    probe = "import gyroid, jax; print(jax.config.jax_compilation_cache_dir)"
+
+    def folder(**env) -> str:
+        clean = {k: v for k, v in os.environ.items()
+                 if k not in ("GYROID_JAX_CACHE", "JAX_COMPILATION_CACHE_DIR")}
+        out = subprocess.run([sys.executable, "-c", probe], env=clean | env,
+                             capture_output=True, text=True, check=True)
+        return out.stdout.strip()
+
+    assert folder(XDG_CACHE_HOME=str(tmp_path)) == str(tmp_path / "gyroid" / "jax")
+    assert folder(GYROID_JAX_CACHE=str(tmp_path / "mine")) == str(tmp_path / "mine")
+    assert folder(GYROID_JAX_CACHE="off") in ("", "None")
