@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
-import resource
+import os
 import subprocess
 import sys
 import tempfile
@@ -357,17 +357,34 @@ def bench_cold_start():
     return out
 
 
+_MEASURE = (
+    "import json, resource, subprocess, sys, time\n"
+    "start = time.perf_counter()\n"
+    "subprocess.run(sys.argv[1:], check=True, capture_output=True)\n"
+    "print(json.dumps({'seconds': time.perf_counter() - start,\n"
+    "  'peak_rss_mb': resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024}))\n"
+)
+
+
 def bench_demo():
+    """``gyroid demo`` in a fresh process, its own peak memory (a wrapper process waits for
+    it alone, so no other child of this run counts), with the compilation cache off (cold)
+    and on (warm: the programs compiled by the cold run)."""
+    out = {}
     with tempfile.TemporaryDirectory() as folder:
-        start = time.perf_counter()
-        subprocess.run(
-            [sys.executable, "-m", "gyroid", "demo", "--out", folder],
-            check=True,
-            capture_output=True,
-        )
-        seconds = time.perf_counter() - start
-    peak_kb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
-    return {"seconds": seconds, "peak_rss_mb": peak_kb / 1024.0}
+        for label, cache in (("cold", "off"), ("warm", str(Path(folder) / "cache"))):
+            if label == "warm":  # fill the cache first
+                subprocess.run([sys.executable, "-m", "gyroid", "demo", "--out",
+                                str(Path(folder) / "fill")], check=True, capture_output=True,
+                               env={**os.environ, "GYROID_JAX_CACHE": cache})
+            run = subprocess.run(
+                [sys.executable, "-c", _MEASURE, sys.executable, "-m", "gyroid", "demo",
+                 "--out", str(Path(folder) / label)], check=True, capture_output=True,
+                text=True, env={**os.environ, "GYROID_JAX_CACHE": cache})
+            measured = json.loads(run.stdout)
+            out[f"{label}_seconds"] = measured["seconds"]
+            out[f"{label}_peak_rss_mb"] = measured["peak_rss_mb"]
+    return out
 
 
 def bench_problems(seed: int):
