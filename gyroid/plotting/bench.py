@@ -1,8 +1,7 @@
-"""Figures (matplotlib, Agg): black-and-white readable, units on every axis."""
+"""Figures of bench logs and their fits: thermal run, Helmholtz sweep, fit overview, posterior
+pairs, discrepancy, compensation and Allan deviation."""
 
 from __future__ import annotations
-
-from pathlib import Path
 
 import matplotlib
 
@@ -12,71 +11,13 @@ import numpy as np  # noqa: E402
 
 from gyroid.io.logs import BenchLog  # noqa: E402
 from gyroid.models.inputs import FIELD_COLUMNS  # noqa: E402
-
-STYLE = {
-    "figure.dpi": 110,
-    "savefig.dpi": 150,
-    "axes.grid": True,
-    "grid.linestyle": ":",
-    "grid.color": "0.7",
-    "axes.prop_cycle": matplotlib.cycler(color=["0.0", "0.45", "0.65"])
-    + matplotlib.cycler(linestyle=["-", "--", ":"]),
-    "font.size": 9,
-}
-
-
-def save(fig: plt.Figure, path: Path, *, pdf: bool = False) -> list[Path]:
-    """Save a figure as PNG (and PDF) and close it; returns the written paths."""
-    path = Path(path)
-    written = [path.with_suffix(".png")]
-    fig.savefig(written[0], bbox_inches="tight")
-    if pdf:
-        written.append(path.with_suffix(".pdf"))
-        fig.savefig(written[1], bbox_inches="tight")
-    plt.close(fig)
-    return written
-
-
-def _break_gaps(hours: np.ndarray, *series: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Insert NaN rows where the sampling stops for more than 5 intervals, so that lines are
-    not drawn across a gap (e.g. the magnetic bench's azimuth turn)."""
-    steps = np.diff(hours)
-    if steps.size == 0:
-        return (hours, *series)
-    cut = np.flatnonzero(steps > 5.0 * np.median(steps)) + 1
-    return tuple(np.insert(np.asarray(x, dtype=float), cut, np.nan) for x in (hours, *series))
-
-
-#: Most points a line in a figure draws; longer logs are drawn every k-th sample.
-MAX_PLOTTED_POINTS = 5000
-
-
-def plot_step(n: int) -> int:
-    """Draw every k-th of ``n`` samples, so that at most ``MAX_PLOTTED_POINTS`` are drawn."""
-    return max(1, -(-n // MAX_PLOTTED_POINTS))
-
-
-def _every(n: int) -> tuple[slice, str]:
-    """The samples to draw of ``n`` and a label suffix saying so when thinned."""
-    step = plot_step(n)
-    return slice(None, None, step), ("" if step == 1 else f", every {step}th sample drawn")
-
-
-def moving_mean(values: np.ndarray, window: int) -> np.ndarray:
-    """Centred moving mean over ``window`` samples (shorter at the ends), by cumulative sums:
-    O(n) whatever the window."""
-    values = np.asarray(values, dtype=float)
-    n = values.size
-    half = window // 2
-    total = np.concatenate([[0.0], np.cumsum(values)])
-    lo = np.clip(np.arange(n) - half, 0, n)
-    hi = np.clip(np.arange(n) - half + window, 0, n)
-    return (total[hi] - total[lo]) / (hi - lo)
-
-
-def _rate_label(time_s: np.ndarray) -> str:
-    step = float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
-    return f"{1.0 / step:.3g} Hz" if step <= 1.0 else f"{step:.3g} s samples"
+from gyroid.plotting.style import (  # noqa: E402
+    STYLE,
+    _break_gaps,
+    _every,
+    _rate_label,
+    moving_mean,
+)
 
 
 def thermal_run(
@@ -224,74 +165,6 @@ def pair_plot(draws: np.ndarray, names: list[str], units: dict[str, str],
         return fig
 
 
-def paper_a_table(reproduce: dict) -> plt.Figure:
-    """Paper A's setpoint table with the printed and the refitted quadratic."""
-    a = reproduce["paper_a"]
-    rows = a["table"]
-    setpoints = np.array([float(s) for s in rows])
-    dw = np.array([rows[s]["dw_deg_h"] for s in rows])
-    sigma = np.array([rows[s]["sigma_deg_h"] for s in rows])
-    grid = np.linspace(setpoints.min() - 2, setpoints.max() + 2, 200)
-    t = grid - reproduce["constants"]["t0_C"]
-    with plt.rc_context(STYLE):
-        fig, ax = plt.subplots(figsize=(5.5, 3.8))
-        ax.errorbar(setpoints, dw, yerr=sigma, fmt="o", color="0.0", ms=4, capsize=3,
-                    label="paper A's table (+/- sigma)")
-        for key, style, label in (("published", "--", "printed w0, w1, w2"),
-                                  ("refit", "-", "weighted refit")):
-            c = a[key]
-            ax.plot(grid, c["w0"] + c["w1"] * t + c["w2"] * t**2, color="0.0", ls=style,
-                    lw=1.2, label=f"{label} (chi2 = {c['chi2']:.1f})")
-        ax.set_xlabel("thermostat setpoint, degC")
-        ax.set_ylabel("drift deviation, deg/h")
-        ax.legend(frameon=False, loc="upper left")
-        return fig
-
-
-def paper_b_lateral(reproduce: dict) -> plt.Figure:
-    """Paper B Table 2: lateral error by eq. 8, exactly, as printed, and the g t^2/2 bound."""
-    from gyroid.models import paper_b as pb
-
-    times = np.linspace(0.5, 125.0, 300)
-    with plt.rc_context(STYLE):
-        fig, ax = plt.subplots(figsize=(5.5, 3.8))
-        ax.plot(times, pb.lateral_error_eq8_m(pb.SINS_SF_ERROR, pb.TABLE2_ROLL_RATE_DEG_S, times),
-                color="0.0", ls="--", label="eq. 8 in SI (small angle)")
-        ax.plot(times, pb.lateral_error_exact_m(pb.SINS_SF_ERROR, pb.TABLE2_ROLL_RATE_DEG_S,
-                                                times), color="0.0", ls="-",
-                label="g sin(dpsi) integrated twice")
-        ax.plot(times, pb.lateral_error_bound_m(times), color="0.5", ls=":", lw=1.5,
-                label="bound g t^2 / 2")
-        table = reproduce["paper_b"]["table2"]
-        ts = np.array([float(t) for t in table])
-        printed_km = np.array([table[t]["dr_z_printed"] for t in table])
-        ax.plot(ts, printed_km * 1000.0, "s", color="0.0", mfc="white",
-                label="printed (km, shown in m)")
-        ax.set_yscale("log")
-        ax.set_xlabel("time since the start of the flight, s")
-        ax.set_ylabel("lateral position error, m")
-        ax.legend(frameon=False, loc="lower right", fontsize=7)
-        return fig
-
-
-def paper_b_stabiliser(reproduce: dict) -> plt.Figure:
-    """Paper B's ideal-stabiliser angle error (eq. 9): printed, and recomputed."""
-    table = reproduce["paper_b"]["table_gs"]
-    ts = np.array([float(t) for t in table])
-    with plt.rc_context(STYLE):
-        fig, ax = plt.subplots(figsize=(5.0, 3.4))
-        ax.plot(ts, [table[t]["dpsi_gs_printed_deg"] for t in table], "o", color="0.0",
-                label="printed")
-        ax.plot(ts, [table[t]["dpsi_gs_deg"] for t in table], "-", color="0.0",
-                label="eq. 9, D0gs = 3.3e-3 deg/s")
-        ax.plot(ts, [table[t]["dpsi_gs_unrounded_deg"] for t in table], "--", color="0.4",
-                label="eq. 9, D0gs = 12.21 deg/h unrounded")
-        ax.set_xlabel("time, s")
-        ax.set_ylabel("stabiliser angle error, deg")
-        ax.legend(frameon=False)
-        return fig
-
-
 def discrepancy_figure(report, regressor_values: np.ndarray | None, regressor_name: str
                        ) -> plt.Figure:
     """Residuals before/after against time, the regressor that explains them, RMS per step."""
@@ -340,46 +213,6 @@ def discrepancy_figure(report, regressor_values: np.ndarray | None, regressor_na
         return fig
 
 
-def dk_distribution(dk: np.ndarray, recomputed: float, printed: float) -> plt.Figure:
-    """Distribution of dK with paper B's recomputed (eq. 7) and printed values marked."""
-    with plt.rc_context(STYLE):
-        fig, ax = plt.subplots(figsize=(5.5, 3.6))
-        scaled = dk * 1e6
-        lo, hi = np.percentile(scaled, [0.5, 99.5])
-        counts, _, _ = ax.hist(scaled[(scaled >= lo) & (scaled <= hi)], bins=60, color="0.6",
-                               histtype="stepfilled", label="propagated (draws x periods)")
-        ax.set_ylim(0, 1.3 * max(float(np.max(counts)), 1.0))  # room for the labels above
-        ax.axvline(recomputed * 1e6, color="0.0", ls="--", lw=1.2,
-                   label=f"eq. 7 recomputed: {recomputed * 1e6:.0f} ppm")
-        # The printed value is far off this scale: named in the legend, no line.
-        ax.plot([], [], " ", label=f"printed {printed:g} = {printed * 1e6:.0f} ppm: off scale")
-        ax.set_xlabel("dK, relative error of the correction coefficient, ppm")
-        ax.set_ylabel("draws, count")
-        ax.legend(frameon=False, loc="upper left", fontsize=7)
-        return fig
-
-
-def sobol_bars(first: dict[str, float], total: dict[str, float],
-               interactions: dict | None = None) -> plt.Figure:
-    """First-order and total Sobol indices of dK, with the share left to interactions."""
-    names = list(first)
-    y = np.arange(len(names))
-    with plt.rc_context(STYLE):
-        fig, ax = plt.subplots(figsize=(5.5, 0.5 * len(names) + 1.2))
-        ax.barh(y + 0.2, [first[n] for n in names], height=0.4, color="0.2", label="first order")
-        ax.barh(y - 0.2, [total[n] for n in names], height=0.4, color="white", edgecolor="0.0",
-                hatch="//", label="total")
-        ax.set_yticks(y, names)
-        ax.set_xlim(0.0, 1.0)
-        ax.set_xlabel("share of the variance of dK, fraction")
-        ax.legend(frameon=False, loc="lower right")
-        if interactions is not None:
-            who = " x ".join(interactions["involving"]) or "none above 0.05"
-            ax.set_title(f"{interactions['share']:.2f} of the variance is interactions "
-                         f"({who})", fontsize="medium")
-        return fig
-
-
 def compensation_figure(time_s: np.ndarray, before: np.ndarray, after: np.ndarray
                         ) -> plt.Figure:
     """Drift before and after compensation against time."""
@@ -416,38 +249,4 @@ def allan_figure(before, after) -> plt.Figure:
         ax.set_xlabel("averaging time tau, s")
         ax.set_ylabel("Allan deviation, deg/h")
         ax.legend(frameon=False, loc="upper left", fontsize=7)
-        return fig
-
-
-def roll_residual_figure(time_s: np.ndarray, residual_deg: np.ndarray) -> plt.Figure:
-    """Stabiliser angle minus the fitted loop's prediction against time."""
-    with plt.rc_context(STYLE):
-        fig, ax = plt.subplots(figsize=(6.5, 3.2))
-        ax.plot(time_s - time_s[0], residual_deg, color="0.3", lw=0.5, ls="-")
-        ax.axhline(0.0, color="0.0", lw=0.6, ls=":")
-        ax.set_xlabel("time since start, s")
-        ax.set_ylabel("stabiliser angle - model, deg")
-        return fig
-
-
-def roll_discrepancy_figure(report) -> plt.Figure:
-    """Stabiliser-angle residuals before/after the added roll effects, and RMS per step
-    (bars from zero)."""
-    with plt.rc_context(STYLE):
-        fig, (ax, ax2) = plt.subplots(1, 2, figsize=(8.0, 3.4),
-                                      gridspec_kw={"width_ratios": [2, 1]})
-        t = report.time_s
-        ax.plot(t, report.residual_before, color="0.6", lw=0.6, ls="-", label="baseline")
-        ax.plot(t, report.residual_after, color="0.0", lw=0.6, ls="-",
-                label="after adding: " + (", ".join(report.added) or "nothing"))
-        ax.set_xlabel("time since start, s")
-        ax.set_ylabel("stabiliser angle - model, deg")
-        ax.legend(frameon=False, fontsize=7)
-        rms = [report.rms_baseline, *[s.rms_after for s in report.steps]]
-        ax2.bar(range(len(rms)), rms, color="0.5", edgecolor="0.0", width=0.6)
-        ax2.set_xticks(range(len(rms)), ["baseline", *report.added], rotation=20, fontsize=7)
-        ax2.set_ylim(0.0, 1.15 * max(rms))
-        ax2.set_ylabel("RMS residual, deg")
-        ax2.set_xlabel("model step")
-        fig.tight_layout()
         return fig

@@ -1,0 +1,77 @@
+"""The figures' shared style (black and white, units on every axis), saving, and thinning long
+logs to at most 5000 drawn points."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+STYLE = {
+    "figure.dpi": 110,
+    "savefig.dpi": 150,
+    "axes.grid": True,
+    "grid.linestyle": ":",
+    "grid.color": "0.7",
+    "axes.prop_cycle": matplotlib.cycler(color=["0.0", "0.45", "0.65"])
+    + matplotlib.cycler(linestyle=["-", "--", ":"]),
+    "font.size": 9,
+}
+
+
+def save(fig: plt.Figure, path: Path, *, pdf: bool = False) -> list[Path]:
+    """Save a figure as PNG (and PDF) and close it; returns the written paths."""
+    path = Path(path)
+    written = [path.with_suffix(".png")]
+    fig.savefig(written[0], bbox_inches="tight")
+    if pdf:
+        written.append(path.with_suffix(".pdf"))
+        fig.savefig(written[1], bbox_inches="tight")
+    plt.close(fig)
+    return written
+
+
+def _break_gaps(hours: np.ndarray, *series: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Insert NaN rows where the sampling stops for more than 5 intervals, so that lines are
+    not drawn across a gap (e.g. the magnetic bench's azimuth turn)."""
+    steps = np.diff(hours)
+    if steps.size == 0:
+        return (hours, *series)
+    cut = np.flatnonzero(steps > 5.0 * np.median(steps)) + 1
+    return tuple(np.insert(np.asarray(x, dtype=float), cut, np.nan) for x in (hours, *series))
+
+
+#: Most points a line in a figure draws; longer logs are drawn every k-th sample.
+MAX_PLOTTED_POINTS = 5000
+
+
+def plot_step(n: int) -> int:
+    """Draw every k-th of ``n`` samples, so that at most ``MAX_PLOTTED_POINTS`` are drawn."""
+    return max(1, -(-n // MAX_PLOTTED_POINTS))
+
+
+def _every(n: int) -> tuple[slice, str]:
+    """The samples to draw of ``n`` and a label suffix saying so when thinned."""
+    step = plot_step(n)
+    return slice(None, None, step), ("" if step == 1 else f", every {step}th sample drawn")
+
+
+def moving_mean(values: np.ndarray, window: int) -> np.ndarray:
+    """Centred moving mean over ``window`` samples (shorter at the ends), by cumulative sums:
+    O(n) whatever the window."""
+    values = np.asarray(values, dtype=float)
+    n = values.size
+    half = window // 2
+    total = np.concatenate([[0.0], np.cumsum(values)])
+    lo = np.clip(np.arange(n) - half, 0, n)
+    hi = np.clip(np.arange(n) - half + window, 0, n)
+    return (total[hi] - total[lo]) / (hi - lo)
+
+
+def _rate_label(time_s: np.ndarray) -> str:
+    step = float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
+    return f"{1.0 / step:.3g} Hz" if step <= 1.0 else f"{step:.3g} s samples"
