@@ -1,64 +1,24 @@
-"""gyroid's command line (click). Bad input ends with one message and exit code 2."""
+"""Commands on bench logs: simulate, fit, compensate, propagate, discrepancy (both log kinds),
+batch."""
 
 from __future__ import annotations
 
-import os
-import sys
-import traceback
 from pathlib import Path
 
 import click
 
+from gyroid.cli.base import (
+    cli,
+    map_option,
+    parse_assignments,
+    parse_effects,
+    parse_maps,
+    prior_options,
+    report_checks,
+    terms_help,
+)
 from gyroid.errors import GyroidInputError, UntrustworthyResult
 from gyroid.io.outputs import output_dir
-
-
-def _parse_assignments(text: str, what: str) -> dict[str, float]:
-    values: dict[str, float] = {}
-    for item in filter(None, (s.strip() for s in text.split(","))):
-        name, sep, value = item.partition("=")
-        try:
-            if not sep:
-                raise ValueError
-            values[name.strip()] = float(value)
-        except ValueError:
-            raise GyroidInputError(f"{what}: {item!r} is not NAME=NUMBER") from None
-    return values
-
-
-def _parse_effects(specs: tuple[str, ...]) -> dict[str, dict[str, float]]:
-    effects: dict[str, dict[str, float]] = {}
-    for spec in specs:
-        name, _, rest = spec.partition(":")
-        effects[name.strip()] = _parse_assignments(rest, f"--effect {spec}")
-    return effects
-
-
-def _map_option(function):
-    return click.option(
-        "--map", "mappings", multiple=True, metavar="CONTRACT_COLUMN=LOG_COLUMN[:UNIT]",
-        help="Read a vendor's column as a contract column, converting its unit, e.g. "
-             "drift_deg_h=gyro_x:rad/s, temperature_C=temp:K, Hx_uT=mag_x:G. Repeatable.")(
-        function)
-
-
-def _parse_maps(items: tuple[str, ...]):
-    from gyroid.io.tables import parse_column_maps
-
-    return parse_column_maps(items)
-
-
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
-@click.version_option(package_name="gyroid")
-def cli() -> None:
-    """gyroid: Bayesian identification of gyroscope error models.
-
-    Paper A's FOG drift as a sum of named effects (temperature, its rate, magnetic field and
-    candidate effects) and paper B's roll-gyro scale-factor correction: simulate benches and
-    flights, fit them (optimistix + emcee), compensate new runs, propagate to the correction
-    coefficient's error, find missing effects, reproduce both papers. Start with
-    `gyroid demo`.
-    """
 
 
 @cli.command()
@@ -132,7 +92,7 @@ def simulate(
     )
     from gyroid.simulation.noise import GyroNoise
 
-    parameters = preset_parameters(bench) | _parse_assignments(overrides, "--set")
+    parameters = preset_parameters(bench) | parse_assignments(overrides, "--set")
     noise = GyroNoise(
         arw_deg_rt_h=arw,
         bias_instability_deg_h=bias_instability,
@@ -147,7 +107,7 @@ def simulate(
         hours, rate_hz)
     sim = simulator(
         parameters=parameters,
-        effects=_parse_effects(effects),
+        effects=parse_effects(effects),
         noise=noise,
         seed=seed,
         average_s=average_s,
@@ -169,41 +129,9 @@ def simulate(
     click.echo(f"wrote {out / 'bench.csv'} ({sim.log.n} rows) and {out / 'truth.json'}")
 
 
-def _terms_help() -> str:
-    from gyroid.models.effects import CANDIDATES, EFFECTS, PRESETS
-
-    paper = [n for n in EFFECTS if n not in CANDIDATES]
-    return (f"Comma list of effects or presets. Presets: {', '.join(PRESETS)}. Paper A's "
-            f"effects: {', '.join(paper)}. Candidates: {', '.join(CANDIDATES)}.")
-
-
-def _prior_options(function):
-    function = click.option(
-        "--prior", "prior_items", multiple=True, metavar="NAME=normal(MU,SD)",
-        help="Override one parameter's prior (normal(MU,SD), lognormal(MEDIAN,LOG_SD) for "
-             "time constants and noise levels, or flat()). Repeatable.")(function)
-    function = click.option(
-        "--priors", "prior_choice", default="default", show_default=True,
-        metavar="default|paper_a_fog|flat|FILE.toml",
-        help="Prior set: 'default' is weakly informative and scaled to this log (any gyro "
-             "grade); 'paper_a_fog' is sized for paper A's FOG; 'flat'; or a TOML file of "
-             "NAME = \"normal(MU, SD)\" lines.")(function)
-    return function
-
-
-def report_checks(checks) -> None:
-    """Print every failed self-check in one line, then the verdict; exit 3 when the result
-    must not be used (outputs are written first)."""
-    for line in checks.lines():
-        click.echo(line, err=True)
-    if not checks.trustworthy:
-        click.echo(checks.verdict(), err=True)
-        raise UntrustworthyResult()
-
-
 @cli.command()
 @click.argument("data", type=click.Path(path_type=Path))
-@click.option("--terms", required=True, metavar="TERMS", help=_terms_help())
+@click.option("--terms", required=True, metavar="TERMS", help=terms_help())
 @click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder to write fit.json, posterior.nc and figures into.")
 @click.option("--seed", default=0, show_default=True, type=int, help="Random seed of emcee.")
@@ -212,7 +140,7 @@ def report_checks(checks) -> None:
               help="Noise model: white, or white plus a Gauss-Markov (bias-instability) part.")
 @click.option("--t0", "t0_C", default=21.0, show_default=True, type=float,
               help="Reference temperature t0, degC (t = T - t0).")
-@_prior_options
+@prior_options
 @click.option("--flat-prior", is_flag=True, help="Same as --priors flat.")
 @click.option("--rate-window", "rate_window", default="auto", show_default=True,
               metavar="auto|SECONDS",
@@ -221,7 +149,7 @@ def report_checks(checks) -> None:
               help="Burst-sampled log: fit one row per contiguous segment (its mean), so "
                    "the bias's wander between bursts is the estimated noise; the samples "
                    "are still checked for spikes.")
-@_map_option
+@map_option
 @click.option("--progress/--no-progress", default=True, show_default=True,
               help="Show the sampler's progress bar.")
 def fit(data, terms, out, seed, noise, t0_C, prior_choice, prior_items, flat_prior,
@@ -239,7 +167,7 @@ def fit(data, terms, out, seed, noise, t0_C, prior_choice, prior_items, flat_pri
 
     prior_set, overrides = resolve_prior_option(prior_choice, prior_items)
     window = parse_rate_window(rate_window)
-    log = load_bench_log(data, terms, t0_C=t0_C, column_map=_parse_maps(mappings))
+    log = load_bench_log(data, terms, t0_C=t0_C, column_map=parse_maps(mappings))
     click.echo(f"fitting {terms} to {data} ({log.n} rows) ...", err=True)
     result = fit_log(log, terms, noise=noise, seed=seed, priors=overrides,
                      prior_set="flat" if flat_prior else prior_set, t0_C=t0_C,
@@ -260,7 +188,7 @@ def fit(data, terms, out, seed, noise, t0_C, prior_choice, prior_items, flat_pri
               help="Folder for compensated.csv, compensate.json and figures.")
 @click.option("--seed", default=0, show_default=True, type=int,
               help="Seed for choosing posterior draws.")
-@_map_option
+@map_option
 def compensate(data, fit_dir, out, seed, mappings) -> None:
     """Compensate a new bench log DATA with a fitted drift model; Allan deviation before and
     after. Exit code 3 when a self-check (extrapolation, gain) says not to use it."""
@@ -270,7 +198,7 @@ def compensate(data, fit_dir, out, seed, mappings) -> None:
     from gyroid.workflows.compensate import compensate as run
 
     fitted = FittedDrift.from_dir(fit_dir)
-    maps = _parse_maps(mappings)
+    maps = parse_maps(mappings)
     log = load_bench_log(data, fitted.model, t0_C=fitted.t0_C, column_map=maps)
     click.echo(f"compensating {data} ({log.n} rows) with {fit_dir} ...", err=True)
     result = run(log, fitted, fitted_ranges_from(fit_dir), seed=seed)
@@ -318,94 +246,10 @@ def propagate(fit_dir, out, scenario, seed, draws) -> None:
     report_checks(CheckReport.from_json(result))
 
 
-@cli.group()
-def roll() -> None:
-    """Paper B's roll-gyro scale-factor correction: simulate and fit flights."""
-
-
-@roll.command("simulate")
-@click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
-              help="Folder to write roll.csv and truth.json into.")
-@click.option("--seed", default=0, show_default=True, type=int, help="Random seed.")
-@click.option("--set", "overrides", default="", metavar="NAME=VALUE,...",
-              help="Override roll-loop parameters (D0 deg/s, D1, D0gs deg/s, D1gs, Denc deg, "
-                   "D2), e.g. 'D1=8e-4'.")
-@click.option("--roll", "roll_profile", type=click.Choice(["constant", "ramp", "oscillating"]),
-              default="oscillating", show_default=True, help="Roll-rate profile.")
-@click.option("--rate", "rate", default=1800.0, show_default=True, type=float,
-              help="Roll rate (constant), start (ramp) or mean (oscillating), deg/s.")
-@click.option("--duration", default=120.0, show_default=True, type=float, help="Flight, s.")
-@click.option("--period", default=5.0, show_default=True, type=float,
-              help="Correction period dt, s.")
-@click.option("--overload", default=0.0, show_default=True, type=float,
-              help="Uncompensated fraction of the roll rate the stabiliser sees (0: ideal).")
-@click.option("--gs-capacity", default=None, type=float,
-              help="The stabiliser cancels roll rates up to this, deg/s; the excess is "
-                   "uncompensated (an overloaded stabiliser).")
-def roll_simulate(out, seed, overrides, roll_profile, rate, duration, period, overload,
-                  gs_capacity) -> None:
-    """Simulate a flight with known truth: roll.csv (contract section 4) and truth.json."""
-    from gyroid.io.outputs import json_text
-    from gyroid.simulation.flight import FlightProfile, roll_log_text, simulate_flight
-
-    if duration <= 0 or period <= 0 or period > duration:
-        raise GyroidInputError("--duration and --period must be positive, period <= duration")
-    profile = FlightProfile(duration_s=duration, period_s=period, roll=roll_profile,
-                            roll_rate_deg_s=rate, overload_fraction=overload,
-                            gs_capacity_deg_s=gs_capacity)
-    sim = simulate_flight(params=_parse_assignments(overrides, "--set"), profile=profile,
-                          seed=seed)
-    with output_dir(out) as stage:
-        (stage / "roll.csv").write_text(roll_log_text(
-            sim.columns, [f"gyroid simulated flight, seed {seed}"]))
-        (stage / "truth.json").write_text(json_text(sim.truth))
-    click.echo(f"wrote {out / 'roll.csv'} ({sim.columns['time_s'].size} rows) and "
-               f"{out / 'truth.json'}")
-
-
-@roll.command("fit")
-@click.argument("data", type=click.Path(path_type=Path))
-@click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
-              help="Folder for roll_fit.json, posterior.nc and figures.")
-@click.option("--seed", default=0, show_default=True, type=int, help="Random seed of emcee.")
-@_map_option
-@click.option("--progress/--no-progress", default=True, show_default=True,
-              help="Show the sampler's progress bar.")
-def roll_fit(data, out, seed, mappings, progress) -> None:
-    """Fit the loop parameters (D0, D1, D0gs, D1gs, Denc) to a roll log ROLL (.csv, .csv.gz
-    or .parquet; contract section 4). Exit code 3 when a self-check fails."""
-    from gyroid.inference.roll_fit import fit_roll_log
-    from gyroid.inference.sampling import SamplerSettings
-    from gyroid.io.report_files import write_roll_fit_outputs
-    from gyroid.io.roll_log import load_roll_log
-
-    log = load_roll_log(data, _parse_maps(mappings))
-    for note in log.notes:
-        click.echo(f"note: {note}", err=True)
-    click.echo(f"fitting the roll loop to {data} ({log.n} rows) ...", err=True)
-    result = fit_roll_log(log, seed=seed, settings=SamplerSettings(progress=progress))
-    with output_dir(out) as stage:
-        write_roll_fit_outputs(stage, log, result)
-    summary = result.to_json()
-    for name, s in summary["parameters"].items():
-        click.echo(f"  {name:>5s} = {s['mean']:.6g} +/- {s['sd']:.2g}")
-    derived = []
-    for item in summary["confounded"]:
-        if item.get("follows_from"):
-            derived.append(f"{' and '.join(item['parameters'])} (r = {item['correlation']:.3f})")
-            continue
-        click.echo(f"warning: {' and '.join(item['parameters'])} are confounded (r = "
-                   f"{item['correlation']:.3f}): {item['suggestion']}", err=True)
-    if derived:
-        click.echo(f"warning: as a consequence, also confounded: {', '.join(derived)}", err=True)
-    click.echo(f"wrote {out / 'roll_fit.json'} and {out / 'posterior.nc'}")
-    report_checks(result.checks)
-
-
 @cli.command()
 @click.argument("data", type=click.Path(path_type=Path))
 @click.option("--terms", required=True, metavar="TERMS",
-              help="The model to start from. Bench log: " + _terms_help() + " Roll log: "
+              help="The model to start from. Bench log: " + terms_help() + " Roll log: "
                    "presets ideal, loop, or roll effects (sf_error, gs_bias, roll_bias, "
                    "gs_rate_leak, encoder_error, sf_nonlinearity).")
 @click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
@@ -418,7 +262,7 @@ def roll_fit(data, out, seed, mappings, progress) -> None:
               help="Offer every other numeric column of the log (pressure, supply voltage, "
                    "a second thermometer...) as a candidate cause extra:COLUMN, on the same "
                    "evidence scale as the catalogue.")
-@_map_option
+@map_option
 def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings) -> None:
     """Find what the model TERMS misses in DATA, add it, refit, show the gap shrink.
 
@@ -432,7 +276,7 @@ def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings) -> N
     from gyroid.workflows.discrepancy import find_discrepancies
     from gyroid.workflows.roll_discrepancy import find_roll_discrepancies
 
-    maps = _parse_maps(mappings)
+    maps = parse_maps(mappings)
 
     def say(message: str) -> None:
         click.echo(message, err=True)
@@ -457,7 +301,7 @@ def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings) -> N
 
 @cli.command()
 @click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
-@click.option("--terms", required=True, metavar="TERMS", help=_terms_help())
+@click.option("--terms", required=True, metavar="TERMS", help=terms_help())
 @click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder for one sub-folder of fit files per log, batch.csv and batch.json.")
 @click.option("--workers", default=2, show_default=True, type=int,
@@ -493,64 +337,3 @@ def batch(logs, terms, out, workers, scheduler, seed, noise) -> None:
         click.echo(f"not trustworthy: {outcome.log} (see its fit.json checks)", err=True)
     if failed or doubtful:
         raise UntrustworthyResult()
-
-
-@cli.command()
-@click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
-              help="Folder for reproduce.json, tables.md and the figures.")
-def reproduce(out) -> None:
-    """Recompute both papers' tables and audit them against their own formulas."""
-    from gyroid.papers.reproduce import write_reproduction
-
-    with output_dir(out) as stage:
-        result = write_reproduction(stage)
-    click.echo(f"{len(result['audit'])} disagreements found; wrote {out / 'reproduce.json'}")
-
-
-@cli.command()
-@click.option(
-    "--out",
-    "out",
-    default=Path("gyroid-demo"),
-    show_default=True,
-    type=click.Path(file_okay=False, path_type=Path),
-    help="Folder for the study.",
-)
-@click.option("--seed", default=0, show_default=True, type=int, help="Random seed.")
-def demo(out, seed) -> None:
-    """The whole study on built-in data, written as report.md with figures."""
-    from gyroid.demo import run_demo
-
-    report = run_demo(out, seed=seed, echo=click.echo)
-    click.echo(f"report: {report}")
-
-
-def main(argv: list[str] | None = None) -> int:
-    """Entry point: run the CLI, turning bad input into one message and exit code 2."""
-    try:
-        cli.main(args=argv, prog_name="gyroid", standalone_mode=False)
-    except GyroidInputError as error:
-        click.echo(f"gyroid: error: {error}", err=True)
-        return 2
-    except UntrustworthyResult:
-        return 3
-    except click.exceptions.Abort:
-        click.echo("gyroid: aborted", err=True)
-        return 130
-    except click.ClickException as error:
-        error.show()
-        return error.exit_code
-    except Exception as error:  # an internal fault: short message unless debugging
-        if os.environ.get("GYROID_DEBUG"):
-            traceback.print_exc()
-        click.echo(
-            f"gyroid: internal error: {type(error).__name__}: {error} (this is a bug in gyroid;"
-            " set GYROID_DEBUG=1 for the traceback)",
-            err=True,
-        )
-        return 1
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())
