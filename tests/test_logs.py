@@ -163,3 +163,23 @@ def test_malformed_files(tmp_path, text, expected):
 def test_missing_file(tmp_path):
     with pytest.raises(GyroidInputError, match="no such file"):
         load_bench_log(tmp_path / "absent.csv", "bias")
+
+
+def test_the_header_alone_is_read_the_same_as_by_the_full_reader(tmp_path):
+    # gyroid discrepancy decides bench or roll from the header without parsing the log.
+    import numpy as np
+
+    from gyroid.io.logs import write_bench_log
+    from gyroid.io.tables import log_kind, read_header, read_log_table
+
+    columns = {"time_s": np.arange(5.0), "drift_deg_h": np.ones(5), "temperature_C": np.ones(5)}
+    paths = [write_bench_log(tmp_path / name, columns, ["a comment"])
+             for name in ("a.csv", "b.csv.gz", "c.parquet")]
+    semicolon = tmp_path / "d.csv"
+    semicolon.write_text("# vendor\ntime_s;drift_deg_h\n0;1,5\n1;2,5\n")
+    for path in (*paths, semicolon):
+        assert read_header(path) == read_log_table(path).header
+        assert log_kind(path) == "bench"
+    roll = tmp_path / "roll.csv"
+    roll.write_text("time_s,roll_rate_deg_s,gs_angle_deg\n0,1,0\n")
+    assert log_kind(roll) == "roll"

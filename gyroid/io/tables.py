@@ -378,10 +378,38 @@ def _read_parquet(path: Path, maps) -> LogTable:
                     maps, False, empty)
 
 
+def read_header(path: str | Path) -> tuple[str, ...]:
+    """A log's column names, reading no more than the header (a parquet file's schema, or
+    the first 64 kB of a CSV, gzip or not); errors as :func:`read_log_table`'s."""
+    path = Path(path)
+    if path.suffix.lower() in (".parquet", ".pq"):
+        import pyarrow.parquet as pq
+
+        try:
+            return tuple(pq.read_schema(path).names)
+        except FileNotFoundError:
+            raise GyroidInputError(f"{path}: no such file; check the path") from None
+        except Exception:  # noqa: BLE001 - a damaged file: the full read names the problem
+            return read_log_table(path).header
+    try:
+        with path.open("rb") as raw:
+            start = raw.read(2)
+            raw.seek(0)
+            handle = gzip.open(raw) if start == b"\x1f\x8b" else raw
+            head = handle.read(1 << 16)
+    except (FileNotFoundError, IsADirectoryError, PermissionError, OSError, EOFError):
+        return read_log_table(path).header  # the full read raises the right message
+    _, _, header = _split_head(head.decode("utf-8-sig", errors="replace"))
+    if header is None:
+        return read_log_table(path).header
+    delimiter = max(_DELIMITERS, key=header.count)
+    return tuple(c.strip() for c in header.split(delimiter if header.count(delimiter) else ","))
+
+
 def log_kind(path: str | Path, maps: tuple[ColumnMap, ...] = ()) -> str:
     """``"roll"`` for a roll log (contract section 4: roll_rate_deg_s and no drift_deg_h,
-    after the column maps), else ``"bench"``."""
-    names = {*read_log_table(path).header, *(m.target for m in maps)}
+    after the column maps), else ``"bench"``; reads the header only."""
+    names = {*read_header(path), *(m.target for m in maps)}
     return "roll" if "roll_rate_deg_s" in names and "drift_deg_h" not in names else "bench"
 
 
