@@ -102,6 +102,31 @@ def segment_means(log: BenchLog, segments: list[tuple[int, int]]
                     comments=comments), within, scale
 
 
+def block_means(log: BenchLog, rows: int) -> BenchLog:
+    """``log`` with every column averaged over blocks of ``rows`` consecutive samples inside
+    each contiguous segment (a segment's last incomplete block is dropped, so that every
+    block is a mean of exactly ``rows`` samples and its white noise is ``1/sqrt(rows)`` of
+    a sample's). ``sigma_deg_h`` becomes the mean's sd. Rows are named by their first
+    sample."""
+    from gyroid.workflows.allan import contiguous_segments
+
+    starts = np.concatenate([np.arange(a, b - rows + 1, rows)
+                             for a, b in contiguous_segments(np.asarray(log.time_s))])
+    index = starts[:, None] + np.arange(rows)[None, :]
+    columns = {name: np.asarray(values, dtype=float)[index].mean(axis=1)
+               for name, values in log.columns.items()}
+    if "sigma_deg_h" in columns:
+        sigma = np.asarray(log.columns["sigma_deg_h"], dtype=float)[index]
+        columns["sigma_deg_h"] = np.sqrt(np.sum(sigma**2, axis=1)) / rows
+    comments = (*log.comments, f"means of {rows} consecutive samples of {log.source}")
+
+    def row_name(k: int) -> str:
+        return f"the mean of {rows} samples from {log.where(int(starts[k]))}"
+
+    return BenchLog(columns=columns, source=f"{log.source} ({rows}-sample means)",
+                    comments=comments, row_name=row_name, extra_columns=log.extra_columns)
+
+
 def check_temperature_celsius(values: np.ndarray, where: str = "temperature_C") -> None:
     """Refuse temperatures that look like kelvin."""
     if values.size and float(np.median(values)) > 150.0 and float(np.min(values)) > 100.0:

@@ -109,7 +109,8 @@ def write_discrepancy_outputs(folder: Path, report, log: BenchLog | None = None,
     if log is None:
         raise ValueError("a bench log's discrepancy figure needs the log")
     kwargs = {} if t0_C is None else {"t0_C": t0_C}
-    regs = regressors(log.inputs(rate_window_s=report.rate_window_s, **kwargs))
+    searched = report.searched_log if report.searched_log is not None else log
+    regs = regressors(searched.inputs(rate_window_s=report.rate_window_s, **kwargs))
     name = (report.steps[0].regressor if report.steps
             else next(iter(report.lines_up_with), "elapsed time"))
     return [folder / "discrepancy.json",

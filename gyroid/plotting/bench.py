@@ -202,9 +202,12 @@ def discrepancy_figure(report, regressor_values: np.ndarray | None, regressor_na
         # noise dominates (quoted in the labels). Bars from zero: the gap is not inflated.
         ax3 = fig.add_subplot(grid[1, 1])
         rms_means = [float(np.sqrt(np.mean(before**2))), float(np.sqrt(np.mean(after**2)))]
-        labels = [f"baseline\n({report.rms_baseline:.3g} per sample)",
+        # A fast log was searched on means of several samples: say what the RMS is of.
+        unit = report.rms_unit.partition("(of ")[2].rstrip(")") or "sample"
+        per = f"per {unit.removesuffix('s')}" if unit != "sample" else "per sample"
+        labels = [f"baseline\n({report.rms_baseline:.3g} {per})",
                   ("+ " + ", ".join(report.added) if report.added else "nothing added")
-                  + f"\n({report.rms_final:.3g} per sample)"]
+                  + f"\n({report.rms_final:.3g} {per})"]
         ax3.bar([0, 1], rms_means, width=0.5, color=["0.6", "0.0"])
         ax3.set_xticks([0, 1], labels, fontsize=7)
         ax3.set_ylim(0.0, 1.15 * max(rms_means))

@@ -19,6 +19,8 @@ greedy loop and the report (shared with roll logs), :mod:`gyroid.workflows.discr
 
 from __future__ import annotations
 
+import math
+
 import jax.numpy as jnp
 import numpy as np
 
@@ -26,7 +28,7 @@ from gyroid.errors import GyroidInputError
 from gyroid.inference.checks import CheckReport, fit_checks, point_fit_evidence
 from gyroid.inference.kalman import gauss_markov_innovations
 from gyroid.inference.whitened_fit import ModelFit, NoiseLevels, fit_with_noise
-from gyroid.io.logs import BenchLog
+from gyroid.io.logs import BenchLog, block_means
 from gyroid.models import effects as registry
 from gyroid.models.drift import DriftModel
 from gyroid.models.effects import EFFECTS, EXTRA_PREFIX, resolve_terms
@@ -48,6 +50,8 @@ from gyroid.workflows.residual_structure import (
     where_largest,
 )
 
+#: Fast logs are searched on means over about this long, s.
+MEAN_OVER_S = 1.0
 #: dBIC a candidate must reach to be added.
 ADD_THRESHOLD = 10.0
 
@@ -102,8 +106,21 @@ def find_discrepancies(
     t0_C: float = T0_C,
     progress=None,
 ) -> DiscrepancyReport:
-    """Fit ``terms``, find what is missing from the registry's effects, add it, repeat."""
+    """Fit ``terms``, find what is missing from the registry's effects, add it, repeat.
+
+    A fast log (samples closer than ``MEAN_OVER_S / 2``) is searched on means of equal runs
+    of samples lasting about ``MEAN_OVER_S``: every candidate is slow against a second, a
+    mean's white noise is a sample's over sqrt(samples), and the likelihood ratios are the
+    samples' own (the within-mean scatter does not depend on the model), so the scores keep
+    the samples' BIC penalty (``log n`` of the samples) while each fit costs per mean."""
     say = progress or (lambda _msg: None)
+    n_samples = log.n
+    step = float(np.median(np.diff(log.time_s))) if log.n > 1 else MEAN_OVER_S
+    per_mean = round(MEAN_OVER_S / step) if step < MEAN_OVER_S / 2 else 1
+    if per_mean > 1:
+        say(f"  searching on means of {per_mean} samples ({per_mean * step:.3g} s) ...")
+        log = block_means(log, per_mean)
+    of_means = f" (of {per_mean}-sample means)" if per_mean > 1 else ""
     start = DriftModel.from_terms(terms)
     window = _choose_rate_window(log, start, t0_C)
     inputs = log.inputs(t0_C=t0_C, rate_window_s=window)
@@ -135,7 +152,7 @@ def find_discrepancies(
                    f"the residuals line up with no single logged quantity (at most r = "
                    f"{r:.2f}, with {regressor}, on 60 s means)")
         evidence = (
-            f"{follows}; adding {best} cuts the RMS from {before.rms_ols:.3g} to "
+            f"{follows}; adding {best} cuts the RMS{of_means} from {before.rms_ols:.3g} to "
             f"{after.rms_ols:.3g} deg/h; dBIC = {scores[best]:.1f} (threshold {ADD_THRESHOLD:g})"
             + (f"; nearly interchangeable here with {', '.join(rivals)}" if rivals else "")
             + ("; it is a function of time alone, so it says when, not why: on a longer log "
@@ -147,7 +164,7 @@ def find_discrepancies(
 
     search = add_while_evidence(
         trial(start, NoiseLevels(1.0, 1e-6, 300.0)), pool, try_adding=try_adding,
-        describe=describe, n=y.size, threshold=ADD_THRESHOLD, max_added=max_added,
+        describe=describe, n=n_samples, threshold=ADD_THRESHOLD, max_added=max_added,
         progress=say)
     baseline_fit = search.baseline.fit[0]
     fit_now, noise = search.final.fit
@@ -161,10 +178,11 @@ def find_discrepancies(
         steps=search.steps,
         rms_baseline=baseline_fit.rms_ols,
         rms_final=min(fit_now.rms_ols, baseline_fit.rms_ols),
-        rms_unit="deg/h",
+        rms_unit="deg/h" + of_means,
         threshold_dbic=ADD_THRESHOLD,
         rate_window_s=window,
-        noise=noise,
+        # The noise of one sample (a mean's white noise is a sample's over sqrt(per_mean)).
+        noise=NoiseLevels(noise.white * math.sqrt(per_mean), noise.gm, noise.tau_s),
         where=where_largest(time_s, baseline_fit.residual, inputs, noise, log),
         lines_up_with=correlations(baseline_fit.residual, regs),
         ambiguous=search.ambiguous,
@@ -172,4 +190,5 @@ def find_discrepancies(
         residual_after=fit_now.residual,
         time_s=time_s,
         skipped=search.skipped,
+        searched_log=log,
     )

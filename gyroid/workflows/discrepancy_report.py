@@ -161,9 +161,12 @@ class DiscrepancyReport:
     ambiguous: list[dict] = field(default_factory=list)
     where: list[dict] = field(default_factory=list)
     lines_up_with: dict[str, float] = field(default_factory=dict)
-    #: Bench logs: the rate estimator's window, s, and the final noise levels.
+    #: Bench logs: the rate estimator's window, s, the final noise levels (of one sample),
+    #: and the log the search ran on (a fast log's means; ``time_s`` and the residuals are
+    #: its rows).
     rate_window_s: float | None = None
     noise: Any = None
+    searched_log: Any = field(default=None, repr=False)
 
     @property
     def added(self) -> list[str]:
