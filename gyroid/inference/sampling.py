@@ -70,8 +70,9 @@ class Posterior:
     thin: int
     acceptance: float
     idata: object = field(repr=False)
-    move: str = "de"  # emcee move (SamplerSettings.move)
+    move: str = "de"  # emcee move (SamplerSettings.move), or the NUTS sampler
     summary: dict[str, dict] = field(default_factory=dict)
+    divergent: int = 0  # NUTS's divergent transitions after warm-up
 
     def flat(self, name: str) -> np.ndarray:
         return self.draws[..., self.names.index(name)].reshape(-1)
@@ -109,8 +110,10 @@ def sample_posterior(
     *,
     seed: int = 0,
     settings: SamplerSettings | None = None,
+    store: bool = True,
 ) -> Posterior:
-    """Sample the posterior of ``problem`` with emcee (see the module docstring)."""
+    """Sample the posterior of ``problem`` with emcee (see the module docstring).
+    ``store=False`` leaves ``idata`` None (for a caller that builds its own)."""
     settings = settings or SamplerSettings()
     rng = np.random.default_rng(seed)
     d = point.u.size
@@ -168,8 +171,7 @@ def sample_posterior(
     bar.close()
     natural = _to_natural(problem, draws_u)
     idata = to_inference_data(problem, draws_u, natural, lp,
-                              sampler=f"emcee {emcee.__version__}, {settings.move} move, "
-                                      f"{n_walkers} walkers")
+                              sampler=sampler_description(settings, n_walkers)) if store else None
     return Posterior(
         names=problem.names,
         draws=natural,
@@ -183,6 +185,11 @@ def sample_posterior(
         idata=idata,
         summary=summary,  # of these very draws (the last check's)
     )
+
+
+def sampler_description(settings: SamplerSettings, n_walkers: int) -> str:
+    """What sampled a posterior (InferenceData's ``sampler`` attribute)."""
+    return f"emcee {emcee.__version__}, {settings.move} move, {n_walkers} walkers"
 
 
 def _to_natural(problem, u: np.ndarray) -> np.ndarray:

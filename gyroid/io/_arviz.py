@@ -7,3 +7,7 @@ with warnings.catch_warnings():
     import arviz
 
 __all__ = ["arviz"]
+
+# An emcee ensemble stored as chains has more walkers than kept draws per walker; ArviZ's
+# shape heuristic then warns although the (chain, draw) layout is right.
+warnings.filterwarnings("ignore", message="More chains .* than draws", module="arviz")

@@ -59,6 +59,28 @@ class Flat:
         return "Flat"
 
 
+@dataclass(frozen=True)
+class HalfNormal:
+    """Half-normal prior of scale ``scale`` on a positive parameter (a between-run sd),
+    sampled as ``u = log x``: unlike a log-normal it leaves room for a value near zero
+    (runs that do not differ), which a question about spread must allow."""
+
+    scale: float
+
+    def log_density(self, u: Float[Array, "*shape"]) -> Float[Array, "*shape"]:
+        x = jnp.exp(u)
+        return (u - 0.5 * (x / self.scale) ** 2 + math.log(2.0) - math.log(self.scale)
+                - 0.5 * math.log(2.0 * math.pi))
+
+    @property
+    def sd(self) -> float:
+        """The prior's sd in natural units."""
+        return self.scale * math.sqrt(1.0 - 2.0 / math.pi)
+
+    def describe(self) -> str:
+        return f"HalfNormal({self.scale:g})"
+
+
 Prior = Normal | LogNormal | Flat
 
 
