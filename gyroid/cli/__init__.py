@@ -9,7 +9,12 @@ import traceback
 
 import click
 
-from gyroid.cli import bench_commands, roll_commands, study_commands  # noqa: F401  (registers the commands)
+from gyroid.cli import (  # noqa: F401  (registers the commands)
+    bench_commands,
+    pool_commands,
+    roll_commands,
+    study_commands,
+)
 from gyroid.cli.base import cli
 from gyroid.errors import GyroidInputError, UntrustworthyResult
 

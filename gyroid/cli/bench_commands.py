@@ -73,12 +73,19 @@ from gyroid.io.outputs import output_dir
               help="Stretch the bench's schedule to last this long, h (every phase alike).")
 @click.option("--rate-hz", "rate_hz", default=None, type=float,
               help="Sample rate, Hz (default: the paper's 1 Hz).")
+@click.option("--runs", default=1, show_default=True, type=int,
+              help="Simulate a lot of this many runs (or units) of one gyro type, each "
+                   "with its own coefficients drawn from the population, into "
+                   "OUT/run_NN/bench.csv, with the lot's truth in OUT/lot.json.")
+@click.option("--spread", default=0.2, show_default=True, type=float,
+              help="With --runs: each coefficient's between-run sd as a fraction of its "
+                   "magnitude.")
 def simulate(
     bench, out, seed, overrides, effects, arw, bias_instability, correlation_time, average_s,
-    hours, rate_hz,
+    hours, rate_hz, runs, spread,
 ) -> None:
     """Simulate paper A's thermal or magnetic bench with known truth (of any length and
-    sample rate with --hours and --rate-hz)."""
+    sample rate with --hours and --rate-hz; a lot of runs with --runs)."""
     from gyroid.io.logs import write_bench_log
     from gyroid.io.outputs import json_text
     from gyroid.models.derived import RATE_WINDOW_S
@@ -102,6 +109,15 @@ def simulate(
         raise GyroidInputError("noise levels must be >= 0 and the correlation time > 0")
     if (hours is not None and hours <= 0) or (rate_hz is not None and rate_hz <= 0):
         raise GyroidInputError("--hours and --rate-hz must be positive")
+    if runs < 1:
+        raise GyroidInputError("--runs must be at least 1")
+    if runs > 1:
+        if effects:
+            raise GyroidInputError("--effect is for single runs; a lot (--runs) varies the "
+                                   "preset's coefficients only")
+        _simulate_lot(bench, out, runs=runs, spread=spread, mean=parameters, noise=noise,
+                      seed=seed, hours=hours, rate_hz=rate_hz, average_s=average_s)
+        return
     simulator = simulate_thermal_bench if bench == "thermal" else simulate_magnetic_bench
     protocol = (ThermalProtocol() if bench == "thermal" else MagneticProtocol()).stretched(
         hours, rate_hz)
@@ -127,6 +143,23 @@ def simulate(
             fig = magnetic_sweep(sim.log)
         save(fig, stage / "bench.png")
     click.echo(f"wrote {out / 'bench.csv'} ({sim.log.n} rows) and {out / 'truth.json'}")
+
+
+def _simulate_lot(bench: str, out: Path, *, runs: int, **options) -> None:
+    """Write a simulated lot: OUT/run_NN/bench.csv and truth.json, and OUT/lot.json."""
+    from gyroid.io.logs import write_bench_log
+    from gyroid.io.outputs import json_text
+    from gyroid.simulation.lot import simulate_lot
+
+    lot = simulate_lot(bench, runs, **options)
+    with output_dir(out) as stage:
+        for label, sim in zip(lot.labels, lot.runs, strict=True):
+            (stage / label).mkdir()
+            write_bench_log(stage / label / "bench.csv", sim.log.columns, sim.log.comments)
+            (stage / label / "truth.json").write_text(json_text(sim.truth))
+        (stage / "lot.json").write_text(json_text(lot.truth()))
+    click.echo(f"wrote {runs} runs to {out}/run_*/bench.csv and the lot's truth to "
+               f"{out / 'lot.json'}")
 
 
 @cli.command()

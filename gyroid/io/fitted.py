@@ -27,6 +27,8 @@ class FittedDrift:
     t0_C: float
     rate_window_s: float = RATE_WINDOW_S  # the fit's dT/dt estimator window, s
     trustworthy: bool = True  # the fit's own verdict (fit.json)
+    #: What the draws are: a fit's posterior, or a pool's predictive for a new run.
+    source: str = "fit posterior"
 
     @classmethod
     def from_result(cls, result) -> FittedDrift:
@@ -41,7 +43,11 @@ class FittedDrift:
 
     @classmethod
     def from_dir(cls, folder: str | Path) -> FittedDrift:
+        """From the folder of 'gyroid fit' (its posterior draws) or of 'gyroid pool' (its
+        predictive draws for a new run: a unit that was not in the lot)."""
         folder = Path(folder)
+        if (folder / "pool.json").exists() and not (folder / "fit.json").exists():
+            return cls._from_pool_dir(folder)
         fit_json, netcdf = folder / "fit.json", folder / "posterior.nc"
         for path in (fit_json, netcdf):
             if not path.exists():
@@ -56,6 +62,29 @@ class FittedDrift:
                    trustworthy=bool(fit.get("trustworthy", True)))
 
 
+    @classmethod
+    def _from_pool_dir(cls, folder: Path) -> FittedDrift:
+        netcdf = folder / "posterior.nc"
+        if not netcdf.exists():
+            raise GyroidInputError(f"{folder} has no posterior.nc: give the --out folder of "
+                                   "'gyroid pool'")
+        pool = json.loads((folder / "pool.json").read_text())
+        if not pool.get("terms"):
+            raise GyroidInputError(f"{folder}/pool.json pools published estimates, not logs: "
+                                   "it has no drift model to compensate with")
+        model = DriftModel.from_terms(pool["terms"])
+        posterior = az.from_netcdf(str(netcdf)).posterior
+        columns = [np.asarray(posterior[f"new_run_{name}"]).reshape(-1)
+                   for name in model.parameter_names]
+        windows = [w for w in pool.get("rate_window_s", {}).values() if w is not None]
+        return cls(model=model, draws=np.column_stack(columns), t0_C=pool.get("t0_C", T0_C),
+                   rate_window_s=float(np.median(windows)) if windows else RATE_WINDOW_S,
+                   trustworthy=bool(pool.get("trustworthy", True)),
+                   source="pool: predictive for a new run")
+
+
 def fitted_ranges_from(folder: str | Path) -> dict[str, list[float]]:
-    """The input ranges a fit saw (fit.json's ``input_ranges``)."""
-    return json.loads((Path(folder) / "fit.json").read_text()).get("input_ranges", {})
+    """The input ranges a fit (fit.json) or a pool (pool.json: over all its runs) saw."""
+    folder = Path(folder)
+    record = folder / "fit.json" if (folder / "fit.json").exists() else folder / "pool.json"
+    return json.loads(record.read_text()).get("input_ranges", {})

@@ -127,6 +127,23 @@ def block_means(log: BenchLog, rows: int) -> BenchLog:
                     comments=comments, row_name=row_name, extra_columns=log.extra_columns)
 
 
+def run_labels(paths) -> tuple[str, ...]:
+    """Names of runs from their logs' paths: the file stem (``run3.csv.gz`` -> ``run3``), or
+    the folder's name when stems repeat (``lot/run_01/bench.csv`` -> ``run_01``), or both
+    joined; two logs that still share a name are refused."""
+    paths = [Path(p) for p in paths]
+    stems = [p.name.split(".")[0] for p in paths]
+    if len(set(stems)) == len(stems):
+        return tuple(stems)
+    folders = [p.resolve().parent.name for p in paths]
+    for labels in (folders, [f"{f}_{s}" for f, s in zip(folders, stems, strict=True)]):
+        if len(set(labels)) == len(labels) and all(labels):
+            return tuple(labels)
+    repeated = sorted({s for s in stems if stems.count(s) > 1})
+    raise GyroidInputError(f"two logs have the same name {repeated[0]!r} and folder; give "
+                           "each run its own file or folder name")
+
+
 def check_temperature_celsius(values: np.ndarray, where: str = "temperature_C") -> None:
     """Refuse temperatures that look like kelvin."""
     if values.size and float(np.median(values)) > 150.0 and float(np.min(values)) > 100.0:

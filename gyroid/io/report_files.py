@@ -69,6 +69,20 @@ def write_roll_fit_outputs(folder: Path, log, result) -> list[Path]:
     return written
 
 
+def write_pool_outputs(folder: Path, result, title: str | None = None) -> list[Path]:
+    """Write pool.json, posterior.nc and forest.png (a :class:`PoolResult`)."""
+    from gyroid.plotting.pool import forest_plot
+
+    folder = Path(folder)
+    record = result.to_json()
+    (folder / "pool.json").write_text(json_text(record))
+    result.idata().to_netcdf(str(folder / "posterior.nc"))
+    written = [folder / "pool.json", folder / "posterior.nc"]
+    written += save(forest_plot(result, units=record["units"], title=title),
+                    folder / "forest.png")
+    return written
+
+
 def write_compensate_outputs(folder: Path, log: BenchLog, result) -> list[Path]:
     """Write compensated.csv, compensate.json, compensation.png and allan.png."""
     folder = Path(folder)

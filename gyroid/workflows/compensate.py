@@ -93,6 +93,7 @@ def compensate(log: BenchLog, fitted: FittedDrift, fitted_ranges: dict[str, list
         "extrapolation": outside,
         "within_fitted_range": not outside,
         "terms": list(fitted.model.terms),
+        "model_source": fitted.source,
         "posterior_draws_used": int(draws.shape[0]),
         "rows": int(drift.size),
     }

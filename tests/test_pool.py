@@ -1,0 +1,188 @@
+"""Pooling runs of one gyro type (issue 17, contract ``gyroid pool``): the marginal
+likelihood against brute-force Gaussian algebra, recovery on simulated lots, the lot's
+checks, the CLI and compensation with a new-run predictive, paper A's table."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+from scipy.stats import multivariate_normal
+
+from gyroid.cli import main
+from gyroid.errors import GyroidInputError
+from gyroid.inference.pool_problem import PoolProblem
+from gyroid.io.logs import run_labels
+from gyroid.models.priors import LogNormal, Normal
+from gyroid.papers.repeatability import magnetic_repeatability, repeatability_json
+from gyroid.simulation.bench import MagneticProtocol
+from gyroid.simulation.lot import simulate_lot
+from gyroid.workflows.pool import fit_pool
+
+SHORT_MAGNETIC = MagneticProtocol(dwell_s=60.0, sample_s=5.0, turn_gap_s=100.0)
+
+
+def _small_lot(seed: int = 1):
+    """Three runs of a 3-coefficient linear model with unknown noise, one run that does
+    not exercise coefficient 2, and the Gaussian algebra to check against."""
+    rng = np.random.default_rng(seed)
+    r, p, n = 3, 3, 12
+    design = [rng.normal(size=(n, p)) for _ in range(r)]
+    design[2][:, 2] = 0.0
+    mu, tau, sigma = np.array([1.0, -0.5, 0.3]), np.array([0.4, 0.2, 0.7]), np.array(
+        [0.3, 0.5, 0.2])
+    ys = [design[i] @ (mu + tau * rng.normal(size=p)) + sigma[i] * rng.normal(size=n)
+          for i in range(r)]
+    stats = {"gram": [], "solution": [], "rss": []}
+    for x, y in zip(design, ys, strict=True):
+        solution, *_ = np.linalg.lstsq(x, y, rcond=None)
+        stats["gram"].append(x.T @ x)
+        stats["solution"].append(solution)
+        stats["rss"].append(float(np.sum((y - x @ solution) ** 2)))
+    prior = Normal(0.2, 2.0)
+    problem = PoolProblem.from_statistics(
+        ("a", "b", "c"), ("r0", "r1", "r2"), **stats, n_rows=[n] * r, log_sigma_sum=[0] * r,
+        sigma_known=[False] * r, mean_priors=[prior] * p, spread_scales=[1.0] * p,
+        noise_priors=[LogNormal(0.3, 2.0)] * r)
+    return problem, design, ys, tau, sigma, prior
+
+
+def test_run_likelihood_given_the_population_is_the_exact_gaussian_marginal():
+    problem, design, ys, tau, sigma, _ = _small_lot()
+    mu = np.array([1.1, -0.4, 0.4])
+    u = np.concatenate([np.log(tau), np.log(sigma)])
+    ours = np.asarray(problem.density.run_log_likelihood(mu, u))
+    exact = [multivariate_normal(x @ mu, x @ np.diag(tau**2) @ x.T + s**2 * np.eye(len(y))
+                                 ).logpdf(y) for x, y, s in zip(design, ys, sigma, strict=True)]
+    np.testing.assert_allclose(ours, exact, rtol=1e-10, atol=1e-10)
+
+
+def test_population_mean_integrates_out_exactly_and_its_conditional_is_exact():
+    problem, design, ys, tau, sigma, prior = _small_lot()
+    u = np.concatenate([np.log(tau), np.log(sigma)])
+    # All runs jointly: y = X mu + (X theta_dev + noise), mu ~ N(loc, scale^2 I).
+    x_all = np.vstack(design)
+    y_all = np.concatenate(ys)
+    blocks = [x @ np.diag(tau**2) @ x.T + s**2 * np.eye(len(x)) for x, s in
+              zip(design, sigma, strict=True)]
+    noise_cov = np.zeros((len(y_all), len(y_all)))
+    start = 0
+    for b in blocks:
+        noise_cov[start:start + len(b), start:start + len(b)] = b
+        start += len(b)
+    prior_cov = prior.scale**2 * np.eye(3)
+    loc = np.full(3, prior.loc)
+    joint = noise_cov + x_all @ prior_cov @ x_all.T
+    exact = multivariate_normal(x_all @ loc, joint).logpdf(y_all)
+    ours = float(problem.density.log_likelihood_mean_free(u))
+    assert ours == pytest.approx(exact, abs=1e-9)
+    # The conditional mean of mu given the data (Gaussian conditioning, by hand).
+    gain = prior_cov @ x_all.T @ np.linalg.inv(joint)
+    expected = loc + gain @ (y_all - x_all @ loc)
+    ours = np.asarray(problem.density.mean_conditional(u, np.zeros(3)))
+    np.testing.assert_allclose(ours, expected, rtol=1e-9, atol=1e-9)
+
+
+def test_pooled_lot_recovers_the_population_and_its_spread():
+    lot = simulate_lot("magnetic", 8, seed=4, spread=0.2, hours=SHORT_MAGNETIC.duration_s / 3600)
+    result = fit_pool([r.log for r in lot.runs], lot.labels, "magnetic", seed=2)
+    record = result.to_json()
+    assert result.trustworthy, result.checks.lines()
+    for name, truth in lot.population_mean.items():
+        post = record["population"][name]
+        # 4 posterior sd: a miss has probability 6e-5 per coefficient when calibrated.
+        assert abs(post["mean"] - truth) < 4 * post["sd"], (name, post, truth)
+        spread = record["between_run_sd"][name]
+        assert spread["ci95"][0] < lot.between_run_sd[name] < spread["ci95"][1] * 1.5
+    # The runs' pooled coefficients are their own estimates pulled towards the population
+    # (per run a correlated coefficient may move out a little; summed over runs, in).
+    mean = result.mean_draws.reshape(-1, 4).mean(axis=0)
+    pooled = result.run_draws.mean(axis=0)
+    assert np.all(np.abs(pooled - mean).sum(axis=0) < np.abs(result.own_mean - mean).sum(axis=0))
+    # The new-run predictive is wider than the population mean's interval.
+    for name in lot.population_mean:
+        assert record["new_run_predictive"][name]["sd"] > record["population"][name]["sd"]
+
+
+def test_a_run_from_another_population_is_named():
+    lot = simulate_lot("magnetic", 6, seed=5, spread=0.1, hours=SHORT_MAGNETIC.duration_s / 3600)
+    logs = [r.log for r in lot.runs]
+    from gyroid.simulation.bench import simulate_magnetic_bench
+
+    odd = dict(lot.runs[0].truth["parameters"])
+    odd["wy"] = lot.population_mean["wy"] + 3.0  # 50 between-run sds away
+    logs[3] = simulate_magnetic_bench(parameters=odd, protocol=SHORT_MAGNETIC, seed=77).log
+    result = fit_pool(logs, lot.labels, "magnetic", seed=0)
+    check = next(c for c in result.checks.checks if c.name == "run_consistency")
+    assert not check.passed and check.severity == "error"
+    assert "run_04" in check.message
+    assert not result.trustworthy
+
+
+def test_pool_refuses_what_it_cannot_pool():
+    lot = simulate_lot("magnetic", 2, seed=6, hours=0.3)
+    logs = [r.log for r in lot.runs]
+    with pytest.raises(GyroidInputError, match="at least two logs"):
+        fit_pool(logs[:1], lot.labels[:1], "magnetic")
+    with pytest.raises(GyroidInputError, match="warmup"):
+        fit_pool(logs, lot.labels, "magnetic,warmup")
+    with pytest.raises(GyroidInputError, match="same name"):
+        fit_pool(logs, ("a", "a"), "magnetic")
+
+
+def test_run_labels_from_paths(tmp_path):
+    assert run_labels(["a/run1.csv", "b/run2.csv.gz"]) == ("run1", "run2")
+    assert run_labels(["lot/run_01/bench.csv", "lot/run_02/bench.csv"]) == ("run_01", "run_02")
+    assert run_labels(["x/a/bench.csv", "y/a/log.csv"]) == ("bench", "log")
+    with pytest.raises(GyroidInputError, match="same name"):
+        run_labels(["x/a/bench.csv", "y/a/bench.csv"])
+
+
+def test_cli_pool_and_compensation_with_the_new_run_predictive(tmp_path, capsys):
+    lot_dir, pool_dir = tmp_path / "lot", tmp_path / "pool"
+    assert main(["simulate", "magnetic", "--runs", "4", "--hours", "0.5", "--out",
+                 str(lot_dir), "--seed", "3"]) == 0
+    truth = json.loads((lot_dir / "lot.json").read_text())
+    assert truth["runs"] == ["run_01", "run_02", "run_03", "run_04"]
+    logs = [str(lot_dir / r / "bench.csv") for r in truth["runs"]]
+    code = main(["pool", *logs, "--terms", "magnetic", "--out", str(pool_dir), "--seed", "1"])
+    record = json.loads((pool_dir / "pool.json").read_text())
+    assert code == (0 if record["trustworthy"] else 3)
+    for key in ("terms", "runs", "population", "between_run_sd", "per_run",
+                "new_run_predictive", "checks", "trustworthy"):
+        assert key in record
+    assert record["runs"] == truth["runs"]
+    assert set(record["per_run"]["run_02"]) == {"w0", "wx", "wy", "wz"}
+    for entry in record["population"].values():
+        assert set(entry) >= {"mean", "sd", "ci95"}
+    assert (pool_dir / "forest.png").exists() and (pool_dir / "posterior.nc").exists()
+    # A new unit compensated with the pool: its model sd is the new-run predictive's.
+    assert main(["simulate", "magnetic", "--hours", "0.5", "--out", str(tmp_path / "new"),
+                 "--seed", "9"]) == 0
+    out = tmp_path / "comp"
+    main(["compensate", str(tmp_path / "new" / "bench.csv"), "--fit", str(pool_dir), "--out",
+          str(out)])
+    comp = json.loads((out / "compensate.json").read_text())
+    assert comp["model_source"] == "pool: predictive for a new run"
+    rows = np.genfromtxt(out / "compensated.csv", delimiter=",", names=True)
+    w0_sd = record["new_run_predictive"]["w0"]["sd"]
+    # At zero field the modelled drift is w0: its sd is the predictive's (400 draws: 5 %).
+    quiet = np.abs(rows["Hx_uT"]) + np.abs(rows["Hy_uT"]) + np.abs(rows["Hz_uT"]) < 1.0
+    assert np.median(rows["drift_model_sd_deg_h"][quiet]) == pytest.approx(w0_sd, rel=0.15)
+
+
+def test_paper_a_table_test_to_test_spread():
+    pools = magnetic_repeatability(seed=0)
+    record = repeatability_json(pools)
+    s = record["assumed_within_test_sd"]
+    assert s == pytest.approx(math.sqrt(2) * 0.005 * 60 / math.sqrt(180) / 6)
+    device2 = record["devices"]["device 2"]["axes"]
+    # wy: -0.576 vs -0.375 is 27 sd of a difference apart: real test-to-test variation.
+    assert device2["wy"]["p_value"] < 1e-10
+    assert device2["wy"]["s_star"] == pytest.approx(0.201 / (1.959964 * math.sqrt(2)), rel=1e-6)
+    assert "real test-to-test variation" in device2["wy"]["verdict"]
+    # wx: -0.037 vs -0.043 is within the noise.
+    assert device2["wx"]["p_value"] > 0.05 and "within the noise" in device2["wx"]["verdict"]
+    # Two tests cannot pin down a between-test sd: the lot check says so.
+    checks = record["devices"]["device 2"]["checks"]
+    assert not checks["between_run_sd_identified"]["passed"]
