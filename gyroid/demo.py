@@ -25,6 +25,7 @@ from gyroid.io.report_files import (
     write_compensate_outputs,
     write_discrepancy_outputs,
     write_fit_outputs,
+    write_pool_outputs,
     write_propagate_outputs,
 )
 from gyroid.models.derived import RATE_WINDOW_S
@@ -36,8 +37,10 @@ from gyroid.plotting import (
     thermal_run,
 )
 from gyroid.simulation.bench import ThermalProtocol, simulate_magnetic_bench, simulate_thermal_bench
+from gyroid.simulation.lot import simulate_lot
 from gyroid.workflows.compensate import compensate
 from gyroid.workflows.discrepancy import find_discrepancies
+from gyroid.workflows.pool import fit_pool
 from gyroid.workflows.propagate import propagate
 from gyroid.workflows.scenarios import PRESETS
 
@@ -142,7 +145,12 @@ def run_demo(out: str | Path, *, seed: int = 0, echo: Callable[[str], None] = pr
         (stage / "reproduce").mkdir()
         repro = write_reproduction(stage / "reproduce")
 
-        echo("[6/6] writing report.md ...")
+        echo("[6/6] pooling a lot of six magnetic runs; writing report.md ...")
+        lot = simulate_lot("magnetic", 6, seed=seed + 4, hours=0.5)
+        pooled = fit_pool([r.log for r in lot.runs], lot.labels, "magnetic", seed=seed)
+        (stage / "pool").mkdir()
+        write_pool_outputs(stage / "pool", pooled, title="Six simulated magnetic runs pooled")
+        (stage / "pool" / "lot.json").write_text(json_text(lot.truth()))
         tf, mf = fits["thermal"], fits["magnetic"]
         lines += [
             "# gyroid demo: Bayesian identification of a FOG's drift and its effect on paper "
@@ -274,9 +282,52 @@ def run_demo(out: str | Path, *, seed: int = 0, echo: Callable[[str], None] = pr
         lines += [f"- Paper {i['paper']}, {i['item']} ({i['quantity']}): printed "
                   f"{i['printed']:.4g}, recomputed {i['recomputed']:.4g}. {i['note']}"
                   for i in repro["audit"]]
+        lines += _pool_lines(pooled, lot, repro, figure)
         lines += ["", f"*Run time {time.time() - started:.0f} s.*", ""]
         (stage / "report.md").write_text("\n".join(lines))
     return out / "report.md"
+
+
+def _pool_lines(pooled, lot, repro: dict, figure: Callable[[str, str], None]) -> list[str]:
+    """Section 7: a simulated lot pooled against its truth, and paper A's table."""
+    record = pooled.to_json()
+    lines = ["", "## 7. Many runs of one gyro type: pooling", "",
+             "`gyroid pool` fits runs (or units) of one gyro type together: the type's "
+             "coefficients (population mean), the run-to-run spread a datasheet calls "
+             "repeatability, each run's coefficients shrunk towards the population, and "
+             "the predictive for a new run, which `gyroid compensate --fit POOL` uses for "
+             "a unit that was never tested. Six simulated magnetic runs (files `pool/`, "
+             "truth in `pool/lot.json`):", "",
+             "| coefficient | true mean | population mean +/- sd | true between-run sd | "
+             "between-run sd (95 %) | new run +/- sd |", "|---|---|---|---|---|---|"]
+    for name in pooled.coefficient_names:
+        m, t = record["population"][name], record["between_run_sd"][name]
+        new = record["new_run_predictive"][name]
+        lines.append(f"| {name} | {lot.population_mean[name]:.4g} | "
+                     f"{_fmt(m['mean'], m['sd'])} | {lot.between_run_sd[name]:.3g} | "
+                     f"{t['mean']:.3g} ({t['ci95'][0]:.2g} ... {t['ci95'][1]:.2g}) | "
+                     f"{_fmt(new['mean'], new['sd'])} |")
+    verdict = ("trustworthy" if pooled.trustworthy else "**not trustworthy**")
+    lines += ["", f"Self-checks of the pooled fit: {verdict}.", ""]
+    lines += [f"- {line}" for line in pooled.checks.lines()]
+    lines.append("")
+    figure("pool/forest", "Forest plot: each run's own estimate (open circle, 95 %) and its "
+           "pooled coefficient (filled square), the population mean and a new run's "
+           "predictive (dashed).")
+    rep = repro["paper_a"]["magnetic_repeatability"]
+    lines += ["Paper A's magnetic table has two tests per device and no uncertainties. "
+              f"Assumed: {rep['assumption']} = {rep['assumed_within_test_sd']:.4f} deg/h per "
+              "100 uT. Is the test-to-test spread real?", ""]
+    for device, entry in rep["devices"].items():
+        for axis, row in entry["axes"].items():
+            lines.append(f"- {device}, {axis} ({row['tests'][0]:g} / {row['tests'][1]:g}): "
+                         f"{row['verdict']}.")
+    lines += ["", "Two tests cannot pin down a between-test sd (its interval is mostly the "
+              "prior's), but they do answer whether the tests differ: device 2's wy and wz "
+              "moved between tests by far more than a test's noise.", ""]
+    figure("reproduce/paper_a_magnetic_device2_pooled", "Paper A, device 2: the two tests "
+           "and their pooled coefficients.")
+    return lines
 
 
 def _check_lines(name: str, checks) -> list[str]:

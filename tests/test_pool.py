@@ -83,6 +83,7 @@ def test_population_mean_integrates_out_exactly_and_its_conditional_is_exact():
     np.testing.assert_allclose(ours, expected, rtol=1e-9, atol=1e-9)
 
 
+@pytest.mark.slow
 def test_pooled_lot_recovers_the_population_and_its_spread():
     lot = simulate_lot("magnetic", 8, seed=4, spread=0.2, hours=SHORT_MAGNETIC.duration_s / 3600)
     result = fit_pool([r.log for r in lot.runs], lot.labels, "magnetic", seed=2)
@@ -138,6 +139,7 @@ def test_run_labels_from_paths(tmp_path):
         run_labels(["x/a/bench.csv", "y/a/bench.csv"])
 
 
+@pytest.mark.slow
 def test_cli_pool_and_compensation_with_the_new_run_predictive(tmp_path, capsys):
     lot_dir, pool_dir = tmp_path / "lot", tmp_path / "pool"
     assert main(["simulate", "magnetic", "--runs", "4", "--hours", "0.5", "--out",
@@ -186,3 +188,36 @@ def test_paper_a_table_test_to_test_spread():
     # Two tests cannot pin down a between-test sd: the lot check says so.
     checks = record["devices"]["device 2"]["checks"]
     assert not checks["between_run_sd_identified"]["passed"]
+
+
+@pytest.mark.slow
+def test_pooled_intervals_cover_at_the_nominal_rate():
+    """SBC in small (experiments/pool_sbc.py runs 100 lots of 3, 8 and 30 runs): truth
+    from the priors the fit uses, lots of four short sweeps; the 90 % intervals of the
+    population means and between-run sds must cover within the binomial 99.9 % band."""
+    from scipy import stats
+
+    from gyroid.simulation.bench import simulate_magnetic_bench
+
+    priors = {"w0": Normal(1.0, 0.5), "wx": Normal(0.0, 0.3), "wy": Normal(-0.3, 0.3),
+              "wz": Normal(0.0, 0.3)}
+    scales = {"w0": 0.3, "wx": 0.05, "wy": 0.1, "wz": 0.05}
+    rng = np.random.default_rng(11)
+    hits = {"mean": [], "between_sd": []}
+    for dataset in range(25):
+        mean = {n: rng.normal(p.loc, p.scale) for n, p in priors.items()}
+        spread = {n: abs(rng.normal(0.0, s)) for n, s in scales.items()}
+        logs = [simulate_magnetic_bench(
+            parameters={n: mean[n] + spread[n] * rng.standard_normal() for n in priors},
+            protocol=SHORT_MAGNETIC, seed=int(rng.integers(2**31))).log for _ in range(4)]
+        result = fit_pool(logs, ("a", "b", "c", "d"), "magnetic", seed=dataset, priors=priors,
+                          spread_scales=scales)
+        tau = result.posterior.draws.reshape(-1, result.posterior.draws.shape[-1])
+        for k, n in enumerate(priors):
+            for kind, truth, draws in (("mean", mean[n], result.mean_draws[..., k].ravel()),
+                                       ("between_sd", spread[n], tau[:, k])):
+                lo, hi = np.quantile(draws, [0.05, 0.95])
+                hits[kind].append(lo <= truth <= hi)
+    for kind, values in hits.items():
+        band = stats.binom.ppf([0.0005, 0.9995], len(values), 0.9)
+        assert band[0] <= sum(values) <= band[1], (kind, sum(values), len(values), band)

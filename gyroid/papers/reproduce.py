@@ -11,6 +11,7 @@ from gyroid.io.datasets import (
 from gyroid.models import paper_b as pb
 from gyroid.models.inputs import T0_C
 from gyroid.papers.classic import chi2_of, setpoint_table_fit
+from gyroid.papers.repeatability import magnetic_repeatability, repeatability_json
 
 
 def paper_a() -> dict:
@@ -150,9 +151,12 @@ def confirmed(b: dict) -> list[dict]:
     ]
 
 
-def reproduce() -> dict:
-    """The content of ``reproduce.json``."""
+def reproduce(pools: dict | None = None) -> dict:
+    """The content of ``reproduce.json``; ``pools``: paper A's magnetic table pooled per
+    device (:func:`gyroid.papers.repeatability.magnetic_repeatability`, run when None)."""
     a, b = paper_a(), paper_b()
+    a["magnetic_repeatability"] = repeatability_json(
+        magnetic_repeatability() if pools is None else pools)
     return {"paper_a": a, "paper_b": b, "audit": audit(a, b), "confirmed": confirmed(b),
             "constants": {"g_m_s2": pb.G, "t0_C": T0_C}}
 
@@ -186,6 +190,20 @@ def tables_markdown(result: dict) -> str:
     for t, row in b["table_gs"].items():
         lines.append(f"| {t} | {row['d0gs_t_deg']:.3f} | {row['dpsi_gs_deg']:.3f} | "
                      f"{row['dpsi_gs_printed_deg']} | {row['dpsi_gs_unrounded_deg']:.3f} |")
+    rep = a["magnetic_repeatability"]
+    lines += ["", "## Paper A: magnetic coefficients, test to test", "",
+              f"Assumed within-test sd {rep['assumed_within_test_sd']:.4f} deg/h per 100 uT "
+              f"({rep['assumption']}).", "",
+              "| device | axis | test 1 | test 2 | Q p-value | s_star | between-test sd "
+              "(95 %) | new test |", "|---|---|---|---|---|---|---|---|"]
+    for device, entry in rep["devices"].items():
+        for axis, row in entry["axes"].items():
+            sd = row["between_test_sd"]
+            new = row["new_test_predictive"]
+            lines.append(f"| {device} | {axis} | {row['tests'][0]:g} | {row['tests'][1]:g} | "
+                         f"{row['p_value']:.2g} | {row['s_star']:.3g} | {sd['mean']:.3g} "
+                         f"({sd['ci95'][0]:.2g} ... {sd['ci95'][1]:.2g}) | "
+                         f"{new['mean']:.3g} +/- {new['sd']:.2g} |")
     w = b["dK_worked"]
     lines += ["", "## Paper B: worked dK", "",
               f"printed {w['printed']}, recomputed by eq. 7 {w['recomputed']:.3e} "
@@ -202,10 +220,17 @@ def write_reproduction(folder) -> dict:
 
     from gyroid.io.outputs import json_text
     from gyroid.plotting import paper_a_table, paper_b_lateral, paper_b_stabiliser, save
+    from gyroid.plotting.pool import forest_plot
 
     folder = Path(folder)
-    result = reproduce()
+    pools = magnetic_repeatability()
+    result = reproduce(pools)
     (folder / "reproduce.json").write_text(json_text(result))
+    unit = {name: "deg/h per 100 uT" for name in ("wx", "wy", "wz")}
+    for device, pool in pools.items():
+        save(forest_plot(pool, units=unit, title=f"Paper A, device {device}: two tests "
+                                                 "pooled"),
+             folder / f"paper_a_magnetic_device{device}_pooled", pdf=True)
     (folder / "tables.md").write_text(tables_markdown(result))
     save(paper_a_table(result), folder / "paper_a_setpoint_table", pdf=True)
     save(paper_b_lateral(result), folder / "paper_b_table2", pdf=True)

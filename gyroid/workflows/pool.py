@@ -37,6 +37,7 @@ from gyroid.inference.pool_checks import (
     between_run_sd_identified,
     combine_runs,
     population_identified,
+    population_prior_conflict,
     run_consistency,
 )
 from gyroid.inference.pool_problem import PoolProblem
@@ -481,7 +482,10 @@ def pool_checks(result: PoolResult, reference: np.ndarray,
         residuals=None, sigma_given=False, noise="white", draws_u=draws_u,
         summary=result.summary)
     population = CheckReport((convergence(evidence), point_vs_posterior(evidence),
-                              prior_data_conflict(evidence),
+                              population_prior_conflict(
+                                  prior_data_conflict(evidence), problem.coefficient_names,
+                                  result.mean_draws.reshape(-1, p).mean(axis=0),
+                                  problem.mean_priors),
                               population_identified(identifiability(evidence), {
                                   n: float(np.nanmedian(result.own_sd[:, k]) / reference[k])
                                   if np.isfinite(result.own_sd[:, k]).any() else np.inf
