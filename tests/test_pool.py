@@ -105,6 +105,7 @@ def test_pooled_lot_recovers_the_population_and_its_spread():
         assert record["new_run_predictive"][name]["sd"] > record["population"][name]["sd"]
 
 
+@pytest.mark.slow
 def test_a_run_from_another_population_is_named():
     lot = simulate_lot("magnetic", 6, seed=5, spread=0.1, hours=SHORT_MAGNETIC.duration_s / 3600)
     logs = [r.log for r in lot.runs]
@@ -173,6 +174,7 @@ def test_cli_pool_and_compensation_with_the_new_run_predictive(tmp_path, capsys)
     assert np.median(rows["drift_model_sd_deg_h"][quiet]) == pytest.approx(w0_sd, rel=0.15)
 
 
+@pytest.mark.slow
 def test_paper_a_table_test_to_test_spread():
     pools = magnetic_repeatability(seed=0)
     record = repeatability_json(pools)

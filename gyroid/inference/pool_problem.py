@@ -233,21 +233,16 @@ class PoolProblem(eqx.Module):
             spread_scales=spread_scales, noise_priors=[None] * r)
 
     def without_run(self, r: int) -> PoolProblem:
-        """The same lot and priors without run ``r``."""
+        """The same lot and priors with run ``r``'s data taken out: its statistics zeroed
+        (no information; its noise level, if sampled, keeps only its prior), so that the
+        arrays keep their shapes and the compiled functions are reused."""
         d = self.density
-        keep = [i for i in range(self.n_runs) if i != r]
-        noisy = list(self.noisy_runs)
-        noise_priors = [LogNormal(float(np.exp(d.noise_loc[noisy.index(i)])),
-                                  float(d.noise_scale[noisy.index(i)])) if i in noisy else None
-                        for i in keep]
-        solution = np.asarray(d.offset) + np.asarray(d.centre)
-        return PoolProblem.from_statistics(
-            self.coefficient_names, tuple(self.run_labels[i] for i in keep),
-            gram=np.asarray(d.gram)[keep], solution=solution[keep],
-            rss=np.asarray(d.rss)[keep], n_rows=np.asarray(d.n_rows)[keep],
-            log_sigma_sum=np.asarray(d.log_sigma_sum)[keep],
-            sigma_known=[i not in noisy for i in keep], mean_priors=self.mean_priors,
-            spread_scales=np.asarray(d.spread_scale), noise_priors=noise_priors)
+        return eqx.tree_at(
+            lambda q: (q.density.gram, q.density.rss, q.density.n_rows,
+                       q.density.log_sigma_sum),
+            self,
+            (d.gram.at[r].set(0.0), d.rss.at[r].set(0.0), d.n_rows.at[r].set(0.0),
+             d.log_sigma_sum.at[r].set(0.0)))
 
     # ----- bookkeeping -------------------------------------------------------------------
     @property
@@ -316,7 +311,11 @@ class PoolProblem(eqx.Module):
         log_tau = np.log(np.clip(spread, 1e-3 * scale, None))
         dof = np.maximum(np.asarray(d.n_rows) - np.asarray(self.ranks), 1.0)
         log_sigma = 0.5 * np.log(np.maximum(np.asarray(d.rss) / dof, 1e-300))
-        return np.concatenate([log_tau, log_sigma[list(self.noisy_runs)]])
+        noisy = list(self.noisy_runs)
+        # A run whose data were taken out (without_run) starts at its prior's median.
+        empty = np.asarray(d.n_rows)[noisy] == 0
+        return np.concatenate([log_tau, np.where(empty, np.asarray(d.noise_loc),
+                                                 log_sigma[noisy])])
 
     def mode(self) -> PointEstimate:
         """Posterior mode of the sampled parameters (optimistix BFGS) and the inverse
