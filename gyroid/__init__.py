@@ -12,8 +12,9 @@ The public surface, by job (each name's module is where it lives):
   ``resolve_terms``, ``DriftModel``; ``ROLL_EFFECTS``, ``resolve_roll_terms``;
 * logs: ``BenchLog``, ``load_bench_log``, ``write_bench_log``, ``RollLog``,
   ``load_roll_log``;
-* simulation: ``simulate_thermal_bench``, ``simulate_magnetic_bench``, ``GyroNoise``;
-* workflows: ``fit_log``, ``fit_roll_log``, ``compensate``, ``propagate``,
+* simulation: ``simulate_thermal_bench``, ``simulate_magnetic_bench``, ``simulate_lot``,
+  ``GyroNoise``;
+* workflows: ``fit_log``, ``fit_roll_log``, ``fit_pool``, ``compensate``, ``propagate``,
   ``find_discrepancies``, ``find_roll_discrepancies``;
 * results read back: ``FittedDrift``; scenarios: ``Scenario``, ``SCENARIOS``.
 """
@@ -55,6 +56,7 @@ from gyroid.simulation.bench import (  # noqa: E402
     simulate_magnetic_bench,
     simulate_thermal_bench,
 )
+from gyroid.simulation.lot import SimulatedLot, simulate_lot  # noqa: E402
 from gyroid.simulation.noise import GyroNoise  # noqa: E402
 
 #: Imported on first use (the workflows pull in emcee, ArviZ and plotting; the command line
@@ -63,6 +65,8 @@ _LAZY = {
     "compensate": ("gyroid.workflows.compensate", "compensate"),
     "find_discrepancies": ("gyroid.workflows.discrepancy", "find_discrepancies"),
     "fit_log": ("gyroid.inference.fit", "fit_log"),
+    "fit_pool": ("gyroid.workflows.pool", "fit_pool"),
+    "PoolResult": ("gyroid.workflows.pool_result", "PoolResult"),
     "FittedDrift": ("gyroid.io.fitted", "FittedDrift"),
     "propagate": ("gyroid.workflows.propagate", "propagate"),
     "find_roll_discrepancies": ("gyroid.workflows.roll_discrepancy", "find_roll_discrepancies"),
@@ -101,21 +105,25 @@ __all__ = [
     "GyroidInputError",
     "MagneticProtocol",
     "Parameter",
+    "PoolResult",
     "RollLog",
     "Scenario",
     "SimulatedBench",
+    "SimulatedLot",
     "ThermalProtocol",
     "build_inputs",
     "compensate",
     "find_discrepancies",
     "find_roll_discrepancies",
     "fit_log",
+    "fit_pool",
     "fit_roll_log",
     "load_bench_log",
     "load_roll_log",
     "propagate",
     "resolve_roll_terms",
     "resolve_terms",
+    "simulate_lot",
     "simulate_magnetic_bench",
     "simulate_thermal_bench",
     "write_bench_log",
