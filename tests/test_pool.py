@@ -223,3 +223,20 @@ def test_pooled_intervals_cover_at_the_nominal_rate():
     for kind, values in hits.items():
         band = stats.binom.ppf([0.0005, 0.9995], len(values), 0.9)
         assert band[0] <= sum(values) <= band[1], (kind, sum(values), len(values), band)
+
+
+def test_correlated_runs_are_refused_with_advice_pool_can_follow():
+    """Runs with Gauss-Markov noise: whiteness fails, and the advice names what works
+    (pool has no --noise option)."""
+    from gyroid.simulation.bench import simulate_magnetic_bench
+    from gyroid.simulation.noise import GyroNoise
+
+    noise = GyroNoise(arw_deg_rt_h=0.002, bias_instability_deg_h=0.3, correlation_time_s=600)
+    logs = [simulate_magnetic_bench(protocol=SHORT_MAGNETIC, noise=noise, seed=s).log
+            for s in (1, 2, 3)]
+    result = fit_pool(logs, ("a", "b", "c"), "magnetic", seed=0)
+    check = next(c for c in result.checks.checks if c.name == "residual_whiteness")
+    assert not check.passed and check.severity == "error"
+    assert "pooling assumes white noise" in check.message
+    assert "refit with --noise" not in check.message
+    assert not result.trustworthy

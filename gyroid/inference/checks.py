@@ -247,8 +247,11 @@ def segment_variance_ratio(z: np.ndarray, segments: tuple[tuple[int, int], ...]
 
 def residual_whiteness(residuals: np.ndarray | None, *,
                        segments: tuple[tuple[int, int], ...] | None = None,
-                       correlated_noise_modelled: bool = False) -> Check:
-    """Block-variance test of standardised residuals (see the module docstring)."""
+                       correlated_noise_modelled: bool = False,
+                       remedy: str | None = None) -> Check:
+    """Block-variance test of standardised residuals (see the module docstring).
+    ``remedy`` replaces the advice of a severe failure (for a fit whose command has no
+    --noise or --segment-means option)."""
     from scipy import stats
 
     if_failed: Severity = "warning" if correlated_noise_modelled else "error"
@@ -280,6 +283,9 @@ def residual_whiteness(residuals: np.ndarray | None, *,
     if correlated_noise_modelled:
         message = (f"the innovations are still correlated ({where}): an effect is missing or "
                    "the noise model is too simple; run gyroid discrepancy")
+    elif severe and remedy:
+        message = (f"the residuals are correlated ({where}), so the intervals are too "
+                   f"narrow; {remedy}")
     elif severe and m == "segment":
         message = (f"the bias wanders between the log's bursts ({where}), so the intervals are "
                    "too narrow; refit with --segment-means (one row per burst: the wander "

@@ -46,6 +46,11 @@ from gyroid.models.rate_window import choose_rate_window, reads_rate
 from gyroid.workflows.allan import contiguous_segments
 from gyroid.workflows.pool_result import PoolResult, heterogeneity
 
+#: What to do when a run's residuals are correlated: pooling models white noise only.
+WHITE_NOISE_REMEDY = ("pooling assumes white noise: fit such runs one by one with 'gyroid "
+                      "fit --noise white+gm' (or --segment-means for burst logs), or look "
+                      "for a missing effect with gyroid discrepancy")
+
 
 def pool_priors(problems: Sequence[BenchProblem], logs: Sequence[BenchLog],
                 overrides: Mapping[str, Prior] | None = None
@@ -315,7 +320,7 @@ def pool_checks(result: PoolResult, reference: np.ndarray,
                                    residuals=z, sigma_given=q.sigma is not None, noise="white")
         per_run[label] = CheckReport((
             goodness_of_fit(run_evidence),
-            residual_whiteness(z, segments=segments),
+            residual_whiteness(z, segments=segments, remedy=WHITE_NOISE_REMEDY),
             outliers(z, where=log.where)))
     tau = posterior.draws.reshape(-1, len(problem.names))[:, :p]
     lot = CheckReport((
