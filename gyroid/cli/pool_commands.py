@@ -19,8 +19,13 @@ from gyroid.io.outputs import output_dir
 @click.option("--t0", "t0_C", default=21.0, show_default=True, type=float,
               help="Reference temperature t0, degC (t = T - t0).")
 @prior_options
+@click.option("--segment-means", is_flag=True,
+              help="Burst-sampled logs: pool one row per contiguous segment (its mean), so "
+                   "the bias's wander between bursts is each run's noise; the samples are "
+                   "still checked for spikes.")
 @map_option
-def pool(logs, terms, out, seed, t0_C, prior_choice, prior_items, mappings) -> None:
+def pool(logs, terms, out, seed, t0_C, prior_choice, prior_items, segment_means,
+         mappings) -> None:
     """Pool repeated runs (or units) LOGS of one gyro type: the type's coefficients, the
     run-to-run spread (repeatability), each run's shrunk coefficients and the predictive
     for a new run, which 'gyroid compensate --fit OUT' uses. Each log is a bench log of one
@@ -38,7 +43,7 @@ def pool(logs, terms, out, seed, t0_C, prior_choice, prior_items, mappings) -> N
     rows = sum(log.n for log in loaded)
     click.echo(f"pooling {terms} over {len(logs)} runs ({rows} rows) ...", err=True)
     result = fit_pool(loaded, labels, terms, seed=seed, prior_set=prior_set, priors=overrides,
-                      t0_C=t0_C)
+                      t0_C=t0_C, segment_means=segment_means)
     with output_dir(out) as stage:
         write_pool_outputs(stage, result)
     click.echo(result.summary_text())

@@ -7,6 +7,7 @@ The result's type and Cochran's Q: :mod:`gyroid.workflows.pool_result`.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 
 import jax
@@ -38,6 +39,7 @@ from gyroid.inference.pool_checks import (
 from gyroid.inference.pool_problem import PoolProblem
 from gyroid.inference.sampling import Posterior, summarise_draws
 from gyroid.io.logs import BenchLog
+from gyroid.io.logs import segment_means as segment_means_of
 from gyroid.models.drift import DriftModel
 from gyroid.models.inputs import T0_C
 from gyroid.models.prior_scales import reference_sd
@@ -118,10 +120,13 @@ def fit_pool(
     spread_scales: Mapping[str, float] | None = None,
     t0_C: float = T0_C,
     settings: NutsSettings | None = None,
+    segment_means: bool = False,
 ) -> PoolResult:
     """Pool ``logs`` (one per run or unit, named by ``labels``) under one drift model.
     ``priors`` overrides population means' priors by name, ``spread_scales`` the
-    half-normal scales of between-run sds (default: the mean's prior scale)."""
+    half-normal scales of between-run sds (default: the mean's prior scale).
+    ``segment_means=True`` pools burst logs on one row per burst (as ``fit_log`` does), the
+    samples still checked for spikes."""
     if len(logs) < 2:
         raise GyroidInputError("pooling needs at least two logs (runs or units of one gyro "
                                "type); for one log use 'gyroid fit'")
@@ -134,6 +139,14 @@ def fit_pool(
             f"pooling takes effects linear in their coefficients; {', '.join(nonlinear)} "
             "has a time constant or time of its own: fit those runs one by one with "
             "'gyroid fit', or pool without it")
+    samples = list(logs)
+    spikes: list[tuple[np.ndarray, float] | None] = [None] * len(logs)
+    if segment_means:
+        logs = list(logs)
+        for i, log in enumerate(samples):
+            logs[i], deviations, within = segment_means_of(
+                log, contiguous_segments(np.asarray(log.time_s)))
+            spikes[i] = (deviations, within)
     problems, windows = [], []
     for log in logs:
         window = choose_rate_window(log, model, t0_C=t0_C)[0] if reads_rate(model) else None
@@ -168,7 +181,23 @@ def fit_pool(
     result.input_ranges = {k: [min(r[k][0] for r in ranges), max(r[k][1] for r in ranges)]
                            for k in ranges[0]}
     result.checks = pool_checks(result, reference, problems, logs)
+    if segment_means:
+        result.checks = result.checks + combine_runs({
+            label: CheckReport((_spikes_within_segments(sample, problem_r, *spike),))
+            for label, sample, problem_r, spike in zip(labels, samples, problems, spikes,
+                                                       strict=True)})
+    result.segment_means = segment_means
     return result
+
+
+def _spikes_within_segments(samples: BenchLog, problem: BenchProblem, deviations: np.ndarray,
+                            within_sd: float):
+    """The spike check on a burst log's samples about their burst's mean, judged against the
+    bias sd of the fit of means (as ``fit_log --segment-means``)."""
+    sigma = math.sqrt(float(problem.rss_min) / max(problem.n - problem.n_model, 1))
+    ratio = (sigma / math.sqrt(problem.n)) / (within_sd / math.sqrt(samples.n))
+    return outliers(deviations, where=samples.where, name="outliers_within_segments",
+                    bias_sd_ratio=max(ratio, 1e-12))
 
 
 def pool_estimates(names: tuple[str, ...], labels: tuple[str, ...], estimates: np.ndarray,

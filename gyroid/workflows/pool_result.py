@@ -60,6 +60,7 @@ class PoolResult:
     rate_window_s: tuple[float, ...] = ()
     input_ranges: dict[str, list[float]] = field(default_factory=dict)
     seed: int = 0
+    segment_means: bool = False  # burst logs pooled on one row per burst
     checks: CheckReport = field(default_factory=lambda: CheckReport(()))
 
     @property
@@ -153,6 +154,7 @@ class PoolResult:
             "rate_window_s": dict(zip(self.run_labels, self.rate_window_s, strict=True)),
             "input_ranges": self.input_ranges,
             "seed": self.seed,
+            "segment_means": self.segment_means,
             "convergence": {
                 "point_estimate": self.point.message,
                 "sampler": {
