@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 import jax.numpy as jnp
 import numpy as np
 
-from gyroid.inference.checks import CheckReport, FitEvidence, fit_checks, outliers
+from gyroid.inference.checks import Check, CheckReport, FitEvidence, fit_checks, outliers
 from gyroid.inference.likelihood import NOISE_UNITS, BenchProblem, problem_batcher
 from gyroid.inference.point import PointEstimate, point_estimate
 from gyroid.inference.sampling import Posterior, SamplerSettings, sample_posterior
@@ -206,14 +206,21 @@ def fit_log(
                        if segment_means else None, fitted_log=log)
     result.checks = fit_checks(bench_evidence(result, log))
     if segment_means:
-        # A spike shifts the bias by its deviation / n; judge that against this fit's sd of
-        # the bias (about sigma / sqrt(K) of the K means), not the samples' s / sqrt(n).
         sigma = result.point.value.get("sigma_deg_h", within_sd)
-        ratio = (sigma / math.sqrt(log.n)) / (within_sd / math.sqrt(samples.n))
-        result.checks = result.checks + CheckReport((outliers(
-            deviations, where=samples.where, name="outliers_within_segments",
-            bias_sd_ratio=max(ratio, 1e-12)),))
+        result.checks = result.checks + CheckReport((spikes_within_segments(
+            samples, deviations, within_sd, sigma_of_means=sigma, n_means=log.n),))
     return result
+
+
+def spikes_within_segments(samples: BenchLog, deviations: np.ndarray, within_sd: float, *,
+                           sigma_of_means: float, n_means: int) -> Check:
+    """The spike check of a fit of segment means, on the samples about their segment's
+    mean (``deviations``, over ``within_sd``). A spike shifts the bias by its deviation / n;
+    that is judged against the fit's sd of the bias (about ``sigma_of_means / sqrt(K)`` of
+    the K means), not the samples' ``s / sqrt(n)``."""
+    ratio = (sigma_of_means / math.sqrt(n_means)) / (within_sd / math.sqrt(samples.n))
+    return outliers(deviations, where=samples.where, name="outliers_within_segments",
+                    bias_sd_ratio=max(ratio, 1e-12))
 
 
 def bench_evidence(result: FitResult, log: BenchLog) -> FitEvidence:

@@ -26,7 +26,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyroid.inference.point import PointEstimate
-from gyroid.inference.sampling import Posterior, summarise_draws
+from gyroid.inference.sampling import Posterior, covariance_factor, summarise_draws
 
 
 @dataclass(frozen=True)
@@ -70,11 +70,7 @@ def sample_nuts(problem, point: PointEstimate, *, seed: int = 0,
     settings = settings or NutsSettings()
     rng = np.random.default_rng(seed)
     d = point.u.size
-    covariance = np.asarray(point.covariance_u)
-    try:
-        factor = np.linalg.cholesky(0.5 * (covariance + covariance.T) + 1e-12 * np.eye(d))
-    except np.linalg.LinAlgError:
-        factor = np.diag(np.sqrt(np.clip(np.abs(np.diag(covariance)), 1e-12, None)))
+    factor = covariance_factor(point.covariance_u)
     draws = settings.draws
     while True:
         runs = []

@@ -107,6 +107,8 @@ class RollFit:
         return self.checks.trustworthy
 
     def to_json(self) -> dict:
+        from gyroid.inference.sampling import interval_summary
+
         post = self.posterior
         flat = post.draws.reshape(-1, len(self.problem.names))
         derived = {}
@@ -116,9 +118,7 @@ class RollFit:
             derived = {"Denc": np.hypot(a, b), "encoder_phase_rad": np.arctan2(b, a)}
         summary = {k: dict(v) for k, v in post.summary.items()}
         for name, values in derived.items():
-            lo, hi = np.percentile(values, [2.5, 97.5])
-            summary[name] = {"mean": float(values.mean()), "sd": float(values.std(ddof=1)),
-                             "ci95": [float(lo), float(hi)], "derived_from": ["enc_a", "enc_b"]}
+            summary[name] = interval_summary(values) | {"derived_from": ["enc_a", "enc_b"]}
         loop_names = [n for n in ("D0", "D1", "D0gs", "D1gs", "D2") if n in self.problem.names]
         corr = np.corrcoef(flat[:, [self.problem.names.index(n) for n in loop_names]],
                            rowvar=False)

@@ -82,17 +82,25 @@ class Posterior:
         return all(s["r_hat"] <= 1.01 and s["ess_bulk"] >= 400 for s in self.summary.values())
 
 
-def _initial_walkers(batch, point: PointEstimate, n_walkers: int,
-                     rng: np.random.Generator) -> np.ndarray:
-    d = point.u.size
-    covariance = np.asarray(point.covariance_u)
+def covariance_factor(covariance: np.ndarray) -> np.ndarray:
+    """A lower-triangular factor of a mode's covariance, for drawing starting points: the
+    Cholesky factor of its symmetric part, or its diagonal's square roots when it is not
+    positive definite (a tiny isotropic one when it is not finite)."""
+    covariance = np.asarray(covariance, dtype=float)
+    d = covariance.shape[0]
     if not np.all(np.isfinite(covariance)):
         covariance = np.eye(d) * 1e-4
     covariance = 0.5 * (covariance + covariance.T) + 1e-12 * np.eye(d)
     try:
-        factor = np.linalg.cholesky(covariance)
+        return np.linalg.cholesky(covariance)
     except np.linalg.LinAlgError:
-        factor = np.diag(np.sqrt(np.clip(np.diag(covariance), 1e-12, None)))
+        return np.diag(np.sqrt(np.clip(np.diag(covariance), 1e-12, None)))
+
+
+def _initial_walkers(batch, point: PointEstimate, n_walkers: int,
+                     rng: np.random.Generator) -> np.ndarray:
+    d = point.u.size
+    factor = covariance_factor(point.covariance_u)
     walkers = point.u + rng.standard_normal((n_walkers, d)) @ factor.T
     half = n_walkers // 2  # emcee evaluates half the ensemble at a time: one compilation
     for _ in range(20):
@@ -241,6 +249,15 @@ def to_inference_data(problem, draws_u: np.ndarray, natural: np.ndarray,
         dims={name: ["row"], **{k: ["row"] for k in constant}},
         attrs={**problem.idata_attrs(), "sampler": sampler},
     )
+
+
+def interval_summary(values: np.ndarray) -> dict:
+    """Mean, sd and central 95 % interval of draws of one derived quantity (no chains, so
+    no r_hat or ESS: see :func:`summarise` for sampled parameters)."""
+    values = np.asarray(values, dtype=float).reshape(-1)
+    lo, hi = np.percentile(values, [2.5, 97.5])
+    return {"mean": float(np.mean(values)), "sd": float(np.std(values, ddof=1)),
+            "ci95": [float(lo), float(hi)]}
 
 
 def summarise_draws(draws: np.ndarray, names: tuple[str, ...]) -> dict[str, dict]:

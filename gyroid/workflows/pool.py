@@ -26,7 +26,7 @@ from gyroid.inference.checks import (
     prior_data_conflict,
     residual_whiteness,
 )
-from gyroid.inference.fit import input_ranges
+from gyroid.inference.fit import input_ranges, spikes_within_segments
 from gyroid.inference.likelihood import BenchProblem
 from gyroid.inference.nuts import NutsSettings, sample_nuts
 from gyroid.inference.pool_checks import (
@@ -183,21 +183,13 @@ def fit_pool(
     result.checks = pool_checks(result, reference, problems, logs)
     if segment_means:
         result.checks = result.checks + combine_runs({
-            label: CheckReport((_spikes_within_segments(sample, problem_r, *spike),))
-            for label, sample, problem_r, spike in zip(labels, samples, problems, spikes,
-                                                       strict=True)})
+            label: CheckReport((spikes_within_segments(
+                sample, deviations, within, n_means=q.n,
+                sigma_of_means=math.sqrt(float(q.rss_min) / max(q.n - q.n_model, 1))),))
+            for label, sample, q, (deviations, within) in zip(labels, samples, problems,
+                                                               spikes, strict=True)})
     result.segment_means = segment_means
     return result
-
-
-def _spikes_within_segments(samples: BenchLog, problem: BenchProblem, deviations: np.ndarray,
-                            within_sd: float):
-    """The spike check on a burst log's samples about their burst's mean, judged against the
-    bias sd of the fit of means (as ``fit_log --segment-means``)."""
-    sigma = math.sqrt(float(problem.rss_min) / max(problem.n - problem.n_model, 1))
-    ratio = (sigma / math.sqrt(problem.n)) / (within_sd / math.sqrt(samples.n))
-    return outliers(deviations, where=samples.where, name="outliers_within_segments",
-                    bias_sd_ratio=max(ratio, 1e-12))
 
 
 def pool_estimates(names: tuple[str, ...], labels: tuple[str, ...], estimates: np.ndarray,

@@ -6,7 +6,6 @@ scatter that is between-run spread rather than noise."""
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -15,7 +14,7 @@ from scipy import stats
 from gyroid.inference.check_report import CheckReport
 from gyroid.inference.point import PointEstimate
 from gyroid.inference.pool_problem import PoolProblem
-from gyroid.inference.sampling import Posterior
+from gyroid.inference.sampling import Posterior, interval_summary
 from gyroid.models.effects import parameter
 from gyroid.models.inputs import T0_C
 
@@ -130,14 +129,14 @@ class PoolResult:
             "terms": list(self.terms),
             "runs": list(self.run_labels),
             "n_samples": dict(zip(self.run_labels, self.n_samples, strict=True)),
-            "population": {n: _interval(summary[n]) for n in names},
-            "between_run_sd": {n: _interval(summary[s]) for n, s in zip(names, spread,
+            "population": {n: dict(summary[n]) for n in names},
+            "between_run_sd": {n: dict(summary[s]) for n, s in zip(names, spread,
                                                                          strict=True)},
             "per_run": {
-                label: {n: _summary(self.run_draws[:, r, k]) for k, n in enumerate(names)}
+                label: {n: interval_summary(self.run_draws[:, r, k]) for k, n in enumerate(names)}
                 for r, label in enumerate(self.run_labels)
             },
-            "new_run_predictive": {n: _summary(self.new_run_draws[:, k])
+            "new_run_predictive": {n: interval_summary(self.new_run_draws[:, k])
                                    for k, n in enumerate(names)},
             "own_estimates": {
                 label: {n: {"mean": float(self.own_mean[r, k]),
@@ -145,7 +144,7 @@ class PoolResult:
                 for r, label in enumerate(self.run_labels)
             },
             "heterogeneity": {n: h.to_json() for n, h in self.heterogeneity.items()},
-            "noise": {name: _interval(summary[name]) for name in self.problem.noise_names},
+            "noise": {name: dict(summary[name]) for name in self.problem.noise_names},
             "units": {n: parameter(n).unit for n in names},
             "priors": {n: prior.describe() for n, prior in zip(
                 names + self.problem.names, self.problem.mean_priors + self.problem.priors,
@@ -173,17 +172,6 @@ class PoolResult:
             **self.checks.to_json(),
         }
         return out
-
-
-def _interval(entry: Mapping) -> dict:
-    return {"mean": entry["mean"], "sd": entry["sd"], "ci95": entry["ci95"],
-            "r_hat": entry["r_hat"], "ess_bulk": entry["ess_bulk"]}
-
-
-def _summary(values: np.ndarray) -> dict:
-    lo, hi = np.percentile(values, [2.5, 97.5])
-    return {"mean": float(np.mean(values)), "sd": float(np.std(values, ddof=1)),
-            "ci95": [float(lo), float(hi)]}
 
 
 def _finite(value: float) -> float | None:

@@ -21,6 +21,7 @@ import numpy as np
 
 from gyroid.errors import GyroidInputError
 from gyroid.inference.checks import CheckReport, fit_verdict
+from gyroid.inference.sampling import interval_summary
 from gyroid.io.fitted import FittedDrift
 from gyroid.models import paper_b as pb
 from gyroid.models.drift import DriftModel
@@ -180,12 +181,6 @@ DRIVER_NAMES = {"drift": "fitted drift coefficients", "period": "time in flight 
                 "mems_bias": "stabiliser bias"}
 
 
-def _stats(values: np.ndarray) -> dict:
-    lo, hi = np.percentile(values, [2.5, 97.5])
-    return {"mean": float(np.mean(values)), "sd": float(np.std(values, ddof=1)),
-            "ci95": [float(lo), float(hi)]}
-
-
 def propagate(fitted: FittedDrift, scenario: Scenario, *, draws: int = 2000, seed: int = 0,
               sobol_n: int = 1000, progress: Callable[[str], None] | None = None
               ) -> tuple[dict, dict[str, np.ndarray]]:
@@ -217,13 +212,14 @@ def propagate(fitted: FittedDrift, scenario: Scenario, *, draws: int = 2000, see
     result = {
         "scenario": scenario.as_dict(),
         "draws": draws,
-        "dK": _stats(out["dK"]),
+        "dK": interval_summary(out["dK"]),
         "dK_definition": "relative error (K_i - K_true) / K_true of the coefficient of one "
                          "correction period, the period drawn uniformly over the flight",
         "saturated_fraction": float(np.mean(out["saturated"])),
-        "sf_residual_ppm": _stats(out["sf_residual_ppm"]),
-        "dpsi_deg": {f"{t:g}": _stats(out["dpsi_deg"][:, i]) for i, t in enumerate(times)},
-        "dr_z_m": {f"{t:g}": _stats(out["dr_z_m"][:, i]) for i, t in enumerate(times)},
+        "sf_residual_ppm": interval_summary(out["sf_residual_ppm"]),
+        "dpsi_deg": {f"{t:g}": interval_summary(out["dpsi_deg"][:, i])
+                     for i, t in enumerate(times)},
+        "dr_z_m": {f"{t:g}": interval_summary(out["dr_z_m"][:, i]) for i, t in enumerate(times)},
         **driver_shares(sobol),
         "sobol_samples": sobol_n,
         "local_sensitivity": local,
