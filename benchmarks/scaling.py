@@ -7,7 +7,10 @@ For each length: a thermal bench log (paper A's schedule, sampled fast enough to
 many rows over 10.3 h), written as parquet; then, each in a fresh process with its wall time
 and peak memory (the process and its children):
 
-* ``load``: gyroid's reader (validation included) against ``pyarrow.parquet.read_table``;
+* ``load``: gyroid's reader (every cell of every contract column validated, time checked;
+  imports included) against ``pyarrow.parquet.read_table`` and a NumPy array per column
+  (what a script fits from); building the model's inputs (dT/dt, the identifiability
+  check) is part of ``fit``;
 * ``fit``: ``gyroid fit LOG --terms thermal`` end to end (reading, rate window choice,
   point fit, emcee to convergence, checks, fit.json, posterior.nc, figures);
 * ``bare``: the bare script (read, Savitzky-Golay dT/dt, normal equations, emcee on
@@ -41,10 +44,12 @@ _LOAD = (
     "start = time.perf_counter()\n"
     "if sys.argv[1] == 'gyroid':\n"
     "    from gyroid.io.logs import load_bench_log\n"
-    "    load_bench_log(sys.argv[2], 'thermal')\n"
+    "    load_bench_log(sys.argv[2])\n"
     "else:\n"
-    "    import pyarrow.parquet as pq\n"
-    "    pq.read_table(sys.argv[2])\n"
+    "    import numpy as np, pyarrow.parquet as pq\n"
+    "    table = pq.read_table(sys.argv[2])\n"
+    "    columns = {c: np.asarray(table.column(c).to_numpy(), dtype=float)\n"
+    "               for c in table.column_names}\n"
     "print(json.dumps({'seconds': time.perf_counter() - start,\n"
     "  'peak_mb': resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}))\n"
 )

@@ -183,3 +183,77 @@ def test_the_header_alone_is_read_the_same_as_by_the_full_reader(tmp_path):
     roll = tmp_path / "roll.csv"
     roll.write_text("time_s,roll_rate_deg_s,gs_angle_deg\n0,1,0\n")
     assert log_kind(roll) == "roll"
+
+
+def test_comment_and_blank_lines_among_rows_keep_line_numbers(tmp_path, thermal_columns):
+    # A logger that marks a pause with a comment line and leaves blank lines: the rows are
+    # read, the comment kept, and a bad cell after them is named by its line in the file.
+    def edit(lines):
+        header = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+        lines.insert(header + 3, "# operator: door opened")
+        lines.insert(header + 5, "")
+        lines.insert(header + 6, "   ")
+        return lines
+
+    path = _text_with(tmp_path, thermal_columns, edit)
+    log = load_bench_log(path, "thermal")
+    assert log.n == thermal_columns["time_s"].size
+    np.testing.assert_allclose(log.drift_deg_h, thermal_columns["drift_deg_h"], rtol=1e-9)
+    assert "operator: door opened" in log.comments
+    lines = path.read_text().splitlines()
+    header = next(i for i, line in enumerate(lines) if not line.startswith("#"))
+    bad_line = header + 8  # 0-based index of data row 5 (after the three inserted lines)
+    lines[bad_line] = lines[bad_line].replace(lines[bad_line].split(",")[1], "oops", 1)
+    path.write_text("\n".join(lines) + "\n")
+    with pytest.raises(GyroidInputError, match=rf"row 5 \(line {bad_line + 1} of bench.csv\)"
+                       r", column drift_deg_h: the value is 'oops'"):
+        load_bench_log(path, "thermal")
+
+
+def test_a_row_with_missing_fields_after_a_comment_line_is_named(tmp_path):
+    path = tmp_path / "bench.csv"
+    path.write_text("time_s,drift_deg_h\n0,1\n# pause\n1,2\n2\n3,4\n")
+    with pytest.raises(GyroidInputError, match=r"row 3 \(line 5\) has 1 fields but the header "
+                                               r"has 2"):
+        load_bench_log(path, "bias")
+
+
+def test_quoted_header_names_are_read(tmp_path, thermal_columns):
+    # R's write.csv and pyarrow's CSV writer quote every column name.
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
+    from gyroid.io.tables import read_header, read_log_table
+
+    path = tmp_path / "quoted.csv"
+    pacsv.write_csv(pa.table({k: np.asarray(v) for k, v in thermal_columns.items()}), path)
+    assert path.read_text().startswith('"time_s"')
+    assert read_header(path) == tuple(thermal_columns)
+    # read by pyarrow (row k is line k + 2), not by the slow all-text fallback
+    assert read_log_table(path).first_line == 2
+    log = load_bench_log(path, "thermal")
+    np.testing.assert_allclose(log.drift_deg_h, thermal_columns["drift_deg_h"], rtol=1e-12)
+
+
+@pytest.mark.parametrize(
+    ("content", "name", "expected"),
+    [
+        (b"time_s,drift_deg_h\n0,1\n1,\xff\xfe\n", "latin.csv", "not a UTF-8 text file"),
+        (b"\x00\x01\x02binary", "blob.csv", "not a text file"),
+        (b"\x1f\x8b\x08\x00broken", "log.csv.gz", "a damaged gzip file"),
+    ],
+)
+def test_files_that_are_not_csv_text_are_refused(tmp_path, content, name, expected):
+    path = tmp_path / name
+    path.write_bytes(content)
+    with pytest.raises(GyroidInputError, match=expected):
+        load_bench_log(path, "bias")
+
+
+def test_a_gzip_log_is_read_like_the_plain_one(tmp_path, thermal_columns):
+    from gyroid.io.logs import write_bench_log
+
+    plain = load_bench_log(write_bench_log(tmp_path / "a.csv", thermal_columns), "thermal")
+    packed = load_bench_log(write_bench_log(tmp_path / "a.csv.gz", thermal_columns), "thermal")
+    for name in plain.columns:
+        np.testing.assert_array_equal(plain.columns[name], packed.columns[name])

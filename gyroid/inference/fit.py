@@ -15,6 +15,7 @@ from gyroid.inference.point import PointEstimate, point_estimate
 from gyroid.inference.sampling import Posterior, SamplerSettings, sample_posterior
 from gyroid.io.logs import BenchLog
 from gyroid.io.logs import segment_means as segment_means_of
+from gyroid.models.design import rows_of
 from gyroid.models.drift import DriftModel
 from gyroid.models.effects import parameter
 from gyroid.models.inputs import T0_C
@@ -58,8 +59,8 @@ class FitResult:
     def predict_draws(self, n_draws: int = 200, seed: int = 0, every: int = 1) -> np.ndarray:
         """Modelled drift (deg/h) for ``n_draws`` posterior draws at every ``every``-th row:
         (n_draws, ceil(n / every)). A linear model is its design matrix's rows times the
-        draws; otherwise the model runs over the whole log for a few draws at a time (memory
-        O(n) either way)."""
+        draws at the rows kept; otherwise the model runs over the whole log for a few draws at a
+        time (memory O(n))."""
         if self.posterior is None:
             return np.asarray(self.problem.predict(jnp.asarray(self.point.u)))[None, ::every]
         flat = self.posterior.draws.reshape(-1, len(self.problem.names))
@@ -67,7 +68,8 @@ class FitResult:
         pick = rng.choice(flat.shape[0], size=min(n_draws, flat.shape[0]), replace=False)
         model = self.problem.model
         if model.is_linear:
-            design = np.asarray(model.design(self.problem.inputs))[::every]
+            design = np.asarray(model.design(rows_of(self.problem.inputs, slice(None, None,
+                                                                          every))))
             return flat[pick, : self.problem.n_model] @ design.T
         u = np.asarray(self.problem.to_sampling(jnp.asarray(flat[pick])))
         predict = problem_batcher(self.problem, "predict")

@@ -30,6 +30,7 @@ from gyroid.errors import GyroidInputError
 from gyroid.inference.kalman import gauss_markov_innovations
 from gyroid.io.logs import BenchLog
 from gyroid.models.derived import RATE_WINDOW_S
+from gyroid.models.design import least_squares_from_r, with_rows
 from gyroid.models.drift import DriftModel
 from gyroid.models.inputs import T0_C
 from gyroid.models.prior_scales import FOG_NOISE_PRIORS, choose_priors
@@ -136,32 +137,44 @@ class BenchProblem(eqx.Module):
     def _with_sufficient_statistics(self) -> BenchProblem:
         """The linear-Gaussian fast path: the Gram matrix and least-squares solution of the
         whole log and of each LOO block (about that solution, which keeps the block sums
-        well conditioned). Memory O(n p) once; no later cost grows with n."""
-        X = np.asarray(self.model.design(self.inputs))
+        well conditioned). Two passes over the design in blocks of rows (its R factor,
+        then the block sums): memory of one block, whatever the log's length."""
         y = np.asarray(self.drift)
-        w = np.ones_like(y) if self.sigma is None else 1.0 / np.asarray(self.sigma)
-        Xw, yw = X * w[:, None], y * w
-        solution, *_ = np.linalg.lstsq(Xw, yw, rcond=None)
-        r0 = yw - Xw @ solution
-        rss = float(np.sum(r0**2))
-        log_sigma = np.zeros_like(y) if self.sigma is None else np.log(np.asarray(self.sigma))
+        w = None if self.sigma is None else 1.0 / np.asarray(self.sigma)
+        p = self.n_model
+
+        def weighted_blocks():
+            for rows, x in self.model.design_blocks(self.inputs):
+                yield rows, (x, y[rows]) if w is None else (x * w[rows, None], y[rows] * w[rows])
+
+        r = None
+        for _, (xw, yw) in weighted_blocks():
+            r = with_rows(r, np.column_stack([xw, yw]))
+        solution, rss = least_squares_from_r(r)
+        gram = r[:, :p].T @ r[:, :p]
         block = np.asarray(self.block)
-        starts = np.flatnonzero(np.diff(block, prepend=-1))  # blocks are runs of rows
-        p = X.shape[1]
-        gram_b = np.empty((starts.size, p, p))
-        for i in range(p):
-            for j in range(i, p):
-                gram_b[:, i, j] = gram_b[:, j, i] = np.add.reduceat(Xw[:, i] * Xw[:, j], starts)
-        xr_b = np.column_stack([np.add.reduceat(Xw[:, i] * r0, starts) for i in range(p)])
+        n_blocks = int(self.n_blocks)
+        gram_b = np.zeros((n_blocks, p, p))
+        xr_b = np.zeros((n_blocks, p))
+        rr_b = np.zeros(n_blocks)
+        for rows, (xw, yw) in weighted_blocks():
+            r0 = yw - xw @ solution
+            index = block[rows]
+            for i in range(p):
+                xr_b[:, i] += np.bincount(index, xw[:, i] * r0, n_blocks)
+                for j in range(i, p):
+                    gram_b[:, i, j] += np.bincount(index, xw[:, i] * xw[:, j], n_blocks)
+                    gram_b[:, j, i] = gram_b[:, i, j]
+            rr_b += np.bincount(index, r0**2, n_blocks)
+        log_sigma = np.zeros_like(y) if self.sigma is None else np.log(np.asarray(self.sigma))
         return eqx.tree_at(
             lambda q: (q.gram, q.solution, q.rss_min, q.log_sigma_sum, q.block_gram,
                        q.block_xr, q.block_rr, q.block_count, q.block_log_sigma),
             self,
-            (jnp.asarray(Xw.T @ Xw), jnp.asarray(solution), jnp.asarray(rss),
+            (jnp.asarray(gram), jnp.asarray(solution), jnp.asarray(rss),
              jnp.asarray(float(np.sum(log_sigma))), jnp.asarray(gram_b), jnp.asarray(xr_b),
-             jnp.asarray(np.add.reduceat(r0**2, starts)),
-             jnp.asarray(np.diff(np.append(starts, y.size)).astype(float)),
-             jnp.asarray(np.add.reduceat(log_sigma, starts))),
+             jnp.asarray(rr_b), jnp.asarray(np.bincount(block, minlength=n_blocks).astype(float)),
+             jnp.asarray(np.bincount(block, log_sigma, n_blocks))),
             is_leaf=lambda x: x is None,
         )
 

@@ -17,6 +17,7 @@ from gyroid.io.tables import (
     check_time_increasing,
     read_log_table,
 )
+from gyroid.models.derived import HYSTERESIS_DEADBAND_UT, RATE_WINDOW_S
 from gyroid.models.drift import DriftModel
 from gyroid.models.effects import EXTRA_PREFIX
 from gyroid.models.inputs import FIELD_COLUMNS, T0_C, DriftInputs, build_inputs
@@ -45,6 +46,7 @@ class BenchLog:
     row_name: Callable[[int], str] | None = field(default=None, compare=False, repr=False)
     #: The user's own numeric columns offered as ``extra:COLUMN`` effects (--extra-columns).
     extra_columns: tuple[str, ...] = ()
+    _inputs: dict = field(default_factory=dict, init=False, compare=False, repr=False)
 
     @property
     def n(self) -> int:
@@ -69,10 +71,19 @@ class BenchLog:
         """Data row ``row`` (0-based) as a user finds it in the file."""
         return self.row_name(row) if self.row_name is not None else f"row {row + 1}"
 
-    def inputs(self, *, t0_C: float = T0_C, **options) -> DriftInputs:
-        """The drift model's inputs, derived quantities included."""
-        return build_inputs(self.columns, t0_C=t0_C, extra_columns=self.extra_columns,
-                            **options)
+    def inputs(self, *, t0_C: float = T0_C, rate_window_s: float = RATE_WINDOW_S,
+               deadband_uT: float = HYSTERESIS_DEADBAND_UT) -> DriftInputs:
+        """The drift model's inputs, derived quantities included. The last inputs built are
+        kept (one set: a 10^7-row log's are 0.8 GB), since loading, the rate window's
+        choice and the fit ask for the same ones in turn."""
+        key = (float(t0_C), float(rate_window_s), float(deadband_uT))
+        if key not in self._inputs:
+            self._inputs.clear()  # before building: never two sets at once
+            self._inputs[key] = build_inputs(self.columns, t0_C=t0_C,
+                                             extra_columns=self.extra_columns,
+                                             rate_window_s=rate_window_s,
+                                             deadband_uT=deadband_uT)
+        return self._inputs[key]
 
 
 #: Fewest contiguous segments a log of bursts needs for a fit of their means.

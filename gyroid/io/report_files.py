@@ -9,6 +9,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyroid.inference.fit import FitResult
+from gyroid.io._arviz import write_netcdf
 from gyroid.io.logs import BENCH_COLUMNS, BenchLog
 from gyroid.io.outputs import json_text
 from gyroid.models.effects import parameter
@@ -35,7 +36,7 @@ def write_fit_outputs(folder: Path, log: BenchLog, result: FitResult,
     (folder / "fit.json").write_text(json_text(result.to_json()))
     written = [folder / "fit.json"]
     if result.posterior is not None:
-        result.posterior.idata.to_netcdf(str(folder / "posterior.nc"))
+        write_netcdf(result.posterior.idata, folder / "posterior.nc")
         written.append(folder / "posterior.nc")
     if result.fitted_log is not None:
         log = result.fitted_log  # e.g. the segment means, not the samples
@@ -57,7 +58,7 @@ def write_roll_fit_outputs(folder: Path, log, result) -> list[Path]:
     summary = result.to_json()
     problem = result.problem
     (folder / "roll_fit.json").write_text(json_text(summary))
-    result.posterior.idata.to_netcdf(str(folder / "posterior.nc"))
+    write_netcdf(result.posterior.idata, folder / "posterior.nc")
     written = [folder / "roll_fit.json", folder / "posterior.nc"]
     residual = np.asarray(problem.gs_angle - problem.predict(jnp.asarray(result.point.u)))
     written += save(roll_residual_figure(log.time_s, residual), folder / "roll_fit")
@@ -76,7 +77,7 @@ def write_pool_outputs(folder: Path, result, title: str | None = None) -> list[P
     folder = Path(folder)
     record = result.to_json()
     (folder / "pool.json").write_text(json_text(record))
-    result.idata().to_netcdf(str(folder / "posterior.nc"))
+    write_netcdf(result.idata(), folder / "posterior.nc")
     written = [folder / "pool.json", folder / "posterior.nc"]
     written += save(forest_plot(result, units=record["units"], title=title),
                     folder / "forest.png")

@@ -138,10 +138,14 @@ def temperature_rate_deg_c_per_h(
         return np.zeros(n)
     steps = np.diff(time_s)
     step = float(np.median(steps))
-    uniform = bool(np.all(np.abs(steps - step) <= 1e-6 * step))
+    uniform = bool(steps.min() >= step * (1 - 1e-6) and steps.max() <= step * (1 + 1e-6))
+    del steps
     if window_s / step > MAX_WINDOW_SAMPLES:
         step = window_s / MAX_WINDOW_SAMPLES
-        bins = np.floor((time_s - time_s[0]) / step).astype(np.int64)
+        offset = time_s - time_s[0]
+        offset /= step  # in place: a 10^7-row log's temporaries are 80 MB each
+        bins = offset.astype(np.int64)  # floor: the offsets are not negative
+        del offset
         counts = np.bincount(bins)
         full = counts > 0
         centres = (np.bincount(bins, weights=time_s)[full] / counts[full])

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Iterator, Mapping
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -11,6 +11,7 @@ from jaxtyping import Array, Float
 
 from gyroid.errors import GyroidInputError
 from gyroid.models import effects as registry
+from gyroid.models.design import BLOCK_ROWS, row_blocks, rows_of, with_rows
 from gyroid.models.effects import Effect, Parameter, Params, resolve_terms
 from gyroid.models.inputs import FIELD_COLUMNS, DriftInputs
 
@@ -94,6 +95,16 @@ class DriftModel(eqx.Module):
             raise ValueError(f"the model is not linear: {', '.join(nonlinear)}")
         return jnp.concatenate([e.design(inputs) for e in self.effects], axis=1)
 
+    def design_blocks(self, inputs: DriftInputs, effects: tuple[Effect, ...] | list[Effect]
+                      | None = None, rows: int = BLOCK_ROWS
+                      ) -> Iterator[tuple[slice, np.ndarray]]:
+        """The design matrix of the linear ``effects`` (default: all, which must be linear)
+        as NumPy blocks of at most ``rows`` rows, with the rows each covers."""
+        effects = self.effects if effects is None else tuple(effects)
+        for sl in row_blocks(inputs.n, rows):
+            part = rows_of(inputs, sl)
+            yield sl, np.concatenate([np.asarray(e.design(part)) for e in effects], axis=1)
+
     def check_identifiable(self, inputs: DriftInputs, available: set[str] | frozenset[str]) -> None:
         """Refuse a log that cannot identify every coefficient, naming the column at fault."""
         for effect in self.effects:
@@ -104,29 +115,32 @@ class DriftModel(eqx.Module):
                     f"add the column or drop the term from --terms"
                 )
         linear = [e for e in self.effects if e.linear]
-        blocks = [np.asarray(e.design(inputs)) for e in linear]
         names = [p.name for e in linear for p in e.parameters]
         owner = {p.name: e.name for e in linear for p in e.parameters}
-        if not blocks:
+        if not linear:
             return
-        matrix = np.concatenate(blocks, axis=1)
+        # The singular values and right vectors of the n x p matrix are those of its R
+        # factor (p x p), accumulated block by block: no n x p copy is formed.
+        r, first = None, None
+        low, high = np.full(len(names), np.inf), np.full(len(names), -np.inf)
+        for _, block in self.design_blocks(inputs, linear):
+            r = with_rows(r, block)
+            low, high = np.minimum(low, block.min(axis=0)), np.maximum(high, block.max(axis=0))
+            first = block[0] if first is None else first
         for j, name in enumerate(names):
-            col = matrix[:, j]
             if name == "w0":
                 continue
-            if np.ptp(col) <= 1e-9 * max(1.0, float(np.max(np.abs(col)))):
+            if high[j] - low[j] <= 1e-9 * max(1.0, abs(low[j]), abs(high[j])):
                 column = _DRIVER_COLUMN.get(name, "time_s")
                 raise GyroidInputError(
                     f"column {column} does not vary enough to identify {name} of term "
-                    f"{owner[name]!r} (its regressor is constant at {col[0]:.6g}); drop the "
+                    f"{owner[name]!r} (its regressor is constant at {first[j]:.6g}); drop the "
                     f"term from --terms or use a log in which {column} varies"
                 )
-        scale = np.linalg.norm(matrix, axis=0)
+        scale = np.linalg.norm(r, axis=0)  # the columns' norms: R's columns have them
         scale[scale == 0] = 1.0
-        # The singular values and right vectors of the n x p matrix are those of its QR
-        # factor R (p x p): no n x p factor U is formed.
-        singular, vectors = np.linalg.svd(np.linalg.qr(matrix / scale, mode="r"))[1:]
-        if singular[-1] < 1e-8 * singular[0]:
+        singular, vectors = np.linalg.svd(r / scale)[1:]
+        if singular.size < len(names) or singular[-1] < 1e-8 * singular[0]:
             weights = np.abs(vectors[-1])
             involved = [names[j] for j in np.argsort(-weights) if weights[j] > 0.1]
             terms = sorted({owner[n] for n in involved})

@@ -288,7 +288,7 @@ EFFECTS: dict[str, Effect] = {
             ),
             columns=FIELD_COLUMNS,
             paper=False,
-            design=lambda x: x.field_sign,
+            design=lambda x: jnp.zeros((x.n, 3)) if x.field_sign is None else x.field_sign,
         ),
         Effect(
             name="bias_step",

@@ -21,6 +21,7 @@ import numpy as np
 from gyroid.errors import GyroidInputError
 from gyroid.io.logs import BenchLog
 from gyroid.models.derived import RATE_POLY_DEGREE, RATE_WINDOW_S, temperature_rate_deg_c_per_h
+from gyroid.models.design import with_rows
 from gyroid.models.drift import DriftModel
 
 #: The grid's bounds, s, and its number of windows.
@@ -61,37 +62,45 @@ def choose_rate_window(log: BenchLog, model: DriftModel, *, t0_C: float,
                        grid: np.ndarray | None = None) -> tuple[float, dict[float, float]]:
     """The window (s) with the least residual sum of squares, and the RSS per window.
 
-    For a linear model only the dT/dt column changes between windows: the other columns
-    are orthogonalised once (QR) and each window costs one projection of its dT/dt, O(n p)
-    with no n x p matrix per window."""
-    inputs = log.inputs(t0_C=t0_C)
+    For a linear model only the dT/dt column changes between windows: the other columns'
+    design ``A`` is kept (n x (p - 1)) with the R factor of ``[A, y]``, and each window
+    costs one product ``A' r`` of its dT/dt ``r``: O(n p), with no Q factor formed."""
     if not reads_rate(model) or not log.has("temperature_C"):
         return RATE_WINDOW_S, {}
+    inputs = log.inputs(t0_C=t0_C)
     time_s = np.asarray(log.time_s)
     temperature = np.asarray(log.columns["temperature_C"])
-    weights = 1.0 / np.asarray(log.sigma_deg_h) if log.sigma_deg_h is not None else 1.0
-    y = np.asarray(log.drift_deg_h) * weights
+    weights = 1.0 / np.asarray(log.sigma_deg_h) if log.sigma_deg_h is not None else None
+    y = np.asarray(log.drift_deg_h) if weights is None else np.asarray(log.drift_deg_h) * weights
     windows = window_grid(time_s) if grid is None else grid
 
     def rate(window: float) -> np.ndarray:
-        return temperature_rate_deg_c_per_h(time_s, temperature, float(window))
+        r = temperature_rate_deg_c_per_h(time_s, temperature, float(window))
+        return r if weights is None else r * weights
 
     scores: dict[float, float] = {}
     if model.is_linear:
-        rate_column = model.parameter_names.index("wD")
-        design = _design(model, inputs) * np.reshape(weights, (-1, 1))
-        q, _ = np.linalg.qr(np.delete(design, rate_column, axis=1))
-        del design
-        y_perp = y - q @ (q.T @ y)
+        others = [e for e in model.effects if e.name != "temperature_rate"]
+        fixed = np.empty((y.size, len(model.parameter_names) - 1))
+        r_fixed = None
+        for rows, block in model.design_blocks(inputs, others):
+            fixed[rows] = block if weights is None else block * weights[rows, None]
+            r_fixed = with_rows(r_fixed, np.column_stack([fixed[rows], y[rows]]))
+        k = fixed.shape[1]
+        factor, q_y = r_fixed[:k, :k], r_fixed[:k, k]  # A = Q factor; Q'y = q_y
+        y_perp2 = float(r_fixed[k, k] ** 2)  # |y - Q Q'y|^2
         for window in windows:
-            r = rate(window) * weights
-            r_perp = r - q @ (q.T @ r)
-            scores[float(window)] = float(y_perp @ y_perp - (r_perp @ y_perp) ** 2
-                                          / (r_perp @ r_perp))
+            r = rate(window)
+            q_r = np.linalg.lstsq(factor.T, fixed.T @ r, rcond=None)[0]  # Q'r
+            r_perp2 = float(r @ r - q_r @ q_r)
+            cross = float(r @ y - q_r @ q_y)  # (r - QQ'r)'(y - QQ'y)
+            scores[float(window)] = y_perp2 - cross**2 / r_perp2
     else:
         for window in windows:
             trial = eqx.tree_at(lambda x: x.rate_C_h, inputs, jnp.asarray(rate(window)))
-            design = _design(model, trial) * np.reshape(weights, (-1, 1))
+            design = _design(model, trial)
+            if weights is not None:
+                design = design * weights[:, None]
             coefficients, *_ = np.linalg.lstsq(design, y, rcond=None)
             scores[float(window)] = float(np.sum((y - design @ coefficients) ** 2))
     best = min(scores, key=scores.get)

@@ -43,9 +43,10 @@ def regressors(x: DriftInputs) -> dict[str, np.ndarray]:
         "elapsed time": time_h,
         "start-up transient": np.exp(-time_h / 0.33),
     }
-    for k, axis in enumerate("xyz"):
+    for k, axis in enumerate("xyz" if x.field_rel is not None else ""):
         out[f"H{axis}"] = np.asarray(x.field_rel[:, k])
-        out[f"sign of the last H{axis} change"] = np.asarray(x.field_sign[:, k])
+        if x.field_sign is not None:
+            out[f"sign of the last H{axis} change"] = np.asarray(x.field_sign[:, k])
     for k, name in enumerate(x.extra_names):
         out[name] = np.asarray(x.extra[:, k])
     return out
