@@ -3,7 +3,7 @@
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from helpers import SHORT_MAGNETIC
+from helpers import SHORT_MAGNETIC, SHORT_THERMAL
 from scipy import stats
 
 from gyroid import BenchLog, GyroNoise
@@ -230,3 +230,30 @@ def test_posterior_predictions_of_a_linear_model_are_its_design_rows_times_the_d
     u = result.problem.to_sampling(jnp.asarray(flat[pick]))
     direct = np.asarray(jax.vmap(result.problem.predict)(u))[:, ::3]
     np.testing.assert_allclose(fast, direct, rtol=1e-10, atol=1e-10)
+
+
+def test_every_mode_finder_starts_on_one_grid():
+    # The point estimate and the discrepancy's whitened fits start from the same grid: 7
+    # multiples of a time constant's registry median, a step's own candidates from the log.
+    from gyroid.inference.point import _starts
+    from gyroid.inference.starts import START_MULTIPLES, grid_points, start_grid
+    from gyroid.models.drift import DriftModel
+    from gyroid.models.effects import parameter
+
+    sim = simulate_thermal_bench(seed=3, protocol=SHORT_THERMAL)
+    inputs = sim.log.inputs()
+    model = DriftModel.from_terms("thermal,warmup")
+    grid = start_grid(model.parameters, inputs)
+    median = parameter("tau_warmup_min").prior.median
+    np.testing.assert_allclose(np.exp(grid[0]), median * np.asarray(START_MULTIPLES))
+    problem = BenchProblem.from_log(sim.log, model)
+    starts = _starts(problem)
+    tau = model.parameter_names.index("tau_warmup_min")
+    np.testing.assert_allclose([s[tau] for s in starts], grid[0])
+    assert all(np.all(np.delete(s, tau) == 0.0) for s in starts)
+    stepped = DriftModel.from_terms("thermal,bias_step")
+    (times,) = start_grid(stepped.parameters, inputs)
+    step = stepped.parameters[stepped.parameter_names.index("t_step_h")]
+    np.testing.assert_allclose(np.exp(times), step.start_values(inputs))
+    assert [p.size for p in grid_points(start_grid(DriftModel.from_terms("thermal").parameters,
+                                                   inputs))] == [0]

@@ -1,8 +1,9 @@
 """Point estimates with optimistix: the posterior mode and its Gaussian covariance.
 
 1. For given positive parameters (time constants) every drift effect is linear in the
-   real parameters, so those are solved exactly (variable projection); a grid over the
-   time constants gives the starting values (several starts where the model is nonlinear).
+   real parameters, so those are solved exactly (variable projection); the grid of
+   :mod:`gyroid.inference.starts` over the time constants gives the starting values
+   (several starts where the model is nonlinear).
 2. Levenberg-Marquardt (optimistix) on the noise-weighted residuals plus standardised prior
    residuals, from the best starts; the white-noise level, when unknown, is the residual
    RMS with ``n - p`` degrees of freedom.
@@ -17,7 +18,6 @@ The covariance is the Gauss-Newton ``(J'J)^-1`` of the weighted residuals at the
 
 from __future__ import annotations
 
-import itertools
 import math
 from dataclasses import dataclass
 
@@ -28,10 +28,8 @@ import numpy as np
 import optimistix as optx
 
 from gyroid.inference.likelihood import BenchProblem, problem_batcher
+from gyroid.inference.starts import grid_points, start_grid
 from gyroid.models.priors import natural_with_sd
-
-#: Multiples of a time constant's prior median tried as starting values.
-START_GRID = (0.05, 0.15, 0.4, 1.0, 2.5, 6.0, 15.0)
 
 
 @dataclass(frozen=True)
@@ -116,23 +114,14 @@ def _message(result) -> tuple[bool, str]:
 
 
 def _starts(problem: BenchProblem) -> list[np.ndarray]:
-    """Sampling-coordinate starts for the model parameters: real ones 0, positive on a grid."""
-    positive = [i for i, flag in enumerate(problem.positive[: problem.n_model]) if flag]
-    if not positive:
-        return [np.zeros(problem.n_model)]
-    # Per positive parameter: its own starting values from the log (a step's time), else
-    # multiples of the registry's (physical) median, whatever prior the fit uses.
-    grids = []
-    for i in positive:
-        parameter = problem.model.parameters[i]
-        if parameter.start_values is not None:
-            grids.append(np.log(parameter.start_values(problem.inputs)))
-        else:
-            grids.append(math.log(parameter.prior.median) + np.log(START_GRID))
+    """Sampling-coordinate starts for the model parameters: real ones 0, positive ones on
+    the grid of :mod:`gyroid.inference.starts`."""
+    parameters = problem.model.parameters
+    positive = [i for i, p in enumerate(parameters) if p.positive]
     starts = []
-    for combo in itertools.product(*grids):
+    for point in grid_points(start_grid(parameters, problem.inputs)):
         u = np.zeros(problem.n_model)
-        u[positive] = combo
+        u[positive] = point
         starts.append(u)
     return starts
 
