@@ -27,7 +27,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from gyroid.inference.likelihood import BenchProblem, log_posterior_batcher
+from gyroid.inference.batching import log_posterior_batcher
+from gyroid.inference.likelihood import BenchProblem
 from gyroid.inference.point import point_estimate
 from gyroid.inference.sampling import SamplerSettings, sample_posterior, summarise_draws
 from gyroid.io.logs import BenchLog

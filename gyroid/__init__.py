@@ -46,9 +46,10 @@ from gyroid.errors import GyroidInputError  # noqa: E402
 from gyroid.io.logs import BenchLog, load_bench_log, write_bench_log  # noqa: E402
 from gyroid.io.roll_log import RollLog, load_roll_log  # noqa: E402
 from gyroid.models.drift import DriftModel  # noqa: E402
-from gyroid.models.effects import CANDIDATES, EFFECTS, PRESETS, Effect, Parameter, resolve_terms  # noqa: E402
+from gyroid.models.effects import CANDIDATES, EFFECTS, Effect, Parameter  # noqa: E402
 from gyroid.models.inputs import DriftInputs, build_inputs  # noqa: E402
 from gyroid.models.roll_effects import ROLL_EFFECTS, resolve_roll_terms  # noqa: E402
+from gyroid.models.terms import PRESETS, resolve_terms  # noqa: E402
 from gyroid.simulation.bench import (  # noqa: E402
     MagneticProtocol,
     SimulatedBench,

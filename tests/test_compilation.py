@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 from helpers import SHORT_MAGNETIC
 
-from gyroid.inference.likelihood import BenchProblem, log_posterior_batcher
+from gyroid.inference.batching import log_posterior_batcher
+from gyroid.inference.likelihood import BenchProblem
 from gyroid.inference.roll_fit import roll_point_estimate
 from gyroid.inference.roll_problem import ALL_PARAMETERS, RollProblem
 from gyroid.inference.sampling import SamplerSettings

@@ -103,7 +103,7 @@ def test_sufficient_statistics_equal_the_direct_sum(known_sigma):
                                    rtol=1e-10, atol=1e-7)
     assert fast.block_gram.shape[0] == fast.n_blocks > 1
     # The host (NumPy) log-posterior emcee calls equals the JAX one, walkers at once.
-    from gyroid.inference.likelihood import log_posterior_batcher
+    from gyroid.inference.batching import log_posterior_batcher
 
     u = rng.normal(size=(16, len(fast.names))) * 0.3
     np.testing.assert_allclose(fast.host_log_posterior()(u),

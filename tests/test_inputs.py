@@ -84,7 +84,7 @@ def test_vendor_columns_and_units_through_map(tmp_path, magnetic_columns):
                  "--map", "time_s=t_ms:ms", "--map", "drift_deg_h=gyro_x:rad/s",
                  "--map", "Hx_uT=mag_x:G", "--map", "Hy_uT=mag_y:nT",
                  "--map", "Hz_uT=mag_z:T", "--map", "temperature_C=temp:K"]) in (0, 3)
-    from gyroid.io.tables import parse_column_maps
+    from gyroid.io.units import parse_column_maps
 
     maps = parse_column_maps(["time_s=t_ms:ms", "drift_deg_h=gyro_x:rad/s", "Hx_uT=mag_x:G",
                               "Hy_uT=mag_y:nT", "Hz_uT=mag_z:T", "temperature_C=temp:K"])

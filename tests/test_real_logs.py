@@ -14,7 +14,7 @@ from gyroid.inference.fit import fit_log, input_ranges
 from gyroid.inference.sampling import SamplerSettings
 from gyroid.io.fitted import FittedDrift
 from gyroid.io.logs import BenchLog, load_bench_log
-from gyroid.io.tables import parse_column_maps
+from gyroid.io.units import parse_column_maps
 from gyroid.workflows.allan import allan_deviation, contiguous_segments
 from gyroid.workflows.compensate import compensate
 

@@ -38,7 +38,7 @@ def map_option(function):
 
 
 def parse_maps(items: tuple[str, ...]):
-    from gyroid.io.tables import parse_column_maps
+    from gyroid.io.units import parse_column_maps
 
     return parse_column_maps(items)
 
@@ -57,7 +57,8 @@ def cli() -> None:
 
 
 def terms_help() -> str:
-    from gyroid.models.effects import CANDIDATES, EFFECTS, PRESETS
+    from gyroid.models.effects import CANDIDATES, EFFECTS
+    from gyroid.models.terms import PRESETS
 
     paper = [n for n in EFFECTS if n not in CANDIDATES]
     return (f"Comma list of effects or presets. Presets: {', '.join(PRESETS)}. Paper A's "

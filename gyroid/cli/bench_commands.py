@@ -350,7 +350,7 @@ def batch(logs, terms, out, workers, scheduler, seed, noise) -> None:
     each, in parallel on Dask. A log that cannot be fitted fails alone (batch.json says
     why). Exit code 3 when a log failed or a fit is not trustworthy."""
     from gyroid.io.outputs import json_text
-    from gyroid.models.effects import resolve_terms
+    from gyroid.models.terms import resolve_terms
     from gyroid.workflows.batch import run_batch
 
     resolve_terms(terms)  # a wrong --terms is one message, before any worker starts

@@ -9,8 +9,9 @@ from dataclasses import dataclass, field
 import jax.numpy as jnp
 import numpy as np
 
+from gyroid.inference.batching import problem_batcher
 from gyroid.inference.checks import Check, CheckReport, FitEvidence, fit_checks, outliers
-from gyroid.inference.likelihood import NOISE_UNITS, BenchProblem, problem_batcher
+from gyroid.inference.likelihood import NOISE_UNITS, BenchProblem
 from gyroid.inference.point import PointEstimate, point_estimate
 from gyroid.inference.sampling import Posterior, SamplerSettings, sample_posterior
 from gyroid.io.logs import BenchLog

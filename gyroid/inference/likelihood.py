@@ -16,7 +16,6 @@ from sufficient statistics (cost independent of the log's length).
 
 from __future__ import annotations
 
-import functools
 import math
 from collections.abc import Mapping
 
@@ -356,60 +355,3 @@ def _noise_names(noise: str, sigma_known: bool) -> tuple[str, ...]:
     if noise == "white":
         return white
     return (*white, "sigma_gm_deg_h", "tau_gm_s")
-
-
-class _HashedOnce:
-    """A static jit argument whose (costly, equinox-module) hash is computed once: jit
-    hashes and compares its static arguments on every call, which would otherwise dominate
-    a call that costs microseconds. Equal values are interned to one object, so the
-    comparison on a cache hit is an identity check."""
-
-    __slots__ = ("value", "_hash")
-
-    def __init__(self, value) -> None:
-        self.value = value
-        self._hash = hash(value)
-
-    def __hash__(self) -> int:
-        return self._hash
-
-    def __eq__(self, other) -> bool:
-        return isinstance(other, _HashedOnce) and (
-            self.value is other.value or (self._hash == other._hash and self.value == other.value)
-        )
-
-
-_INTERNED: dict[_HashedOnce, _HashedOnce] = {}
-
-
-def _interned(value) -> _HashedOnce:
-    key = _HashedOnce(value)
-    if len(_INTERNED) > 256:  # a long session with many model structures: start afresh
-        _INTERNED.clear()
-    return _INTERNED.setdefault(key, key)
-
-
-@functools.partial(jax.jit, static_argnums=(0, 1, 2))
-def _batched_method(static, treedef, method, leaves, u):
-    problem = eqx.combine(jax.tree_util.tree_unflatten(treedef, leaves), static.value)
-    return jax.vmap(getattr(problem, method))(u)
-
-
-def problem_batcher(problem, method: str = "log_posterior"):
-    """``u (w, d) -> vmap(problem.<method>)(u)``, jit-compiled once per problem structure
-    and shape (the arrays are arguments, so a new log of the same shape reuses the
-    compilation). The problem is split and flattened here, once, not on every call.
-
-    A problem that keeps its JAX part apart from its description (names, priors) exposes it
-    as ``problem.density`` (an equinox module with the same methods): models that differ
-    only in their description then share one compilation."""
-    module = getattr(problem, "density", problem)
-    dynamic, static = eqx.partition(module, eqx.is_array)
-    leaves, treedef = jax.tree_util.tree_flatten(dynamic)
-    static = _interned(static)
-    return lambda u: _batched_method(static, treedef, method, leaves, u)
-
-
-def log_posterior_batcher(problem):
-    """``u (w, d) -> log-posterior (w,)``: see ``problem_batcher``."""
-    return problem_batcher(problem, "log_posterior")

@@ -27,7 +27,8 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
-from gyroid.inference.likelihood import BenchProblem, problem_batcher
+from gyroid.inference.batching import problem_batcher
+from gyroid.inference.likelihood import BenchProblem
 from gyroid.inference.starts import grid_points, start_grid
 from gyroid.models.priors import natural_with_sd
 

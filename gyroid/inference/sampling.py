@@ -22,10 +22,7 @@ import emcee
 import numpy as np
 from tqdm.auto import tqdm
 
-from gyroid.inference.likelihood import (
-    log_posterior_batcher,
-    problem_batcher,
-)
+from gyroid.inference.batching import log_posterior_batcher, problem_batcher
 from gyroid.inference.point import PointEstimate
 from gyroid.io._arviz import arviz as az
 from gyroid.models.priors import natural_from_sampling

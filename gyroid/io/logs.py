@@ -12,11 +12,11 @@ from gyroid.errors import GyroidInputError
 from gyroid.io.outputs import atomic_path
 from gyroid.io.tables import (
     PLAUSIBLE,
-    ColumnMap,
     check_plausible,
     check_time_increasing,
     read_log_table,
 )
+from gyroid.io.units import ColumnMap
 from gyroid.models.derived import HYSTERESIS_DEADBAND_UT, RATE_WINDOW_S
 from gyroid.models.drift import DriftModel
 from gyroid.models.effects import EXTRA_PREFIX

@@ -12,8 +12,9 @@ from jaxtyping import Array, Float
 from gyroid.errors import GyroidInputError
 from gyroid.models import effects as registry
 from gyroid.models.design import BLOCK_ROWS, row_blocks, rows_of, with_rows
-from gyroid.models.effects import Effect, Parameter, Params, resolve_terms
+from gyroid.models.effects import Effect, Parameter, Params
 from gyroid.models.inputs import FIELD_COLUMNS, DriftInputs
+from gyroid.models.terms import resolve_terms
 
 #: Which log column drives each linear parameter (for error messages).
 _DRIVER_COLUMN = {

@@ -22,7 +22,6 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from gyroid.errors import GyroidInputError
 from gyroid.models.derived import lagged_temperature
 from gyroid.models.inputs import FIELD_COLUMNS, DriftInputs
 from gyroid.models.priors import LogNormal, Normal, Prior
@@ -354,66 +353,8 @@ def parameter(name: str) -> Parameter:
     raise KeyError(name)
 
 
-PRESETS: dict[str, tuple[str, ...]] = {
-    "thermal": ("bias", "temperature", "temperature_sq", "temperature_rate"),
-    "magnetic": ("bias", "magnetic_x", "magnetic_y", "magnetic_z"),
-}
-PRESETS["full"] = PRESETS["thermal"] + PRESETS["magnetic"][1:]
-
 #: Effects the discrepancy workflow may add (not in paper A's model).
 CANDIDATES: tuple[str, ...] = tuple(name for name, e in EFFECTS.items() if not e.paper)
 
 #: Every parameter in the registry, by name.
 PARAMETERS: dict[str, Parameter] = {p.name: p for e in EFFECTS.values() for p in e.parameters}
-
-
-def expand_terms(
-    spec: str | tuple[str, ...] | list[str],
-    presets: Mapping[str, tuple[str, ...]],
-    names: Mapping[str, object],
-    *,
-    what: str = "term",
-    also: Callable[[str], bool] = lambda _item: False,
-) -> set[str]:
-    """The effect names a comma list of presets and names stands for (bench and roll).
-
-    ``also`` accepts further items (the bench's ``extra:COLUMN``); anything else is refused
-    with the known names.
-    """
-    items = spec.split(",") if isinstance(spec, str) else list(spec)
-    chosen: set[str] = set()
-    for raw in items:
-        item = raw.strip()
-        if not item:
-            continue
-        if item in presets:
-            chosen.update(presets[item])
-        elif item in names or also(item):
-            chosen.add(item)
-        else:
-            known = ", ".join([*presets, *names])
-            raise GyroidInputError(
-                f"unknown {what} {item!r} in --terms; use a preset or effect name: {known}"
-            )
-    return chosen
-
-
-def resolve_terms(spec: str | tuple[str, ...] | list[str]) -> tuple[str, ...]:
-    """Expand a comma list of effect names and presets into effect names, registry order.
-
-    >>> resolve_terms("magnetic,time_trend")
-    ('bias', 'magnetic_x', 'magnetic_y', 'magnetic_z', 'time_trend')
-    """
-    chosen = expand_terms(spec, PRESETS, EFFECTS, also=lambda item: (
-        item.startswith(EXTRA_PREFIX) and len(item) > len(EXTRA_PREFIX)))
-    if not chosen:
-        raise GyroidInputError("--terms is empty; give e.g. 'thermal', 'magnetic' or 'full'")
-    for name in chosen:
-        missing = [need for need in effect(name).needs_effects if need not in chosen]
-        if missing:
-            raise GyroidInputError(
-                f"term {name!r} acts on the temperature terms; add {', '.join(missing)!s} "
-                "to --terms"
-            )
-    extras = sorted(name for name in chosen if name.startswith(EXTRA_PREFIX))
-    return (*(name for name in EFFECTS if name in chosen), *extras)

@@ -13,8 +13,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from gyroid.models.effects import Parameter, expand_terms
+from gyroid.models.effects import Parameter
 from gyroid.models.priors import LogNormal, Normal
+from gyroid.models.terms import expand_terms
 
 
 @dataclass(frozen=True)

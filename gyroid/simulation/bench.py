@@ -26,8 +26,9 @@ from gyroid.errors import GyroidInputError
 from gyroid.io.logs import BenchLog
 from gyroid.models.derived import HYSTERESIS_DEADBAND_UT, field_change_sign
 from gyroid.models.drift import DriftModel
-from gyroid.models.effects import EFFECTS, PARAMETERS, PRESETS
+from gyroid.models.effects import EFFECTS, PARAMETERS
 from gyroid.models.inputs import FIELD_COLUMNS, T0_C, inputs_from_arrays
+from gyroid.models.terms import PRESETS
 from gyroid.simulation.noise import GyroNoise, rate_noise
 
 #: Paper A's thermal coefficients (w1 negative, wD taken positive: see the package data).

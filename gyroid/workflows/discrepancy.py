@@ -31,9 +31,10 @@ from gyroid.inference.whitened_fit import ModelFit, NoiseLevels, fit_with_noise
 from gyroid.io.logs import BenchLog, block_means
 from gyroid.models import effects as registry
 from gyroid.models.drift import DriftModel
-from gyroid.models.effects import EFFECTS, EXTRA_PREFIX, resolve_terms
+from gyroid.models.effects import EFFECTS, EXTRA_PREFIX
 from gyroid.models.inputs import T0_C, DriftInputs
 from gyroid.models.rate_window import choose_rate_window
+from gyroid.models.terms import resolve_terms
 from gyroid.workflows.allan import contiguous_segments
 from gyroid.workflows.discrepancy_report import (
     DiscrepancyReport,
