@@ -31,7 +31,8 @@ def main() -> None:
     fitted = fitted_thermal(args.seed)
     results = {}
     for name, scenario in PRESETS.items():
-        result, _ = propagate(fitted, scenario, draws=500, seed=args.seed, sobol_n=args.sobol)
+        result = propagate(fitted, scenario, draws=500, seed=args.seed,
+                           sobol_n=args.sobol).to_json()
         results[name] = {"dK": result["dK"], "drivers_total": result["drivers_total"],
                          "dominant": max(result["drivers_total"],
                                          key=result["drivers_total"].get)}

@@ -43,9 +43,8 @@ def main() -> None:
         for period in PERIODS_S:
             scenario = replace(PRESETS["paper_b_worked"], roll_rate_deg_s=rate, period_s=period,
                                name=f"rate{rate:g}_dt{period:g}")
-            result, samples = propagate(fitted, scenario, draws=args.draws, seed=args.seed,
-                                        sobol_n=50)
-            dk = samples["dK"]
+            dk = propagate(fitted, scenario, draws=args.draws, seed=args.seed,
+                           sobol_n=50).samples["dK"]
             lo, hi = np.percentile(dk, [2.5, 97.5])
             rows.append({"period_s": period, "mean": float(dk.mean()), "sd": float(dk.std()),
                          "ci95": [float(lo), float(hi)],

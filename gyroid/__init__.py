@@ -14,8 +14,8 @@ The public surface, by job (each name's module is where it lives):
   ``load_roll_log``;
 * simulation: ``simulate_thermal_bench``, ``simulate_magnetic_bench``, ``simulate_lot``,
   ``GyroNoise``;
-* workflows: ``fit_log``, ``fit_roll_log``, ``fit_pool``, ``compensate``, ``propagate``,
-  ``find_discrepancies``, ``find_roll_discrepancies``;
+* workflows: ``fit_log``, ``fit_roll_log``, ``fit_pool``, ``compensate``, ``propagate``
+  (a ``Propagation``), ``find_discrepancies``, ``find_roll_discrepancies``;
 * results read back: ``FittedDrift``; scenarios: ``Scenario``, ``SCENARIOS``.
 """
 
@@ -68,6 +68,7 @@ _LAZY = {
     "fit_log": ("gyroid.inference.fit", "fit_log"),
     "fit_pool": ("gyroid.workflows.pool", "fit_pool"),
     "PoolResult": ("gyroid.workflows.pool_result", "PoolResult"),
+    "Propagation": ("gyroid.workflows.propagate", "Propagation"),
     "FittedDrift": ("gyroid.io.fitted", "FittedDrift"),
     "propagate": ("gyroid.workflows.propagate", "propagate"),
     "find_roll_discrepancies": ("gyroid.workflows.roll_discrepancy", "find_roll_discrepancies"),
@@ -107,6 +108,7 @@ __all__ = [
     "MagneticProtocol",
     "Parameter",
     "PoolResult",
+    "Propagation",
     "RollLog",
     "Scenario",
     "SimulatedBench",

@@ -116,10 +116,11 @@ def run_demo(out: str | Path, *, seed: int = 0, echo: Callable[[str], None] = pr
         fitted = FittedDrift.from_dir(stage / "thermal" / "fit")
         tf_problem = fits["thermal"].problem
         scenario = PRESETS["paper_b_worked"]
-        prop, samples = propagate(fitted, scenario, draws=size.propagate_draws, seed=seed,
-                                  sobol_n=size.sobol_samples)
+        propagation = propagate(fitted, scenario, draws=size.propagate_draws, seed=seed,
+                                sobol_n=size.sobol_samples)
         (stage / "propagate").mkdir()
-        write_propagate_outputs(stage / "propagate", prop, samples)
+        write_propagate_outputs(stage / "propagate", propagation)
+        prop = propagation.to_json()
 
         report_disc = None
         if size.discrepancy:

@@ -28,10 +28,12 @@ def _quiet_gyro(n_draws=50, spread=0.0, seed=0):
 
 
 def test_without_uncertainty_dk_is_eq7_and_the_loop():
-    result, samples = propagate(_quiet_gyro(), CERTAIN, draws=20, sobol_n=20)
+    result = propagate(_quiet_gyro(), CERTAIN, draws=20, sobol_n=20)
+    samples = result.samples
     eq7 = pb.dk_overloaded(12.2 / 3600, 280e-6, 300.0, 0.0, 900.0, 5.0)
     np.testing.assert_allclose(samples["dK"], eq7, rtol=1e-9)
-    assert result["dK"]["sd"] == pytest.approx(0.0, abs=1e-15)
+    assert result.dk["sd"] == pytest.approx(0.0, abs=1e-15)
+    assert result.to_json()["closed_form"]["dK_eq7"] == pytest.approx(eq7, rel=1e-12)
     loop = run_loop(RollParams(D0=0.0, D0gs=12.2 / 3600, Denc=0.0),
                     constant_flight(900.0, 120.0, sample_s=0.05, uncompensated_deg_s=300.0))
     np.testing.assert_allclose(samples["dK"], float(loop.dK[0]), rtol=1e-9)
@@ -45,16 +47,16 @@ def test_monte_carlo_agrees_with_the_delta_method_where_it_should():
                        mems_sf_error_sd=10e-6,
                        mems_bias_sd_deg_h=1.0)
     n = 4000
-    result, _ = propagate(_quiet_gyro(), scenario, draws=n, sobol_n=200, seed=3)
-    mc, delta = result["dK"], result["delta_method"]
+    result = propagate(_quiet_gyro(), scenario, draws=n, sobol_n=200, seed=3)
+    mc, delta = result.dk, result.delta_method
     assert mc["mean"] == pytest.approx(delta["mean"], abs=4 * mc["sd"] / np.sqrt(n))
     assert mc["sd"] == pytest.approx(delta["sd"], rel=4 / np.sqrt(2 * n))
     # Where it should not hold: the encoder-error phase, uniform on the circle, is far from
     # linear; the delta method (which leaves it out) misses most of dK's spread.
     with_encoder = replace(scenario, encoder_deg=0.33, encoder_phase="uniform")
-    result, _ = propagate(_quiet_gyro(), with_encoder, draws=n, sobol_n=500, seed=4)
-    assert result["dK"]["sd"] > 3 * result["delta_method"]["sd"]
-    assert result["drivers_total"]["encoder error"] > 0.5
+    summary = propagate(_quiet_gyro(), with_encoder, draws=n, sobol_n=500, seed=4).to_json()
+    assert summary["dK"]["sd"] > 3 * summary["delta_method"]["sd"]
+    assert summary["drivers_total"]["encoder error"] > 0.5
 
 
 def test_scenario_files_and_bad_scenarios(tmp_path):

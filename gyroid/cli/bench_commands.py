@@ -255,9 +255,9 @@ def compensate(data, fit_dir, out, seed, mappings) -> None:
               help="Monte-Carlo draws for the distributions.")
 def propagate(fit_dir, out, scenario, seed, draws) -> None:
     """Push a fit's posterior through paper B's correction loop: dK, roll and lateral error."""
-    from gyroid.inference.checks import CheckReport
     from gyroid.io.fitted import FittedDrift
     from gyroid.io.report_files import write_propagate_outputs
+    from gyroid.workflows.propagate import driver_shares
     from gyroid.workflows.propagate import propagate as run
     from gyroid.workflows.scenarios import load_scenario
 
@@ -266,17 +266,17 @@ def propagate(fit_dir, out, scenario, seed, draws) -> None:
     fitted = FittedDrift.from_dir(fit_dir)
     chosen = load_scenario(scenario)
     click.echo(f"propagating {fit_dir} through scenario {chosen.name} ...", err=True)
-    result, samples = run(fitted, chosen, draws=draws, seed=seed,
-                          progress=lambda m: click.echo(m, err=True))
+    result = run(fitted, chosen, draws=draws, seed=seed,
+                 progress=lambda m: click.echo(m, err=True))
     with output_dir(out) as stage:
-        write_propagate_outputs(stage, result, samples)
-    dk = result["dK"]
+        write_propagate_outputs(stage, result)
+    dk = result.dk
     click.echo(f"dK = {dk['mean']:.3g} +/- {dk['sd']:.2g} (95 % {dk['ci95'][0]:.3g} ... "
                f"{dk['ci95'][1]:.3g}); wrote {out / 'propagate.json'}")
-    shares = sorted(result["drivers"].items(), key=lambda kv: -kv[1])
+    shares = sorted(driver_shares(result.sobol)["drivers"].items(), key=lambda kv: -kv[1])
     click.echo("its spread comes from (shares with interactions): " + ", ".join(
         f"{name} {share:.2f}" for name, share in shares if share >= 0.01))
-    report_checks(CheckReport.from_json(result))
+    report_checks(result.checks)
 
 
 @cli.command()

@@ -27,6 +27,7 @@ from gyroid.plotting import (
     sobol_bars,
 )
 from gyroid.workflows.compensate import Compensation
+from gyroid.workflows.propagate import Propagation
 
 
 def write_fit_outputs(folder: Path, log: BenchLog, result: FitResult,
@@ -96,17 +97,18 @@ def write_compensate_outputs(folder: Path, log: BenchLog, result) -> list[Path]:
     return written
 
 
-def write_propagate_outputs(folder: Path, result: dict, samples: dict) -> list[Path]:
+def write_propagate_outputs(folder: Path, result: Propagation) -> list[Path]:
     """Write propagate.json, dk_samples.csv, dk_distribution.png and drivers.png."""
     folder = Path(folder)
-    (folder / "propagate.json").write_text(json_text(result))
-    (folder / "dk_samples.csv").write_text(dk_samples_csv(samples["dK"]))
+    summary = result.to_json()
+    (folder / "propagate.json").write_text(json_text(summary))
+    (folder / "dk_samples.csv").write_text(dk_samples_csv(result.samples["dK"]))
     written = [folder / "propagate.json", folder / "dk_samples.csv"]
-    closed = result["closed_form"]
-    written += save(dk_distribution(samples["dK"], closed["dK_eq7"], closed["dK_printed"]),
+    written += save(dk_distribution(result.samples["dK"], result.dk_eq7,
+                                    summary["closed_form"]["dK_printed"]),
                     folder / "dk_distribution")
-    written += save(sobol_bars(result["drivers_first_order"], result["drivers_total"],
-                               result["interactions"]), folder / "drivers")
+    written += save(sobol_bars(summary["drivers_first_order"], summary["drivers_total"],
+                               summary["interactions"]), folder / "drivers")
     return written
 
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import equinox as eqx
 import jax
@@ -181,11 +182,77 @@ DRIVER_NAMES = {"drift": "fitted drift coefficients", "period": "time in flight 
                 "mems_bias": "stabiliser bias"}
 
 
+@dataclass(frozen=True)
+class Propagation:
+    """A fitted gyro's posterior pushed through paper B's loop in one flight scenario.
+
+    ``samples`` holds one value per simulated flight: ``dK`` (relative error of the
+    correction coefficient), ``sf_residual_ppm``, ``saturated`` (the stabiliser's rate
+    limit reached), and per report time (columns, ``report_times_s``) ``dpsi_deg`` (roll
+    angle error) and ``dr_z_m`` (lateral position error)."""
+
+    scenario: Scenario
+    samples: dict[str, np.ndarray]
+    report_times_s: tuple[float, ...]
+    sobol: dict[str, dict[str, float]]  # per input: first-order S1 and total ST index
+    sobol_samples: int
+    local_sensitivity: dict[str, float]  # d dK / d input at the nominal point
+    delta_method: dict
+    dk_eq7: float  # paper B's eq. 7 for the scenario's nominal inputs
+    fitted_terms: tuple[str, ...]
+    posterior_draws: int
+    checks: CheckReport
+
+    @property
+    def draws(self) -> int:
+        return int(self.samples["dK"].size)
+
+    @property
+    def dk(self) -> dict:
+        """dK's mean, sd and 95 % interval over the flights."""
+        return interval_summary(self.samples["dK"])
+
+    @property
+    def trustworthy(self) -> bool:
+        return self.checks.trustworthy
+
+    def at_time(self, name: str, time_s: float) -> dict:
+        """Mean, sd and 95 % interval of ``dpsi_deg`` or ``dr_z_m`` at a report time."""
+        return interval_summary(self.samples[name][:, self.report_times_s.index(time_s)])
+
+    def to_json(self) -> dict:
+        """The contract's ``propagate.json``."""
+        times = self.report_times_s
+        return {
+            "scenario": self.scenario.as_dict(),
+            "draws": self.draws,
+            "dK": self.dk,
+            "dK_definition": "relative error (K_i - K_true) / K_true of the coefficient of "
+                             "one correction period, the period drawn uniformly over the "
+                             "flight",
+            "saturated_fraction": float(np.mean(self.samples["saturated"])),
+            "sf_residual_ppm": interval_summary(self.samples["sf_residual_ppm"]),
+            "dpsi_deg": {f"{t:g}": self.at_time("dpsi_deg", t) for t in times},
+            "dr_z_m": {f"{t:g}": self.at_time("dr_z_m", t) for t in times},
+            **driver_shares(self.sobol),
+            "sobol_samples": self.sobol_samples,
+            "local_sensitivity": self.local_sensitivity,
+            "delta_method": self.delta_method,
+            "closed_form": {"dK_eq7": self.dk_eq7, "dK_printed": pb.WORKED_DK_PRINTED,
+                            "note": "eq. 7 takes the encoder error at its full amplitude; the "
+                                    "loop sees Denc (sin a_i - sin a_(i-1)), set by the "
+                                    "phase"},
+            "fitted": {"terms": list(self.fitted_terms),
+                       "posterior_draws": self.posterior_draws},
+            **self.checks.to_json(),
+        }
+
+
 def propagate(fitted: FittedDrift, scenario: Scenario, *, draws: int = 2000, seed: int = 0,
               sobol_n: int = 1000, progress: Callable[[str], None] | None = None
-              ) -> tuple[dict, dict[str, np.ndarray]]:
-    """Propagate the posterior through the scenario; returns (propagate.json, raw samples).
-    ``progress`` is told each stage as it starts."""
+              ) -> Propagation:
+    """Propagate the posterior through the scenario. ``progress`` is told each stage as it
+    starts."""
     say = progress or (lambda _message: None)
     extra = [name for name in fitted.model.terms if name.startswith(EXTRA_PREFIX)]
     if extra:
@@ -198,40 +265,23 @@ def propagate(fitted: FittedDrift, scenario: Scenario, *, draws: int = 2000, see
     inputs = {name: sample(rng, draws) for name, sample in samplers.items()}
     say(f"  {draws} flights through paper B's loop ...")
     out = _evaluate(evaluator, inputs)
-    times = [t for t in REPORT_TIMES_S if t <= scenario.duration_s]
     say(f"  Sobol indices: {(len(samplers) + 2) * sobol_n} more flights ...")
     sobol = sobol_indices(samplers, lambda x: _evaluate(evaluator, x, dk_only=True)["dK"],
                           sobol_n, rng)
     say("  local sensitivities and the delta method (JAX gradients) ...")
     nominal = _nominal_inputs(scenario, fitted.draws)
-    local = _local_sensitivity(evaluator, nominal)
-    delta = _delta_method(evaluator, nominal, scenario, fitted.draws)
     eq7 = pb.dk_overloaded(scenario.mems_bias_deg_h / 3600.0, scenario.mems_sf_error,
                            scenario.uncompensated_deg_s, scenario.encoder_deg,
                            scenario.roll_rate_deg_s, scenario.period_s)
-    result = {
-        "scenario": scenario.as_dict(),
-        "draws": draws,
-        "dK": interval_summary(out["dK"]),
-        "dK_definition": "relative error (K_i - K_true) / K_true of the coefficient of one "
-                         "correction period, the period drawn uniformly over the flight",
-        "saturated_fraction": float(np.mean(out["saturated"])),
-        "sf_residual_ppm": interval_summary(out["sf_residual_ppm"]),
-        "dpsi_deg": {f"{t:g}": interval_summary(out["dpsi_deg"][:, i])
-                     for i, t in enumerate(times)},
-        "dr_z_m": {f"{t:g}": interval_summary(out["dr_z_m"][:, i]) for i, t in enumerate(times)},
-        **driver_shares(sobol),
-        "sobol_samples": sobol_n,
-        "local_sensitivity": local,
-        "delta_method": delta,
-        "closed_form": {"dK_eq7": eq7, "dK_printed": pb.WORKED_DK_PRINTED,
-                        "note": "eq. 7 takes the encoder error at its full amplitude; the loop "
-                                "sees Denc (sin a_i - sin a_(i-1)), set by the phase"},
-        "fitted": {"terms": list(fitted.model.terms),
-                   "posterior_draws": int(fitted.draws.shape[0])},
-        **CheckReport((fit_verdict(fitted.trustworthy, "propagating it"),)).to_json(),
-    }
-    return result, out
+    return Propagation(
+        scenario=scenario, samples=out,
+        report_times_s=tuple(t for t in REPORT_TIMES_S if t <= scenario.duration_s),
+        sobol=sobol, sobol_samples=sobol_n,
+        local_sensitivity=_local_sensitivity(evaluator, nominal),
+        delta_method=_delta_method(evaluator, nominal, scenario, fitted.draws),
+        dk_eq7=float(eq7), fitted_terms=tuple(fitted.model.terms),
+        posterior_draws=int(fitted.draws.shape[0]),
+        checks=CheckReport((fit_verdict(fitted.trustworthy, "propagating it"),)))
 
 
 #: An input takes part in interactions when its total Sobol index exceeds its first-order
