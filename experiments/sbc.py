@@ -1,17 +1,20 @@
 """Simulation-based calibration of gyroid's posterior on paper A's benches.
 
-Truth drawn from the priors; a short bench simulated per draw; gyroid's full pipeline (point
-estimate + emcee) fitted; rank of the truth among the posterior draws and coverage of the
+Truth drawn from the priors; a short bench simulated per draw and written as a log; the
+logs fitted by ``gyroid batch``'s runner (Dask, one full fit per log: point estimate, emcee,
+checks, posterior.nc); rank of the truth among each posterior's draws and coverage of the
 50 / 90 / 95 % intervals recorded. Two cases: magnetic sweep with known sigma (linear-
 Gaussian), thermal bench with the noise level sampled.
 
-    python experiments/sbc.py --seed 0 --datasets 200
+    python experiments/sbc.py --seed 0 --datasets 200 --workers 2
 """
 
 from __future__ import annotations
 
 import argparse
+import tempfile
 import time
+from pathlib import Path
 
 import matplotlib
 
@@ -23,8 +26,9 @@ from _common import results_dir, save_run  # noqa: E402
 from scipy import stats  # noqa: E402
 
 from gyroid import BenchLog, DriftModel, GyroNoise  # noqa: E402
-from gyroid.inference.fit import fit_log  # noqa: E402
 from gyroid.inference.sampling import SamplerSettings  # noqa: E402
+from gyroid.io._arviz import arviz as az  # noqa: E402
+from gyroid.io.logs import run_labels, write_bench_log  # noqa: E402
 from gyroid.models.priors import LogNormal  # noqa: E402
 from gyroid.simulation.bench import (  # noqa: E402
     MagneticProtocol,
@@ -32,11 +36,14 @@ from gyroid.simulation.bench import (  # noqa: E402
     simulate_magnetic_bench,
     simulate_thermal_bench,
 )
+from gyroid.workflows.batch import run_batch  # noqa: E402
 
 LEVELS = (0.5, 0.9, 0.95)
 THERMAL = ThermalProtocol(setpoints_C=(31.0, 40.0, 55.0), soak_min=30.0, sample_s=10.0)
 MAGNETIC = MagneticProtocol(dwell_s=60.0, sample_s=5.0, turn_gap_s=100.0)
 SIGMA_PRIOR = LogNormal(0.2, 0.3)  # deg/h, for the unknown-noise case
+#: Grey level and line style per parameter: the histograms read in black and white.
+STYLES = (("0.0", "-"), ("0.45", "--"), ("0.0", ":"), ("0.6", "-"), ("0.3", "-."))
 
 
 def draw_case(case: str, rng: np.random.Generator, seed: int):
@@ -70,46 +77,76 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--datasets", type=int, default=200)
+    parser.add_argument("--workers", type=int, default=2, help="Dask workers of gyroid batch")
     args = parser.parse_args()
     started = time.time()
     rng = np.random.default_rng(args.seed)
-    settings = SamplerSettings(progress=False)
     out = results_dir("sbc")
     results = {}
     fig, axes = plt.subplots(1, 2, figsize=(8, 3.2))
-    for ax, case in zip(axes, ("magnetic_known_sigma", "thermal_sampled_sigma"), strict=True):
-        ranks: dict[str, list[float]] = {}
-        cover: dict[str, dict[float, int]] = {}
-        for k in range(args.datasets):
-            log, terms, truth, priors = draw_case(case, rng, int(rng.integers(2**31)))
-            # Truth is drawn from paper A's FOG priors, so the fit uses them too.
-            result = fit_log(log, terms, priors=priors, prior_set="paper_a_fog", seed=k,
-                             settings=settings)
-            for name, value in truth.items():
-                draws = result.posterior.flat(name)
-                ranks.setdefault(name, []).append(float(np.mean(draws < value)))
-                for level in LEVELS:
-                    lo, hi = np.percentile(draws, [50 * (1 - level), 50 * (1 + level)])
-                    cover.setdefault(name, dict.fromkeys(LEVELS, 0))[level] += lo <= value <= hi
-        results[case] = {
-            name: {
-                "ks_pvalue": float(stats.kstest(ranks[name], "uniform").pvalue),
-                "coverage": {f"{int(100 * lv)}%": cover[name][lv] / args.datasets
-                             for lv in LEVELS},
+    all_ranks: dict[str, dict[str, np.ndarray]] = {}
+    with tempfile.TemporaryDirectory() as tmp:
+        for ax, case in zip(axes, ("magnetic_known_sigma", "thermal_sampled_sigma"),
+                            strict=True):
+            folder = Path(tmp) / case
+            folder.mkdir()
+            paths, truths = [], []
+            for k in range(args.datasets):
+                log, terms, truth, priors = draw_case(case, rng, int(rng.integers(2**31)))
+                paths.append(write_bench_log(folder / f"dataset_{k:04d}.parquet", log.columns))
+                truths.append(truth)
+            # Every dataset fitted as 'gyroid batch' fits a lot (Dask, one fit per log); the
+            # truth is drawn from paper A's FOG priors, so the fits use them too.
+            batch = run_batch(paths, terms, folder / "fits", workers=args.workers,
+                              seed=args.seed, prior_set="paper_a_fog", priors=priors,
+                              progress=lambda m: print(m, flush=True) if m.startswith(
+                                  f"[{args.datasets}/") else None)
+            failed = [o.log for o in batch.outcomes if o.failed]
+            if failed:
+                raise SystemExit(f"{len(failed)} fits failed, e.g. {failed[0]}")
+            ranks, cover = _ranks_and_coverage(folder / "fits", paths, truths)
+            results[case] = {
+                name: {
+                    "ks_pvalue": float(stats.kstest(ranks[name], "uniform").pvalue),
+                    "coverage": {f"{int(100 * lv)}%": cover[name][lv] / args.datasets
+                                 for lv in LEVELS},
+                }
+                for name in ranks
             }
-            for name in ranks
-        }
-        for name, values in ranks.items():
-            ax.hist(values, bins=10, range=(0, 1), histtype="step", label=name)
-        ax.axhline(args.datasets / 10, color="0.0", ls=":", lw=1)
-        ax.set_xlabel("rank of the truth among posterior draws, fraction")
-        ax.set_ylabel("datasets per bin, count")
-        ax.set_title(case.replace("_", " "), fontsize=9)
-        ax.legend(fontsize=7, frameon=False)
+            results[case]["trustworthy_fraction"] = float(np.mean(
+                [o.trustworthy for o in batch.outcomes]))
+            for (name, values), style in zip(ranks.items(), STYLES, strict=False):
+                ax.hist(values, bins=10, range=(0, 1), histtype="step", label=name,
+                        color=style[0], ls=style[1], lw=1.2)
+            all_ranks[case] = {name: np.asarray(values) for name, values in ranks.items()}
+            ax.axhline(args.datasets / 10, color="0.0", ls=":", lw=1)
+            ax.set_xlabel("rank of the truth among posterior draws, fraction")
+            ax.set_ylabel("datasets per bin, count")
+            ax.set_title(case.replace("_", " "), fontsize=9)
+            ax.legend(fontsize=7, frameon=False)
     fig.tight_layout()
     fig.savefig(out / "sbc_ranks.png", dpi=150)
-    config = {"datasets": args.datasets, "levels": LEVELS, "move": settings.move}
+    np.savez(out / "ranks.npz", **{f"{case}:{name}": values for case, by_name in
+                                   all_ranks.items() for name, values in by_name.items()})
+    config = {"datasets": args.datasets, "levels": LEVELS, "move": SamplerSettings().move,
+              "runner": f"gyroid batch (Dask LocalCluster, {args.workers} workers)"}
     save_run(out, seed=args.seed, config=config, results=results, started=started)
+
+
+def _ranks_and_coverage(fits: Path, paths: list[Path], truths: list[dict]):
+    """Per parameter: the truth's rank among each dataset's posterior draws (read from the
+    batch's posterior.nc files) and how often each central interval covered it."""
+    ranks: dict[str, list[float]] = {}
+    cover: dict[str, dict[float, int]] = {}
+    for truth, label in zip(truths, run_labels(paths), strict=True):
+        posterior = az.from_netcdf(fits / label / "posterior.nc").posterior
+        for name, value in truth.items():
+            draws = np.asarray(posterior[name]).ravel()
+            ranks.setdefault(name, []).append(float(np.mean(draws < value)))
+            for level in LEVELS:
+                lo, hi = np.percentile(draws, [50 * (1 - level), 50 * (1 + level)])
+                cover.setdefault(name, dict.fromkeys(LEVELS, 0))[level] += lo <= value <= hi
+    return ranks, cover
 
 
 if __name__ == "__main__":

@@ -12,15 +12,19 @@ from gyroid.simulation.bench import simulate_thermal_bench
 
 @pytest.mark.slow
 def test_a_lot_is_fitted_on_dask_and_a_bad_log_fails_alone(tmp_path, capsys):
+    # Two units' logs named alike in their own folders (as 'gyroid simulate --runs' and many
+    # test stands write them): each fit goes to its folder's name.
     logs = []
     for seed in (1, 2):
         sim = simulate_thermal_bench(seed=seed, protocol=SHORT_THERMAL)
-        logs.append(write_log(tmp_path / f"unit{seed}.csv", sim.log.columns))
+        (tmp_path / f"unit{seed}").mkdir()
+        logs.append(write_log(tmp_path / f"unit{seed}" / "bench.csv", sim.log.columns))
     bad = tmp_path / "bad.csv"
     bad.write_text("time_s,drift_deg_h,temperature_C\n0,1,20\n1,x,20\n2,1,21\n")
     out = tmp_path / "lot"
     code = main(["batch", str(logs[0]), str(bad), str(logs[1]), "--terms", "thermal",
-                 "--out", str(out), "--workers", "2"])
+                 "--out", str(out), "--workers", "2", "--priors", "paper_a_fog",
+                 "--prior", "w0=normal(0,5)"])
     assert code == 3  # a log failed: the lot's summary is incomplete
     summary = json.loads((out / "batch.json").read_text())
     assert summary["workers"] == 2 and summary["scheduler"] == "LocalCluster"
@@ -30,8 +34,9 @@ def test_a_lot_is_fitted_on_dask_and_a_bad_log_fails_alone(tmp_path, capsys):
     rows = list(csv.DictReader((out / "batch.csv").open()))
     assert [r["log"] for r in rows] == [str(logs[0]), str(logs[1])]
     for row, log in zip(rows, logs, strict=True):
-        fit = json.loads((out / log.stem / "fit.json").read_text())
-        assert (out / log.stem / "posterior.nc").exists()
+        fit = json.loads((out / log.parent.name / "fit.json").read_text())
+        assert (out / log.parent.name / "posterior.nc").exists()
+        assert fit["prior_set"] == "paper_a_fog" and fit["priors"]["w0"] == "Normal(0, 5)"
         assert float(row["w1_mean"]) == pytest.approx(fit["posterior"]["w1"]["mean"])
         assert row["trustworthy"] == str(fit["trustworthy"])
         assert int(row["n_samples"]) == fit["n_samples"]
@@ -39,12 +44,14 @@ def test_a_lot_is_fitted_on_dask_and_a_bad_log_fails_alone(tmp_path, capsys):
 
 
 def test_logs_that_would_share_a_folder_are_refused_before_any_work(tmp_path, capsys):
-    (tmp_path / "a").mkdir()
-    (tmp_path / "b").mkdir()
-    for folder in ("a", "b"):
-        (tmp_path / folder / "unit.csv").write_text("time_s,drift_deg_h\n0,1\n")
-    code = main(["batch", str(tmp_path / "a" / "unit.csv"), str(tmp_path / "b" / "unit.csv"),
-                 "--terms", "thermal", "--out", str(tmp_path / "lot")])
+    # Same file name and same folder name (two stands' day1/unit.csv): no label tells
+    # them apart.
+    for stand in ("x", "y"):
+        (tmp_path / stand / "day1").mkdir(parents=True)
+        (tmp_path / stand / "day1" / "unit.csv").write_text("time_s,drift_deg_h\n0,1\n")
+    code = main(["batch", str(tmp_path / "x" / "day1" / "unit.csv"),
+                 str(tmp_path / "y" / "day1" / "unit.csv"), "--terms", "thermal", "--out",
+                 str(tmp_path / "lot")])
     assert code == 2
-    assert "same folder 'unit'" in capsys.readouterr().err
+    assert "the same name 'unit' and folder" in capsys.readouterr().err
     assert not (tmp_path / "lot").exists()

@@ -345,18 +345,23 @@ def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings) -> N
 @click.option("--seed", default=0, show_default=True, type=int, help="Random seed of emcee.")
 @click.option("--noise", type=click.Choice(["white", "white+gm"]), default="white",
               show_default=True, help="Noise model of every fit.")
-def batch(logs, terms, out, workers, scheduler, seed, noise) -> None:
+@prior_options
+def batch(logs, terms, out, workers, scheduler, seed, noise, prior_choice, prior_items
+          ) -> None:
     """Fit many bench logs LOGS of one gyro type (a production lot, repeated runs), one fit
     each, in parallel on Dask. A log that cannot be fitted fails alone (batch.json says
     why). Exit code 3 when a log failed or a fit is not trustworthy."""
     from gyroid.io.outputs import json_text
+    from gyroid.models.prior_scales import resolve_prior_option
     from gyroid.models.terms import resolve_terms
     from gyroid.workflows.batch import run_batch
 
     resolve_terms(terms)  # a wrong --terms is one message, before any worker starts
+    prior_set, overrides = resolve_prior_option(prior_choice, prior_items)
     click.echo(f"fitting {len(logs)} logs with {workers} workers ...", err=True)
     result = run_batch(logs, terms, out, workers=workers, scheduler=scheduler, seed=seed,
-                       noise=noise, progress=lambda m: click.echo(m, err=True))
+                       noise=noise, prior_set=prior_set, priors=overrides,
+                       progress=lambda m: click.echo(m, err=True))
     with output_dir(out) as stage:
         (stage / "batch.json").write_text(json_text(result.to_json()))
         (stage / "batch.csv").write_text(result.csv_text())

@@ -2,7 +2,8 @@
 ``gyroid batch``): a production lot of gyros, repeated runs of one unit, or an SBC study.
 
 Each log is fitted in a worker process exactly as ``gyroid fit`` fits it, and its files are
-written to ``OUT/STEM/`` (fit.json, posterior.nc, figures). A log that cannot be read or
+written to ``OUT/LABEL/`` (fit.json, posterior.nc, figures; ``LABEL`` is the file's stem,
+or its folder's name when stems repeat). A log that cannot be read or
 fitted fails alone: its message goes into ``batch.json``'s ``failed`` and the others finish.
 The scheduler is a ``LocalCluster`` of single-threaded worker processes by default, or an
 existing cluster given by address (its workers must see the same file system).
@@ -13,11 +14,13 @@ from __future__ import annotations
 import csv
 import io
 import logging
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from gyroid.errors import GyroidInputError
+from gyroid.io.logs import run_labels
+from gyroid.models.priors import Prior
 
 
 @dataclass(frozen=True)
@@ -68,7 +71,9 @@ class BatchResult:
         return all(o.trustworthy for o in self.outcomes if not o.failed)
 
 
-def fit_one(path: str, terms: str, folder: str, seed: int, noise: str) -> LogOutcome:
+def fit_one(path: str, terms: str, folder: str, seed: int, noise: str,
+            prior_set: str = "default", priors: Mapping[str, Prior] | None = None
+            ) -> LogOutcome:
     """Fit one log and write its files into ``folder`` (runs in a worker)."""
     from gyroid.inference.fit import fit_log
     from gyroid.inference.sampling import SamplerSettings
@@ -78,8 +83,8 @@ def fit_one(path: str, terms: str, folder: str, seed: int, noise: str) -> LogOut
 
     try:
         log = load_bench_log(path, terms)
-        result = fit_log(log, terms, noise=noise, seed=seed,
-                         settings=SamplerSettings(progress=False))
+        result = fit_log(log, terms, noise=noise, seed=seed, prior_set=prior_set,
+                         priors=priors, settings=SamplerSettings(progress=False))
         with output_dir(Path(folder)) as stage:
             write_fit_outputs(stage, log, result)
     except GyroidInputError as error:
@@ -96,17 +101,17 @@ def fit_one(path: str, terms: str, folder: str, seed: int, noise: str) -> LogOut
 
 def run_batch(paths: Sequence[str | Path], terms: str, out: Path, *, workers: int = 2,
               scheduler: str | None = None, seed: int = 0, noise: str = "white",
+              prior_set: str = "default", priors: Mapping[str, Prior] | None = None,
               progress: Callable[[str], None] | None = None) -> BatchResult:
-    """Fit every log in ``paths`` into ``out/STEM/`` on Dask; see the module docstring."""
+    """Fit every log in ``paths`` into ``out/LABEL/`` on Dask (``LABEL`` as
+    :func:`gyroid.io.logs.run_labels` names runs: the file's stem, or its folder's name when
+    stems repeat); every fit with the same seed, noise model and priors (``prior_set`` and
+    per-parameter ``priors``, as ``gyroid fit`` takes them). See the module docstring."""
     from dask.distributed import Client, LocalCluster, as_completed
 
     say = progress or (lambda _msg: None)
     paths = [str(p) for p in paths]
-    stems = [Path(p).name.split(".")[0] for p in paths]
-    repeated = sorted({s for s in stems if stems.count(s) > 1})
-    if repeated:
-        raise GyroidInputError(f"two logs would write to the same folder {repeated[0]!r} "
-                               "(their names differ only in folder or suffix); rename one")
+    stems = run_labels(paths)
     if workers < 1:
         raise GyroidInputError("--workers must be at least 1")
     if scheduler:
@@ -120,7 +125,8 @@ def run_batch(paths: Sequence[str | Path], terms: str, out: Path, *, workers: in
         where = "LocalCluster"
     try:
         n_workers = len(client.scheduler_info()["workers"])
-        futures = {client.submit(fit_one, p, terms, str(out / s), seed, noise, pure=False): p
+        futures = {client.submit(fit_one, p, terms, str(out / s), seed, noise, prior_set,
+                                 dict(priors or {}), pure=False): p
                    for p, s in zip(paths, stems, strict=True)}
         done: dict[str, LogOutcome] = {}
         for future in as_completed(futures):
