@@ -6,6 +6,11 @@ matplotlib.use("Agg")
 
 import gyroid  # noqa: E402,F401  (turns on float64)
 
+# Strict promotion: an implicit int/float or precision mix in gyroid's JAX code is an
+# error under test, not a silent cast (third-party code that needs standard promotion,
+# blackjax's adaptation, is wrapped where gyroid calls it).
+jax.config.update("jax_numpy_dtype_promotion", "strict")
+
 
 @pytest.fixture(autouse=True, scope="session")
 def _float64():

@@ -47,19 +47,22 @@ def _run_chain(density, key, start, warmup: int, draws: int, target: float):
     def logdensity(u):
         return density.log_posterior(u)
 
-    adapt = blackjax.window_adaptation(blackjax.nuts, logdensity,
-                                       target_acceptance_rate=target)
-    warm_key, run_key = jax.random.split(key)
-    (state, parameters), _ = adapt.run(warm_key, start, num_steps=warmup)
-    kernel = blackjax.nuts(logdensity, **parameters)
+    # blackjax's adaptation mixes bool and int arrays: it is traced under JAX's standard
+    # promotion even where gyroid's tests make promotion strict (gyroid's own code is).
+    with jax.numpy_dtype_promotion("standard"):
+        adapt = blackjax.window_adaptation(blackjax.nuts, logdensity,
+                                           target_acceptance_rate=target)
+        warm_key, run_key = jax.random.split(key)
+        (state, parameters), _ = adapt.run(warm_key, start, num_steps=warmup)
+        kernel = blackjax.nuts(logdensity, **parameters)
 
-    def step(state, key):
-        state, info = kernel.step(key, state)
-        return state, (state.position, state.logdensity, info.acceptance_rate,
-                       info.is_divergent)
+        def step(state, key):
+            state, info = kernel.step(key, state)
+            return state, (state.position, state.logdensity, info.acceptance_rate,
+                           info.is_divergent)
 
-    _, (positions, logdensities, acceptance, divergent) = jax.lax.scan(
-        step, state, jax.random.split(run_key, draws))
+        _, (positions, logdensities, acceptance, divergent) = jax.lax.scan(
+            step, state, jax.random.split(run_key, draws))
     return positions, logdensities, acceptance, divergent
 
 

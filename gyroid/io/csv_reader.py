@@ -61,15 +61,11 @@ def read_csv(path: Path) -> ParsedCsv:
     offset = 0
     for _ in range(header_line - 1):
         offset = head_bytes.index(b"\n", offset) + 1
-    import pyarrow as pa
-
-    lines, inner = None, []
+    lines, inner, body = None, [], None
     if _scan_body(path, offset):  # rare: take the lines out in memory, keep line numbers
         body, lines, inner = _without_inner_lines(read_bytes(path), offset, header_line)
-        source = lambda: pa.BufferReader(pa.py_buffer(body))  # noqa: E731
-    else:  # usual: pyarrow reads the file in blocks
-        source = lambda: _arrow_stream(path, offset)  # noqa: E731
-    table = _read_arrow_csv(source, delimiter, names, decimal_comma)
+    # usual (body None): pyarrow reads the file in blocks from disk
+    table = _read_arrow_csv(path, offset, body, delimiter, names, decimal_comma)
     if table is None:
         if lines is None:
             with (gzip.open(path) if _is_gzip(path) else path.open("rb")) as handle:
@@ -241,21 +237,25 @@ def _raise_bad_row(path: Path, handle, delimiter: str, width: int, header_line: 
                 "fix the row's separators")
 
 
-def _read_arrow_csv(source, delimiter: str, names, decimal_comma: bool):
-    """pyarrow's parse of the header and data rows (``source()`` gives them as a stream),
-    or None when it cannot split them."""
+def _read_arrow_csv(path: Path, offset: int, body: bytes | None, delimiter: str, names,
+                    decimal_comma: bool):
+    """pyarrow's parse of the header and data rows (the file from byte ``offset``, or
+    ``body`` when given), or None when it cannot split them."""
     import pyarrow as pa
     from pyarrow import csv as pacsv
 
     def read(types):
-        return pacsv.read_csv(
-            source(),
-            read_options=pacsv.ReadOptions(column_names=None, use_threads=True,
-                                           encoding="utf8"),
-            parse_options=pacsv.ParseOptions(delimiter=delimiter),
-            convert_options=pacsv.ConvertOptions(column_types=types, strings_can_be_null=True,
-                                                  null_values=[""]),
-        )
+        with (_arrow_stream(path, offset) if body is None
+              else pa.BufferReader(pa.py_buffer(body))) as source:
+            return pacsv.read_csv(
+                source,
+                read_options=pacsv.ReadOptions(column_names=None, use_threads=True,
+                                               encoding="utf8"),
+                parse_options=pacsv.ParseOptions(delimiter=delimiter),
+                convert_options=pacsv.ConvertOptions(column_types=types,
+                                                      strings_can_be_null=True,
+                                                      null_values=[""]),
+            )
 
     try:
         table = read(None if not decimal_comma else {n: pa.string() for n in names})

@@ -88,7 +88,7 @@ class Flight(eqx.Module):
 
     @property
     def time_s(self) -> Float[Array, " n"]:
-        return self.sample_s * (jnp.arange(self.n) + 1.0)
+        return self.sample_s * (jnp.arange(self.n, dtype=float) + 1.0)
 
 
 def constant_flight(
