@@ -10,7 +10,7 @@ Householder QR's, not the normal equations' (no squared condition number).
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterator
 
 import jax
 import numpy as np
@@ -19,8 +19,10 @@ import numpy as np
 BLOCK_ROWS = 1 << 18
 
 
-def row_blocks(n: int, rows: int = BLOCK_ROWS) -> Iterator[slice]:
-    """Consecutive slices of at most ``rows`` rows covering ``range(n)``."""
+def row_blocks(n: int, rows: int | None = None) -> Iterator[slice]:
+    """Consecutive slices of at most ``rows`` (default ``BLOCK_ROWS``) rows covering
+    ``range(n)``."""
+    rows = rows or BLOCK_ROWS
     for start in range(0, n, rows):
         yield slice(start, min(start + rows, n))
 
@@ -33,21 +35,10 @@ def rows_of(inputs, rows: slice):
 
 def with_rows(r: np.ndarray | None, block: np.ndarray) -> np.ndarray:
     """The R factor of the rows ``r`` stood for (None: no rows yet) and ``block`` below
-    them: upper triangular, p x p (fewer rows while there are fewer than p rows)."""
+    them: upper triangular, p x p (fewer rows while there are fewer than p rows). Folded
+    over a matrix's blocks it gives ``np.linalg.qr(matrix, mode="r")`` up to row signs."""
     block = np.asarray(block, dtype=float)
     return np.linalg.qr(block if r is None else np.vstack([r, block]), mode="r")
-
-
-def stacked_r(blocks: Iterable[np.ndarray]) -> np.ndarray:
-    """The R factor of the QR decomposition of the blocks stacked by rows, holding one
-    block at a time; equal to ``np.linalg.qr(np.vstack(blocks), mode="r")`` up to the
-    signs of its rows."""
-    r = None
-    for block in blocks:
-        r = with_rows(r, block)
-    if r is None:
-        raise ValueError("no rows")
-    return r
 
 
 def least_squares_from_r(r_augmented: np.ndarray) -> tuple[np.ndarray, float]:

@@ -11,7 +11,7 @@ from jaxtyping import Array, Float
 
 from gyroid.errors import GyroidInputError
 from gyroid.models import effects as registry
-from gyroid.models.design import BLOCK_ROWS, row_blocks, rows_of, with_rows
+from gyroid.models.design import row_blocks, rows_of, with_rows
 from gyroid.models.effects import Effect, Parameter, Params
 from gyroid.models.inputs import FIELD_COLUMNS, DriftInputs
 from gyroid.models.terms import resolve_terms
@@ -97,10 +97,11 @@ class DriftModel(eqx.Module):
         return jnp.concatenate([e.design(inputs) for e in self.effects], axis=1)
 
     def design_blocks(self, inputs: DriftInputs, effects: tuple[Effect, ...] | list[Effect]
-                      | None = None, rows: int = BLOCK_ROWS
+                      | None = None, rows: int | None = None
                       ) -> Iterator[tuple[slice, np.ndarray]]:
         """The design matrix of the linear ``effects`` (default: all, which must be linear)
-        as NumPy blocks of at most ``rows`` rows, with the rows each covers."""
+        as NumPy blocks of at most ``rows`` rows (default
+        :data:`gyroid.models.design.BLOCK_ROWS`), with the rows each covers."""
         effects = self.effects if effects is None else tuple(effects)
         for sl in row_blocks(inputs.n, rows):
             part = rows_of(inputs, sl)
