@@ -25,6 +25,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from gyroid.inference.checks import MAX_R_HAT, MIN_ESS
 from gyroid.inference.point import PointEstimate
 from gyroid.inference.sampling import Posterior, covariance_factor, summarise_draws
 
@@ -38,8 +39,8 @@ class NutsSettings:
     draws: int = 1000
     max_draws: int = 8000
     target_acceptance: float = 0.85
-    min_ess: float = 400.0
-    max_r_hat: float = 1.01
+    min_ess: float = MIN_ESS
+    max_r_hat: float = MAX_R_HAT
 
 
 @eqx.filter_jit

@@ -23,6 +23,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from gyroid.inference.batching import log_posterior_batcher, problem_batcher
+from gyroid.inference.checks import MAX_R_HAT, MIN_ESS
 from gyroid.inference.point import PointEstimate
 from gyroid.io._arviz import arviz as az
 from gyroid.models.priors import natural_from_sampling
@@ -39,8 +40,8 @@ class SamplerSettings:
     burn_steps: int = 300
     chunk_steps: int = 500
     tau_factor: float = 50.0
-    min_ess: float = 400.0
-    max_r_hat: float = 1.01
+    min_ess: float = MIN_ESS
+    max_r_hat: float = MAX_R_HAT
     max_steps: int = 30000
     move: str = "de"  # "de" (differential evolution) or "stretch" (emcee's default)
     progress: bool = True
@@ -76,7 +77,8 @@ class Posterior:
 
     @property
     def converged(self) -> bool:
-        return all(s["r_hat"] <= 1.01 and s["ess_bulk"] >= 400 for s in self.summary.values())
+        return all(s["r_hat"] <= MAX_R_HAT and s["ess_bulk"] >= MIN_ESS
+                   for s in self.summary.values())
 
 
 def covariance_factor(covariance: np.ndarray) -> np.ndarray:
