@@ -27,14 +27,14 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from gyroid.inference.batching import log_posterior_batcher
-from gyroid.inference.likelihood import BenchProblem
-from gyroid.inference.point import point_estimate
-from gyroid.inference.sampling import SamplerSettings, sample_posterior, summarise_draws
-from gyroid.io.logs import BenchLog
-from gyroid.models.paper_b import G
-from gyroid.models.roll import Flight, RollParams, correction_coefficients, navigation_errors
-from gyroid.simulation.bench import (
+from gyroid.inference._batching import log_posterior_batcher
+from gyroid.inference._bench_problem import BenchProblem
+from gyroid.inference._point import point_estimate
+from gyroid.inference._sampling import SamplerSettings, sample_posterior, summarise_draws
+from gyroid.io._logs import BenchLog
+from gyroid.models._paper_b import G
+from gyroid.models._roll import Flight, RollParams, correction_coefficients, navigation_errors
+from gyroid.simulation._bench import (
     PAPER_A_DEVICE_2,
     PAPER_A_THERMAL,
     MagneticProtocol,
@@ -330,9 +330,9 @@ import json, sys, time
 start = time.perf_counter()
 sys.path.insert(0, "benchmarks")
 from run import six_hour_log
-from gyroid.inference.likelihood import BenchProblem
-from gyroid.inference.point import point_estimate
-from gyroid.inference.sampling import SamplerSettings, sample_posterior
+from gyroid.inference._bench_problem import BenchProblem
+from gyroid.inference._point import point_estimate
+from gyroid.inference._sampling import SamplerSettings, sample_posterior
 out = {"import_s": time.perf_counter() - start}
 problem = BenchProblem.from_log(six_hour_log(0), "full")
 settings = SamplerSettings(progress=False)

@@ -23,12 +23,12 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from _common import results_dir, save_run  # noqa: E402
 
-from gyroid.inference.likelihood import BenchProblem  # noqa: E402
-from gyroid.inference.point import point_estimate  # noqa: E402
-from gyroid.io.fitted import FittedDrift  # noqa: E402
-from gyroid.simulation.bench import ThermalProtocol, simulate_thermal_bench  # noqa: E402
-from gyroid.workflows.propagate import propagate  # noqa: E402
-from gyroid.workflows.scenarios import PRESETS  # noqa: E402
+from gyroid.inference._bench_problem import BenchProblem  # noqa: E402
+from gyroid.inference._point import point_estimate  # noqa: E402
+from gyroid.io._fitted import FittedDrift  # noqa: E402
+from gyroid.simulation._bench import ThermalProtocol, simulate_thermal_bench  # noqa: E402
+from gyroid.workflows._propagate import propagate  # noqa: E402
+from gyroid.workflows._scenarios import PRESETS  # noqa: E402
 
 DESIGNS = {
     "paper A (31...55, 40 min soaks)": ThermalProtocol(),

@@ -16,10 +16,10 @@ import numpy as np
 from _common import results_dir, save_run
 
 from gyroid import GyroNoise
-from gyroid.inference.likelihood import BenchProblem
-from gyroid.inference.point import point_estimate
-from gyroid.papers.classic import magnetic_k
-from gyroid.simulation.bench import PAPER_A_DEVICE_2, simulate_magnetic_bench
+from gyroid.inference._bench_problem import BenchProblem
+from gyroid.inference._point import point_estimate
+from gyroid.papers._classic import magnetic_k
+from gyroid.simulation._bench import PAPER_A_DEVICE_2, simulate_magnetic_bench
 
 
 def main() -> None:

@@ -22,10 +22,10 @@ import numpy as np  # noqa: E402
 from _common import results_dir, save_run  # noqa: E402
 from scipy import stats  # noqa: E402
 
-from gyroid.models.priors import Normal  # noqa: E402
-from gyroid.simulation.bench import MagneticProtocol, simulate_magnetic_bench  # noqa: E402
-from gyroid.simulation.noise import GyroNoise  # noqa: E402
-from gyroid.workflows.pool import fit_pool  # noqa: E402
+from gyroid.inference._pool_fit import fit_pool  # noqa: E402
+from gyroid.models._priors import Normal  # noqa: E402
+from gyroid.simulation._bench import MagneticProtocol, simulate_magnetic_bench  # noqa: E402
+from gyroid.simulation._noise import GyroNoise  # noqa: E402
 
 LEVELS = (0.5, 0.9, 0.95)
 LOT_SIZES = (3, 8, 30)

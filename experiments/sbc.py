@@ -26,17 +26,17 @@ from _common import results_dir, save_run  # noqa: E402
 from scipy import stats  # noqa: E402
 
 from gyroid import BenchLog, DriftModel, GyroNoise  # noqa: E402
-from gyroid.inference.sampling import SamplerSettings  # noqa: E402
+from gyroid.inference._sampling import SamplerSettings  # noqa: E402
 from gyroid.io._arviz import arviz as az  # noqa: E402
-from gyroid.io.logs import run_labels, write_bench_log  # noqa: E402
-from gyroid.models.priors import LogNormal  # noqa: E402
-from gyroid.simulation.bench import (  # noqa: E402
+from gyroid.io._logs import run_labels, write_bench_log  # noqa: E402
+from gyroid.models._priors import LogNormal  # noqa: E402
+from gyroid.pipeline._batch import run_batch  # noqa: E402
+from gyroid.simulation._bench import (  # noqa: E402
     MagneticProtocol,
     ThermalProtocol,
     simulate_magnetic_bench,
     simulate_thermal_bench,
 )
-from gyroid.workflows.batch import run_batch  # noqa: E402
 
 LEVELS = (0.5, 0.9, 0.95)
 THERMAL = ThermalProtocol(setpoints_C=(31.0, 40.0, 55.0), soak_min=30.0, sample_s=10.0)

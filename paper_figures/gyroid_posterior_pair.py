@@ -6,7 +6,7 @@ import numpy as np
 import paths
 
 from gyroid.io._arviz import arviz as az
-from gyroid.models.effects import PARAMETERS
+from gyroid.models._effects import PARAMETERS
 from gyroid.plotting import pair_plot, save
 
 fit = json.loads(paths.data("thermal", "fit", "fit.json").read_text())

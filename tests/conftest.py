@@ -1,11 +1,10 @@
 import jax
-import matplotlib
 import pytest
 
-matplotlib.use("Agg")
+import gyroid
 
-import gyroid  # noqa: E402,F401  (turns on float64)
-
+# float64 and the persistent compilation cache, as the command line sets them.
+gyroid.configure()
 # Strict promotion: an implicit int/float or precision mix in gyroid's JAX code is an
 # error under test, not a silent cast (third-party code that needs standard promotion,
 # blackjax's adaptation, is wrapped where gyroid calls it).

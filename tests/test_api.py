@@ -17,7 +17,8 @@ def test_the_compilation_cache_is_on_by_default_and_can_be_moved_or_switched_off
     import subprocess
     import sys
 
-    probe = "import gyroid, jax; print(jax.config.jax_compilation_cache_dir)"
+    probe = ("import gyroid, jax; gyroid.configure(); "
+             "print(jax.config.jax_compilation_cache_dir)")
 
     def folder(**env) -> str:
         clean = {k: v for k, v in os.environ.items()

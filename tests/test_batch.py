@@ -7,7 +7,7 @@ import pytest
 from helpers import SHORT_THERMAL, write_log
 
 from gyroid.cli import main
-from gyroid.simulation.bench import simulate_thermal_bench
+from gyroid.simulation._bench import simulate_thermal_bench
 
 
 @pytest.mark.slow

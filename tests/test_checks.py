@@ -4,7 +4,7 @@ that do or do not disagree with the data), and the contract's JSON shape."""
 import numpy as np
 import pytest
 
-from gyroid.inference.checks import (
+from gyroid.inference._checks import (
     Check,
     CheckReport,
     FitEvidence,
@@ -18,7 +18,7 @@ from gyroid.inference.checks import (
     residual_whiteness,
     segment_variance_ratio,
 )
-from gyroid.models.priors import Flat, LogNormal, Normal
+from gyroid.models._priors import Flat, LogNormal, Normal
 
 
 def _ar1(rng, n, phi):

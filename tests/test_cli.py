@@ -122,7 +122,7 @@ def test_console_script_exit_code_and_no_traceback(tmp_path):
 def test_reduced_demo_writes_a_report_whose_figures_exist(tmp_path):
     import re
 
-    from gyroid.demo import DemoSize, run_demo
+    from gyroid.pipeline._demo import DemoSize, run_demo
 
     out = tmp_path / "demo"
     report = run_demo(out, seed=1, echo=lambda _m: None,
@@ -203,8 +203,8 @@ def test_discrepancy_help_names_both_log_kinds_and_every_effect():
     from click.testing import CliRunner
 
     from gyroid.cli import cli
-    from gyroid.models.effects import EFFECTS
-    from gyroid.models.roll_effects import ROLL_EFFECTS, ROLL_PRESETS
+    from gyroid.models._effects import EFFECTS
+    from gyroid.models._roll_effects import ROLL_EFFECTS, ROLL_PRESETS
 
     text = " ".join(CliRunner().invoke(cli, ["discrepancy", "--help"]).output.split())
     assert "bench log" in text and "roll log" in text

@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 
 from gyroid.cli import main
-from gyroid.inference.fit import fit_log
-from gyroid.inference.sampling import SamplerSettings
-from gyroid.io.fitted import FittedDrift
-from gyroid.simulation.bench import ThermalProtocol, simulate_thermal_bench
-from gyroid.simulation.noise import gauss_markov
-from gyroid.workflows.allan import allan_deviation
-from gyroid.workflows.compensate import compensate
+from gyroid.inference._bench_fit import fit_log
+from gyroid.inference._sampling import SamplerSettings
+from gyroid.io._fitted import FittedDrift
+from gyroid.simulation._bench import ThermalProtocol, simulate_thermal_bench
+from gyroid.simulation._noise import gauss_markov
+from gyroid.workflows._allan import allan_deviation
+from gyroid.workflows._compensate import compensate
 
 
 def test_white_noise_has_slope_minus_half_and_the_arw_level():
@@ -54,7 +54,7 @@ def fitted_short():
     protocol = ThermalProtocol(setpoints_C=(31.0, 35.0, 40.0))
     sim = simulate_thermal_bench(seed=21, protocol=protocol)
     result = fit_log(sim.log, "thermal", seed=1, settings=SamplerSettings(progress=False))
-    from gyroid.inference.fit import input_ranges
+    from gyroid.inference._bench_fit import input_ranges
 
     return (FittedDrift.from_result(result),
             input_ranges(result.problem.inputs, result.problem.model))
@@ -114,8 +114,8 @@ def test_cli_writes_the_contract_files(tmp_path):
 def test_a_clock_effect_beyond_the_fitted_span_is_extrapolation(terms):
     # Found in review: bias_step was missing from a hand-kept list of time effects, so a
     # step fitted on 3 h was silently carried to a 10 h log. The registry says it now.
-    from gyroid.inference.fit import input_ranges
-    from gyroid.models.drift import DriftModel
+    from gyroid.inference._bench_fit import input_ranges
+    from gyroid.models._drift import DriftModel
 
     sim = simulate_thermal_bench(seed=4)
     model = DriftModel.from_terms(terms)

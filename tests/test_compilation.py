@@ -8,14 +8,14 @@ import numpy as np
 import pytest
 from helpers import SHORT_MAGNETIC
 
-from gyroid.inference.batching import log_posterior_batcher
-from gyroid.inference.likelihood import BenchProblem
-from gyroid.inference.roll_fit import roll_point_estimate
-from gyroid.inference.roll_problem import ALL_PARAMETERS, RollProblem
-from gyroid.inference.sampling import SamplerSettings
-from gyroid.io.roll_log import RollLog
-from gyroid.simulation.bench import simulate_magnetic_bench
-from gyroid.simulation.flight import FlightProfile, simulate_flight
+from gyroid.inference._batching import log_posterior_batcher
+from gyroid.inference._bench_problem import BenchProblem
+from gyroid.inference._roll_fit import roll_point_estimate
+from gyroid.inference._roll_problem import ALL_PARAMETERS, RollProblem
+from gyroid.inference._sampling import SamplerSettings
+from gyroid.io._roll_log import RollLog
+from gyroid.simulation._bench import simulate_magnetic_bench
+from gyroid.simulation._flight import FlightProfile, simulate_flight
 
 
 def _compilations(caplog, name: str) -> int:

@@ -1,4 +1,4 @@
-"""A long log's design matrix in blocks of rows (gyroid/models/design.py): the results must
+"""A long log's design matrix in blocks of rows (src/gyroid/models/_design.py): the results must
 not depend on the block size. Test logs are shorter than one default block, so the blocks
 are made small here to exercise the multi-block path."""
 
@@ -8,13 +8,13 @@ import pytest
 from helpers import SHORT_THERMAL
 
 from gyroid import GyroidInputError
-from gyroid.inference.likelihood import BenchProblem
-from gyroid.io.logs import BenchLog
-from gyroid.models import design
-from gyroid.models.design import least_squares_from_r, with_rows
-from gyroid.models.drift import DriftModel
-from gyroid.models.rate_window import choose_rate_window
-from gyroid.simulation.bench import simulate_thermal_bench
+from gyroid.inference._bench_problem import BenchProblem
+from gyroid.inference._rate_window import choose_rate_window
+from gyroid.io._logs import BenchLog
+from gyroid.models import _design as design
+from gyroid.models._design import least_squares_from_r, with_rows
+from gyroid.models._drift import DriftModel
+from gyroid.simulation._bench import simulate_thermal_bench
 
 
 @pytest.fixture(scope="module")

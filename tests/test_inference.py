@@ -7,13 +7,13 @@ from helpers import SHORT_MAGNETIC, SHORT_THERMAL
 from scipy import stats
 
 from gyroid import BenchLog, GyroNoise
-from gyroid.inference.fit import fit_log
-from gyroid.inference.likelihood import BenchProblem
-from gyroid.inference.point import point_estimate
-from gyroid.inference.sampling import SamplerSettings
-from gyroid.io.datasets import paper_a_table_log, paper_a_thermal_table
-from gyroid.papers.classic import setpoint_table_fit
-from gyroid.simulation.bench import (
+from gyroid.inference._bench_fit import fit_log
+from gyroid.inference._bench_problem import BenchProblem
+from gyroid.inference._point import point_estimate
+from gyroid.inference._sampling import SamplerSettings
+from gyroid.io._paper_tables import paper_a_table_log, paper_a_thermal_table
+from gyroid.papers._classic import setpoint_table_fit
+from gyroid.simulation._bench import (
     PAPER_A_DEVICE_2,
     PAPER_A_THERMAL,
     MagneticProtocol,
@@ -103,7 +103,7 @@ def test_sufficient_statistics_equal_the_direct_sum(known_sigma):
                                    rtol=1e-10, atol=1e-7)
     assert fast.block_gram.shape[0] == fast.n_blocks > 1
     # The host (NumPy) log-posterior emcee calls equals the JAX one, walkers at once.
-    from gyroid.inference.batching import log_posterior_batcher
+    from gyroid.inference._batching import log_posterior_batcher
 
     u = rng.normal(size=(16, len(fast.names))) * 0.3
     np.testing.assert_allclose(fast.host_log_posterior()(u),
@@ -235,10 +235,10 @@ def test_posterior_predictions_of_a_linear_model_are_its_design_rows_times_the_d
 def test_every_mode_finder_starts_on_one_grid():
     # The point estimate and the discrepancy's whitened fits start from the same grid: 7
     # multiples of a time constant's registry median, a step's own candidates from the log.
-    from gyroid.inference.point import _starts
-    from gyroid.inference.starts import START_MULTIPLES, grid_points, start_grid
-    from gyroid.models.drift import DriftModel
-    from gyroid.models.effects import parameter
+    from gyroid.inference._point import _starts
+    from gyroid.inference._starts import START_MULTIPLES, grid_points, start_grid
+    from gyroid.models._drift import DriftModel
+    from gyroid.models._effects import parameter
 
     sim = simulate_thermal_bench(seed=3, protocol=SHORT_THERMAL)
     inputs = sim.log.inputs()

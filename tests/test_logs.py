@@ -5,8 +5,8 @@ import pytest
 from helpers import SHORT_MAGNETIC, SHORT_THERMAL, write_log
 
 from gyroid import GyroidInputError, load_bench_log
-from gyroid.io.logs import bench_log_text
-from gyroid.simulation.bench import simulate_magnetic_bench, simulate_thermal_bench
+from gyroid.io._logs import bench_log_text
+from gyroid.simulation._bench import simulate_magnetic_bench, simulate_thermal_bench
 
 
 @pytest.fixture(scope="module")
@@ -169,8 +169,8 @@ def test_the_header_alone_is_read_the_same_as_by_the_full_reader(tmp_path):
     # gyroid discrepancy decides bench or roll from the header without parsing the log.
     import numpy as np
 
-    from gyroid.io.logs import write_bench_log
-    from gyroid.io.tables import log_kind, read_header, read_log_table
+    from gyroid.io._logs import write_bench_log
+    from gyroid.io._tables import log_kind, read_header, read_log_table
 
     columns = {"time_s": np.arange(5.0), "drift_deg_h": np.ones(5), "temperature_C": np.ones(5)}
     paths = [write_bench_log(tmp_path / name, columns, ["a comment"])
@@ -223,7 +223,7 @@ def test_quoted_header_names_are_read(tmp_path, thermal_columns):
     import pyarrow as pa
     import pyarrow.csv as pacsv
 
-    from gyroid.io.tables import read_header, read_log_table
+    from gyroid.io._tables import read_header, read_log_table
 
     path = tmp_path / "quoted.csv"
     pacsv.write_csv(pa.table({k: np.asarray(v) for k, v in thermal_columns.items()}), path)
@@ -251,7 +251,7 @@ def test_files_that_are_not_csv_text_are_refused(tmp_path, content, name, expect
 
 
 def test_a_gzip_log_is_read_like_the_plain_one(tmp_path, thermal_columns):
-    from gyroid.io.logs import write_bench_log
+    from gyroid.io._logs import write_bench_log
 
     plain = load_bench_log(write_bench_log(tmp_path / "a.csv", thermal_columns), "thermal")
     packed = load_bench_log(write_bench_log(tmp_path / "a.csv.gz", thermal_columns), "thermal")

@@ -10,13 +10,13 @@ import numpy as np
 import pytest
 
 from gyroid.cli import main
-from gyroid.inference.fit import fit_log, input_ranges
-from gyroid.inference.sampling import SamplerSettings
-from gyroid.io.fitted import FittedDrift
-from gyroid.io.logs import BenchLog, load_bench_log
-from gyroid.io.units import parse_column_maps
-from gyroid.workflows.allan import allan_deviation, contiguous_segments
-from gyroid.workflows.compensate import compensate
+from gyroid.inference._bench_fit import fit_log, input_ranges
+from gyroid.inference._sampling import SamplerSettings
+from gyroid.io._fitted import FittedDrift
+from gyroid.io._logs import BenchLog, contiguous_segments, load_bench_log
+from gyroid.io._units import parse_column_maps
+from gyroid.workflows._allan import allan_deviation
+from gyroid.workflows._compensate import compensate
 
 LOG = Path(__file__).parent / "data" / "pan_lsm6dsm_tvac_2020-03-07.csv.gz"
 MAP = ["time_s=time (ms):ms", "drift_deg_h=gyrox rad/s:rad/s", "temperature_C=temp_degC"]

@@ -8,11 +8,11 @@ import pytest
 from helpers import fast_ramp_log, mems_burst_log, weak_field_log, write_log
 
 from gyroid.cli import main
-from gyroid.inference.fit import fit_log
-from gyroid.inference.sampling import SamplerSettings
-from gyroid.io.logs import BenchLog
-from gyroid.simulation.bench import simulate_magnetic_bench
-from gyroid.simulation.noise import GyroNoise
+from gyroid.inference._bench_fit import fit_log
+from gyroid.inference._sampling import SamplerSettings
+from gyroid.io._logs import BenchLog
+from gyroid.simulation._bench import simulate_magnetic_bench
+from gyroid.simulation._noise import GyroNoise
 
 QUICK = SamplerSettings(progress=False)
 
@@ -82,7 +82,7 @@ def test_magnetic_terms_on_a_weak_field_are_not_identified():
 
 @pytest.mark.parametrize("fmt", ["csv", "csv.gz", "parquet"])
 def test_formats_read_alike(tmp_path, fmt):
-    from gyroid.io.logs import load_bench_log
+    from gyroid.io._logs import load_bench_log
 
     columns, _ = mems_burst_log(3, hours=0.5)
     path = write_log(tmp_path / "log.csv", columns)
@@ -107,8 +107,8 @@ def test_held_out_compensation_matches_plain_least_squares(tmp_path):
     """Done-means of issue 13 on the MEMS stress log: fit on every other burst, compensate
     the bursts in between. gyroid's defaults are within 15 % of a plain NumPy least-squares
     fit of the same terms, and better than removing a constant."""
-    from gyroid.io.fitted import FittedDrift
-    from gyroid.workflows.compensate import compensate
+    from gyroid.io._fitted import FittedDrift
+    from gyroid.workflows._compensate import compensate
 
     columns, _ = mems_burst_log(5)
     burst = (columns["time_s"] // 300.0).astype(int)

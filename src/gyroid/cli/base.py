@@ -1,0 +1,89 @@
+"""The command group and what every command shares: option parsing, the --map and prior
+options, printing the self-checks."""
+
+from __future__ import annotations
+
+import click
+
+from gyroid.errors import GyroidInputError, UntrustworthyResult
+
+
+def parse_assignments(text: str, what: str) -> dict[str, float]:
+    values: dict[str, float] = {}
+    for item in filter(None, (s.strip() for s in text.split(","))):
+        name, sep, value = item.partition("=")
+        try:
+            if not sep:
+                raise ValueError
+            values[name.strip()] = float(value)
+        except ValueError:
+            raise GyroidInputError(f"{what}: {item!r} is not NAME=NUMBER") from None
+    return values
+
+
+def parse_effects(specs: tuple[str, ...]) -> dict[str, dict[str, float]]:
+    effects: dict[str, dict[str, float]] = {}
+    for spec in specs:
+        name, _, rest = spec.partition(":")
+        effects[name.strip()] = parse_assignments(rest, f"--effect {spec}")
+    return effects
+
+
+def map_option(function):
+    return click.option(
+        "--map", "mappings", multiple=True, metavar="CONTRACT_COLUMN=LOG_COLUMN[:UNIT]",
+        help="Read a vendor's column as a contract column, converting its unit, e.g. "
+             "drift_deg_h=gyro_x:rad/s, temperature_C=temp:K, Hx_uT=mag_x:G. Repeatable.")(
+        function)
+
+
+def parse_maps(items: tuple[str, ...]):
+    from gyroid.io._units import parse_column_maps
+
+    return parse_column_maps(items)
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="gyroid")
+def cli() -> None:
+    """gyroid: Bayesian identification of gyroscope error models.
+
+    Paper A's FOG drift as a sum of named effects (temperature, its rate, magnetic field and
+    candidate effects) and paper B's roll-gyro scale-factor correction: simulate benches and
+    flights, fit them (optimistix + emcee), compensate new runs, propagate to the correction
+    coefficient's error, find missing effects, reproduce both papers. Start with
+    `gyroid demo`.
+    """
+
+
+def terms_help() -> str:
+    from gyroid.models._effects import CANDIDATES, EFFECTS
+    from gyroid.models._terms import PRESETS
+
+    paper = [n for n in EFFECTS if n not in CANDIDATES]
+    return (f"Comma list of effects or presets. Presets: {', '.join(PRESETS)}. Paper A's "
+            f"effects: {', '.join(paper)}. Candidates: {', '.join(CANDIDATES)}.")
+
+
+def prior_options(function):
+    function = click.option(
+        "--prior", "prior_items", multiple=True, metavar="NAME=normal(MU,SD)",
+        help="Override one parameter's prior (normal(MU,SD), lognormal(MEDIAN,LOG_SD) for "
+             "time constants and noise levels, or flat()). Repeatable.")(function)
+    function = click.option(
+        "--priors", "prior_choice", default="default", show_default=True,
+        metavar="default|paper_a_fog|flat|FILE.toml",
+        help="Prior set: 'default' is weakly informative and scaled to this log (any gyro "
+             "grade); 'paper_a_fog' is sized for paper A's FOG; 'flat'; or a TOML file of "
+             "NAME = \"normal(MU, SD)\" lines.")(function)
+    return function
+
+
+def report_checks(checks) -> None:
+    """Print every failed self-check in one line, then the verdict; exit 3 when the result
+    must not be used (outputs are written first)."""
+    for line in checks.lines():
+        click.echo(line, err=True)
+    if not checks.trustworthy:
+        click.echo(checks.verdict(), err=True)
+        raise UntrustworthyResult()

@@ -1,0 +1,377 @@
+"""Commands on bench logs: simulate, fit, compensate, propagate, discrepancy (both log kinds),
+batch."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from gyroid.cli.base import (
+    cli,
+    map_option,
+    parse_assignments,
+    parse_effects,
+    parse_maps,
+    prior_options,
+    report_checks,
+    terms_help,
+)
+from gyroid.errors import GyroidInputError, UntrustworthyResult
+from gyroid.io._outputs import output_dir
+
+
+@cli.command()
+@click.argument("bench", type=click.Choice(["thermal", "magnetic"]))
+@click.option(
+    "--out",
+    "out",
+    required=True,
+    type=click.Path(file_okay=False, path_type=Path),
+    help="Folder to write bench.csv, truth.json and bench.png into.",
+)
+@click.option("--seed", default=0, show_default=True, type=int, help="Random seed.")
+@click.option(
+    "--set",
+    "overrides",
+    default="",
+    metavar="NAME=VALUE,...",
+    help="Override default coefficients, e.g. 'w1=-0.1,wD=2'.",
+)
+@click.option(
+    "--effect",
+    "effects",
+    multiple=True,
+    metavar="NAME:P=V,...",
+    help="Switch on an effect with values, e.g. 'warmup:w_warmup=2,tau_warmup_min=15'. Repeatable.",
+)
+@click.option(
+    "--arw", default=0.005, show_default=True, type=float, help="Angle random walk, deg/sqrt(h)."
+)
+@click.option(
+    "--bias-instability",
+    default=0.0,
+    show_default=True,
+    type=float,
+    help="Bias instability (Gauss-Markov part), deg/h; 0 = white noise only.",
+)
+@click.option(
+    "--correlation-time",
+    default=300.0,
+    show_default=True,
+    type=float,
+    help="Correlation time of the Gauss-Markov part, s.",
+)
+@click.option(
+    "--average",
+    "average_s",
+    default=None,
+    type=float,
+    help="Write window averages over this many seconds (paper A: 60), with sigma_deg_h.",
+)
+@click.option("--hours", default=None, type=float,
+              help="Stretch the bench's schedule to last this long, h (every phase alike).")
+@click.option("--rate-hz", "rate_hz", default=None, type=float,
+              help="Sample rate, Hz (default: the paper's 1 Hz).")
+@click.option("--runs", default=1, show_default=True, type=int,
+              help="Simulate a lot of this many runs (or units) of one gyro type, each "
+                   "with its own coefficients drawn from the population, into "
+                   "OUT/run_NN/bench.csv, with the lot's truth in OUT/lot.json.")
+@click.option("--spread", default=0.2, show_default=True, type=float,
+              help="With --runs: each coefficient's between-run sd as a fraction of its "
+                   "magnitude.")
+def simulate(
+    bench, out, seed, overrides, effects, arw, bias_instability, correlation_time, average_s,
+    hours, rate_hz, runs, spread,
+) -> None:
+    """Simulate paper A's thermal or magnetic bench with known truth (of any length and
+    sample rate with --hours and --rate-hz; a lot of runs with --runs)."""
+    from gyroid.io._logs import write_bench_log
+    from gyroid.io._outputs import json_text
+    from gyroid.models._derived import RATE_WINDOW_S
+    from gyroid.plotting import magnetic_sweep, save, thermal_run
+    from gyroid.simulation._bench import (
+        MagneticProtocol,
+        ThermalProtocol,
+        preset_parameters,
+        simulate_magnetic_bench,
+        simulate_thermal_bench,
+    )
+    from gyroid.simulation._noise import GyroNoise
+
+    parameters = preset_parameters(bench) | parse_assignments(overrides, "--set")
+    noise = GyroNoise(
+        arw_deg_rt_h=arw,
+        bias_instability_deg_h=bias_instability,
+        correlation_time_s=correlation_time,
+    )
+    if arw < 0 or bias_instability < 0 or correlation_time <= 0:
+        raise GyroidInputError("noise levels must be >= 0 and the correlation time > 0")
+    if (hours is not None and hours <= 0) or (rate_hz is not None and rate_hz <= 0):
+        raise GyroidInputError("--hours and --rate-hz must be positive")
+    if runs < 1:
+        raise GyroidInputError("--runs must be at least 1")
+    if runs > 1:
+        if effects:
+            raise GyroidInputError("--effect is for single runs; a lot (--runs) varies the "
+                                   "preset's coefficients only")
+        _simulate_lot(bench, out, runs=runs, spread=spread, mean=parameters, noise=noise,
+                      seed=seed, hours=hours, rate_hz=rate_hz, average_s=average_s)
+        return
+    simulator = simulate_thermal_bench if bench == "thermal" else simulate_magnetic_bench
+    protocol = (ThermalProtocol() if bench == "thermal" else MagneticProtocol()).stretched(
+        hours, rate_hz)
+    sim = simulator(
+        parameters=parameters,
+        effects=parse_effects(effects),
+        noise=noise,
+        seed=seed,
+        average_s=average_s,
+        protocol=protocol,
+    )
+    with output_dir(out) as stage:
+        write_bench_log(stage / "bench.csv", sim.log.columns, sim.log.comments)
+        (stage / "truth.json").write_text(json_text(sim.truth))
+        if bench == "thermal":
+            # The default window suits paper A's hour-long transitions; it shrinks with them.
+            window = RATE_WINDOW_S * protocol.transition_min / ThermalProtocol().transition_min
+            fig = thermal_run(
+                sim.log, sim.log.inputs(rate_window_s=window).rate_C_h,
+                None if average_s else sim.true_drift_deg_h, rate_window_s=window,
+            )
+        else:
+            fig = magnetic_sweep(sim.log)
+        save(fig, stage / "bench.png")
+    click.echo(f"wrote {out / 'bench.csv'} ({sim.log.n} rows) and {out / 'truth.json'}")
+
+
+def _simulate_lot(bench: str, out: Path, *, runs: int, **options) -> None:
+    """Write a simulated lot: OUT/run_NN/bench.csv and truth.json, and OUT/lot.json."""
+    from gyroid.io._logs import write_bench_log
+    from gyroid.io._outputs import json_text
+    from gyroid.simulation._lot import simulate_lot
+
+    lot = simulate_lot(bench, runs, **options)
+    with output_dir(out) as stage:
+        for label, sim in zip(lot.labels, lot.runs, strict=True):
+            (stage / label).mkdir()
+            write_bench_log(stage / label / "bench.csv", sim.log.columns, sim.log.comments)
+            (stage / label / "truth.json").write_text(json_text(sim.truth))
+        (stage / "lot.json").write_text(json_text(lot.truth()))
+    click.echo(f"wrote {runs} runs to {out}/run_*/bench.csv and the lot's truth to "
+               f"{out / 'lot.json'}")
+
+
+@cli.command()
+@click.argument("data", type=click.Path(path_type=Path))
+@click.option("--terms", required=True, metavar="TERMS", help=terms_help())
+@click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="Folder to write fit.json, posterior.nc and figures into.")
+@click.option("--seed", default=0, show_default=True, type=int, help="Random seed of emcee.")
+@click.option("--noise", type=click.Choice(["white", "white+gm"]), default="white",
+              show_default=True,
+              help="Noise model: white, or white plus a Gauss-Markov (bias-instability) part.")
+@click.option("--t0", "t0_C", default=21.0, show_default=True, type=float,
+              help="Reference temperature t0, degC (t = T - t0).")
+@prior_options
+@click.option("--flat-prior", is_flag=True, help="Same as --priors flat.")
+@click.option("--rate-window", "rate_window", default="auto", show_default=True,
+              metavar="auto|SECONDS",
+              help="Window of the dT/dt estimator; auto chooses it from the data.")
+@click.option("--segment-means", is_flag=True,
+              help="Burst-sampled log: fit one row per contiguous segment (its mean), so "
+                   "the bias's wander between bursts is the estimated noise; the samples "
+                   "are still checked for spikes.")
+@map_option
+@click.option("--progress/--no-progress", default=True, show_default=True,
+              help="Show the sampler's progress bar.")
+def fit(data, terms, out, seed, noise, t0_C, prior_choice, prior_items, flat_prior,
+        rate_window, segment_means, mappings, progress) -> None:
+    """Fit the drift model TERMS to a bench log DATA (point estimate, posterior, checks).
+
+    DATA is a bench log (.csv, .csv.gz or .parquet; contract section 1). Exit code 3 when a
+    self-check says the result must not be used."""
+    from gyroid.inference._bench_fit import fit_log
+    from gyroid.inference._rate_window import parse_rate_window
+    from gyroid.inference._sampling import SamplerSettings
+    from gyroid.io._logs import load_bench_log
+    from gyroid.models._prior_scales import resolve_prior_option
+    from gyroid.reports._files import write_fit_outputs
+
+    prior_set, overrides = resolve_prior_option(prior_choice, prior_items)
+    window = parse_rate_window(rate_window)
+    log = load_bench_log(data, terms, t0_C=t0_C, column_map=parse_maps(mappings))
+    click.echo(f"fitting {terms} to {data} ({log.n} rows) ...", err=True)
+    result = fit_log(log, terms, noise=noise, seed=seed, priors=overrides,
+                     prior_set="flat" if flat_prior else prior_set, t0_C=t0_C,
+                     rate_window_s=window, settings=SamplerSettings(progress=progress),
+                     segment_means=segment_means)
+    with output_dir(out) as stage:
+        write_fit_outputs(stage, log, result)
+    click.echo(result.point.summary())
+    click.echo(f"wrote {out / 'fit.json'}, {out / 'posterior.nc'} and figures")
+    report_checks(result.checks)
+
+
+@cli.command()
+@click.argument("data", type=click.Path(path_type=Path))
+@click.option("--fit", "fit_dir", required=True, type=click.Path(path_type=Path),
+              help="The --out folder of 'gyroid fit' (fit.json and posterior.nc).")
+@click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="Folder for compensated.csv, compensate.json and figures.")
+@click.option("--seed", default=0, show_default=True, type=int,
+              help="Seed for choosing posterior draws.")
+@map_option
+def compensate(data, fit_dir, out, seed, mappings) -> None:
+    """Compensate a new bench log DATA with a fitted drift model; Allan deviation before and
+    after. Exit code 3 when a self-check (extrapolation, gain) says not to use it."""
+    from gyroid.io._fitted import FittedDrift, fitted_ranges_from
+    from gyroid.io._logs import load_bench_log
+    from gyroid.reports._files import write_compensate_outputs
+    from gyroid.workflows._compensate import compensate as run
+
+    fitted = FittedDrift.from_dir(fit_dir)
+    maps = parse_maps(mappings)
+    log = load_bench_log(data, fitted.model, t0_C=fitted.t0_C, column_map=maps)
+    click.echo(f"compensating {data} ({log.n} rows) with {fit_dir} ...", err=True)
+    result = run(log, fitted, fitted_ranges_from(fit_dir), seed=seed)
+    with output_dir(out) as stage:
+        write_compensate_outputs(stage, log, result)
+    s = result.summary
+    click.echo(f"RMS {s['rms_before_deg_h']:.3g} -> {s['rms_after_deg_h']:.3g} deg/h "
+               f"({100 * s['fraction_removed']:.0f} % removed); wrote {out / 'compensated.csv'}")
+    report_checks(result.checks)
+
+
+@cli.command()
+@click.argument("fit_dir", type=click.Path(path_type=Path))
+@click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="Folder for propagate.json and figures.")
+@click.option("--scenario", default=None, metavar="NAME|FILE",
+              help="A preset (paper_b_worked, paper_b_worked_stabiliser, ideal_stabiliser, "
+                   "table2) or a JSON/TOML file of scenario fields. Default: paper_b_worked.")
+@click.option("--seed", default=0, show_default=True, type=int, help="Random seed.")
+@click.option("--draws", default=2000, show_default=True, type=int,
+              help="Monte-Carlo draws for the distributions.")
+def propagate(fit_dir, out, scenario, seed, draws) -> None:
+    """Push a fit's posterior through paper B's correction loop: dK, roll and lateral error."""
+    from gyroid.io._fitted import FittedDrift
+    from gyroid.reports._files import write_propagate_outputs
+    from gyroid.workflows._propagate import driver_shares
+    from gyroid.workflows._propagate import propagate as run
+    from gyroid.workflows._scenarios import load_scenario
+
+    if draws < 10:
+        raise GyroidInputError("--draws must be at least 10")
+    fitted = FittedDrift.from_dir(fit_dir)
+    chosen = load_scenario(scenario)
+    click.echo(f"propagating {fit_dir} through scenario {chosen.name} ...", err=True)
+    result = run(fitted, chosen, draws=draws, seed=seed,
+                 progress=lambda m: click.echo(m, err=True))
+    with output_dir(out) as stage:
+        write_propagate_outputs(stage, result)
+    dk = result.dk
+    click.echo(f"dK = {dk['mean']:.3g} +/- {dk['sd']:.2g} (95 % {dk['ci95'][0]:.3g} ... "
+               f"{dk['ci95'][1]:.3g}); wrote {out / 'propagate.json'}")
+    shares = sorted(driver_shares(result.sobol)["drivers"].items(), key=lambda kv: -kv[1])
+    click.echo("its spread comes from (shares with interactions): " + ", ".join(
+        f"{name} {share:.2f}" for name, share in shares if share >= 0.01))
+    report_checks(result.checks)
+
+
+@cli.command()
+@click.argument("data", type=click.Path(path_type=Path))
+@click.option("--terms", required=True, metavar="TERMS",
+              help="The model to start from. Bench log: " + terms_help() + " Roll log: "
+                   "presets ideal, loop, or roll effects (sf_error, gs_bias, roll_bias, "
+                   "gs_rate_leak, encoder_error, sf_nonlinearity).")
+@click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="Folder for discrepancy.json and discrepancy.png.")
+@click.option("--t0", "t0_C", default=21.0, show_default=True, type=float,
+              help="Reference temperature t0, degC.")
+@click.option("--max-added", default=3, show_default=True, type=int,
+              help="Stop after adding this many effects.")
+@click.option("--extra-columns", is_flag=True,
+              help="Offer every other numeric column of the log (pressure, supply voltage, "
+                   "a second thermometer...) as a candidate cause extra:COLUMN, on the same "
+                   "evidence scale as the catalogue.")
+@map_option
+def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings) -> None:
+    """Find what the model TERMS misses in DATA, add it, refit, show the gap shrink.
+
+    DATA is a bench log (contract section 1) or a roll log (section 4: roll_rate_deg_s,
+    gs_angle_deg), as .csv, .csv.gz or .parquet. Exit code 3 when a self-check of the
+    final model fails."""
+    from gyroid.io._logs import load_bench_log
+    from gyroid.io._roll_log import load_roll_log
+    from gyroid.io._tables import log_kind
+    from gyroid.reports._files import write_discrepancy_outputs
+    from gyroid.workflows._discrepancy import find_discrepancies
+    from gyroid.workflows._roll_discrepancy import find_roll_discrepancies
+
+    maps = parse_maps(mappings)
+
+    def say(message: str) -> None:
+        click.echo(message, err=True)
+
+    if log_kind(data, maps) == "roll":
+        log = load_roll_log(data, column_map=maps)
+        say(f"searching what {terms} misses in roll log {data} ({log.n} rows) ...")
+        report = find_roll_discrepancies(log, terms, max_added=max_added, progress=say)
+    else:
+        log = load_bench_log(data, terms, t0_C=t0_C, column_map=maps,
+                             extra_columns=extra_columns)
+        extra = f"; extra columns {', '.join(log.extra_columns)}" if log.extra_columns else ""
+        say(f"searching what {terms} misses in {data} ({log.n} rows{extra}) ...")
+        report = find_discrepancies(log, terms, max_added=max_added, t0_C=t0_C, progress=say)
+    with output_dir(out) as stage:
+        write_discrepancy_outputs(stage, report, log, t0_C)
+    for line in report.summary_lines():
+        click.echo(line)
+    click.echo(f"wrote {out / 'discrepancy.json'} and {out / 'discrepancy.png'}")
+    report_checks(report.checks)
+
+
+@cli.command()
+@click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.option("--terms", required=True, metavar="TERMS", help=terms_help())
+@click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="Folder for one sub-folder of fit files per log, batch.csv and batch.json.")
+@click.option("--workers", default=2, show_default=True, type=int,
+              help="Worker processes of the local Dask cluster.")
+@click.option("--scheduler", default=None, metavar="ADDRESS",
+              help="An existing Dask scheduler (e.g. tcp://host:8786) instead of a local "
+                   "cluster; its workers must see the same file system.")
+@click.option("--seed", default=0, show_default=True, type=int, help="Random seed of emcee.")
+@click.option("--noise", type=click.Choice(["white", "white+gm"]), default="white",
+              show_default=True, help="Noise model of every fit.")
+@prior_options
+def batch(logs, terms, out, workers, scheduler, seed, noise, prior_choice, prior_items
+          ) -> None:
+    """Fit many bench logs LOGS of one gyro type (a production lot, repeated runs), one fit
+    each, in parallel on Dask. A log that cannot be fitted fails alone (batch.json says
+    why). Exit code 3 when a log failed or a fit is not trustworthy."""
+    from gyroid.io._outputs import json_text
+    from gyroid.models._prior_scales import resolve_prior_option
+    from gyroid.models._terms import resolve_terms
+    from gyroid.pipeline._batch import run_batch
+
+    resolve_terms(terms)  # a wrong --terms is one message, before any worker starts
+    prior_set, overrides = resolve_prior_option(prior_choice, prior_items)
+    click.echo(f"fitting {len(logs)} logs with {workers} workers ...", err=True)
+    result = run_batch(logs, terms, out, workers=workers, scheduler=scheduler, seed=seed,
+                       noise=noise, prior_set=prior_set, priors=overrides,
+                       progress=lambda m: click.echo(m, err=True))
+    with output_dir(out) as stage:
+        (stage / "batch.json").write_text(json_text(result.to_json()))
+        (stage / "batch.csv").write_text(result.csv_text())
+    failed = [o for o in result.outcomes if o.failed]
+    doubtful = [o for o in result.outcomes if not o.failed and not o.trustworthy]
+    click.echo(f"{len(logs) - len(failed)} fitted, {len(failed)} failed; wrote "
+               f"{out / 'batch.csv'} and {out / 'batch.json'}")
+    for outcome in failed:
+        click.echo(f"failed: {outcome.log}: {outcome.message}", err=True)
+    for outcome in doubtful:
+        click.echo(f"not trustworthy: {outcome.log} (see its fit.json checks)", err=True)
+    if failed or doubtful:
+        raise UntrustworthyResult()

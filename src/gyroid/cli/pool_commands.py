@@ -1,0 +1,51 @@
+"""Commands on lots of runs or units of one gyro type: pool."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from gyroid.cli.base import cli, map_option, parse_maps, prior_options, report_checks, terms_help
+from gyroid.io._outputs import output_dir
+
+
+@cli.command()
+@click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
+@click.option("--terms", required=True, metavar="TERMS", help=terms_help())
+@click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="Folder for pool.json, posterior.nc and forest.png.")
+@click.option("--seed", default=0, show_default=True, type=int, help="Random seed of NUTS.")
+@click.option("--t0", "t0_C", default=21.0, show_default=True, type=float,
+              help="Reference temperature t0, degC (t = T - t0).")
+@prior_options
+@click.option("--segment-means", is_flag=True,
+              help="Burst-sampled logs: pool one row per contiguous segment (its mean), so "
+                   "the bias's wander between bursts is each run's noise; the samples are "
+                   "still checked for spikes.")
+@map_option
+def pool(logs, terms, out, seed, t0_C, prior_choice, prior_items, segment_means,
+         mappings) -> None:
+    """Pool repeated runs (or units) LOGS of one gyro type: the type's coefficients, the
+    run-to-run spread (repeatability), each run's shrunk coefficients and the predictive
+    for a new run, which 'gyroid compensate --fit OUT' uses. Each log is a bench log of one
+    run (contract section 1); runs are named by file stem, or by folder when stems repeat.
+    Exit code 3 when a self-check says the result must not be used."""
+    from gyroid.inference._pool_fit import fit_pool
+    from gyroid.io._logs import load_bench_log, run_labels
+    from gyroid.models._prior_scales import resolve_prior_option
+    from gyroid.reports._files import write_pool_outputs
+
+    prior_set, overrides = resolve_prior_option(prior_choice, prior_items)
+    labels = run_labels(logs)
+    maps = parse_maps(mappings)
+    loaded = [load_bench_log(path, terms, t0_C=t0_C, column_map=maps) for path in logs]
+    rows = sum(log.n for log in loaded)
+    click.echo(f"pooling {terms} over {len(logs)} runs ({rows} rows) ...", err=True)
+    result = fit_pool(loaded, labels, terms, seed=seed, prior_set=prior_set, priors=overrides,
+                      t0_C=t0_C, segment_means=segment_means)
+    with output_dir(out) as stage:
+        write_pool_outputs(stage, result)
+    click.echo(result.summary_text())
+    click.echo(f"wrote {out / 'pool.json'}, {out / 'posterior.nc'} and {out / 'forest.png'}")
+    report_checks(result.checks)

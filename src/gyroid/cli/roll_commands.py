@@ -1,0 +1,101 @@
+"""Commands on paper B's loop: gyroid roll simulate, gyroid roll fit."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from gyroid.cli.base import (
+    cli,
+    map_option,
+    parse_assignments,
+    parse_maps,
+    report_checks,
+)
+from gyroid.errors import GyroidInputError
+from gyroid.io._outputs import output_dir
+
+
+@cli.group()
+def roll() -> None:
+    """Paper B's roll-gyro scale-factor correction: simulate and fit flights."""
+
+
+@roll.command("simulate")
+@click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="Folder to write roll.csv and truth.json into.")
+@click.option("--seed", default=0, show_default=True, type=int, help="Random seed.")
+@click.option("--set", "overrides", default="", metavar="NAME=VALUE,...",
+              help="Override roll-loop parameters (D0 deg/s, D1, D0gs deg/s, D1gs, Denc deg, "
+                   "D2), e.g. 'D1=8e-4'.")
+@click.option("--roll", "roll_profile", type=click.Choice(["constant", "ramp", "oscillating"]),
+              default="oscillating", show_default=True, help="Roll-rate profile.")
+@click.option("--rate", "rate", default=1800.0, show_default=True, type=float,
+              help="Roll rate (constant), start (ramp) or mean (oscillating), deg/s.")
+@click.option("--duration", default=120.0, show_default=True, type=float, help="Flight, s.")
+@click.option("--period", default=5.0, show_default=True, type=float,
+              help="Correction period dt, s.")
+@click.option("--overload", default=0.0, show_default=True, type=float,
+              help="Uncompensated fraction of the roll rate the stabiliser sees (0: ideal).")
+@click.option("--gs-capacity", default=None, type=float,
+              help="The stabiliser cancels roll rates up to this, deg/s; the excess is "
+                   "uncompensated (an overloaded stabiliser).")
+def roll_simulate(out, seed, overrides, roll_profile, rate, duration, period, overload,
+                  gs_capacity) -> None:
+    """Simulate a flight with known truth: roll.csv (contract section 4) and truth.json."""
+    from gyroid.io._outputs import json_text
+    from gyroid.simulation._flight import FlightProfile, roll_log_text, simulate_flight
+
+    if duration <= 0 or period <= 0 or period > duration:
+        raise GyroidInputError("--duration and --period must be positive, period <= duration")
+    profile = FlightProfile(duration_s=duration, period_s=period, roll=roll_profile,
+                            roll_rate_deg_s=rate, overload_fraction=overload,
+                            gs_capacity_deg_s=gs_capacity)
+    sim = simulate_flight(params=parse_assignments(overrides, "--set"), profile=profile,
+                          seed=seed)
+    with output_dir(out) as stage:
+        (stage / "roll.csv").write_text(roll_log_text(
+            sim.columns, [f"gyroid simulated flight, seed {seed}"]))
+        (stage / "truth.json").write_text(json_text(sim.truth))
+    click.echo(f"wrote {out / 'roll.csv'} ({sim.columns['time_s'].size} rows) and "
+               f"{out / 'truth.json'}")
+
+
+@roll.command("fit")
+@click.argument("data", type=click.Path(path_type=Path))
+@click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="Folder for roll_fit.json, posterior.nc and figures.")
+@click.option("--seed", default=0, show_default=True, type=int, help="Random seed of emcee.")
+@map_option
+@click.option("--progress/--no-progress", default=True, show_default=True,
+              help="Show the sampler's progress bar.")
+def roll_fit(data, out, seed, mappings, progress) -> None:
+    """Fit the loop parameters (D0, D1, D0gs, D1gs, Denc) to a roll log ROLL (.csv, .csv.gz
+    or .parquet; contract section 4). Exit code 3 when a self-check fails."""
+    from gyroid.inference._roll_fit import fit_roll_log
+    from gyroid.inference._sampling import SamplerSettings
+    from gyroid.io._roll_log import load_roll_log
+    from gyroid.reports._files import write_roll_fit_outputs
+
+    log = load_roll_log(data, parse_maps(mappings))
+    for note in log.notes:
+        click.echo(f"note: {note}", err=True)
+    click.echo(f"fitting the roll loop to {data} ({log.n} rows) ...", err=True)
+    result = fit_roll_log(log, seed=seed, settings=SamplerSettings(progress=progress))
+    with output_dir(out) as stage:
+        write_roll_fit_outputs(stage, log, result)
+    summary = result.to_json()
+    for name, s in summary["parameters"].items():
+        click.echo(f"  {name:>5s} = {s['mean']:.6g} +/- {s['sd']:.2g}")
+    derived = []
+    for item in summary["confounded"]:
+        if item.get("follows_from"):
+            derived.append(f"{' and '.join(item['parameters'])} (r = {item['correlation']:.3f})")
+            continue
+        click.echo(f"warning: {' and '.join(item['parameters'])} are confounded (r = "
+                   f"{item['correlation']:.3f}): {item['suggestion']}", err=True)
+    if derived:
+        click.echo(f"warning: as a consequence, also confounded: {', '.join(derived)}", err=True)
+    click.echo(f"wrote {out / 'roll_fit.json'} and {out / 'posterior.nc'}")
+    report_checks(result.checks)

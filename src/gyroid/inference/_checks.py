@@ -1,0 +1,373 @@
+"""Self-checks: every fit says whether it may be used (contract section 3, "Self-checks").
+
+Written once for every kind of fit. A fit (bench drift, roll loop, and later pooled fits)
+hands :func:`fit_checks` a :class:`FitEvidence`: its parameter names, point estimate and
+posterior draws in sampling coordinates, the priors, a reference scale per coefficient and
+its standardised residuals (innovations over their sd: independent N(0, 1) when the model
+and its noise model are right). Each check returns a :class:`Check`; a :class:`CheckReport`
+is trustworthy when no error-severity check failed.
+
+Thresholds and where they come from:
+
+* convergence: ``r_hat <= 1.01`` and ``ess_bulk >= 400`` (the sampler's own targets).
+* point vs posterior: the point estimate (posterior mode) and the posterior mean differ by
+  less than one posterior sd in sampling coordinates. For a nearly Gaussian posterior they
+  differ by Monte-Carlo error alone (sd / sqrt(ESS) ~ 0.05 sd); a skewed posterior
+  moves them apart by a fraction of an sd; a whole sd means a second mode, a sampler stuck
+  away from the mode, or a mode-finder that stopped early.
+* prior-data conflict: the prior's pull on the posterior mean, ``post_sd * (mean - loc) /
+  prior_sd**2`` (the shift a normal prior causes, in posterior sds). Above 0.5 posterior sd
+  the prior moves the answer and the log disagrees with it: an error. A posterior more than
+  3 prior sds from the prior's centre whose pull is small is a warning (the prior is
+  misplaced but harmless here).
+* goodness of fit (when the log gives ``sigma_deg_h``): the mean square ``q`` of the
+  standardised residuals is ``1 +/- sqrt(2/n)`` under the model. ``|q - 1| > 4 sqrt(2/n)``
+  (p ~ 6e-5) fails; it is an error when the residual scale ``sqrt(q)`` is also more than
+  1.2 times the stated sigma (intervals 20 % too narrow or worse), else a warning.
+* residual whiteness: for block lengths m = 2, 4, 8, ..., the variance of block means of
+  the standardised residuals times m is ``chi2(B-1)/(B-1)`` for B blocks when they are
+  white; a block length whose one-sided p-value times the number of block lengths
+  (Bonferroni) is below 1e-4 fails the test. Its practical size is the largest such
+  ratio: the factor by which the variance of a long average, and so of a slowly varying
+  coefficient, is underrated. Above 2 (intervals at least 1.4x too narrow) it is an error
+  under a white-noise model, else a warning. (Correlated noise ratios reach 10-30 at
+  hundreds of samples; the rate estimator's smoothing on paper A's bench gives ~1.8.)
+  A log with gaps (burst sampling) adds one more member to the family: the segments
+  themselves as blocks, ``sum n_k (mean_k - mean)**2 / (K - 1)`` over K segments, the same
+  ratio for unequal blocks. Bias wander between bursts shows there and nowhere else.
+* outliers: a standardised residual beyond ``z_max``, where white Gaussian noise leaves
+  one of n samples out with probability 0.01 (``z_max = Phi^-1(1 - 0.005 / n)``, 4.8 for
+  n = 6000). Each moves a bias-like coefficient by ``z / sqrt(n)`` posterior sd; when the
+  outliers together move it by more than 1 posterior sd it is an error (spikes decide the
+  answer), else a warning naming the rows. Outliers that mostly sit next to each other are
+  called structure, not spikes.
+* identifiability: a coefficient's posterior sd over its reference scale (the default
+  prior's sd, set from the log's drift scale and the regressor's physical span: see
+  :mod:`gyroid.models._prior_scales`). Above 0.5 the log does not pin the coefficient down.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+import numpy as np
+
+from gyroid.inference._check_report import (  # noqa: F401  (the checks' public surface)
+    Check,
+    CheckReport,
+    FitEvidence,
+    Severity,
+    fit_verdict,
+    point_fit_evidence,
+)
+from gyroid.models._priors import LogNormal, Normal, Prior
+
+MAX_R_HAT = 1.01
+MIN_ESS = 400.0
+POINT_POSTERIOR_SD = 1.0
+PRIOR_PULL_SD = 0.5
+PRIOR_TAIL_SD = 3.0
+GOF_Z = 4.0
+GOF_SCALE_ERROR = 1.2
+WHITENESS_P = 1e-4
+WHITENESS_INFLATION = 2.0
+IDENTIFIED_RATIO = 0.5
+OUTLIER_FALSE_ALARM = 0.01
+OUTLIER_SHIFT_SD = 1.0
+
+
+def fit_checks(evidence: FitEvidence) -> CheckReport:
+    """Every check that applies to a fit."""
+    return CheckReport((
+        convergence(evidence),
+        point_vs_posterior(evidence),
+        prior_data_conflict(evidence),
+        goodness_of_fit(evidence),
+        residual_whiteness(evidence.residuals, segments=evidence.segments,
+                           correlated_noise_modelled=evidence.noise not in ("white",)),
+        outliers(evidence.residuals, where=evidence.where),
+        identifiability(evidence),
+    ))
+
+
+def _posterior_u(evidence: FitEvidence) -> tuple[np.ndarray, np.ndarray] | None:
+    if evidence.draws_u is None:
+        return None
+    flat = np.asarray(evidence.draws_u).reshape(-1, len(evidence.names))
+    return flat.mean(axis=0), flat.std(axis=0, ddof=1)
+
+
+def convergence(evidence: FitEvidence) -> Check:
+    if evidence.summary is None:
+        ok = evidence.point_converged
+        return Check("convergence", ok, "error", None, None,
+                     "the point estimate converged (no posterior was sampled)" if ok else
+                     f"the point estimate did not converge ({evidence.point_message}); "
+                     "simplify the model or check the log")
+    r_hat = max(float(s["r_hat"]) for s in evidence.summary.values())
+    ess = min(float(s["ess_bulk"]) for s in evidence.summary.values())
+    ok = r_hat <= MAX_R_HAT and ess >= MIN_ESS
+    worst = max(evidence.summary, key=lambda k: evidence.summary[k]["r_hat"])
+    if ok:
+        message = f"the sampler converged (max r_hat {r_hat:.3f}, min ess_bulk {ess:.0f})"
+    else:
+        message = (f"the sampler did not converge (r_hat {r_hat:.3f} on {worst}, min ess_bulk "
+                   f"{ess:.0f}; wanted <= {MAX_R_HAT} and >= {MIN_ESS:.0f}): the posterior "
+                   "is not reliable; look for a multimodal or unidentified parameter")
+    return Check("convergence", ok, "error", r_hat, MAX_R_HAT, message)
+
+
+def point_vs_posterior(evidence: FitEvidence) -> Check:
+    moments = _posterior_u(evidence)
+    if moments is None:
+        return Check("point_vs_posterior", True, "error", None, POINT_POSTERIOR_SD,
+                     "no posterior to compare with")
+    mean, sd = moments
+    z = np.abs(np.asarray(evidence.point_u) - mean) / np.where(sd > 0, sd, np.inf)
+    k = int(np.argmax(z))
+    value = float(z[k])
+    name = evidence.names[k]
+    ok = value <= POINT_POSTERIOR_SD
+    message = (f"point estimate and posterior mean agree (largest gap {value:.2f} posterior "
+               f"sd, {name})" if ok else
+               f"the point estimate of {name} is {value:.1f} posterior sd from the posterior "
+               "mean: the posterior is multimodal or the fit stopped early; do not use either "
+               "until they agree (check the priors, --priors flat, or simplify the model)")
+    return Check("point_vs_posterior", ok, "error", value, POINT_POSTERIOR_SD, message)
+
+
+def _prior_moments(prior: Prior) -> tuple[float, float] | None:
+    if isinstance(prior, Normal):
+        return prior.loc, prior.scale
+    if isinstance(prior, LogNormal):
+        return math.log(prior.median), prior.log_sd
+    return None
+
+
+def prior_data_conflict(evidence: FitEvidence) -> Check:
+    moments = _posterior_u(evidence)
+    if moments is None:
+        mean = np.asarray(evidence.point_u)
+        sd = np.full(mean.size, np.nan)
+    else:
+        mean, sd = moments
+    worst_pull, worst_tail = (0.0, None), (0.0, None)
+    for i, (name, prior) in enumerate(zip(evidence.names, evidence.priors, strict=True)):
+        pm = _prior_moments(prior)
+        if pm is None:
+            continue
+        loc, scale = pm
+        tail = abs(mean[i] - loc) / scale
+        pull = abs(sd[i] * (mean[i] - loc) / scale**2) if np.isfinite(sd[i]) else tail
+        worst_pull = max(worst_pull, (float(pull), name), key=lambda t: t[0])
+        worst_tail = max(worst_tail, (float(tail), name), key=lambda t: t[0])
+    pull, name = worst_pull
+    if name is not None and pull > PRIOR_PULL_SD:
+        i = evidence.names.index(name)
+        prior = evidence.priors[i]
+        # A noise parameter held up by its prior (e.g. a Gauss-Markov level the log does not
+        # show) does not bias the coefficients: a warning; a coefficient's is an error.
+        severity: Severity = "error" if i < evidence.n_model else "warning"
+        form = "lognormal(MEDIAN,LOG_SD)" if isinstance(prior, LogNormal) else "normal(MU,SD)"
+        return Check("prior_data_conflict", False, severity, pull, PRIOR_PULL_SD,
+                     f"the prior of {name} ({prior.describe()}) disagrees with the log and "
+                     f"pulls its posterior by {pull:.1f} posterior sd; widen it with --prior "
+                     f"{name}={form}, or choose another --priors set")
+    tail, tail_name = worst_tail
+    if tail_name is not None and tail > PRIOR_TAIL_SD:
+        return Check("prior_data_conflict", False, "warning", tail, PRIOR_TAIL_SD,
+                     f"{tail_name} sits {tail:.1f} prior sd from its prior's centre, but the "
+                     f"log dominates (pull {pull:.2f} posterior sd); the prior is misplaced "
+                     "for this gyro")
+    return Check("prior_data_conflict", True, "error", pull, PRIOR_PULL_SD,
+                 "no prior disagrees with the log" if name is not None else
+                 "flat priors: nothing to disagree with")
+
+
+def goodness_of_fit(evidence: FitEvidence) -> Check:
+    if not evidence.sigma_given or evidence.residuals is None:
+        return Check("goodness_of_fit", True, "error", None, None,
+                     "the noise level was estimated from the log (no sigma_deg_h): its "
+                     "residual scale is 1 by construction")
+    z = np.asarray(evidence.residuals)
+    n = z.size
+    q = float(np.mean(z**2))
+    band = GOF_Z * math.sqrt(2.0 / n)
+    scale = math.sqrt(q)
+    if abs(q - 1.0) <= band:
+        return Check("goodness_of_fit", True, "error", scale, 1.0 + band,
+                     f"residuals match the stated sigma_deg_h (scale {scale:.3f})")
+    if q > 1.0:
+        severity: Severity = "error" if scale > GOF_SCALE_ERROR else "warning"
+        message = (f"the residuals are {scale:.2f} times the stated sigma_deg_h: the model "
+                   "misses part of the drift or sigma_deg_h is too small, and the intervals "
+                   "are too narrow; run gyroid discrepancy, or drop sigma_deg_h to estimate "
+                   "the noise")
+    else:
+        severity = "warning"
+        message = (f"the residuals are only {scale:.2f} times the stated sigma_deg_h: "
+                   "sigma_deg_h is too large and the intervals are too wide")
+    return Check("goodness_of_fit", False, severity, scale, 1.0 + band, message)
+
+
+def block_variance_ratios(z: np.ndarray, min_blocks: int = 16
+                          ) -> list[tuple[int, float, int]]:
+    """(m, m * var(block means) / var(z), blocks) for m = 2, 4, 8, ... while at least
+    ``min_blocks`` blocks fit. For white ``z`` each ratio is ``chi2(B-1)/(B-1)``."""
+    z = np.asarray(z, dtype=float)
+    z = z - z.mean()
+    var = float(np.mean(z**2))
+    out = []
+    m = 2
+    while var > 0 and z.size // m >= min_blocks:
+        b = z.size // m
+        means = z[: b * m].reshape(b, m).mean(axis=1)
+        out.append((m, float(m * np.var(means, ddof=1) / var), b))
+        m *= 2
+    return out
+
+
+def segment_variance_ratio(z: np.ndarray, segments: tuple[tuple[int, int], ...]
+                           ) -> tuple[float, int] | None:
+    """(``sum n_k (mean_k - mean)**2 / ((K - 1) var(z))``, K) over the log's K contiguous
+    segments: ``chi2(K-1)/(K-1)`` when ``z`` is white. None for fewer than 8 segments."""
+    if segments is None or len(segments) < 8:
+        return None
+    z = np.asarray(z, dtype=float)
+    z = z - z.mean()
+    var = float(np.mean(z**2))
+    if var <= 0:
+        return None
+    sizes = np.array([b - a for a, b in segments], dtype=float)
+    means = np.array([z[a:b].mean() for a, b in segments])
+    k = len(segments)
+    return float(np.sum(sizes * means**2) / ((k - 1) * var)), k
+
+
+def residual_whiteness(residuals: np.ndarray | None, *,
+                       segments: tuple[tuple[int, int], ...] | None = None,
+                       correlated_noise_modelled: bool = False,
+                       remedy: str | None = None) -> Check:
+    """Block-variance test of standardised residuals (see the module docstring).
+    ``remedy`` replaces the advice of a severe failure (for a fit whose command has no
+    --noise or --segment-means option)."""
+    from scipy import stats
+
+    if_failed: Severity = "warning" if correlated_noise_modelled else "error"
+    if residuals is None or np.asarray(residuals).size < 64:
+        return Check("residual_whiteness", True, if_failed, None, WHITENESS_INFLATION,
+                     "too few residuals to test for correlation")
+    ratios: list[tuple[int | str, float, int]] = list(
+        block_variance_ratios(np.asarray(residuals)))
+    between = segment_variance_ratio(np.asarray(residuals), segments)
+    if between is not None:
+        ratios.append(("segment", *between))
+    if not ratios:
+        return Check("residual_whiteness", True, if_failed, None, WHITENESS_INFLATION,
+                     "too few residuals to test for correlation")
+    p_values = np.array([stats.chi2.sf(r * (b - 1), b - 1) for _, r, b in ratios])
+    significant = p_values * len(ratios) < WHITENESS_P
+    if not significant.any():
+        return Check("residual_whiteness", True, if_failed, max(r for _, r, _ in ratios),
+                     WHITENESS_INFLATION, "the residuals are consistent with white noise")
+    k = max(np.flatnonzero(significant), key=lambda i: ratios[i][1])
+    m, inflation, _ = ratios[k]
+    p = float(min(1.0, p_values[k] * len(ratios)))
+    severe = inflation > WHITENESS_INFLATION
+    severity: Severity = "error" if severe and not correlated_noise_modelled else "warning"
+    blocks = (f"the {len(segments)} contiguous segments' means" if m == "segment" else
+              f"blocks of {m} samples")
+    where = f"{blocks} vary {inflation:.1f}x as much as white noise would (p = {p:.1g})"
+
+    if correlated_noise_modelled:
+        message = (f"the innovations are still correlated ({where}): an effect is missing or "
+                   "the noise model is too simple; run gyroid discrepancy")
+    elif severe and remedy:
+        message = (f"the residuals are correlated ({where}), so the intervals are too "
+                   f"narrow; {remedy}")
+    elif severe and m == "segment":
+        message = (f"the bias wanders between the log's bursts ({where}), so the intervals are "
+                   "too narrow; refit with --segment-means (one row per burst: the wander "
+                   "becomes the noise), or --noise white+gm")
+    elif severe:
+        message = (f"the residuals are correlated ({where}), so the intervals are too narrow; "
+                   "refit with --noise white+gm, or look for a missing effect with gyroid "
+                   "discrepancy")
+    else:
+        message = (f"the residuals are mildly correlated ({where}); the intervals may be up "
+                   f"to {math.sqrt(inflation):.2f}x too narrow")
+    return Check("residual_whiteness", False, severity, inflation, WHITENESS_INFLATION,
+                 message)
+
+
+def outliers(residuals: np.ndarray | None, *,
+             where: Callable[[int], str] | None = None, name: str = "outliers",
+             bias_sd_ratio: float = 1.0) -> Check:
+    """Standardised residuals no Gaussian noise would leave (see the module docstring).
+    ``bias_sd_ratio``: the fit's sd of a bias-like coefficient over ``s / sqrt(n)`` of these
+    residuals (1 when the fit is of these very samples; larger for a fit of their means,
+    whose noise includes wander the samples do not show)."""
+    from scipy import stats
+
+    if residuals is None or np.asarray(residuals).size < 16:
+        return Check(name, True, "error", None, OUTLIER_SHIFT_SD,
+                     "too few residuals to look for outliers")
+    z = np.asarray(residuals, dtype=float)
+    n = z.size
+    z_max = float(stats.norm.isf(0.5 * OUTLIER_FALSE_ALARM / n))
+    rows = np.flatnonzero(np.abs(z) > z_max)
+    if rows.size == 0:
+        return Check(name, True, "error", 0.0, OUTLIER_SHIFT_SD,
+                     f"no residual beyond {z_max:.1f} sd")
+    shift = float(abs(z[rows].sum()) / math.sqrt(n) / bias_sd_ratio)
+    worst = rows[np.argsort(-np.abs(z[rows]))][:3]
+    first = where(int(worst[0])) if where else f"row {int(worst[0]) + 1}"
+    named = ", ".join([f"{first} at {z[worst[0]]:+.0f} sd"]
+                      + [f"row {int(i) + 1} at {z[i]:+.0f} sd" for i in worst[1:]])
+    more = f" and {rows.size - worst.size} more" if rows.size > worst.size else ""
+    severity: Severity = "error" if shift > OUTLIER_SHIFT_SD else "warning"
+    if severity == "error":
+        consequence = (f"they move a bias-like coefficient by {shift:.1f} sd of its estimate, "
+                       "so the answer rests on them")
+    else:
+        consequence = (f"together they move a bias-like coefficient by {shift:.2f} sd of its "
+                       "estimate")
+    # Isolated excursions are spikes; neighbours beyond z_max are a stretch the model
+    # misses (or correlated noise), which removing rows would hide rather than mend.
+    in_runs = np.isin(rows - 1, rows) | np.isin(rows + 1, rows)
+    advice = ("most come in runs of neighbouring rows: structure the model or the noise model "
+              "misses, not spikes; run gyroid discrepancy" if in_runs.mean() > 0.5 else
+              "remove spikes from the log, or find their cause")
+    return Check(name, False, severity, shift, OUTLIER_SHIFT_SD,
+                 f"{rows.size} sample(s) lie beyond {z_max:.1f} sd of the model ({named}{more}); "
+                 f"{consequence}; {advice}")
+
+
+def identifiability(evidence: FitEvidence) -> Check:
+    moments = _posterior_u(evidence)
+    if moments is None:
+        return Check("identifiability", True, "error", None, IDENTIFIED_RATIO,
+                     "no posterior to judge identifiability")
+    _, sd = moments
+    worst, worst_name = 0.0, None
+    poor: list[str] = []
+    for i, name in enumerate(evidence.names[: evidence.n_model]):
+        reference = evidence.reference_sd.get(name)
+        if not reference or not np.isfinite(reference):
+            continue
+        ratio = float(sd[i] / reference)
+        if ratio > IDENTIFIED_RATIO:
+            poor.append(name)
+        if ratio > worst:
+            worst, worst_name = ratio, name
+    if not poor:
+        return Check("identifiability", True, "error", worst, IDENTIFIED_RATIO,
+                     "every coefficient is pinned down by this log" if worst_name is None
+                     else f"every coefficient is pinned down by this log (worst: {worst_name},"
+                          f" posterior sd {100 * worst:.0f} % of its reference scale)")
+    hints = "; ".join(dict.fromkeys(evidence.hints[n] for n in poor if n in evidence.hints))
+    return Check("identifiability", False, "error", worst, IDENTIFIED_RATIO,
+                 f"this log does not identify {', '.join(poor)} (posterior sd up to "
+                 f"{100 * worst:.0f} % of the reference scale): "
+                 + (hints or "use a log that exercises them, or drop their terms"))

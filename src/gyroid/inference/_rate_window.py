@@ -1,0 +1,120 @@
+"""Choosing the temperature-rate estimator's window from the data (``--rate-window auto``).
+
+A short window follows fast ramps and kinks but passes more thermometer noise into dT/dt
+(errors in variables: the rate coefficient is attenuated); a long window is quiet but
+smears every change in the rate over its length, and the drift model then sees a wrong
+dT/dt near each kink. The window is chosen on a geometric grid by the least residual sum
+of squares of the model's least-squares fit (the same number of coefficients at every
+window, so this is the profile likelihood and BIC alike): the window whose dT/dt explains
+the drift best. Only models that read dT/dt choose; others keep the default.
+"""
+
+from __future__ import annotations
+
+import math
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from gyroid.errors import GyroidInputError
+from gyroid.io._logs import BenchLog
+from gyroid.models._derived import RATE_POLY_DEGREE, RATE_WINDOW_S, temperature_rate_deg_c_per_h
+from gyroid.models._design import with_rows
+from gyroid.models._drift import DriftModel
+
+#: The grid's bounds, s, and its number of windows.
+SHORTEST_S = 60.0
+LONGEST_S = 7200.0
+GRID_POINTS = 13
+
+
+def reads_rate(model: DriftModel) -> bool:
+    """True when the model's drift depends on the estimated dT/dt."""
+    return "temperature_rate" in model.terms
+
+
+def window_grid(time_s: np.ndarray) -> np.ndarray:
+    """Candidate windows, s: geometric from ``max(60 s, 4 (degree + 1) samples)`` to
+    ``min(2 h, a third of the log)``, with the default 1200 s when it is inside."""
+    time_s = np.asarray(time_s, dtype=float)
+    step = float(np.median(np.diff(time_s)))
+    duration = float(time_s[-1] - time_s[0])
+    low = max(SHORTEST_S, 4 * (RATE_POLY_DEGREE + 1) * step)
+    high = min(LONGEST_S, duration / 3.0)
+    if high <= low:
+        return np.array([min(RATE_WINDOW_S, max(duration, step))])
+    grid = np.geomspace(low, high, GRID_POINTS)
+    if low < RATE_WINDOW_S < high:
+        grid = np.unique(np.append(grid, RATE_WINDOW_S))
+    return grid
+
+
+def _design(model: DriftModel, inputs) -> np.ndarray:
+    if model.is_linear:
+        return np.asarray(model.design(inputs))
+    zero = jnp.zeros(len(model.parameter_names))
+    return np.asarray(jax.jacfwd(lambda th: model.predict(th, inputs))(zero))
+
+
+def choose_rate_window(log: BenchLog, model: DriftModel, *, t0_C: float,
+                       grid: np.ndarray | None = None) -> tuple[float, dict[float, float]]:
+    """The window (s) with the least residual sum of squares, and the RSS per window.
+
+    For a linear model only the dT/dt column changes between windows: the other columns'
+    design ``A`` is kept (n x (p - 1)) with the R factor of ``[A, y]``, and each window
+    costs one product ``A' r`` of its dT/dt ``r``: O(n p), with no Q factor formed."""
+    if not reads_rate(model) or not log.has("temperature_C"):
+        return RATE_WINDOW_S, {}
+    inputs = log.inputs(t0_C=t0_C)
+    time_s = np.asarray(log.time_s)
+    temperature = np.asarray(log.columns["temperature_C"])
+    weights = 1.0 / np.asarray(log.sigma_deg_h) if log.sigma_deg_h is not None else None
+    y = np.asarray(log.drift_deg_h) if weights is None else np.asarray(log.drift_deg_h) * weights
+    windows = window_grid(time_s) if grid is None else grid
+
+    def rate(window: float) -> np.ndarray:
+        r = temperature_rate_deg_c_per_h(time_s, temperature, float(window))
+        return r if weights is None else r * weights
+
+    scores: dict[float, float] = {}
+    if model.is_linear:
+        others = [e for e in model.effects if e.name != "temperature_rate"]
+        fixed = np.empty((y.size, len(model.parameter_names) - 1))
+        r_fixed = None
+        for rows, block in model.design_blocks(inputs, others):
+            fixed[rows] = block if weights is None else block * weights[rows, None]
+            r_fixed = with_rows(r_fixed, np.column_stack([fixed[rows], y[rows]]))
+        k = fixed.shape[1]
+        factor, q_y = r_fixed[:k, :k], r_fixed[:k, k]  # A = Q factor; Q'y = q_y
+        y_perp2 = float(r_fixed[k, k] ** 2)  # |y - Q Q'y|^2
+        for window in windows:
+            r = rate(window)
+            q_r = np.linalg.lstsq(factor.T, fixed.T @ r, rcond=None)[0]  # Q'r
+            r_perp2 = float(r @ r - q_r @ q_r)
+            cross = float(r @ y - q_r @ q_y)  # (r - QQ'r)'(y - QQ'y)
+            scores[float(window)] = y_perp2 - cross**2 / r_perp2
+    else:
+        for window in windows:
+            trial = eqx.tree_at(lambda x: x.rate_C_h, inputs, jnp.asarray(rate(window)))
+            design = _design(model, trial)
+            if weights is not None:
+                design = design * weights[:, None]
+            coefficients, *_ = np.linalg.lstsq(design, y, rcond=None)
+            scores[float(window)] = float(np.sum((y - design @ coefficients) ** 2))
+    best = min(scores, key=scores.get)
+    return best, scores
+
+
+def parse_rate_window(value: str | float | None) -> float | None:
+    """``auto`` (None) or a window in seconds."""
+    if value is None or (isinstance(value, str) and value.strip().lower() == "auto"):
+        return None
+    try:
+        seconds = float(value)
+    except ValueError:
+        raise GyroidInputError(f"--rate-window {value!r}: give 'auto' or seconds") from None
+    if not math.isfinite(seconds) or seconds <= 0:
+        raise GyroidInputError(f"--rate-window {value!r}: the window must be positive seconds")
+    return seconds

@@ -1,0 +1,53 @@
+"""Where every mode-finder starts: a grid over a drift model's positive parameters.
+
+A time constant (a warm-up's, a thermal lag's) or a step's time enters the drift
+nonlinearly, and its profile likelihood often has several maxima (a short time constant
+that fits the first minutes, a long one that fits the trend). Each mode-finder therefore
+evaluates the profile (the real parameters solved exactly for fixed positive ones) on one
+grid, and refines the best points locally:
+
+* a positive parameter's candidates are its own values from the log where it has them
+  (``Parameter.start_values``: a bias step's time at the largest jumps of the 60 s means),
+  else ``START_MULTIPLES`` of its registry median (the physical scale, whatever prior the
+  fit uses): 0.05 to 15 times, seven values, geometric;
+* the grid is the product over positive parameters (7^k points; the catalogue has at most
+  two positive parameters per model);
+* real parameters start at zero (the profile solves them exactly).
+
+:func:`gyroid.inference._point.point_estimate` (optimistix's Levenberg-Marquardt on the
+posterior) and :func:`gyroid.inference._whitened_fit.fit_whitened` (a bounded simplex on the
+whitened profile) both start here.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Iterator
+
+import numpy as np
+
+from gyroid.models._effects import Parameter
+from gyroid.models._inputs import DriftInputs
+
+#: Multiples of a time constant's registry median tried as starting values.
+START_MULTIPLES = (0.05, 0.15, 0.4, 1.0, 2.5, 6.0, 15.0)
+
+
+def log_candidates(parameter: Parameter, inputs: DriftInputs) -> np.ndarray:
+    """A positive parameter's starting values, as logs."""
+    if parameter.start_values is not None:
+        return np.log(np.asarray(parameter.start_values(inputs), dtype=float))
+    return math.log(parameter.prior.median) + np.log(START_MULTIPLES)
+
+
+def start_grid(parameters: tuple[Parameter, ...], inputs: DriftInputs) -> list[np.ndarray]:
+    """Per positive parameter (in model order) its log candidates."""
+    return [log_candidates(p, inputs) for p in parameters if p.positive]
+
+
+def grid_points(grid: list[np.ndarray]) -> Iterator[np.ndarray]:
+    """Every point of a :func:`start_grid` as a vector of the positive parameters' logs
+    (one empty vector for a model without positive parameters)."""
+    for combo in itertools.product(*grid):
+        yield np.asarray(combo, dtype=float)

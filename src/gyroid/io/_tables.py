@@ -1,0 +1,225 @@
+"""Reading logs: a log's table (CSV, .csv.gz or parquet) with every bad cell named by row,
+line and column, vendors' columns read as the contract's (:mod:`gyroid.io._units`), and the
+checks every column gets (finite, plausible, time increasing). CSV parsing is
+:mod:`gyroid.io._csv_reader`'s."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from gyroid.errors import GyroidInputError
+from gyroid.io._csv_reader import arrow_columns, header_names, read_bytes, read_csv, split_head
+from gyroid.io._units import ColumnMap
+
+
+@dataclass(frozen=True)
+class LogTable:
+    """A log's header, comment lines and parsed columns, with data-row line numbers."""
+
+    path: Path
+    header: tuple[str, ...]
+    raw: dict  # column name -> numpy array (float, or object/str for text)
+    n_rows: int
+    first_line: int | None  # file line of data row 0 when rows are consecutive lines
+    lines: np.ndarray | None = None  # else: the file line of every data row
+    comments: tuple[str, ...] = ()
+    maps: tuple[ColumnMap, ...] = field(default=())
+    decimal_comma: bool = False
+    empty: dict = field(default_factory=dict)  # column -> mask of empty cells (numeric cols)
+
+    def where(self, row: int) -> str:
+        """Human description of data row ``row`` (0-based): 'row 3 (line 7 of log.csv)'."""
+        if self.lines is not None:
+            return f"row {row + 1} (line {self.lines[row]} of {self.path.name})"
+        if self.first_line is not None:
+            return f"row {row + 1} (line {self.first_line + row} of {self.path.name})"
+        return f"row {row + 1} of {self.path.name}"
+
+    def _source(self, name: str) -> tuple[str, ColumnMap | None]:
+        for m in self.maps:
+            if m.target == name:
+                return m.source, m
+        return name, None
+
+    def has(self, name: str) -> bool:
+        return self._source(name)[0] in self.header
+
+    def missing(self, name: str, advice: str) -> GyroidInputError:
+        source, mapped = self._source(name)
+        what = f"column {source!r} (mapped to {name})" if mapped else f"column {name!r}"
+        return GyroidInputError(f"{self.path.name}: {what} is missing (the header has "
+                                f"{', '.join(self.header)}); {advice}")
+
+    def number_column(self, name: str, advice: str | None = None) -> np.ndarray:
+        """One column as finite floats in the contract's unit, refusing the first bad cell."""
+        source, mapped = self._source(name)
+        if source not in self.header:
+            raise self.missing(name, advice or (
+                f"add it, map a column of yours onto it with --map {name}=COLUMN[:UNIT], or "
+                "choose terms that do not need it"))
+        values = self._floats(source)
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            i = int(bad[0])
+            cell = self.raw[source][i]
+            empty = source in self.empty and bool(self.empty[source][i])
+            text = "" if cell is None or empty else str(cell).strip()
+            what = "is empty" if not text or text.lower() in ("none", "null") else (
+                f"is {text!r}, not a number" if not _is_float(text) else f"is {text}")
+            advice_row = ("fix or remove the row" if "not a number" in what or "empty" in what
+                          else "remove the row or fill in a measured value")
+            raise GyroidInputError(f"{self.path.name}: {self.where(i)}, column {source}: the "
+                                   f"value {what}; {advice_row}")
+        return mapped.convert(values) if mapped is not None else values
+
+    def try_number_column(self, name: str) -> np.ndarray | None:
+        """A column if present and clean, else ``None`` (for optional context columns)."""
+        if not self.has(name):
+            return None
+        try:
+            return self.number_column(name)
+        except GyroidInputError:
+            return None
+
+    def _floats(self, source: str) -> np.ndarray:
+        column = self.raw[source]
+        if column.dtype.kind in "fiub":
+            return np.asarray(column, dtype=float)  # no copy when already float64
+        text = np.asarray(column, dtype=object)
+        out = np.full(text.size, np.nan)
+        for i, cell in enumerate(text):
+            if cell is None:
+                continue
+            cell = str(cell).strip()
+            if self.decimal_comma:
+                cell = cell.replace(",", ".")
+            try:
+                out[i] = float(cell)
+            except ValueError:
+                break  # the first bad cell ends the scan: it is what the error names
+        return out
+
+    def numeric_columns(self) -> list[str]:
+        """Columns whose every cell is a finite number."""
+        out = []
+        for name in self.header:
+            try:
+                if np.all(np.isfinite(self._floats(name))):
+                    out.append(name)
+            except (TypeError, ValueError):
+                continue
+        return out
+
+
+def _is_float(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def read_log_table(path: str | Path, maps: tuple[ColumnMap, ...] = ()) -> LogTable:
+    """Read a log (.csv, .csv.gz, .parquet) with ``#`` comment lines and a header row."""
+    path = Path(path)
+    if path.suffix.lower() in (".parquet", ".pq"):
+        return _read_parquet(path, maps)
+    parsed = read_csv(path)
+    return LogTable(path, parsed.header, parsed.raw, parsed.n_rows, parsed.first_line,
+                    parsed.lines, parsed.comments, maps, parsed.decimal_comma, parsed.empty)
+
+
+def _read_parquet(path: Path, maps) -> LogTable:
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    try:
+        table = pq.read_table(path)
+    except FileNotFoundError:
+        raise GyroidInputError(f"{path}: no such file; check the path") from None
+    except (pa.ArrowInvalid, OSError) as error:
+        raise GyroidInputError(f"{path.name}: not a readable parquet file ({error})") from None
+    names, n_rows = tuple(table.column_names), table.num_rows
+    metadata, holder = table.schema.metadata or {}, [table]
+    del table
+    raw, empty = arrow_columns(holder)
+    if n_rows == 0:
+        raise GyroidInputError(f"{path.name}: the file has no data rows")
+    comments = tuple(v.decode(errors="replace") for k, v in metadata.items()
+                     if k.startswith(b"comment"))
+    return LogTable(path, names, raw, n_rows, None, None, comments,
+                    maps, False, empty)
+
+
+def read_header(path: str | Path) -> tuple[str, ...]:
+    """A log's column names, reading no more than the header (a parquet file's schema, or
+    the first 64 kB of a CSV, gzip or not); errors as :func:`read_log_table`'s."""
+    path = Path(path)
+    if path.suffix.lower() in (".parquet", ".pq"):
+        import pyarrow.parquet as pq
+
+        try:
+            return tuple(pq.read_schema(path).names)
+        except FileNotFoundError:
+            raise GyroidInputError(f"{path}: no such file; check the path") from None
+        except Exception:  # noqa: BLE001 - a damaged file: the full read names the problem
+            return read_log_table(path).header
+    head = read_bytes(path, 1 << 16)  # a missing file or a damaged gzip: its message
+    _, _, header = split_head(head.decode("utf-8-sig", errors="replace"))
+    if header is None:
+        return read_log_table(path).header
+    return header_names(header)
+
+
+def log_kind(path: str | Path, maps: tuple[ColumnMap, ...] = ()) -> str:
+    """``"roll"`` for a roll log (contract section 4: roll_rate_deg_s and no drift_deg_h,
+    after the column maps), else ``"bench"``; reads the header only."""
+    names = {*read_header(path), *(m.target for m in maps)}
+    return "roll" if "roll_rate_deg_s" in names and "drift_deg_h" not in names else "bench"
+
+
+def check_time_increasing(table: LogTable, time_s: np.ndarray) -> None:
+    """Refuse a time column that is not strictly increasing, naming the first bad row."""
+    steps = np.diff(time_s)
+    bad = np.flatnonzero(steps <= 0)
+    if bad.size:
+        i = int(bad[0]) + 1
+        raise GyroidInputError(
+            f"{table.path.name}: time_s does not increase at {table.where(i)}: "
+            f"{time_s[i]:g} s follows {time_s[i - 1]:g} s; sort the log by time and remove "
+            "repeated samples"
+        )
+
+
+#: Values beyond these magnitudes are refused as implausible (a unit or parse mistake).
+PLAUSIBLE = {
+    "time_s": 1e12, "drift_deg_h": 1e9, "sigma_deg_h": 1e9, "Hx_uT": 1e8, "Hy_uT": 1e8,
+    "Hz_uT": 1e8, "roll_rate_deg_s": 1e7, "gs_rate_deg_s": 1e7, "gs_angle_deg": 1e12,
+}
+
+
+def check_plausible(table: LogTable, name: str, values: np.ndarray) -> None:
+    """Refuse a value no gyro log holds (e.g. 1e300), naming its row."""
+    if name == "temperature_C":
+        bad = np.flatnonzero((values < -273.15) | (values > 1000.0))
+        limit = "between -273.15 and 1000 degC"
+    else:
+        bound = PLAUSIBLE.get(name)
+        if bound is None:
+            return
+        bad = np.flatnonzero(np.abs(values) > bound)
+        limit = f"within +/-{bound:g}"
+    if bad.size:
+        i = int(bad[0])
+        source, column_map = table._source(name)
+        column = name if column_map is None else f"{source} (read as {name})"
+        many = f", nor are {bad.size - 1} more rows" if bad.size > 1 else ""
+        advice = ("fix the row, or give the column's unit with --map" if bad.size <= 1 else
+                  "if it holds raw sensor counts, convert them to physical units first, or "
+                  "give the column's unit with --map")
+        raise GyroidInputError(f"{table.path.name}: {table.where(i)}, column {column}: "
+                               f"{values[i]:g} is not a plausible value (expected {limit})"
+                               f"{many}; {advice}")

@@ -1,0 +1,142 @@
+"""Many logs of one gyro type fitted at once, one fit per log, on Dask (contract section 3,
+``gyroid batch``): a production lot of gyros, repeated runs of one unit, or an SBC study.
+
+Each log is fitted in a worker process exactly as ``gyroid fit`` fits it, and its files are
+written to ``OUT/LABEL/`` (fit.json, posterior.nc, figures; ``LABEL`` is the file's stem,
+or its folder's name when stems repeat). A log that cannot be read or
+fitted fails alone: its message goes into ``batch.json``'s ``failed`` and the others finish.
+The scheduler is a ``LocalCluster`` of single-threaded worker processes by default, or an
+existing cluster given by address (its workers must see the same file system).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import logging
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from gyroid.errors import GyroidInputError
+from gyroid.io._logs import run_labels
+from gyroid.models._priors import Prior
+
+
+@dataclass(frozen=True)
+class LogOutcome:
+    """What became of one log: its fit's summary, or why it failed."""
+
+    log: str
+    n_samples: int | None = None
+    trustworthy: bool | None = None
+    posterior: dict[str, dict[str, float]] = field(default_factory=dict)  # P: mean, sd
+    message: str | None = None  # None when the fit was written
+
+    @property
+    def failed(self) -> bool:
+        return self.message is not None
+
+
+@dataclass(frozen=True)
+class BatchResult:
+    scheduler: str
+    workers: int
+    outcomes: list[LogOutcome]
+
+    def to_json(self) -> dict:
+        """``batch.json`` (contract section 3)."""
+        return {"scheduler": self.scheduler, "workers": self.workers,
+                "logs": [o.log for o in self.outcomes],
+                "failed": [{"log": o.log, "message": o.message}
+                           for o in self.outcomes if o.failed]}
+
+    def csv_text(self) -> str:
+        """``batch.csv``: one row per fitted log, ``P_mean`` and ``P_sd`` per parameter."""
+        names = sorted({p for o in self.outcomes for p in o.posterior})
+        out = io.StringIO()
+        writer = csv.writer(out, lineterminator="\n")
+        writer.writerow(["log", "n_samples", "trustworthy",
+                         *(f"{p}_{stat}" for p in names for stat in ("mean", "sd"))])
+        for o in self.outcomes:
+            if o.failed:
+                continue
+            writer.writerow([o.log, o.n_samples, o.trustworthy,
+                             *(repr(o.posterior[p][stat]) if p in o.posterior else ""
+                               for p in names for stat in ("mean", "sd"))])
+        return out.getvalue()
+
+    @property
+    def trustworthy(self) -> bool:
+        return all(o.trustworthy for o in self.outcomes if not o.failed)
+
+
+def fit_one(path: str, terms: str, folder: str, seed: int, noise: str,
+            prior_set: str = "default", priors: Mapping[str, Prior] | None = None
+            ) -> LogOutcome:
+    """Fit one log and write its files into ``folder`` (runs in a worker)."""
+    from gyroid.inference._bench_fit import fit_log
+    from gyroid.inference._sampling import SamplerSettings
+    from gyroid.io._logs import load_bench_log
+    from gyroid.io._outputs import output_dir
+    from gyroid.reports._files import write_fit_outputs
+
+    try:
+        log = load_bench_log(path, terms)
+        result = fit_log(log, terms, noise=noise, seed=seed, prior_set=prior_set,
+                         priors=priors, settings=SamplerSettings(progress=False))
+        with output_dir(Path(folder)) as stage:
+            write_fit_outputs(stage, log, result)
+    except GyroidInputError as error:
+        return LogOutcome(path, message=str(error))
+    except Exception as error:  # noqa: BLE001 - one log's fault must not stop the lot
+        return LogOutcome(path, message=f"internal error: {type(error).__name__}: {error} "
+                                        "(a bug in gyroid; fit this log alone with "
+                                        "GYROID_DEBUG=1 for the traceback)")
+    summary = result.to_json()["posterior"]
+    return LogOutcome(path, n_samples=log.n, trustworthy=result.trustworthy,
+                      posterior={p: {"mean": s["mean"], "sd": s["sd"]}
+                                 for p, s in summary.items()})
+
+
+def run_batch(paths: Sequence[str | Path], terms: str, out: Path, *, workers: int = 2,
+              scheduler: str | None = None, seed: int = 0, noise: str = "white",
+              prior_set: str = "default", priors: Mapping[str, Prior] | None = None,
+              progress: Callable[[str], None] | None = None) -> BatchResult:
+    """Fit every log in ``paths`` into ``out/LABEL/`` on Dask (``LABEL`` as
+    :func:`gyroid.io._logs.run_labels` names runs: the file's stem, or its folder's name when
+    stems repeat); every fit with the same seed, noise model and priors (``prior_set`` and
+    per-parameter ``priors``, as ``gyroid fit`` takes them). See the module docstring."""
+    from dask.distributed import Client, LocalCluster, as_completed
+
+    say = progress or (lambda _msg: None)
+    paths = [str(p) for p in paths]
+    stems = run_labels(paths)
+    if workers < 1:
+        raise GyroidInputError("--workers must be at least 1")
+    if scheduler:
+        client = Client(scheduler)
+        cluster = None
+        where = scheduler
+    else:
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                               dashboard_address=None, silence_logs=logging.ERROR)
+        client = Client(cluster)
+        where = "LocalCluster"
+    try:
+        n_workers = len(client.scheduler_info()["workers"])
+        futures = {client.submit(fit_one, p, terms, str(out / s), seed, noise, prior_set,
+                                 dict(priors or {}), pure=False): p
+                   for p, s in zip(paths, stems, strict=True)}
+        done: dict[str, LogOutcome] = {}
+        for future in as_completed(futures):
+            outcome = future.result()
+            done[outcome.log] = outcome
+            state = "failed" if outcome.failed else (
+                "written" if outcome.trustworthy else "written, NOT TRUSTWORTHY")
+            say(f"[{len(done)}/{len(paths)}] {outcome.log}: {state}")
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()
+    return BatchResult(where, n_workers, [done[p] for p in paths])

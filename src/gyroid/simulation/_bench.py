@@ -1,0 +1,367 @@
+"""Simulators of paper A's two benches, producing contract logs with known truth.
+
+* Thermal bench: the gyro's temperature is driven from the lab temperature through the
+  thermostat setpoints 31...55 degC in smooth transitions (error-function steps: a
+  thermostat's heater and the case's thermal inertia give a smooth approach) followed by
+  soaks; 1 Hz logging; optional window averages as in the paper.
+* Magnetic bench: Helmholtz-coil sweeps along each axis, 0 -> +300 -> -300 -> 0 uT in 50 uT
+  steps with a 180 s dwell, OX then OY then OZ (after a 90 deg azimuth turn, logged as a
+  gap), the lab's field compensated, temperature at the lab's with a slow wander.
+
+The drift is the sum of the chosen effects evaluated on the *true* inputs (true temperature
+and its analytic rate, true field) plus gyro noise; the log holds the *measured* inputs
+(thermometer and magnetometer noise added).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field, replace
+
+import jax.numpy as jnp
+import numpy as np
+from scipy.special import erf
+
+from gyroid.errors import GyroidInputError
+from gyroid.io._logs import BenchLog
+from gyroid.models._derived import HYSTERESIS_DEADBAND_UT, field_change_sign
+from gyroid.models._drift import DriftModel
+from gyroid.models._effects import EFFECTS, PARAMETERS
+from gyroid.models._inputs import FIELD_COLUMNS, T0_C, inputs_from_arrays
+from gyroid.models._terms import PRESETS
+from gyroid.simulation._noise import GyroNoise, rate_noise
+
+#: Paper A's thermal coefficients (w1 negative, wD taken positive: see the package data).
+PAPER_A_THERMAL = {"w0": 1.197, "w1": -0.108, "w2": 0.004, "wD": 1.997}
+#: Paper A's device 2, test 1, deg/h per 100 uT.
+PAPER_A_DEVICE_2 = {"wx": -0.037, "wy": -0.576, "wz": -0.253}
+
+
+@dataclass(frozen=True)
+class ThermalProtocol:
+    """Thermal bench schedule (paper A: setpoints 31...55 degC in 5 degC steps, readings
+    after 40 min, 60 s averages)."""
+
+    lab_C: float = T0_C
+    setpoints_C: tuple[float, ...] = (31.0, 35.0, 40.0, 45.0, 50.0, 55.0)
+    initial_min: float = 20.0  # at lab temperature before the first heating
+    transition_min: float = 60.0  # each setpoint change: an erf step, +/-3 sd in this time
+    soak_min: float = 40.0  # settled at each setpoint
+    return_to_lab: bool = False  # a final transition back to the lab temperature
+    sample_s: float = 1.0
+    lab_field_uT: tuple[float, float, float] = (17.0, 0.0, -48.0)
+
+    @property
+    def duration_s(self) -> float:
+        steps = len(self.setpoints_C) + int(self.return_to_lab)
+        return 60.0 * (self.initial_min + steps * (self.transition_min + self.soak_min))
+
+    def stretched(self, hours: float | None = None, rate_hz: float | None = None
+                  ) -> ThermalProtocol:
+        """The same schedule lasting ``hours`` (every phase scaled alike) and sampled at
+        ``rate_hz``: long and fast logs (``gyroid simulate --hours --rate-hz``)."""
+        factor = 1.0 if hours is None else hours * 3600.0 / self.duration_s
+        return replace(self, initial_min=self.initial_min * factor,
+                       transition_min=self.transition_min * factor,
+                       soak_min=self.soak_min * factor,
+                       sample_s=self.sample_s if rate_hz is None else 1.0 / rate_hz)
+
+    def levels_C(self) -> tuple[float, ...]:
+        levels = tuple(self.setpoints_C)
+        return levels + ((self.lab_C,) if self.return_to_lab else ())
+
+    def segment_starts_s(self) -> np.ndarray:
+        """Start time of each transition, s."""
+        step = 60.0 * (self.transition_min + self.soak_min)
+        return 60.0 * self.initial_min + step * np.arange(len(self.levels_C()))
+
+    def temperature(self, time_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """True temperature, degC, and its rate, degC/h, at ``time_s``."""
+        temperature = np.full(time_s.shape, self.lab_C)
+        rate = np.zeros(time_s.shape)
+        width_s = 60.0 * self.transition_min / 6.0
+        previous = self.lab_C
+        for start, level in zip(self.segment_starts_s(), self.levels_C(), strict=True):
+            centre = start + 30.0 * self.transition_min
+            z = (time_s - centre) / width_s
+            temperature += (level - previous) * 0.5 * (1.0 + erf(z / np.sqrt(2.0)))
+            density = np.exp(-0.5 * z**2) / (width_s * np.sqrt(2.0 * np.pi))
+            rate += (level - previous) * density * 3600.0
+            previous = level
+        return temperature, rate
+
+    def reading_windows_s(self, window_s: float = 60.0) -> list[tuple[float, float, float]]:
+        """(level degC, start s, end s) of the reading at the end of each soak and of the
+        lab-temperature reading before heating."""
+        out = [(self.lab_C, 60.0 * self.initial_min - window_s, 60.0 * self.initial_min)]
+        step = 60.0 * (self.transition_min + self.soak_min)
+        for start, level in zip(self.segment_starts_s(), self.levels_C(), strict=True):
+            end = start + step
+            out.append((level, end - window_s, end))
+        return out
+
+
+@dataclass(frozen=True)
+class MagneticProtocol:
+    """Helmholtz-coil schedule (paper A): per axis 0 -> +300 -> -300 -> 0 uT in 50 uT steps,
+    180 s at each value; OX, then OY, then OZ after a 90 deg azimuth turn."""
+
+    amplitude_uT: float = 300.0
+    step_uT: float = 50.0
+    dwell_s: float = 180.0
+    axes: tuple[str, ...] = ("x", "y", "z")
+    turn_gap_s: float = 600.0  # no samples while the gyro is turned before the OZ sweep
+    lab_C: float = T0_C
+    temperature_wander_C: float = 0.2  # amplitude of a slow lab-temperature wander
+    wander_period_h: float = 3.0
+    sample_s: float = 1.0
+
+    @property
+    def duration_s(self) -> float:
+        gap = self.turn_gap_s if "z" in self.axes[1:] else 0.0
+        return len(self.axes) * self.sweep_levels_uT().size * self.dwell_s + gap
+
+    def stretched(self, hours: float | None = None, rate_hz: float | None = None
+                  ) -> MagneticProtocol:
+        """The same sweeps lasting ``hours`` (dwell and turn scaled alike) and sampled at
+        ``rate_hz``."""
+        factor = 1.0 if hours is None else hours * 3600.0 / self.duration_s
+        return replace(self, dwell_s=self.dwell_s * factor, turn_gap_s=self.turn_gap_s * factor,
+                       sample_s=self.sample_s if rate_hz is None else 1.0 / rate_hz)
+
+    def sweep_levels_uT(self) -> np.ndarray:
+        """Field values of one axis sweep, in order: 0, 50, ..., 300, 250, ..., -300, ..., 0."""
+        n = int(round(self.amplitude_uT / self.step_uT))
+        up = np.arange(0, n + 1)
+        down = np.arange(n - 1, -n - 1, -1)
+        back = np.arange(-n + 1, 1)
+        return self.step_uT * np.concatenate([up, down, back]).astype(float)
+
+    def schedule(self) -> tuple[np.ndarray, np.ndarray]:
+        """Sample times, s, and true field, uT, shape (n, 3)."""
+        levels = self.sweep_levels_uT()
+        per_level = int(round(self.dwell_s / self.sample_s))
+        times, fields = [], []
+        clock = 0.0
+        for axis in self.axes:
+            if axis == "z" and self.turn_gap_s > 0 and times:
+                clock += self.turn_gap_s
+            k = "xyz".index(axis)
+            block = np.zeros((levels.size * per_level, 3))
+            block[:, k] = np.repeat(levels, per_level)
+            times.append(clock + self.sample_s * np.arange(block.shape[0]))
+            fields.append(block)
+            clock = times[-1][-1] + self.sample_s
+        return np.concatenate(times), np.concatenate(fields)
+
+
+@dataclass(frozen=True)
+class SimulatedBench:
+    """A simulated log with its truth."""
+
+    log: BenchLog
+    truth: dict
+    true_drift_deg_h: np.ndarray = field(repr=False)
+
+
+def _resolve_truth(
+    base: Mapping[str, float], effects: Mapping[str, Mapping[str, float]] | None
+) -> tuple[tuple[str, ...], dict[str, float]]:
+    """Effects switched on and their parameter values.
+
+    An effect is on when ``base`` gives all its parameters or ``effects`` names it; values in
+    ``effects`` override ``base``.
+    """
+    requested = dict(effects or {})
+    values = {k: float(v) for k, v in base.items()}
+    for name, params in requested.items():
+        if name not in EFFECTS:
+            raise GyroidInputError(f"unknown effect {name!r}; known: {', '.join(EFFECTS)}")
+        effect = EFFECTS[name]
+        unknown = set(params) - set(effect.parameter_names)
+        if unknown:
+            raise GyroidInputError(
+                f"effect {name!r} has parameters {', '.join(effect.parameter_names)}, "
+                f"not {', '.join(sorted(unknown))}"
+            )
+        values.update({k: float(v) for k, v in params.items()})
+        missing = [p for p in effect.parameter_names if p not in values]
+        if missing:
+            raise GyroidInputError(f"give a value for {missing[0]} of effect {name!r}")
+    terms = tuple(
+        name
+        for name, e in EFFECTS.items()
+        if name in requested or all(p in base for p in e.parameter_names)
+    )
+    used = {p for name in terms for p in EFFECTS[name].parameter_names}
+    stray = sorted(set(values) - used)
+    if stray:
+        raise GyroidInputError(f"parameter {stray[0]!r} belongs to no effect that is switched on")
+    for name in terms:
+        for p in EFFECTS[name].parameters:
+            if p.positive and values[p.name] <= 0:
+                raise GyroidInputError(f"{p.name} must be positive, got {values[p.name]}")
+    return terms, values
+
+
+def _simulate(
+    *,
+    bench: str,
+    time_s: np.ndarray,
+    temperature_C: np.ndarray,
+    rate_C_h: np.ndarray,
+    field_uT: np.ndarray,
+    terms: tuple[str, ...],
+    values: dict[str, float],
+    noise: GyroNoise,
+    sample_s: float,
+    seed: int,
+    protocol: dict,
+    average_s: float | None,
+    t0_C: float,
+) -> SimulatedBench:
+    rng = np.random.default_rng(seed)
+    sign = np.column_stack(
+        [field_change_sign(field_uT[:, k], HYSTERESIS_DEADBAND_UT) for k in range(3)]
+    )
+    true_inputs = inputs_from_arrays(time_s, temperature_C, rate_C_h, field_uT, sign, t0_C=t0_C)
+    model = DriftModel(terms=terms)
+    params = {name: jnp.asarray(values[name]) for name in model.parameter_names}
+    true_drift = np.asarray(model(params, true_inputs))
+    n = time_s.size
+    # Independent streams, in a fixed order, so each noise source is reproducible.
+    gyro = rate_noise(rng, n, sample_s, noise)
+    thermometer = rng.standard_normal(n) * noise.temperature_noise_C
+    magnetometer = rng.standard_normal((n, 3)) * noise.field_noise_uT
+    columns = {
+        "time_s": time_s,
+        "drift_deg_h": true_drift + gyro,
+        "temperature_C": temperature_C + thermometer,
+    }
+    for k, name in enumerate(FIELD_COLUMNS):
+        columns[name] = field_uT[:, k] + magnetometer[:, k]
+    if average_s:
+        columns = window_average(columns, average_s)
+    truth = {
+        "bench": bench,
+        "effects": list(terms),
+        "parameters": {name: values[name] for name in model.parameter_names},
+        "units": {p: PARAMETERS[p].unit for p in model.parameter_names},
+        "t0_C": t0_C,
+        "noise": noise.as_dict() | {"white_sd_deg_h": noise.white_sd_deg_h(sample_s)},
+        "protocol": protocol,
+        "average_s": average_s,
+        "seed": seed,
+    }
+    comments = (
+        f"gyroid simulated {bench} bench, seed {seed}",
+        "truth: " + ", ".join(f"{k}={v:g}" for k, v in truth["parameters"].items()),
+    )
+    log = BenchLog(columns=columns, source=f"<simulated {bench} bench>", comments=comments)
+    return SimulatedBench(log=log, truth=truth, true_drift_deg_h=true_drift)
+
+
+def window_average(columns: Mapping[str, np.ndarray], window_s: float) -> dict[str, np.ndarray]:
+    """Average every column over consecutive ``window_s`` windows (paper A's 60 s means).
+
+    ``sigma_deg_h`` of each window is the standard error of its mean drift (sample sd over
+    sqrt(count)); windows with fewer than half the full count of samples are dropped.
+    """
+    time_s = np.asarray(columns["time_s"])
+    index = np.floor((time_s - time_s[0]) / window_s).astype(int)
+    counts = np.bincount(index)
+    keep = np.flatnonzero(counts >= max(2, counts.max() // 2))
+    out: dict[str, np.ndarray] = {}
+    for name, values in columns.items():
+        sums = np.bincount(index, weights=np.asarray(values, dtype=float))
+        out[name] = sums[keep] / counts[keep]
+    drift = np.asarray(columns["drift_deg_h"])
+    mean = out["drift_deg_h"]
+    square = np.bincount(index, weights=drift**2)[keep] / counts[keep]
+    variance = np.maximum(square - mean**2, 0.0) * counts[keep] / (counts[keep] - 1)
+    out["sigma_deg_h"] = np.sqrt(variance / counts[keep])
+    return out
+
+
+def simulate_thermal_bench(
+    *,
+    parameters: Mapping[str, float] | None = None,
+    effects: Mapping[str, Mapping[str, float]] | None = None,
+    protocol: ThermalProtocol | None = None,
+    noise: GyroNoise | None = None,
+    seed: int = 0,
+    average_s: float | None = None,
+    t0_C: float = T0_C,
+) -> SimulatedBench:
+    """Simulate paper A's thermal bench.
+
+    ``parameters`` replaces the paper's thermal coefficients (the effects of the ``thermal``
+    preset); ``effects`` switches on further effects, candidates included, e.g.
+    ``{"warmup": {"w_warmup": 2.0, "tau_warmup_min": 15.0}}``.
+    """
+    protocol = protocol or ThermalProtocol()
+    noise = noise or GyroNoise()
+    base = dict(PAPER_A_THERMAL if parameters is None else parameters)
+    terms, values = _resolve_truth(base, effects)
+    time_s = np.arange(0.0, protocol.duration_s, protocol.sample_s)
+    temperature, rate = protocol.temperature(time_s)
+    field_uT = np.tile(np.asarray(protocol.lab_field_uT, dtype=float), (time_s.size, 1))
+    return _simulate(
+        bench="thermal",
+        time_s=time_s,
+        temperature_C=temperature,
+        rate_C_h=rate,
+        field_uT=field_uT,
+        terms=terms,
+        values=values,
+        noise=noise,
+        sample_s=protocol.sample_s,
+        seed=seed,
+        protocol=asdict(protocol),
+        average_s=average_s,
+        t0_C=t0_C,
+    )
+
+
+def simulate_magnetic_bench(
+    *,
+    parameters: Mapping[str, float] | None = None,
+    effects: Mapping[str, Mapping[str, float]] | None = None,
+    protocol: MagneticProtocol | None = None,
+    noise: GyroNoise | None = None,
+    seed: int = 0,
+    average_s: float | None = None,
+    t0_C: float = T0_C,
+) -> SimulatedBench:
+    """Simulate paper A's Helmholtz-coil bench (default: device 2, test 1, and w0 = 1.197)."""
+    protocol = protocol or MagneticProtocol()
+    noise = noise or GyroNoise()
+    default = {"w0": PAPER_A_THERMAL["w0"], **PAPER_A_DEVICE_2}
+    base = dict(default if parameters is None else parameters)
+    terms, values = _resolve_truth(base, effects)
+    time_s, field_uT = protocol.schedule()
+    phase = 2.0 * np.pi * time_s / (3600.0 * protocol.wander_period_h)
+    temperature = protocol.lab_C + protocol.temperature_wander_C * np.sin(phase)
+    rate = protocol.temperature_wander_C * np.cos(phase) * 2.0 * np.pi / protocol.wander_period_h
+    return _simulate(
+        bench="magnetic",
+        time_s=time_s,
+        temperature_C=temperature,
+        rate_C_h=rate,
+        field_uT=field_uT,
+        terms=terms,
+        values=values,
+        noise=noise,
+        sample_s=protocol.sample_s,
+        seed=seed,
+        protocol=asdict(protocol),
+        average_s=average_s,
+        t0_C=t0_C,
+    )
+
+
+def preset_parameters(preset: str) -> dict[str, float]:
+    """Paper A's default truth for a preset's parameters."""
+    values = {**PAPER_A_THERMAL, **PAPER_A_DEVICE_2}
+    names = [p for e in PRESETS[preset] for p in EFFECTS[e].parameter_names]
+    return {name: values[name] for name in names}

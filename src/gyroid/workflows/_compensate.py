@@ -1,0 +1,148 @@
+"""Compensation in service: a fitted drift model applied to a new log (paper A's purpose).
+
+For each row: the modelled drift (posterior mean over draws), its sd over the posterior
+draws (the model's own uncertainty; the gyro's noise is not in it), and the compensated
+drift ``drift - model``. Judged by RMS and peak drift before and after, and the Allan
+deviation's figures of merit before and after. A new log whose inputs leave the fitted
+range (temperature, its rate, field, elapsed time for time-dependent effects) is flagged
+instead of extrapolated silently.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from gyroid.errors import GyroidInputError
+from gyroid.inference._bench_fit import input_ranges
+from gyroid.inference._checks import Check, CheckReport, fit_verdict
+from gyroid.io._fitted import FittedDrift
+from gyroid.io._logs import BenchLog
+from gyroid.models._effects import EXTRA_PREFIX, effect
+from gyroid.workflows._allan import AllanDeviation, allan_deviation
+
+
+@dataclass
+class Compensation:
+    model_deg_h: np.ndarray
+    model_sd_deg_h: np.ndarray
+    compensated_deg_h: np.ndarray
+    summary: dict
+    adev_before: AllanDeviation
+    adev_after: AllanDeviation
+    checks: CheckReport
+
+
+def compensate(log: BenchLog, fitted: FittedDrift, fitted_ranges: dict[str, list[float]],
+               *, max_draws: int = 400, seed: int = 0) -> Compensation:
+    """Apply a fit's posterior to ``log``."""
+    extra = [name for name in fitted.model.terms if name.startswith(EXTRA_PREFIX)]
+    if extra:
+        raise GyroidInputError(
+            f"the fit has {', '.join(extra)}: such a term is linear in its column's deviation "
+            "from the fitted log's own mean, which a new log does not share, so it cannot "
+            "compensate another run; refit without it (it is for finding causes)")
+    inputs = log.inputs(t0_C=fitted.t0_C, rate_window_s=fitted.rate_window_s)
+    rng = np.random.default_rng(seed)
+    draws = fitted.draws
+    if draws.shape[0] > max_draws:
+        draws = draws[rng.choice(draws.shape[0], max_draws, replace=False)]
+    predictions = np.asarray(jax.vmap(lambda th: fitted.model.predict(th, inputs))(
+        jnp.asarray(draws)))
+    model = predictions.mean(axis=0)
+    sd = predictions.std(axis=0, ddof=1) if predictions.shape[0] > 1 else np.zeros_like(model)
+    drift = np.asarray(log.drift_deg_h)
+    compensated = drift - model
+    steps = np.diff(log.time_s)
+    sample_s = float(np.median(steps))
+    time_s = np.asarray(log.time_s)
+    before = allan_deviation(drift, sample_s, time_s=time_s)
+    after = allan_deviation(compensated, sample_s, time_s=time_s)
+
+    def rms(x):
+        return float(np.sqrt(np.mean(x**2)))
+
+    new_ranges = input_ranges(inputs, fitted.model)
+    outside = []
+    for name, (lo, hi) in new_ranges.items():
+        if name == "elapsed_h" and not any(effect(t).reads_only_clock
+                                           for t in fitted.model.terms):
+            continue
+        if name not in fitted_ranges:
+            continue
+        f_lo, f_hi = fitted_ranges[name]
+        margin = 0.02 * (f_hi - f_lo)
+        values = _input_values(name, inputs)
+        fraction = float(np.mean((values < f_lo - margin) | (values > f_hi + margin)))
+        if fraction > 0:
+            outside.append({"input": name, "fitted_range": [f_lo, f_hi], "new_range": [lo, hi],
+                            "fraction_of_rows_outside": fraction})
+    summary = {
+        "rms_before_deg_h": rms(drift),
+        "rms_after_deg_h": rms(compensated),
+        "peak_before_deg_h": float(np.max(np.abs(drift))),
+        "peak_after_deg_h": float(np.max(np.abs(compensated))),
+        "fraction_removed": 1.0 - rms(compensated) / rms(drift),
+        "model_sd_note": "drift_model_sd_deg_h is the sd of the modelled drift over posterior "
+                         "draws (the model's uncertainty), without the gyro's own noise",
+        "allan_before": before.figures_of_merit(),
+        "allan_after": after.figures_of_merit(),
+        "extrapolation": outside,
+        "within_fitted_range": not outside,
+        "terms": list(fitted.model.terms),
+        "model_source": fitted.source,
+        "posterior_draws_used": int(draws.shape[0]),
+        "rows": int(drift.size),
+    }
+    checks = compensation_checks(drift, compensated, outside, fitted.trustworthy)
+    summary.update(checks.to_json())
+    return Compensation(model, sd, compensated, summary, before, after, checks)
+
+
+#: Rows outside the fitted ranges above this fraction make the compensation an
+#: extrapolation (an error); fewer are a warning.
+EXTRAPOLATED_FRACTION = 0.1
+
+
+def compensation_checks(drift: np.ndarray, compensated: np.ndarray, outside: list[dict],
+                        fit_trustworthy: bool) -> CheckReport:
+    """Extrapolation, the gain over removing a constant, and the fit's own verdict."""
+    worst = max((item["fraction_of_rows_outside"] for item in outside), default=0.0)
+    if not outside:
+        extrapolation = Check("extrapolation", True, "error", 0.0, EXTRAPOLATED_FRACTION,
+                              "every input stays within the fitted ranges")
+    else:
+        names = ", ".join(item["input"] for item in outside)
+        severe = worst > EXTRAPOLATED_FRACTION
+        extrapolation = Check(
+            "extrapolation", False, "error" if severe else "warning", worst,
+            EXTRAPOLATED_FRACTION,
+            f"{100 * worst:.0f} % of rows leave the fitted range of {names}: the model is "
+            "extrapolated there; fit a log that covers these conditions")
+    spread_before = float(np.std(drift))
+    spread_after = float(np.std(compensated))
+    ratio = spread_after / spread_before if spread_before > 0 else 1.0
+    # A model no better than a constant leaves the spread as it is (ratio 1); sampling noise
+    # of the sd is ~1/sqrt(2n), so 1.01 is far beyond chance for any usable log.
+    gain = Check(
+        "compensation_gain", ratio <= 1.01, "error", ratio, 1.01,
+        f"compensation leaves {100 * ratio:.0f} % of the drift's spread about its mean"
+        if ratio <= 1.01 else
+        f"compensation makes the drift's spread about its mean {ratio:.2f}x larger than "
+        "removing a constant would: do not use this model on this log")
+    return CheckReport((extrapolation, gain, fit_verdict(fit_trustworthy, "compensating with it")))
+
+
+def _input_values(name: str, inputs) -> np.ndarray:
+    from gyroid.models._inputs import FIELD_COLUMNS, H0_UT
+
+    if name == "temperature_C":
+        return np.asarray(inputs.temperature_C)
+    if name == "dT_dt_C_h":
+        return np.asarray(inputs.rate_C_h)
+    if name == "elapsed_h":
+        return np.asarray(inputs.time_h)
+    return np.asarray(inputs.field_rel[:, FIELD_COLUMNS.index(name)]) * H0_UT

@@ -1,0 +1,194 @@
+"""The discrepancy workflow: where does a model disagree with a log, which missing effect
+explains it, and how much does adding it close the gap?
+
+Evidence. Every comparison uses the exact Gaussian likelihood under a white + Gauss-Markov
+noise model (:func:`gyroid.inference._kalman.gauss_markov_innovations`), so slowly wandering noise
+(bias instability) is not mistaken for an effect. A candidate effect is scored by the BIC
+difference ``dBIC = 2 (logL_with - logL_without) - k log n`` (``k`` its parameters, ``n``
+rows), the large-sample (Laplace) approximation to twice the log Bayes factor. A candidate
+is added when ``dBIC > 10`` ("very strong" on the Kass-Raftery scale: a Bayes factor above
+150 after paying for the extra parameters). Each model's noise levels are re-estimated from
+its own residuals (alternating with the fit), so an effect is not hidden by a noise model
+that has absorbed it. Two candidates whose scores are within ``AMBIGUITY_DBIC`` of each other
+(a Bayes factor below 20) are reported as interchangeable on this log.
+
+Where the pieces live: the fits compared, :mod:`gyroid.inference._whitened_fit`; where and with what
+the residuals disagree, and the "unexplained" test, :mod:`gyroid.workflows._residual_structure`; the
+greedy loop and the report (shared with roll logs), :mod:`gyroid.workflows._discrepancy_report`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import jax.numpy as jnp
+import numpy as np
+
+from gyroid.errors import GyroidInputError
+from gyroid.inference._checks import CheckReport, fit_checks, point_fit_evidence
+from gyroid.inference._kalman import gauss_markov_innovations
+from gyroid.inference._rate_window import choose_rate_window
+from gyroid.inference._whitened_fit import ModelFit, NoiseLevels, fit_with_noise
+from gyroid.io._logs import BenchLog, block_means, contiguous_segments
+from gyroid.models import _effects as registry
+from gyroid.models._drift import DriftModel
+from gyroid.models._effects import EFFECTS, EXTRA_PREFIX
+from gyroid.models._inputs import T0_C, DriftInputs
+from gyroid.models._terms import resolve_terms
+from gyroid.workflows._discrepancy_report import (
+    DiscrepancyReport,
+    Step,
+    Trial,
+    add_while_evidence,
+)
+from gyroid.workflows._residual_structure import (
+    MIN_FOLLOW_R,
+    correlations,
+    explaining_regressor,
+    find_unexplained,
+    regressors,
+    where_largest,
+)
+
+#: Fast logs are searched on means over about this long, s.
+MEAN_OVER_S = 1.0
+#: dBIC a candidate must reach to be added.
+ADD_THRESHOLD = 10.0
+
+
+#: Rate-estimator windows tried on logs whose model reads dT/dt, s.
+RATE_WINDOWS_S = (300.0, 600.0, 1200.0)
+
+
+def _applicable(
+    effect: str, terms: tuple[str, ...], log: BenchLog, inputs: DriftInputs
+) -> str | None:
+    """Why a candidate cannot be tried on this log (None when it can)."""
+    e = registry.effect(effect)
+    missing = [c for c in e.columns if not log.has(c)]
+    if missing:
+        return f"the log has no {missing[0]} column"
+    if any(need not in terms for need in e.needs_effects):
+        return f"needs {', '.join(e.needs_effects)} in the model"
+    try:
+        DriftModel(terms=resolve_terms((*terms, effect))).check_identifiable(
+            inputs, frozenset(log.columns)
+        )
+    except GyroidInputError as error:
+        return str(error)
+    return None
+
+
+def _choose_rate_window(log: BenchLog, model: DriftModel, t0_C: float) -> float:
+    """The rate window on the workflow's short grid (the fit's ``auto`` uses a wider one)."""
+    return choose_rate_window(log, model, t0_C=t0_C, grid=np.asarray(RATE_WINDOWS_S))[0]
+
+
+def _final_checks(log: BenchLog, fit: ModelFit, noise: NoiseLevels, steps_s) -> CheckReport:
+    """The self-checks of the final model: its innovations under the estimated noise."""
+    innovation, variance = gauss_markov_innovations(
+        jnp.asarray(fit.residual), steps_s, noise.white, noise.gm, noise.tau_s)
+    names = tuple(fit.values)
+    evidence = point_fit_evidence(
+        names, len(names), np.asarray(list(fit.values.values())),
+        np.asarray(innovation / jnp.sqrt(variance)), noise="white+gm",
+        message="whitened least squares", segments=tuple(contiguous_segments(log.time_s)),
+        where=log.where)
+    return fit_checks(evidence)
+
+
+def find_discrepancies(
+    log: BenchLog,
+    terms: str | tuple[str, ...],
+    *,
+    candidates: tuple[str, ...] | None = None,
+    max_added: int = 3,
+    t0_C: float = T0_C,
+    progress=None,
+) -> DiscrepancyReport:
+    """Fit ``terms``, find what is missing from the registry's effects, add it, repeat.
+
+    A fast log (samples closer than ``MEAN_OVER_S / 2``) is searched on means of equal runs
+    of samples lasting about ``MEAN_OVER_S``: every candidate is slow against a second, a
+    mean's white noise is a sample's over sqrt(samples), and the likelihood ratios are the
+    samples' own (the within-mean scatter does not depend on the model), so the scores keep
+    the samples' BIC penalty (``log n`` of the samples) while each fit costs per mean."""
+    say = progress or (lambda _msg: None)
+    n_samples = log.n
+    step = float(np.median(np.diff(log.time_s))) if log.n > 1 else MEAN_OVER_S
+    per_mean = round(MEAN_OVER_S / step) if step < MEAN_OVER_S / 2 else 1
+    if per_mean > 1:
+        say(f"  searching on means of {per_mean} samples ({per_mean * step:.3g} s) ...")
+        log = block_means(log, per_mean)
+    of_means = f" (of {per_mean}-sample means)" if per_mean > 1 else ""
+    start = DriftModel.from_terms(terms)
+    window = _choose_rate_window(log, start, t0_C)
+    inputs = log.inputs(t0_C=t0_C, rate_window_s=window)
+    time_s = log.time_s
+    steps_s = jnp.asarray(np.concatenate([[np.median(np.diff(time_s))], np.diff(time_s)]))
+    y = np.asarray(log.drift_deg_h)
+    pool = candidates or tuple(
+        [name for name in EFFECTS if name not in start.terms]
+        + [EXTRA_PREFIX + column for column in log.extra_columns])
+    regs = regressors(inputs)
+
+    def trial(model: DriftModel, noise: NoiseLevels) -> Trial:
+        fit, new_noise = fit_with_noise(model, inputs, y, steps_s, noise)
+        return Trial(model.terms, fit.log_likelihood, fit.n_parameters, (fit, new_noise))
+
+    def try_adding(current: Trial, name: str) -> Trial | str:
+        reason = _applicable(name, current.terms, log, inputs)
+        if reason:
+            return reason
+        return trial(DriftModel(terms=resolve_terms((*current.terms, name))), current.fit[1])
+
+    def describe(best, current, chosen, scores, rivals) -> Step:
+        before, after = current.fit[0], chosen.fit[0]
+        signature = registry.effect(best).signature
+        regressor, r = explaining_regressor(before.residual, before.residual - after.residual,
+                                             regs, time_s, signature)
+        follows = (f"residuals follow {regressor} (r = {r:.2f} on 60 s means)"
+                   if abs(r) >= MIN_FOLLOW_R else
+                   f"the residuals line up with no single logged quantity (at most r = "
+                   f"{r:.2f}, with {regressor}, on 60 s means)")
+        evidence = (
+            f"{follows}; adding {best} cuts the RMS{of_means} from {before.rms_ols:.3g} to "
+            f"{after.rms_ols:.3g} deg/h; dBIC = {scores[best]:.1f} (threshold {ADD_THRESHOLD:g})"
+            + (f"; nearly interchangeable here with {', '.join(rivals)}" if rivals else "")
+            + ("; it is a function of time alone, so it says when, not why: on a longer log "
+               "it may prove a stand-in for a slow cause"
+               if registry.effect(best).reads_only_clock else "")
+        )
+        return Step(best, evidence, before.rms_ols, after.rms_ols, scores[best], scores, rivals,
+                    regressor, r)
+
+    search = add_while_evidence(
+        trial(start, NoiseLevels(1.0, 1e-6, 300.0)), pool, try_adding=try_adding,
+        describe=describe, n=n_samples, threshold=ADD_THRESHOLD, max_added=max_added,
+        progress=say)
+    baseline_fit = search.baseline.fit[0]
+    fit_now, noise = search.final.fit
+    say("  testing the final model against a flexible term ...")
+    return DiscrepancyReport(
+        log_kind="bench",
+        unexplained=find_unexplained(log, fit_now, noise, steps_s, regs, ADD_THRESHOLD),
+        checks=_final_checks(log, fit_now, noise, steps_s),
+        baseline_terms=start.terms,
+        final_terms=search.final.terms,
+        steps=search.steps,
+        rms_baseline=baseline_fit.rms_ols,
+        rms_final=min(fit_now.rms_ols, baseline_fit.rms_ols),
+        rms_unit="deg/h" + of_means,
+        threshold_dbic=ADD_THRESHOLD,
+        rate_window_s=window,
+        # The noise of one sample (a mean's white noise is a sample's over sqrt(per_mean)).
+        noise=NoiseLevels(noise.white * math.sqrt(per_mean), noise.gm, noise.tau_s),
+        where=where_largest(time_s, baseline_fit.residual, inputs, noise, log),
+        lines_up_with=correlations(baseline_fit.residual, regs),
+        ambiguous=search.ambiguous,
+        residual_before=baseline_fit.residual,
+        residual_after=fit_now.residual,
+        time_s=time_s,
+        skipped=search.skipped,
+        searched_log=log,
+    )

@@ -1,0 +1,84 @@
+"""Flight scenarios for propagating a fitted gyro through paper B's loop: paper B's worked
+example and its variants as presets, or a user's JSON/TOML file of the same fields."""
+
+from __future__ import annotations
+
+import json
+import tomllib
+from dataclasses import asdict, dataclass, fields, replace
+from pathlib import Path
+
+from gyroid.errors import GyroidInputError
+from gyroid.models import _paper_b as pb
+from gyroid.models._inputs import T0_C
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A flight scenario. Defaults: paper B's worked example (roll 900 deg/s, dt 5 s,
+    uncompensated rate 300 deg/s, MEMS SF error 280 ppm, encoder 0.33 deg), with the fitted
+    FOG as the SINS roll gyro in a flight whose temperature rises 5 degC in 120 s."""
+
+    name: str = "paper_b_worked"
+    roll_rate_deg_s: float = 900.0
+    period_s: float = 5.0
+    duration_s: float = 120.0
+    sample_s: float = 0.05
+    sins_sf_error: float = pb.SINS_SF_ERROR  # D1, what the loop corrects
+    uncompensated_deg_s: float = 300.0
+    uncompensated_sd_deg_s: float = 5.0
+    mems_sf_error: float = pb.MEMS_SF_ERROR
+    mems_sf_error_sd: float = 28e-6
+    mems_bias_deg_h: float = 12.2
+    mems_bias_sd_deg_h: float = 1.2
+    encoder_deg: float = pb.ENCODER_ERROR_DEG
+    encoder_phase: str = "uniform"  # or a fixed phase in rad, as a number in a string
+    fitted_gyro_role: str = "sins"  # "sins" (the roll gyro) or "stabiliser" (the GS gyro)
+    period_index: int = -1  # which correction period's dK: -1 draws it uniformly
+    temperature_start_C: float = T0_C
+    temperature_rise_C: float = 5.0
+    earth_field_uT: tuple[float, float] = (20.0, 45.0)  # along the roll axis, across it
+
+    def as_dict(self) -> dict:
+        return asdict(self)
+
+
+PRESETS = {
+    "paper_b_worked": Scenario(),
+    "paper_b_worked_stabiliser": Scenario(name="paper_b_worked_stabiliser",
+                                          fitted_gyro_role="stabiliser"),
+    "ideal_stabiliser": Scenario(name="ideal_stabiliser", uncompensated_deg_s=0.0,
+                                 uncompensated_sd_deg_s=0.0),
+    "table2": Scenario(name="table2", roll_rate_deg_s=3600.0, uncompensated_deg_s=280.0,
+                       uncompensated_sd_deg_s=5.0),
+}
+
+
+def load_scenario(spec: str | None) -> Scenario:
+    """A preset name, or a JSON/TOML file of Scenario fields (unknown keys are refused)."""
+    if spec is None:
+        return PRESETS["paper_b_worked"]
+    if spec in PRESETS:
+        return PRESETS[spec]
+    path = Path(spec)
+    if not path.exists():
+        raise GyroidInputError(f"--scenario {spec!r} is neither a preset "
+                               f"({', '.join(PRESETS)}) nor a file")
+    text = path.read_text()
+    try:
+        data = tomllib.loads(text) if path.suffix == ".toml" else json.loads(text)
+    except (json.JSONDecodeError, tomllib.TOMLDecodeError) as error:
+        raise GyroidInputError(f"{path.name}: not valid {path.suffix[1:]}: {error}") from None
+    known = {f.name for f in fields(Scenario)}
+    unknown = sorted(set(data) - known)
+    if unknown:
+        raise GyroidInputError(f"{path.name}: unknown scenario key {unknown[0]!r}; known: "
+                               f"{', '.join(sorted(known))}")
+    if "earth_field_uT" in data:
+        data["earth_field_uT"] = tuple(data["earth_field_uT"])
+    scenario = replace(PRESETS["paper_b_worked"], name=path.stem, **data)
+    if scenario.fitted_gyro_role not in ("sins", "stabiliser"):
+        raise GyroidInputError(f"{path.name}: fitted_gyro_role must be 'sins' or 'stabiliser'")
+    if scenario.period_s > scenario.duration_s or scenario.sample_s <= 0:
+        raise GyroidInputError(f"{path.name}: need 0 < sample_s and period_s <= duration_s")
+    return scenario

@@ -1,0 +1,78 @@
+"""gyroid's packages are layers that point down, and importing gyroid has no side effects."""
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+SOURCE = Path(__file__).resolve().parents[1] / "src" / "gyroid"
+
+#: Each package may import from its own package and from packages of a lower rank only.
+RANKS = {
+    "errors": 0, "_config": 0,
+    "models": 1,
+    "io": 2,
+    "simulation": 3, "inference": 3,
+    "workflows": 4, "papers": 4,
+    "plotting": 5,
+    "reports": 6,
+    "pipeline": 7,
+    "cli": 8, "__main__": 9,
+}
+
+
+def _package(module: str) -> str:
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else ""
+
+
+def _imports() -> list[tuple[str, str, int]]:
+    """(importing module, imported gyroid module, line) for every import in the source,
+    inside functions too (a deferred import is still a dependency)."""
+    found = []
+    for path in sorted(SOURCE.rglob("*.py")):
+        parts = path.relative_to(SOURCE.parent).with_suffix("").parts
+        module = ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+                names = [node.module]
+            elif isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            else:
+                continue
+            found += [(module, name, node.lineno) for name in names
+                      if name == "gyroid" or name.startswith("gyroid.")]
+    return found
+
+
+def test_every_import_points_down_the_layers():
+    upward = []
+    for module, imported, line in _imports():
+        source, target = _package(module), _package(imported)
+        if module == "gyroid" or source == target:
+            continue  # the top-level package re-exports lazily, by name
+        assert source in RANKS, f"{module}: package {source!r} has no layer"
+        assert target in RANKS, f"{imported}: package {target!r} has no layer"
+        if RANKS[target] >= RANKS[source]:
+            upward.append(f"{module}:{line} imports {imported}")
+    assert not upward, "imports that do not point down:\n" + "\n".join(upward)
+
+
+def test_the_layering_test_sees_deferred_imports():
+    imports = _imports()
+    assert len(imports) > 200
+    assert any(m.startswith("gyroid.cli") and i.startswith("gyroid.inference")
+               for m, i, _ in imports)
+
+
+@pytest.mark.parametrize("probe", [
+    "import sys, gyroid; bad = [m for m in ('matplotlib', 'dask', 'jax', 'arviz', 'emcee') "
+    "if m in sys.modules]; assert not bad, bad",
+    "import gyroid; print(sorted(n for n in gyroid.__all__ if n not in dir(gyroid)))",
+])
+def test_importing_gyroid_loads_nothing_heavy_and_dir_lists_every_public_name(probe):
+    out = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True,
+                         check=True)
+    assert out.stdout.strip() in ("", "[]"), out.stdout
