@@ -43,7 +43,25 @@ def parse_maps(items: tuple[str, ...]):
     return parse_column_maps(items)
 
 
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+class Command(click.Command):
+    """A gyroid command: JAX is configured (float64, the compilation cache) when the command
+    runs, not when the command line starts, so that --help and --version stay quick."""
+
+    def invoke(self, ctx: click.Context):
+        from gyroid._config import configure
+
+        configure()
+        return super().invoke(ctx)
+
+
+class Group(click.Group):
+    command_class = Command
+
+
+Group.group_class = Group
+
+
+@click.group(cls=Group, context_settings={"help_option_names": ["-h", "--help"]})
 @click.version_option(package_name="gyroid")
 def cli() -> None:
     """gyroid: Bayesian identification of gyroscope error models.
@@ -54,6 +72,26 @@ def cli() -> None:
     coefficient's error, find missing effects, reproduce both papers. Start with
     `gyroid demo`.
     """
+
+
+class LazyHelpOption(click.Option):
+    """An option whose help text is made only when help is shown (``help_factory``): the
+    effect names come from the registry, whose import (JAX) would slow every start."""
+
+    def __init__(self, *args, help_factory, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self.help_factory = help_factory
+
+    def get_help_record(self, ctx: click.Context):
+        if self.help_factory is not None:
+            self.help, self.help_factory = self.help_factory(), None
+        return super().get_help_record(ctx)
+
+
+def terms_option(help_factory=None):
+    """``--terms``, its help listing the presets and effects (made when shown)."""
+    return click.option("--terms", required=True, metavar="TERMS", cls=LazyHelpOption,
+                        help_factory=help_factory or terms_help)
 
 
 def terms_help() -> str:

@@ -16,6 +16,7 @@ from gyroid.cli.base import (
     prior_options,
     report_checks,
     terms_help,
+    terms_option,
 )
 from gyroid.errors import GyroidInputError, UntrustworthyResult
 from gyroid.io._outputs import output_dir
@@ -164,7 +165,7 @@ def _simulate_lot(bench: str, out: Path, *, runs: int, **options) -> None:
 
 @cli.command()
 @click.argument("data", type=click.Path(path_type=Path))
-@click.option("--terms", required=True, metavar="TERMS", help=terms_help())
+@terms_option()
 @click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder to write fit.json, posterior.nc and figures into.")
 @click.option("--seed", default=0, show_default=True, type=int, help="Random seed of emcee.")
@@ -281,8 +282,7 @@ def propagate(fit_dir, out, scenario, seed, draws) -> None:
 
 @cli.command()
 @click.argument("data", type=click.Path(path_type=Path))
-@click.option("--terms", required=True, metavar="TERMS",
-              help="The model to start from. Bench log: " + terms_help() + " Roll log: "
+@terms_option(lambda: "The model to start from. Bench log: " + terms_help() + " Roll log: "
                    "presets ideal, loop, or roll effects (sf_error, gs_bias, roll_bias, "
                    "gs_rate_leak, encoder_error, sf_nonlinearity).")
 @click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
@@ -334,7 +334,7 @@ def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings) -> N
 
 @cli.command()
 @click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
-@click.option("--terms", required=True, metavar="TERMS", help=terms_help())
+@terms_option()
 @click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder for one sub-folder of fit files per log, batch.csv and batch.json.")
 @click.option("--workers", default=2, show_default=True, type=int,

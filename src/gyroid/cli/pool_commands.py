@@ -6,13 +6,13 @@ from pathlib import Path
 
 import click
 
-from gyroid.cli.base import cli, map_option, parse_maps, prior_options, report_checks, terms_help
+from gyroid.cli.base import cli, map_option, parse_maps, prior_options, report_checks, terms_option
 from gyroid.io._outputs import output_dir
 
 
 @cli.command()
 @click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
-@click.option("--terms", required=True, metavar="TERMS", help=terms_help())
+@terms_option()
 @click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder for pool.json, posterior.nc and forest.png.")
 @click.option("--seed", default=0, show_default=True, type=int, help="Random seed of NUTS.")

@@ -1,9 +1,12 @@
 """Likelihoods (one Kalman filter), point estimates, posteriors (emcee, NUTS) and the
-self-checks every fit passes through."""
+self-checks every fit passes through.
+"""
 
-from gyroid.inference._bench_fit import fit_log
-from gyroid.inference._pool_fit import fit_pool
-from gyroid.inference._pool_result import PoolResult
-from gyroid.inference._roll_fit import fit_roll_log
+from gyroid._lazy import attach
 
-__all__ = ["PoolResult", "fit_log", "fit_pool", "fit_roll_log"]
+__getattr__, __dir__, __all__ = attach(__name__, {
+    "_bench_fit": ["fit_log"],
+    "_pool_fit": ["fit_pool"],
+    "_pool_result": ["PoolResult"],
+    "_roll_fit": ["fit_roll_log"],
+})

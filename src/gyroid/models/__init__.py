@@ -6,111 +6,30 @@ see :mod:`gyroid._config`.
 """
 
 from gyroid._config import enable_float64 as _enable_float64
+from gyroid._lazy import attach
 
 _enable_float64()
 
-from gyroid.models._derived import (  # noqa: E402
-    HYSTERESIS_DEADBAND_UT,
-    RATE_WINDOW_S,
-    field_change_sign,
-    lagged_temperature,
-    temperature_rate_deg_c_per_h,
-)
-from gyroid.models._design import (  # noqa: E402
-    BLOCK_ROWS,
-    least_squares_from_r,
-    row_blocks,
-    with_rows,
-)
-from gyroid.models._drift import (  # noqa: E402
-    DriftModel,
-)
-from gyroid.models._effects import (  # noqa: E402
-    CANDIDATES,
-    EFFECTS,
-    EXTRA_PREFIX,
-    PARAMETERS,
-    Effect,
-    Parameter,
-    effect,
-    parameter,
-)
-from gyroid.models._inputs import (  # noqa: E402
-    FIELD_COLUMNS,
-    H0_UT,
-    T0_C,
-    DriftInputs,
-    build_inputs,
-    inputs_from_arrays,
-)
-from gyroid.models._paper_b import (  # noqa: E402
-    G,
-)
-from gyroid.models._priors import (  # noqa: E402
-    Flat,
-    HalfNormal,
-    LogNormal,
-    Normal,
-    Prior,
-)
-from gyroid.models._roll import (  # noqa: E402
-    Flight,
-    RollParams,
-    constant_flight,
-    correction_coefficients,
-    navigation_errors,
-    run_loop,
-)
-from gyroid.models._roll_effects import (  # noqa: E402
-    ROLL_EFFECTS,
-    ROLL_PRESETS,
-    resolve_roll_terms,
-)
-from gyroid.models._terms import (  # noqa: E402
-    PRESETS,
-    resolve_terms,
-)
-
-__all__ = [
-    "BLOCK_ROWS",
-    "CANDIDATES",
-    "DriftInputs",
-    "DriftModel",
-    "EFFECTS",
-    "EXTRA_PREFIX",
-    "Effect",
-    "FIELD_COLUMNS",
-    "Flat",
-    "Flight",
-    "G",
-    "H0_UT",
-    "HYSTERESIS_DEADBAND_UT",
-    "HalfNormal",
-    "LogNormal",
-    "Normal",
-    "PARAMETERS",
-    "PRESETS",
-    "Parameter",
-    "Prior",
-    "RATE_WINDOW_S",
-    "ROLL_EFFECTS",
-    "ROLL_PRESETS",
-    "RollParams",
-    "T0_C",
-    "build_inputs",
-    "constant_flight",
-    "correction_coefficients",
-    "effect",
-    "field_change_sign",
-    "inputs_from_arrays",
-    "lagged_temperature",
-    "least_squares_from_r",
-    "navigation_errors",
-    "parameter",
-    "resolve_roll_terms",
-    "resolve_terms",
-    "row_blocks",
-    "run_loop",
-    "temperature_rate_deg_c_per_h",
-    "with_rows",
-]
+__getattr__, __dir__, __all__ = attach(__name__, {
+    "_derived": [
+        "HYSTERESIS_DEADBAND_UT", "RATE_WINDOW_S", "field_change_sign", "lagged_temperature",
+        "temperature_rate_deg_c_per_h",
+    ],
+    "_design": ["BLOCK_ROWS", "least_squares_from_r", "row_blocks", "with_rows"],
+    "_drift": ["DriftModel"],
+    "_effects": [
+        "CANDIDATES", "EFFECTS", "EXTRA_PREFIX", "PARAMETERS", "Effect", "Parameter", "effect",
+        "parameter",
+    ],
+    "_inputs": [
+        "FIELD_COLUMNS", "H0_UT", "T0_C", "DriftInputs", "build_inputs", "inputs_from_arrays",
+    ],
+    "_paper_b": ["G"],
+    "_priors": ["Flat", "HalfNormal", "LogNormal", "Normal", "Prior"],
+    "_roll": [
+        "Flight", "RollParams", "constant_flight", "correction_coefficients", "navigation_errors",
+        "run_loop",
+    ],
+    "_roll_effects": ["ROLL_EFFECTS", "ROLL_PRESETS", "resolve_roll_terms"],
+    "_terms": ["PRESETS", "resolve_terms"],
+})

@@ -1,28 +1,10 @@
 """Paper A's classical estimators and the reproduction and audit of both papers' tables.
 """
 
-from gyroid.papers._classic import (
-    chi2_of,
-    magnetic_k,
-    setpoint_readings,
-    setpoint_table_fit,
-)
-from gyroid.papers._repeatability import (
-    magnetic_repeatability,
-    repeatability_json,
-)
-from gyroid.papers._reproduce import (
-    reproduce,
-    tables_markdown,
-)
+from gyroid._lazy import attach
 
-__all__ = [
-    "chi2_of",
-    "magnetic_k",
-    "magnetic_repeatability",
-    "repeatability_json",
-    "reproduce",
-    "setpoint_readings",
-    "setpoint_table_fit",
-    "tables_markdown",
-]
+__getattr__, __dir__, __all__ = attach(__name__, {
+    "_classic": ["chi2_of", "magnetic_k", "setpoint_readings", "setpoint_table_fit"],
+    "_repeatability": ["magnetic_repeatability", "repeatability_json"],
+    "_reproduce": ["reproduce", "tables_markdown"],
+})

@@ -1,52 +1,15 @@
 """Figures (matplotlib, Agg): black-and-white readable, units on every axis. One module per
-kind of figure; every figure function is importable from here."""
+kind of figure; every figure function is importable from here.
+"""
 
-from gyroid.plotting._bench import (
-    allan_figure,
-    compensation_figure,
-    discrepancy_figure,
-    fit_overview,
-    magnetic_sweep,
-    pair_plot,
-    thermal_run,
-)
-from gyroid.plotting._flight import (
-    dk_distribution,
-    roll_discrepancy_figure,
-    roll_residual_figure,
-    sobol_bars,
-)
-from gyroid.plotting._papers import (
-    paper_a_table,
-    paper_b_lateral,
-    paper_b_stabiliser,
-)
-from gyroid.plotting._style import (
-    MAX_PLOTTED_POINTS,
-    STYLE,
-    moving_mean,
-    plot_step,
-    save,
-)
+from gyroid._lazy import attach
 
-__all__ = [
-    "MAX_PLOTTED_POINTS",
-    "STYLE",
-    "allan_figure",
-    "compensation_figure",
-    "discrepancy_figure",
-    "dk_distribution",
-    "fit_overview",
-    "magnetic_sweep",
-    "moving_mean",
-    "pair_plot",
-    "paper_a_table",
-    "paper_b_lateral",
-    "paper_b_stabiliser",
-    "plot_step",
-    "roll_discrepancy_figure",
-    "roll_residual_figure",
-    "save",
-    "sobol_bars",
-    "thermal_run",
-]
+__getattr__, __dir__, __all__ = attach(__name__, {
+    "_bench": [
+        "allan_figure", "compensation_figure", "discrepancy_figure", "fit_overview",
+        "magnetic_sweep", "pair_plot", "thermal_run",
+    ],
+    "_flight": ["dk_distribution", "roll_discrepancy_figure", "roll_residual_figure", "sobol_bars"],
+    "_papers": ["paper_a_table", "paper_b_lateral", "paper_b_stabiliser"],
+    "_style": ["MAX_PLOTTED_POINTS", "STYLE", "moving_mean", "plot_step", "save"],
+})

@@ -2,54 +2,16 @@
 propagation to dK, sensitivity, Allan deviation.
 """
 
-from gyroid.workflows._allan import (
-    AllanDeviation,
-    allan_deviation,
-)
-from gyroid.workflows._compensate import (
-    Compensation,
-    compensate,
-)
-from gyroid.workflows._discrepancy import (
-    find_discrepancies,
-)
-from gyroid.workflows._discrepancy_report import (
-    DiscrepancyReport,
-)
-from gyroid.workflows._propagate import (
-    Propagation,
-    propagate,
-)
-from gyroid.workflows._residual_structure import (
-    where_largest,
-)
-from gyroid.workflows._roll_discrepancy import (
-    find_roll_discrepancies,
-)
-from gyroid.workflows._scenarios import (
-    PRESETS as SCENARIOS,
-)
-from gyroid.workflows._scenarios import (
-    Scenario,
-    load_scenario,
-)
-from gyroid.workflows._sensitivity import (
-    sobol_indices,
-)
+from gyroid._lazy import attach
 
-__all__ = [
-    "AllanDeviation",
-    "Compensation",
-    "DiscrepancyReport",
-    "Propagation",
-    "SCENARIOS",
-    "Scenario",
-    "allan_deviation",
-    "compensate",
-    "find_discrepancies",
-    "find_roll_discrepancies",
-    "load_scenario",
-    "propagate",
-    "sobol_indices",
-    "where_largest",
-]
+__getattr__, __dir__, __all__ = attach(__name__, {
+    "_allan": ["AllanDeviation", "allan_deviation"],
+    "_compensate": ["Compensation", "compensate"],
+    "_discrepancy": ["find_discrepancies"],
+    "_discrepancy_report": ["DiscrepancyReport"],
+    "_propagate": ["Propagation", "propagate"],
+    "_residual_structure": ["where_largest"],
+    "_roll_discrepancy": ["find_roll_discrepancies"],
+    "_scenarios": ["PRESETS as SCENARIOS", "Scenario", "load_scenario"],
+    "_sensitivity": ["sobol_indices"],
+})
