@@ -27,10 +27,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from gyroid.inference._batching import log_posterior_batcher
+from gyroid.inference import Emcee, problem_batcher, summarise_draws
 from gyroid.inference._bench_problem import BenchProblem
-from gyroid.inference._point import point_estimate
-from gyroid.inference._sampling import SamplerSettings, sample_posterior, summarise_draws
 from gyroid.io._logs import BenchLog
 from gyroid.models._paper_b import G
 from gyroid.models._roll import Flight, RollParams, correction_coefficients, navigation_errors
@@ -96,7 +94,7 @@ def bench_likelihood(problem, design, y, scales, repeats):
     d = len(problem.names)
     u = rng.normal(0, 0.01, (64, d))
     u[:, -1] = np.log(0.3)
-    batch = log_posterior_batcher(problem)
+    batch = problem_batcher(problem.density, "log_posterior")
     stats = sufficient_statistics(design, y)
     ours = np.asarray(batch(u))
     theirs = numpy_log_posterior(stats, scales, u)
@@ -132,13 +130,13 @@ def bench_posterior_repeated(problem, design, y, scales, seed, repeats):
 
 
 def bench_posterior(problem, design, y, scales, seed):
-    settings = SamplerSettings(progress=False)
+    settings = Emcee(progress=False)
     start = time.perf_counter()
-    point = point_estimate(problem)
-    post = sample_posterior(problem, point, seed=seed, settings=settings)
+    point = problem.mode()
+    post = settings.sample(problem, point, seed=seed)
     t_ours = time.perf_counter() - start  # cold: includes compiling for the sampler's shapes
     start = time.perf_counter()
-    warm = sample_posterior(problem, point_estimate(problem), seed=seed + 1, settings=settings)
+    warm = settings.sample(problem, problem.mode(), seed=seed + 1)
     t_warm = time.perf_counter() - start
     min_ess = min(v["ess_bulk"] for v in post.summary.values())
     # Baseline: emcee as a competent researcher runs it: the same DE move, every walker at
@@ -195,10 +193,10 @@ def bench_point(problem, design, y, repeats):
     """Least squares of the 'full' model, flat priors, both ways (warm): gyroid's point fit
     against NumPy's lstsq on the design matrix (a linear model needs nothing more)."""
     start = time.perf_counter()
-    point_estimate(problem)
+    problem.mode()
     first = time.perf_counter() - start
-    t_ours = _median_time(lambda: point_estimate(problem), repeats)
-    ours = point_estimate(problem).value
+    t_ours = _median_time(lambda: problem.mode(), repeats)
+    ours = problem.mode().value
     solution = np.linalg.lstsq(design, y, rcond=None)[0]
     assert np.allclose(solution, [ours[n] for n in problem.model.parameter_names], rtol=1e-6,
                        atol=1e-8)
@@ -331,17 +329,16 @@ start = time.perf_counter()
 sys.path.insert(0, "benchmarks")
 from run import six_hour_log
 from gyroid.inference._bench_problem import BenchProblem
-from gyroid.inference._point import point_estimate
-from gyroid.inference._sampling import SamplerSettings, sample_posterior
+from gyroid.inference import Emcee
 out = {"import_s": time.perf_counter() - start}
 problem = BenchProblem.from_log(six_hour_log(0), "full")
-settings = SamplerSettings(progress=False)
+settings = Emcee(progress=False)
 for label in ("cold", "warm"):
     start = time.perf_counter()
-    point = point_estimate(problem)
+    point = problem.mode()
     out[f"point_{label}_s"] = time.perf_counter() - start
     start = time.perf_counter()
-    post = sample_posterior(problem, point, seed=0, settings=settings)
+    post = settings.sample(problem, point, seed=0)
     out[f"posterior_{label}_s"] = time.perf_counter() - start
 print(json.dumps(out))
 """
@@ -396,7 +393,7 @@ def bench_problems(seed: int):
     problem = BenchProblem.from_log(log, "full", prior_set="paper_a_fog")
     flat = BenchProblem.from_log(log, "full", flat_prior=True)
     design = np.asarray(problem.model.design(problem.inputs))
-    y = np.asarray(problem.drift)
+    y = np.asarray(problem.density.drift)
     scales = np.array([p.prior.scale for p in problem.model.parameters])
     return problem, flat, design, y, scales
 

@@ -36,11 +36,10 @@ def save_run(folder: Path, *, seed: int, config: dict, results: dict, started: f
 
 def fitted_thermal(seed: int):
     """A thermal bench simulated with paper A's truth, fitted (emcee), as a FittedDrift."""
+    from gyroid.inference import Emcee
     from gyroid.inference._bench_fit import fit_log
-    from gyroid.inference._sampling import SamplerSettings
-    from gyroid.io._fitted import FittedDrift
     from gyroid.simulation._bench import simulate_thermal_bench
 
     sim = simulate_thermal_bench(seed=seed)
-    fit = fit_log(sim.log, "thermal", seed=seed, settings=SamplerSettings(progress=False))
-    return FittedDrift.from_result(fit)
+    fit = fit_log(sim.log, "thermal", seed=seed, sampler=Emcee(progress=False))
+    return fit.fitted_drift()

@@ -24,7 +24,6 @@ import numpy as np  # noqa: E402
 from _common import results_dir, save_run  # noqa: E402
 
 from gyroid.inference._bench_problem import BenchProblem  # noqa: E402
-from gyroid.inference._point import point_estimate  # noqa: E402
 from gyroid.io._fitted import FittedDrift  # noqa: E402
 from gyroid.simulation._bench import ThermalProtocol, simulate_thermal_bench  # noqa: E402
 from gyroid.workflows._propagate import propagate  # noqa: E402
@@ -54,7 +53,7 @@ def main() -> None:
     for name, protocol in DESIGNS.items():
         sim = simulate_thermal_bench(protocol=protocol, seed=int(rng.integers(2**31)))
         problem = BenchProblem.from_log(sim.log, "thermal")
-        point = point_estimate(problem)
+        point = problem.mode()
         p = problem.n_model
         draws = rng.multivariate_normal(point.u[:p], point.covariance_u[:p, :p], args.draws)
         fitted = FittedDrift(model=problem.model, draws=draws, t0_C=21.0)

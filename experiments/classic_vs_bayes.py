@@ -17,7 +17,6 @@ from _common import results_dir, save_run
 
 from gyroid import GyroNoise
 from gyroid.inference._bench_problem import BenchProblem
-from gyroid.inference._point import point_estimate
 from gyroid.papers._classic import magnetic_k
 from gyroid.simulation._bench import PAPER_A_DEVICE_2, simulate_magnetic_bench
 
@@ -34,7 +33,7 @@ def main() -> None:
     rows = {"classic": {a: [] for a in "xyz"}, "bayes": {a: [] for a in "xyz"}}
     for _ in range(args.runs):
         sim = simulate_magnetic_bench(noise=noise, seed=int(rng.integers(2**31)))
-        point = point_estimate(BenchProblem.from_log(sim.log, "magnetic"))
+        point = BenchProblem.from_log(sim.log, "magnetic").mode()
         for axis in "xyz":
             k = magnetic_k(sim.log, axis)
             rows["classic"][axis].append((k.signed, k.sd))

@@ -26,8 +26,8 @@ from _common import results_dir, save_run  # noqa: E402
 from scipy import stats  # noqa: E402
 
 from gyroid import BenchLog, DriftModel, GyroNoise  # noqa: E402
-from gyroid.inference._sampling import SamplerSettings  # noqa: E402
-from gyroid.io._arviz import arviz as az  # noqa: E402
+from gyroid.inference import Emcee  # noqa: E402
+from gyroid.io import load_arviz  # noqa: E402
 from gyroid.io._logs import run_labels, write_bench_log  # noqa: E402
 from gyroid.models._priors import LogNormal  # noqa: E402
 from gyroid.pipeline._batch import run_batch  # noqa: E402
@@ -37,6 +37,8 @@ from gyroid.simulation._bench import (  # noqa: E402
     simulate_magnetic_bench,
     simulate_thermal_bench,
 )
+
+az = load_arviz()
 
 LEVELS = (0.5, 0.9, 0.95)
 THERMAL = ThermalProtocol(setpoints_C=(31.0, 40.0, 55.0), soak_min=30.0, sample_s=10.0)
@@ -128,7 +130,7 @@ def main() -> None:
     fig.savefig(out / "sbc_ranks.png", dpi=150)
     np.savez(out / "ranks.npz", **{f"{case}:{name}": values for case, by_name in
                                    all_ranks.items() for name, values in by_name.items()})
-    config = {"datasets": args.datasets, "levels": LEVELS, "move": SamplerSettings().move,
+    config = {"datasets": args.datasets, "levels": LEVELS, "move": Emcee().move,
               "runner": f"gyroid batch (Dask LocalCluster, {args.workers} workers)"}
     save_run(out, seed=args.seed, config=config, results=results, started=started)
 

@@ -5,9 +5,11 @@ import json
 import numpy as np
 import paths
 
-from gyroid.io._arviz import arviz as az
+from gyroid.io import load_arviz
 from gyroid.models._effects import PARAMETERS
 from gyroid.plotting import pair_plot, save
+
+az = load_arviz()
 
 fit = json.loads(paths.data("thermal", "fit", "fit.json").read_text())
 truth = json.loads(paths.data("thermal", "truth.json").read_text())["parameters"]

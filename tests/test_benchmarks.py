@@ -28,8 +28,8 @@ def test_the_bare_script_baseline_fits_the_same_coefficients(tmp_path):
     import subprocess
     import sys
 
+    from gyroid.inference import Emcee
     from gyroid.inference._bench_fit import fit_log
-    from gyroid.inference._sampling import SamplerSettings
     from gyroid.io._logs import write_bench_log
     from gyroid.simulation._bench import ThermalProtocol, simulate_thermal_bench
 
@@ -40,7 +40,7 @@ def test_the_bare_script_baseline_fits_the_same_coefficients(tmp_path):
     out = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "bare_thermal_fit.py"),
                           str(path)], capture_output=True, text=True, check=True)
     bare = json.loads(out.stdout.strip().splitlines()[-1])["mean"]
-    ours = fit_log(sim.log, "thermal", settings=SamplerSettings(progress=False))
+    ours = fit_log(sim.log, "thermal", sampler=Emcee(progress=False))
     for name in ("w1", "wD"):
         summary = ours.posterior.summary[name]
         # Different dT/dt estimators: agreement within 3 posterior sd is the claim.

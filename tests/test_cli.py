@@ -167,7 +167,8 @@ def test_fit_writes_the_contract_outputs(tmp_path, simulated_magnetic):
     assert 0.25 < fit["rms_residual_deg_h"] < 0.35
     for name in ("posterior.nc", "fit.png", "pair.png"):
         assert (out / name).exists()
-    from gyroid.io._arviz import arviz as az
+    from gyroid.io import load_arviz
+    az = load_arviz()
 
     idata = az.from_netcdf(str(out / "posterior.nc"))
     assert set(names) <= set(idata.posterior.data_vars)

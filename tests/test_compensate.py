@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from gyroid.cli import main
+from gyroid.inference import Emcee
 from gyroid.inference._bench_fit import fit_log
-from gyroid.inference._sampling import SamplerSettings
 from gyroid.io._fitted import FittedDrift
 from gyroid.simulation._bench import ThermalProtocol, simulate_thermal_bench
 from gyroid.simulation._noise import gauss_markov
@@ -53,19 +53,15 @@ def test_gauss_markov_bias_instability_is_recovered():
 def fitted_short():
     protocol = ThermalProtocol(setpoints_C=(31.0, 35.0, 40.0))
     sim = simulate_thermal_bench(seed=21, protocol=protocol)
-    result = fit_log(sim.log, "thermal", seed=1, settings=SamplerSettings(progress=False))
-    from gyroid.inference._bench_fit import input_ranges
-
-    return (FittedDrift.from_result(result),
-            input_ranges(result.problem.inputs, result.problem.model))
+    return fit_log(sim.log, "thermal", seed=1, sampler=Emcee(progress=False)).fitted_drift()
 
 
 def test_compensated_drift_has_the_truths_noise_level(fitted_short):
-    fitted, ranges = fitted_short
+    fitted = fitted_short
     # A different run inside the fitted range (heating, 21...39 degC, smaller steps).
     new = simulate_thermal_bench(seed=22, protocol=ThermalProtocol(
         setpoints_C=(28.0, 34.0, 39.0), soak_min=25.0))
-    result = compensate(new.log, fitted, ranges)
+    result = compensate(new.log, fitted)
     noise = new.log.drift_deg_h - new.true_drift_deg_h
     # The compensated drift is the noise plus the model's small error: its RMS equals the
     # noise's within a few per mille (the noise's own RMS scatters by 1/sqrt(2n) = 0.4 %).
@@ -77,15 +73,15 @@ def test_compensated_drift_has_the_truths_noise_level(fitted_short):
 
 
 def test_extrapolation_is_reported(fitted_short):
-    fitted, ranges = fitted_short
+    fitted = fitted_short
     hot = simulate_thermal_bench(seed=23)  # up to 55 degC; the fit saw 21...40 degC
-    result = compensate(hot.log, fitted, ranges)
+    result = compensate(hot.log, fitted)
     names = {item["input"] for item in result.summary["extrapolation"]}
     assert "temperature_C" in names
     # Cooling back to the lab: negative rates the heating-only fit never saw.
     cooling = simulate_thermal_bench(seed=24, protocol=ThermalProtocol(
         setpoints_C=(35.0,), return_to_lab=True))
-    result = compensate(cooling.log, fitted, ranges)
+    result = compensate(cooling.log, fitted)
     assert {item["input"] for item in result.summary["extrapolation"]} == {"dT_dt_C_h"}
     assert not result.summary["within_fitted_range"]
 
@@ -114,16 +110,16 @@ def test_cli_writes_the_contract_files(tmp_path):
 def test_a_clock_effect_beyond_the_fitted_span_is_extrapolation(terms):
     # Found in review: bias_step was missing from a hand-kept list of time effects, so a
     # step fitted on 3 h was silently carried to a 10 h log. The registry says it now.
-    from gyroid.inference._bench_fit import input_ranges
-    from gyroid.models._drift import DriftModel
+    from gyroid.models import DriftModel
 
     sim = simulate_thermal_bench(seed=4)
     model = DriftModel.from_terms(terms)
     values = {"w0": 1.2, "w1": -0.1, "w2": 0.004, "wD": 2.0, "w_step": 0.0, "t_step_h": 1.0,
               "w_warmup": 0.0, "tau_warmup_min": 20.0}
     draws = np.tile([values[n] for n in model.parameter_names], (20, 1))
-    ranges = input_ranges(sim.log.inputs(), model)
+    ranges = model.input_ranges(sim.log.inputs())
     ranges["elapsed_h"] = [0.0, 3.0]  # as if fitted on the first 3 h
-    result = compensate(sim.log, FittedDrift(model=model, draws=draws, t0_C=21.0), ranges)
+    result = compensate(sim.log, FittedDrift(model=model, draws=draws, t0_C=21.0,
+                                             input_ranges=ranges))
     flagged = {item["input"] for item in result.summary["extrapolation"]}
     assert ("elapsed_h" in flagged) == (terms != "thermal")

@@ -8,11 +8,9 @@ import numpy as np
 import pytest
 from helpers import SHORT_MAGNETIC
 
-from gyroid.inference._batching import log_posterior_batcher
+from gyroid.inference import Emcee, problem_batcher
 from gyroid.inference._bench_problem import BenchProblem
-from gyroid.inference._roll_fit import roll_point_estimate
 from gyroid.inference._roll_problem import ALL_PARAMETERS, RollProblem
-from gyroid.inference._sampling import SamplerSettings
 from gyroid.io._roll_log import RollLog
 from gyroid.simulation._bench import simulate_magnetic_bench
 from gyroid.simulation._flight import FlightProfile, simulate_flight
@@ -35,7 +33,8 @@ def test_a_new_log_of_the_same_shape_reuses_the_log_posterior(compile_log):
     u = np.zeros((6, 5))
     values = []
     for log in logs:
-        values.append(np.asarray(log_posterior_batcher(BenchProblem.from_log(log, "magnetic"))(u)))
+        density = BenchProblem.from_log(log, "magnetic").density
+        values.append(np.asarray(problem_batcher(density, "log_posterior")(u)))
     assert _compilations(compile_log, "_batched_method") == 1
     assert not np.allclose(values[0], values[1])  # the second log's data, not the first's
 
@@ -49,13 +48,13 @@ def _roll_log(duration_s: float) -> RollLog:
 @pytest.mark.slow
 def test_roll_candidate_models_share_one_optimiser(compile_log):
     log = _roll_log(7.3)  # a length no other test uses
-    fits = [roll_point_estimate(RollProblem.from_log(log, terms))
+    fits = [RollProblem.from_log(log, terms).mode()
             for terms in ("ideal", "ideal,roll_bias", "ideal,encoder_error",
                           "ideal,roll_bias,encoder_error")]
     assert _compilations(compile_log, "_minimise") == 1
     # D2 (a scale factor varying with |w|) takes the per-sample path: one more compilation,
     # shared again by every model with D2.
-    fits += [roll_point_estimate(RollProblem.from_log(log, terms))
+    fits += [RollProblem.from_log(log, terms).mode()
              for terms in ("ideal,sf_nonlinearity", "ideal,roll_bias,encoder_error,"
                            "sf_nonlinearity")]
     assert _compilations(compile_log, "_minimise") == 2
@@ -71,16 +70,16 @@ def test_an_absent_roll_parameter_is_exactly_absent():
     log = _roll_log(7.3)
     narrow = RollProblem.from_log(log, "ideal")
     wide = RollProblem.from_log(log, "ideal,roll_bias")
-    u_narrow = np.asarray(roll_point_estimate(narrow).u)
+    u_narrow = np.asarray(narrow.mode().u)
     u_wide = np.insert(u_narrow, wide.names.index("D0"), 0.0)
-    rows_narrow = np.asarray(narrow.log_likelihood_rows(u_narrow))
-    rows_wide = np.asarray(wide.log_likelihood_rows(u_wide))
+    rows_narrow = np.asarray(narrow.density.log_likelihood_rows(u_narrow))
+    rows_wide = np.asarray(wide.density.log_likelihood_rows(u_wide))
     np.testing.assert_allclose(rows_wide, rows_narrow, rtol=1e-12, atol=1e-12)
 
 
 def test_an_unknown_move_is_refused_with_the_choices():
     with pytest.raises(ValueError, match="'de' or 'stretch'"):
-        SamplerSettings(move="walk").emcee_moves()
+        Emcee(move="walk").emcee_moves()
 
 
 def test_precomputed_sums_equal_the_per_sample_path():
@@ -95,10 +94,11 @@ def test_precomputed_sums_equal_the_per_sample_path():
     sums = RollProblem.from_log(log, "loop")
     per_sample = RollProblem.from_log(log, "loop,sf_nonlinearity")
     assert "D1gs" in sums.names and not sums.density.full.has_d2
-    u = np.asarray(roll_point_estimate(sums).u)
+    u = np.asarray(sums.mode().u)
     u_wide = np.insert(u, per_sample.names.index("D2"), 0.0)
-    np.testing.assert_allclose(np.asarray(per_sample.log_likelihood_rows(u_wide)),
-                               np.asarray(sums.log_likelihood_rows(u)), rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(np.asarray(per_sample.density.log_likelihood_rows(u_wide)),
+                               np.asarray(sums.density.log_likelihood_rows(u)), rtol=1e-9,
+                               atol=1e-9)
     np.testing.assert_allclose(np.asarray(per_sample.predict(u_wide)),
                                np.asarray(sums.predict(u)), rtol=1e-12, atol=1e-9)
 
@@ -112,7 +112,7 @@ def test_stabiliser_rate_sums_equal_the_per_sample_density():
     log = _roll_log(7.3)
     problem = RollProblem.from_log(log, "ideal")
     assert problem.ideal_gs
-    u = np.asarray(roll_point_estimate(problem).u)
+    u = np.asarray(problem.mode().u)
     full = problem.density.full
     with_mems = full.log_likelihood_rows(problem.density.spread(u))
     without = eqx.tree_at(lambda d: d.ideal_gs, full, 0.0 * full.ideal_gs)

@@ -7,10 +7,9 @@ from helpers import SHORT_MAGNETIC, SHORT_THERMAL
 from scipy import stats
 
 from gyroid import BenchLog, GyroNoise
+from gyroid.inference import Emcee
 from gyroid.inference._bench_fit import fit_log
 from gyroid.inference._bench_problem import BenchProblem
-from gyroid.inference._point import point_estimate
-from gyroid.inference._sampling import SamplerSettings
 from gyroid.io._paper_tables import paper_a_table_log, paper_a_thermal_table
 from gyroid.papers._classic import setpoint_table_fit
 from gyroid.simulation._bench import (
@@ -21,7 +20,7 @@ from gyroid.simulation._bench import (
     simulate_thermal_bench,
 )
 
-QUICK = SamplerSettings(progress=False)
+QUICK = Emcee(progress=False)
 
 
 def _heteroscedastic_magnetic_log(seed: int, theta: dict[str, float]) -> BenchLog:
@@ -39,17 +38,17 @@ def _heteroscedastic_magnetic_log(seed: int, theta: dict[str, float]) -> BenchLo
 
 def _exact_gaussian(problem: BenchProblem):
     X = np.asarray(problem.model.design(problem.inputs))
-    w = 1.0 / np.asarray(problem.sigma)
+    w = 1.0 / np.asarray(problem.density.sigma)
     precision = (X * w[:, None] ** 2).T @ X
     covariance = np.linalg.inv(precision)
-    mean = covariance @ (X * w[:, None] ** 2).T @ np.asarray(problem.drift)
+    mean = covariance @ (X * w[:, None] ** 2).T @ np.asarray(problem.density.drift)
     return mean, covariance
 
 
 def test_linear_gaussian_flat_prior_posterior_is_exact():
     theta = {"w0": 1.2, **PAPER_A_DEVICE_2}
     log = _heteroscedastic_magnetic_log(1, theta)
-    result = fit_log(log, "magnetic", flat_prior=True, seed=2, settings=QUICK)
+    result = fit_log(log, "magnetic", flat_prior=True, seed=2, sampler=QUICK)
     mean, covariance = _exact_gaussian(result.problem)
     sd = np.sqrt(np.diag(covariance))
     names = result.model_names
@@ -70,9 +69,9 @@ def test_linear_gaussian_flat_prior_posterior_is_exact():
 def test_unknown_noise_level_gives_the_exact_posterior_scale():
     sim = simulate_magnetic_bench(protocol=SHORT_MAGNETIC, seed=3)
     problem = BenchProblem.from_log(sim.log, "magnetic", flat_prior=True)
-    point = point_estimate(problem)
+    point = problem.mode()
     X = np.asarray(problem.model.design(problem.inputs))
-    y = np.asarray(problem.drift)
+    y = np.asarray(problem.density.drift)
     beta, rss, *_ = np.linalg.lstsq(X, y, rcond=None)
     dof = X.shape[0] - X.shape[1]
     s = np.sqrt(rss[0] / dof)
@@ -91,23 +90,25 @@ def test_sufficient_statistics_equal_the_direct_sum(known_sigma):
         log = BenchLog(columns={k: v for k, v in log.columns.items() if k != "sigma_deg_h"})
     fast = BenchProblem.from_log(log, "magnetic")
     direct = BenchProblem.from_log(log, "magnetic", fast=False)
-    assert fast.gram is not None and direct.gram is None
+    assert fast.density.gram is not None and direct.density.gram is None
     rng = np.random.default_rng(0)
     for _ in range(5):
         u = jnp.asarray(rng.normal(size=len(fast.names)) * 0.3)
-        assert float(fast.log_likelihood(u)) == pytest.approx(float(direct.log_likelihood(u)),
+        assert float(fast.density.log_likelihood(u)) == pytest.approx(
+            float(direct.density.log_likelihood(u)),
                                                               rel=1e-10, abs=1e-7)
         # LOO's block log-likelihoods from the blocks' own statistics, rows never touched.
-        np.testing.assert_allclose(np.asarray(fast.log_likelihood_blocks(u)),
-                                   np.asarray(direct.log_likelihood_blocks(u)),
+        np.testing.assert_allclose(np.asarray(fast.density.log_likelihood_blocks(u)),
+                                   np.asarray(direct.density.log_likelihood_blocks(u)),
                                    rtol=1e-10, atol=1e-7)
-    assert fast.block_gram.shape[0] == fast.n_blocks > 1
+    assert fast.density.block_gram.shape[0] == fast.density.n_blocks > 1
     # The host (NumPy) log-posterior emcee calls equals the JAX one, walkers at once.
-    from gyroid.inference._batching import log_posterior_batcher
+    from gyroid.inference import problem_batcher
 
     u = rng.normal(size=(16, len(fast.names))) * 0.3
     np.testing.assert_allclose(fast.host_log_posterior()(u),
-                               np.asarray(log_posterior_batcher(fast)(jnp.asarray(u))),
+                               np.asarray(problem_batcher(fast.density, "log_posterior")(
+                                   jnp.asarray(u))),
                                rtol=1e-11, atol=1e-8)
     assert direct.host_log_posterior() is None
 
@@ -124,7 +125,7 @@ def test_correlated_noise_likelihood_is_the_exact_gaussian():
     cov = x[4] ** 2 * np.exp(-np.abs(t[:, None] - t[None, :]) / x[5]) + x[3] ** 2 * np.eye(t.size)
     exact = stats.multivariate_normal(np.zeros(t.size), cov).logpdf(residual)
     u = problem.to_sampling(jnp.asarray(x))
-    assert float(problem.log_likelihood(u)) == pytest.approx(exact, rel=1e-10)
+    assert float(problem.density.log_likelihood(u)) == pytest.approx(exact, rel=1e-10)
 
 
 def test_white_noise_likelihood_is_overconfident_on_correlated_noise():
@@ -137,7 +138,7 @@ def test_white_noise_likelihood_is_overconfident_on_correlated_noise():
     for seed in range(20):
         sim = simulate_magnetic_bench(noise=noise, protocol=protocol, seed=100 + seed)
         for noise_model, zs in (("white", z_white), ("white+gm", z_gm)):
-            point = point_estimate(BenchProblem.from_log(sim.log, "magnetic", noise=noise_model))
+            point = BenchProblem.from_log(sim.log, "magnetic", noise=noise_model).mode()
             zs.append((point.value["wy"] - PAPER_A_DEVICE_2["wy"]) / point.sd["wy"])
     assert np.std(z_white) > 1.6
     assert 0.6 < np.std(z_gm) < 1.45
@@ -151,7 +152,7 @@ def test_simulation_based_calibration_known_sigma():
     per parameter). A 100-dataset run is in experiments/sbc.py."""
     rng = np.random.default_rng(2024)
     names = ("w0", "wx", "wy", "wz")
-    settings = SamplerSettings(progress=False, tau_factor=20, min_ess=200, burn_steps=200,
+    settings = Emcee(progress=False, tau_factor=20, min_ess=200, burn_steps=200,
                                chunk_steps=300, max_r_hat=1.05)
     ranks = {n: [] for n in names}
     covered = dict.fromkeys(names, 0)
@@ -161,7 +162,7 @@ def test_simulation_based_calibration_known_sigma():
                  "wz": rng.normal(0, 2)}
         log = _heteroscedastic_magnetic_log(1000 + k, truth)
         # The fit's prior must be the one the truth is drawn from: paper A's FOG priors.
-        result = fit_log(log, "magnetic", seed=k, settings=settings, prior_set="paper_a_fog")
+        result = fit_log(log, "magnetic", seed=k, sampler=settings, prior_set="paper_a_fog")
         for i, name in enumerate(names):
             draws = result.posterior.draws[..., i].reshape(-1)
             ranks[name].append(np.mean(draws < truth[name]))
@@ -179,7 +180,7 @@ def test_recovery_of_paper_a_values(bench):
     else:
         sim, terms = simulate_magnetic_bench(seed=7), "magnetic"
         truth = {"w0": PAPER_A_THERMAL["w0"], **PAPER_A_DEVICE_2}
-    result = fit_log(sim.log, terms, seed=1, settings=QUICK)
+    result = fit_log(sim.log, terms, seed=1, sampler=QUICK)
     outside = 0
     for name, value in truth.items():
         summary = result.posterior.summary[name]
@@ -199,7 +200,7 @@ def test_paper_a_table_bayesian_equals_weighted_least_squares():
     classic = setpoint_table_fit(table.setpoint_C, table.dw_deg_h, table.sigma_deg_h)
     problem = BenchProblem.from_log(paper_a_table_log(), "bias,temperature,temperature_sq",
                                     flat_prior=True)
-    point = point_estimate(problem)
+    point = problem.mode()
     for name in ("w0", "w1", "w2"):
         assert point.value[name] == pytest.approx(classic.coefficients[name], rel=1e-8)
         assert point.sd[name] == pytest.approx(classic.sd[name], rel=1e-6)
@@ -211,7 +212,7 @@ def test_nonlinear_effect_is_recovered_with_several_starts():
         noise=GyroNoise(arw_deg_rt_h=0.005),
     )
     problem = BenchProblem.from_log(sim.log, "thermal,warmup")
-    point = point_estimate(problem)
+    point = problem.mode()
     assert point.converged and point.n_starts > 1
     for name, value in {"w_warmup": 3.0, "tau_warmup_min": 25.0, **PAPER_A_THERMAL}.items():
         assert abs(point.value[name] - value) < 4.5 * point.sd[name], name
@@ -223,12 +224,12 @@ def test_posterior_predictions_of_a_linear_model_are_its_design_rows_times_the_d
     import jax
 
     sim = simulate_magnetic_bench(seed=3, protocol=SHORT_MAGNETIC)
-    result = fit_log(sim.log, "magnetic", settings=SamplerSettings(progress=False))
+    result = fit_log(sim.log, "magnetic", sampler=Emcee(progress=False))
     fast = result.predict_draws(n_draws=25, seed=4, every=3)
     flat = result.posterior.draws.reshape(-1, len(result.problem.names))
     pick = np.random.default_rng(4).choice(flat.shape[0], size=25, replace=False)
     u = result.problem.to_sampling(jnp.asarray(flat[pick]))
-    direct = np.asarray(jax.vmap(result.problem.predict)(u))[:, ::3]
+    direct = np.asarray(jax.vmap(result.problem.density.predict)(u))[:, ::3]
     np.testing.assert_allclose(fast, direct, rtol=1e-10, atol=1e-10)
 
 

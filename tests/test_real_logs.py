@@ -10,9 +10,7 @@ import numpy as np
 import pytest
 
 from gyroid.cli import main
-from gyroid.inference._bench_fit import fit_log, input_ranges
-from gyroid.inference._sampling import SamplerSettings
-from gyroid.io._fitted import FittedDrift
+from gyroid.inference import Emcee, fit_log
 from gyroid.io._logs import BenchLog, contiguous_segments, load_bench_log
 from gyroid.io._units import parse_column_maps
 from gyroid.workflows._allan import allan_deviation
@@ -23,7 +21,7 @@ MAP = ["time_s=time (ms):ms", "drift_deg_h=gyrox rad/s:rad/s", "temperature_C=te
 #: Rows (0-based) of the three spikes the authors' own script drops.
 SPIKES = (2340, 2570, 3223)
 THERMAL = "bias,temperature,temperature_sq,temperature_rate"
-QUICK = SamplerSettings(progress=False)
+QUICK = Emcee(progress=False)
 
 
 def _cli_map():
@@ -112,7 +110,7 @@ def test_segment_means_give_a_trusted_fit_of_the_real_log(tmp_path, capsys):
 def test_without_its_spikes_the_bias_wander_alone_makes_it_untrustworthy(pan_log):
     keep = np.ones(pan_log.n, dtype=bool)
     keep[list(SPIKES)] = False
-    result = fit_log(_subset(pan_log, keep), THERMAL, settings=QUICK)
+    result = fit_log(_subset(pan_log, keep), THERMAL, sampler=QUICK)
     failed = {c.name: c for c in result.checks.failed}
     assert set(failed) == {"residual_whiteness"}
     assert failed["residual_whiteness"].severity == "error"
@@ -129,9 +127,8 @@ def test_held_out_bursts_are_compensated_as_well_as_numpy_least_squares(pan_log)
     burst = _bursts(pan_log)
     train = _subset(pan_log, keep & (burst % 2 == 0))
     test = _subset(pan_log, keep & (burst % 2 == 1))
-    result = fit_log(train, THERMAL, settings=QUICK)
-    comp = compensate(test, FittedDrift.from_result(result),
-                      input_ranges(result.problem.inputs, result.problem.model))
+    result = fit_log(train, THERMAL, sampler=QUICK)
+    comp = compensate(test, result.fitted_drift())
     beta = np.linalg.lstsq(_plain_design(train), train.drift_deg_h, rcond=None)[0]
     plain = test.drift_deg_h - _plain_design(test) @ beta
     constant = test.drift_deg_h - train.drift_deg_h.mean()
@@ -152,9 +149,8 @@ def test_a_colder_held_out_third_is_flagged_as_extrapolation(pan_log):
     keep[list(SPIKES)] = False
     burst = _bursts(pan_log)
     result = fit_log(_subset(pan_log, keep & (burst < 17)), "bias,temperature",
-                     settings=QUICK)
-    comp = compensate(_subset(pan_log, keep & (burst >= 17)), FittedDrift.from_result(result),
-                      input_ranges(result.problem.inputs, result.problem.model))
+                     sampler=QUICK)
+    comp = compensate(_subset(pan_log, keep & (burst >= 17)), result.fitted_drift())
     check = {c.name: c for c in comp.checks.checks}["extrapolation"]
     assert not check.passed and check.severity == "error"
 

@@ -8,13 +8,13 @@ import pytest
 from helpers import fast_ramp_log, mems_burst_log, weak_field_log, write_log
 
 from gyroid.cli import main
+from gyroid.inference import Emcee
 from gyroid.inference._bench_fit import fit_log
-from gyroid.inference._sampling import SamplerSettings
 from gyroid.io._logs import BenchLog
 from gyroid.simulation._bench import simulate_magnetic_bench
 from gyroid.simulation._noise import GyroNoise
 
-QUICK = SamplerSettings(progress=False)
+QUICK = Emcee(progress=False)
 
 
 def _within(result, truth, k=4.0):
@@ -25,7 +25,7 @@ def _within(result, truth, k=4.0):
 def test_mems_gyro_with_default_priors_is_recovered_and_trusted():
     """Case 1: biases of thousands of deg/h. The default priors scale to the log."""
     columns, truth = mems_burst_log(0)
-    result = fit_log(BenchLog(columns), "bias,temperature,temperature_sq", settings=QUICK)
+    result = fit_log(BenchLog(columns), "bias,temperature,temperature_sq", sampler=QUICK)
     assert result.trustworthy, result.checks.lines()
     assert _within(result, truth)
     assert result.checks.to_json()["checks"]["point_vs_posterior"]["value"] < 0.5
@@ -49,10 +49,10 @@ def test_fast_ramps_are_recovered_or_refused():
     """Case 2: 15-minute ramps. The fixed 1200 s window smears every kink: the checks must
     refuse that fit; the automatic window must recover the truth or refuse too."""
     columns, truth = fast_ramp_log(1)
-    fixed = fit_log(BenchLog(columns), "thermal", rate_window_s=1200.0, settings=QUICK)
+    fixed = fit_log(BenchLog(columns), "thermal", rate_window_s=1200.0, sampler=QUICK)
     assert not fixed.trustworthy
     assert not fixed.checks.to_json()["checks"]["goodness_of_fit"]["passed"]
-    auto = fit_log(BenchLog(columns), "thermal", settings=QUICK)
+    auto = fit_log(BenchLog(columns), "thermal", sampler=QUICK)
     assert auto.problem.rate_window_s < 1200.0
     assert (auto.trustworthy and _within(auto, truth)) or not auto.trustworthy
 
@@ -73,7 +73,7 @@ def test_white_noise_model_on_correlated_noise_is_refused():
 def test_magnetic_terms_on_a_weak_field_are_not_identified():
     """Case 4: a field that varied by +/-2 uT cannot identify the magnetic coefficients."""
     columns, _ = weak_field_log(2)
-    result = fit_log(BenchLog(columns), "magnetic", noise="white+gm", settings=QUICK)
+    result = fit_log(BenchLog(columns), "magnetic", noise="white+gm", sampler=QUICK)
     check = result.checks.to_json()["checks"]["identifiability"]
     assert not check["passed"] and check["severity"] == "error", check
     assert "Hx_uT varies more" in check["message"] or "Hy_uT" in check["message"]
@@ -107,7 +107,6 @@ def test_held_out_compensation_matches_plain_least_squares(tmp_path):
     """Done-means of issue 13 on the MEMS stress log: fit on every other burst, compensate
     the bursts in between. gyroid's defaults are within 15 % of a plain NumPy least-squares
     fit of the same terms, and better than removing a constant."""
-    from gyroid.io._fitted import FittedDrift
     from gyroid.workflows._compensate import compensate
 
     columns, _ = mems_burst_log(5)
@@ -115,12 +114,9 @@ def test_held_out_compensation_matches_plain_least_squares(tmp_path):
     train = {k: v[burst % 2 == 0] for k, v in columns.items()}
     test = {k: v[burst % 2 == 1] for k, v in columns.items()}
     terms = "bias,temperature,temperature_sq"
-    result = fit_log(BenchLog(train), terms, settings=QUICK)
+    result = fit_log(BenchLog(train), terms, sampler=QUICK)
     assert result.trustworthy
-    fitted = FittedDrift.from_result(result)
-    ranges = {"temperature_C": [float(train["temperature_C"].min()),
-                                float(train["temperature_C"].max())]}
-    comp = compensate(BenchLog(test), fitted, ranges)
+    comp = compensate(BenchLog(test), result.fitted_drift())
     t = train["temperature_C"] - 21.0
     design = np.column_stack([np.ones_like(t), t, t**2])
     beta = np.linalg.lstsq(design, train["drift_deg_h"], rcond=None)[0]
@@ -139,14 +135,14 @@ def test_bias_wander_between_bursts_is_refused_per_sample_and_covered_by_segment
     means is trusted and its 95 % intervals cover the truth: 30 intervals over 10 seeds,
     at least 25 (a binomial tail of 0.2 % at the nominal 95 %)."""
     columns, truth = mems_burst_log(0, wander_deg_h=30.0)
-    per_sample = fit_log(BenchLog(columns), "bias,temperature,temperature_sq", settings=QUICK)
+    per_sample = fit_log(BenchLog(columns), "bias,temperature,temperature_sq", sampler=QUICK)
     assert not per_sample.trustworthy
     assert "--segment-means" in per_sample.checks.lines()[0]
     covered = 0
     for seed in range(10):
         columns, truth = mems_burst_log(seed, wander_deg_h=30.0)
         result = fit_log(BenchLog(columns), "bias,temperature,temperature_sq", seed=seed,
-                         settings=QUICK, segment_means=True)
+                         sampler=QUICK, segment_means=True)
         assert result.trustworthy, result.checks.lines()
         assert result.segment_means == {"segments": 36, "rows": 9000}
         for name, value in truth.items():

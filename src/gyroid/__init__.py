@@ -37,14 +37,21 @@ _PUBLIC = {
     "simulate_lot": "gyroid.simulation", "SimulatedBench": "gyroid.simulation",
     "SimulatedLot": "gyroid.simulation", "ThermalProtocol": "gyroid.simulation",
     "MagneticProtocol": "gyroid.simulation", "GyroNoise": "gyroid.simulation",
-    # fits
+    # fits: one problem abstraction, one fit, interchangeable samplers, frozen results
+    "fit": "gyroid.inference", "AbstractProblem": "gyroid.inference",
+    "BenchProblem": "gyroid.inference", "RollProblem": "gyroid.inference",
+    "PoolProblem": "gyroid.inference", "Emcee": "gyroid.inference", "Nuts": "gyroid.inference",
+    "BenchFit": "gyroid.inference", "RollFit": "gyroid.inference", "PoolFit": "gyroid.inference",
     "fit_log": "gyroid.inference", "fit_roll_log": "gyroid.inference",
-    "fit_pool": "gyroid.inference", "PoolResult": "gyroid.inference",
+    "fit_pool": "gyroid.inference",
     # workflows
     "compensate": "gyroid.workflows", "propagate": "gyroid.workflows",
     "Propagation": "gyroid.workflows", "find_discrepancies": "gyroid.workflows",
+    "Compensation": "gyroid.workflows", "DiscrepancyReport": "gyroid.workflows",
     "find_roll_discrepancies": "gyroid.workflows", "Scenario": "gyroid.workflows",
     "SCENARIOS": "gyroid.workflows",
+    # writing results
+    "write": "gyroid.reports",
 }
 
 __all__ = sorted(_PUBLIC)

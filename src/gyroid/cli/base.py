@@ -117,6 +117,52 @@ def prior_options(function):
     return function
 
 
+def fit_options(function):
+    """Every option of a bench fit, for ``gyroid fit`` and ``gyroid batch`` alike; the
+    command receives them as one checked ``options`` (:class:`gyroid.pipeline.FitOptions`)."""
+    import functools
+
+    @functools.wraps(function)
+    def wrapper(*args, terms, seed, noise, t0_C, prior_choice, prior_items, flat_prior,
+                rate_window, segment_means, mappings, progress, **kwargs):
+        from gyroid.inference._rate_window import parse_rate_window
+        from gyroid.models._prior_scales import resolve_prior_option
+        from gyroid.pipeline._fit_file import FitOptions
+
+        prior_set, overrides = resolve_prior_option(prior_choice, prior_items)
+        options = FitOptions(terms=terms, noise=noise, seed=seed, t0_C=t0_C,
+                             prior_set="flat" if flat_prior else prior_set, priors=overrides,
+                             rate_window_s=parse_rate_window(rate_window),
+                             segment_means=segment_means, maps=parse_maps(mappings),
+                             progress=progress)
+        return function(*args, options=options, **kwargs)
+
+    for decorate in reversed((
+        terms_option(),
+        click.option("--seed", default=0, show_default=True, type=int,
+                     help="Random seed of emcee."),
+        click.option("--noise", type=click.Choice(["white", "white+gm"]), default="white",
+                     show_default=True, help="Noise model: white, or white plus a "
+                     "Gauss-Markov (bias-instability) part."),
+        click.option("--t0", "t0_C", default=21.0, show_default=True, type=float,
+                     help="Reference temperature t0, degC (t = T - t0)."),
+        prior_options,
+        click.option("--flat-prior", is_flag=True, help="Same as --priors flat."),
+        click.option("--rate-window", "rate_window", default="auto", show_default=True,
+                     metavar="auto|SECONDS",
+                     help="Window of the dT/dt estimator; auto chooses it from the data."),
+        click.option("--segment-means", is_flag=True,
+                     help="Burst-sampled log: fit one row per contiguous segment (its "
+                          "mean), so the bias's wander between bursts is the estimated "
+                          "noise; the samples are still checked for spikes."),
+        map_option,
+        click.option("--progress/--no-progress", default=True, show_default=True,
+                     help="Show the sampler's progress bar."),
+    )):
+        wrapper = decorate(wrapper)
+    return wrapper
+
+
 def report_checks(checks) -> None:
     """Print every failed self-check in one line, then the verdict; exit 3 when the result
     must not be used (outputs are written first)."""

@@ -9,11 +9,11 @@ import click
 
 from gyroid.cli.base import (
     cli,
+    fit_options,
     map_option,
     parse_assignments,
     parse_effects,
     parse_maps,
-    prior_options,
     report_checks,
     terms_help,
     terms_option,
@@ -165,50 +165,17 @@ def _simulate_lot(bench: str, out: Path, *, runs: int, **options) -> None:
 
 @cli.command()
 @click.argument("data", type=click.Path(path_type=Path))
-@terms_option()
 @click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder to write fit.json, posterior.nc and figures into.")
-@click.option("--seed", default=0, show_default=True, type=int, help="Random seed of emcee.")
-@click.option("--noise", type=click.Choice(["white", "white+gm"]), default="white",
-              show_default=True,
-              help="Noise model: white, or white plus a Gauss-Markov (bias-instability) part.")
-@click.option("--t0", "t0_C", default=21.0, show_default=True, type=float,
-              help="Reference temperature t0, degC (t = T - t0).")
-@prior_options
-@click.option("--flat-prior", is_flag=True, help="Same as --priors flat.")
-@click.option("--rate-window", "rate_window", default="auto", show_default=True,
-              metavar="auto|SECONDS",
-              help="Window of the dT/dt estimator; auto chooses it from the data.")
-@click.option("--segment-means", is_flag=True,
-              help="Burst-sampled log: fit one row per contiguous segment (its mean), so "
-                   "the bias's wander between bursts is the estimated noise; the samples "
-                   "are still checked for spikes.")
-@map_option
-@click.option("--progress/--no-progress", default=True, show_default=True,
-              help="Show the sampler's progress bar.")
-def fit(data, terms, out, seed, noise, t0_C, prior_choice, prior_items, flat_prior,
-        rate_window, segment_means, mappings, progress) -> None:
+@fit_options
+def fit(data, out, options) -> None:
     """Fit the drift model TERMS to a bench log DATA (point estimate, posterior, checks).
 
-    DATA is a bench log (.csv, .csv.gz or .parquet; contract section 1). Exit code 3 when a
+    DATA is a bench log (.csv, .csv.gz or .parquet; docs/formats.md). Exit code 3 when a
     self-check says the result must not be used."""
-    from gyroid.inference._bench_fit import fit_log
-    from gyroid.inference._rate_window import parse_rate_window
-    from gyroid.inference._sampling import SamplerSettings
-    from gyroid.io._logs import load_bench_log
-    from gyroid.models._prior_scales import resolve_prior_option
-    from gyroid.reports._files import write_fit_outputs
+    from gyroid.pipeline._fit_file import fit_file
 
-    prior_set, overrides = resolve_prior_option(prior_choice, prior_items)
-    window = parse_rate_window(rate_window)
-    log = load_bench_log(data, terms, t0_C=t0_C, column_map=parse_maps(mappings))
-    click.echo(f"fitting {terms} to {data} ({log.n} rows) ...", err=True)
-    result = fit_log(log, terms, noise=noise, seed=seed, priors=overrides,
-                     prior_set="flat" if flat_prior else prior_set, t0_C=t0_C,
-                     rate_window_s=window, settings=SamplerSettings(progress=progress),
-                     segment_means=segment_means)
-    with output_dir(out) as stage:
-        write_fit_outputs(stage, log, result)
+    result = fit_file(data, options, out, say=lambda m: click.echo(m, err=True))
     click.echo(result.point.summary())
     click.echo(f"wrote {out / 'fit.json'}, {out / 'posterior.nc'} and figures")
     report_checks(result.checks)
@@ -226,18 +193,17 @@ def fit(data, terms, out, seed, noise, t0_C, prior_choice, prior_items, flat_pri
 def compensate(data, fit_dir, out, seed, mappings) -> None:
     """Compensate a new bench log DATA with a fitted drift model; Allan deviation before and
     after. Exit code 3 when a self-check (extrapolation, gain) says not to use it."""
-    from gyroid.io._fitted import FittedDrift, fitted_ranges_from
+    from gyroid.io._fitted import FittedDrift
     from gyroid.io._logs import load_bench_log
-    from gyroid.reports._files import write_compensate_outputs
+    from gyroid.reports._write import write
     from gyroid.workflows._compensate import compensate as run
 
     fitted = FittedDrift.from_dir(fit_dir)
-    maps = parse_maps(mappings)
-    log = load_bench_log(data, fitted.model, t0_C=fitted.t0_C, column_map=maps)
+    log = load_bench_log(data, fitted.model, t0_C=fitted.t0_C, column_map=parse_maps(mappings))
     click.echo(f"compensating {data} ({log.n} rows) with {fit_dir} ...", err=True)
-    result = run(log, fitted, fitted_ranges_from(fit_dir), seed=seed)
+    result = run(log, fitted, seed=seed)
     with output_dir(out) as stage:
-        write_compensate_outputs(stage, log, result)
+        write(stage, result)
     s = result.summary
     click.echo(f"RMS {s['rms_before_deg_h']:.3g} -> {s['rms_after_deg_h']:.3g} deg/h "
                f"({100 * s['fraction_removed']:.0f} % removed); wrote {out / 'compensated.csv'}")
@@ -257,7 +223,7 @@ def compensate(data, fit_dir, out, seed, mappings) -> None:
 def propagate(fit_dir, out, scenario, seed, draws) -> None:
     """Push a fit's posterior through paper B's correction loop: dK, roll and lateral error."""
     from gyroid.io._fitted import FittedDrift
-    from gyroid.reports._files import write_propagate_outputs
+    from gyroid.reports._write import write
     from gyroid.workflows._propagate import driver_shares
     from gyroid.workflows._propagate import propagate as run
     from gyroid.workflows._scenarios import load_scenario
@@ -270,7 +236,7 @@ def propagate(fit_dir, out, scenario, seed, draws) -> None:
     result = run(fitted, chosen, draws=draws, seed=seed,
                  progress=lambda m: click.echo(m, err=True))
     with output_dir(out) as stage:
-        write_propagate_outputs(stage, result)
+        write(stage, result)
     dk = result.dk
     click.echo(f"dK = {dk['mean']:.3g} +/- {dk['sd']:.2g} (95 % {dk['ci95'][0]:.3g} ... "
                f"{dk['ci95'][1]:.3g}); wrote {out / 'propagate.json'}")
@@ -305,7 +271,7 @@ def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings) -> N
     from gyroid.io._logs import load_bench_log
     from gyroid.io._roll_log import load_roll_log
     from gyroid.io._tables import log_kind
-    from gyroid.reports._files import write_discrepancy_outputs
+    from gyroid.reports._write import write
     from gyroid.workflows._discrepancy import find_discrepancies
     from gyroid.workflows._roll_discrepancy import find_roll_discrepancies
 
@@ -325,7 +291,7 @@ def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings) -> N
         say(f"searching what {terms} misses in {data} ({log.n} rows{extra}) ...")
         report = find_discrepancies(log, terms, max_added=max_added, t0_C=t0_C, progress=say)
     with output_dir(out) as stage:
-        write_discrepancy_outputs(stage, report, log, t0_C)
+        write(stage, report)
     for line in report.summary_lines():
         click.echo(line)
     click.echo(f"wrote {out / 'discrepancy.json'} and {out / 'discrepancy.png'}")
@@ -334,7 +300,6 @@ def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings) -> N
 
 @cli.command()
 @click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
-@terms_option()
 @click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder for one sub-folder of fit files per log, batch.csv and batch.json.")
 @click.option("--workers", default=2, show_default=True, type=int,
@@ -342,25 +307,19 @@ def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings) -> N
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="An existing Dask scheduler (e.g. tcp://host:8786) instead of a local "
                    "cluster; its workers must see the same file system.")
-@click.option("--seed", default=0, show_default=True, type=int, help="Random seed of emcee.")
-@click.option("--noise", type=click.Choice(["white", "white+gm"]), default="white",
-              show_default=True, help="Noise model of every fit.")
-@prior_options
-def batch(logs, terms, out, workers, scheduler, seed, noise, prior_choice, prior_items
-          ) -> None:
+@fit_options
+def batch(logs, out, workers, scheduler, options) -> None:
     """Fit many bench logs LOGS of one gyro type (a production lot, repeated runs), one fit
-    each, in parallel on Dask. A log that cannot be fitted fails alone (batch.json says
-    why). Exit code 3 when a log failed or a fit is not trustworthy."""
+    each, in parallel on Dask, every one as 'gyroid fit' would with the same options. A log
+    that cannot be fitted fails alone (batch.json says why). Exit code 3 when a log failed
+    or a fit is not trustworthy."""
     from gyroid.io._outputs import json_text
-    from gyroid.models._prior_scales import resolve_prior_option
-    from gyroid.models._terms import resolve_terms
     from gyroid.pipeline._batch import run_batch
 
-    resolve_terms(terms)  # a wrong --terms is one message, before any worker starts
-    prior_set, overrides = resolve_prior_option(prior_choice, prior_items)
+    if workers < 1:
+        raise GyroidInputError("--workers must be at least 1")
     click.echo(f"fitting {len(logs)} logs with {workers} workers ...", err=True)
-    result = run_batch(logs, terms, out, workers=workers, scheduler=scheduler, seed=seed,
-                       noise=noise, prior_set=prior_set, priors=overrides,
+    result = run_batch(logs, options, out, workers=workers, scheduler=scheduler,
                        progress=lambda m: click.echo(m, err=True))
     with output_dir(out) as stage:
         (stage / "batch.json").write_text(json_text(result.to_json()))

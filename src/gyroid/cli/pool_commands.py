@@ -34,7 +34,7 @@ def pool(logs, terms, out, seed, t0_C, prior_choice, prior_items, segment_means,
     from gyroid.inference._pool_fit import fit_pool
     from gyroid.io._logs import load_bench_log, run_labels
     from gyroid.models._prior_scales import resolve_prior_option
-    from gyroid.reports._files import write_pool_outputs
+    from gyroid.reports._write import write
 
     prior_set, overrides = resolve_prior_option(prior_choice, prior_items)
     labels = run_labels(logs)
@@ -45,7 +45,7 @@ def pool(logs, terms, out, seed, t0_C, prior_choice, prior_items, segment_means,
     result = fit_pool(loaded, labels, terms, seed=seed, prior_set=prior_set, priors=overrides,
                       t0_C=t0_C, segment_means=segment_means)
     with output_dir(out) as stage:
-        write_pool_outputs(stage, result)
+        write(stage, result)
     click.echo(result.summary_text())
     click.echo(f"wrote {out / 'pool.json'}, {out / 'posterior.nc'} and {out / 'forest.png'}")
     report_checks(result.checks)

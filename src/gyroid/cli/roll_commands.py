@@ -73,28 +73,28 @@ def roll_simulate(out, seed, overrides, roll_profile, rate, duration, period, ov
 def roll_fit(data, out, seed, mappings, progress) -> None:
     """Fit the loop parameters (D0, D1, D0gs, D1gs, Denc) to a roll log ROLL (.csv, .csv.gz
     or .parquet; contract section 4). Exit code 3 when a self-check fails."""
+    from gyroid.inference._emcee import Emcee
     from gyroid.inference._roll_fit import fit_roll_log
-    from gyroid.inference._sampling import SamplerSettings
     from gyroid.io._roll_log import load_roll_log
-    from gyroid.reports._files import write_roll_fit_outputs
+    from gyroid.reports._write import write
 
     log = load_roll_log(data, parse_maps(mappings))
     for note in log.notes:
         click.echo(f"note: {note}", err=True)
     click.echo(f"fitting the roll loop to {data} ({log.n} rows) ...", err=True)
-    result = fit_roll_log(log, seed=seed, settings=SamplerSettings(progress=progress))
+    result = fit_roll_log(log, seed=seed, sampler=Emcee(progress=progress))
     with output_dir(out) as stage:
-        write_roll_fit_outputs(stage, log, result)
-    summary = result.to_json()
-    for name, s in summary["parameters"].items():
+        write(stage, result)
+    for name, s in result.to_json()["parameters"].items():
         click.echo(f"  {name:>5s} = {s['mean']:.6g} +/- {s['sd']:.2g}")
     derived = []
-    for item in summary["confounded"]:
-        if item.get("follows_from"):
-            derived.append(f"{' and '.join(item['parameters'])} (r = {item['correlation']:.3f})")
+    for item in result.confounded:
+        pair = " and ".join(item.parameters)
+        if item.follows_from:
+            derived.append(f"{pair} (r = {item.correlation:.3f})")
             continue
-        click.echo(f"warning: {' and '.join(item['parameters'])} are confounded (r = "
-                   f"{item['correlation']:.3f}): {item['suggestion']}", err=True)
+        click.echo(f"warning: {pair} are confounded (r = {item.correlation:.3f}): "
+                   f"{item.suggestion}", err=True)
     if derived:
         click.echo(f"warning: as a consequence, also confounded: {', '.join(derived)}", err=True)
     click.echo(f"wrote {out / 'roll_fit.json'} and {out / 'posterior.nc'}")

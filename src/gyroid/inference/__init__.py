@@ -1,12 +1,33 @@
-"""Likelihoods (one Kalman filter), point estimates, posteriors (emcee, NUTS) and the
+"""Fitting: one abstract problem (:class:`AbstractProblem`) with three final kinds (a bench
+log's drift model, paper B's loop on a roll log, a pooled lot of runs), one :func:`fit`,
+interchangeable samplers (:class:`Emcee`, :class:`Nuts`), frozen results, and the
 self-checks every fit passes through.
 """
 
 from gyroid._lazy import attach
 
 __getattr__, __dir__, __all__ = attach(__name__, {
-    "_bench_fit": ["fit_log"],
-    "_pool_fit": ["fit_pool"],
-    "_pool_result": ["PoolResult"],
-    "_roll_fit": ["fit_roll_log"],
+    "_problem": ["AbstractProblem", "PointEstimate"],
+    "_fit": ["fit"],
+    "_posterior": ["AbstractSampler", "Posterior", "interval_summary", "summarise_draws"],
+    "_emcee": ["Emcee"],
+    "_nuts": ["Nuts"],
+    "_bench_problem": ["BenchProblem"],
+    "_bench_density": ["BenchDensity", "NOISE_MODELS"],
+    "_bench_fit": ["BenchFit", "fit_log"],
+    "_roll_problem": ["ALL_PARAMETERS", "RollProblem"],
+    "_roll_fit": ["RollFit", "fit_roll_log"],
+    "_pool_problem": ["PoolProblem"],
+    "_pool_fit": ["fit_pool", "pool_estimates", "pool_problem"],
+    "_pool_result": ["PoolFit"],
+    "_rate_window": ["choose_rate_window"],
+    "_check_report": ["Check", "CheckReport", "FitEvidence"],
+    "_checks": [
+        "block_variance_ratios", "fit_checks", "goodness_of_fit", "identifiability",
+        "outliers", "point_vs_posterior", "prior_data_conflict", "residual_whiteness",
+        "segment_variance_ratio",
+    ],
+    "_batching": ["problem_batcher"],
+    "_starts": ["START_MULTIPLES", "grid_points", "start_grid"],
+    "_whitened_fit": ["NoiseLevels"],
 })

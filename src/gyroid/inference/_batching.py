@@ -1,9 +1,9 @@
-"""Any problem's method evaluated for many parameter vectors at once (emcee's walkers, the
-posterior draws), compiled once per problem structure and shape.
+"""A problem's density method evaluated for many parameter vectors at once (emcee's walkers,
+the posterior draws), compiled once per density structure and shape.
 
-Bench, roll and pooled problems are equinox modules; their arrays are passed to one jitted,
-vmapped function as arguments (never closed over: a new log of the same shape reuses the
-compilation) and their static part is hashed once.
+A problem's density is an equinox module; its arrays are passed to one jitted, vmapped
+function as arguments (never closed over: a new log of the same shape reuses the
+compilation) and its static part is hashed once.
 """
 
 from __future__ import annotations
@@ -51,21 +51,12 @@ def _batched_method(static, treedef, method, leaves, u):
     return jax.vmap(getattr(problem, method))(u)
 
 
-def problem_batcher(problem, method: str = "log_posterior"):
-    """``u (w, d) -> vmap(problem.<method>)(u)``, jit-compiled once per problem structure
+def problem_batcher(density: eqx.Module, method: str = "log_posterior"):
+    """``u (w, d) -> vmap(density.<method>)(u)``, jit-compiled once per density structure
     and shape (the arrays are arguments, so a new log of the same shape reuses the
-    compilation). The problem is split and flattened here, once, not on every call.
-
-    A problem that keeps its JAX part apart from its description (names, priors) exposes it
-    as ``problem.density`` (an equinox module with the same methods): models that differ
-    only in their description then share one compilation."""
-    module = getattr(problem, "density", problem)
-    dynamic, static = eqx.partition(module, eqx.is_array)
+    compilation). ``density`` is a problem's JAX part (``problem.density``); it is split and
+    flattened here, once, not on every call."""
+    dynamic, static = eqx.partition(density, eqx.is_array)
     leaves, treedef = jax.tree_util.tree_flatten(dynamic)
     static = _interned(static)
     return lambda u: _batched_method(static, treedef, method, leaves, u)
-
-
-def log_posterior_batcher(problem):
-    """``u (w, d) -> log-posterior (w,)``: see ``problem_batcher``."""
-    return problem_batcher(problem, "log_posterior")

@@ -1,4 +1,5 @@
-"""Fitting a bench log: point estimate (optimistix), posterior (emcee), summary (ArviZ)."""
+"""A fitted bench log (:class:`BenchFit`: ``fit.json``, InferenceData, predictions, a summary)
+and :func:`fit_log`, which builds a :class:`~gyroid.inference.BenchProblem` and fits it."""
 
 from __future__ import annotations
 
@@ -6,47 +7,40 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-import jax.numpy as jnp
 import numpy as np
 
 from gyroid.inference._batching import problem_batcher
-from gyroid.inference._bench_problem import NOISE_UNITS, BenchProblem
-from gyroid.inference._checks import Check, CheckReport, FitEvidence, fit_checks, outliers
-from gyroid.inference._point import PointEstimate, point_estimate
-from gyroid.inference._rate_window import choose_rate_window, reads_rate
-from gyroid.inference._sampling import Posterior, SamplerSettings, sample_posterior
-from gyroid.io._logs import BenchLog, contiguous_segments
-from gyroid.io._logs import segment_means as segment_means_of
+from gyroid.inference._bench_density import NOISE_UNITS
+from gyroid.inference._bench_problem import BenchProblem
+from gyroid.inference._check_report import Check, CheckReport
+from gyroid.inference._checks import fit_checks, outliers
+from gyroid.inference._fit import fit
+from gyroid.inference._posterior import AbstractSampler, Posterior, inference_data
+from gyroid.inference._problem import PointEstimate
+from gyroid.io._fitted import FittedDrift
+from gyroid.io._logs import BenchLog
 from gyroid.models._design import rows_of
 from gyroid.models._drift import DriftModel
 from gyroid.models._effects import parameter
 from gyroid.models._inputs import T0_C
-from gyroid.models._prior_scales import (
-    PriorBasis,
-    default_priors,
-    identifiability_hints,
-    reference_sd,
-)
-from gyroid.models._priors import Flat, LogNormal, Normal, Prior
+from gyroid.models._priors import Prior
 
 
-@dataclass
-class FitResult:
-    """A fitted bench log: the problem, its point estimate and (optionally) its posterior."""
+@dataclass(frozen=True, eq=False)
+class BenchFit:
+    """A fitted bench log: its problem, point estimate, posterior (None when only the mode
+    was asked for) and self-checks."""
 
-    problem: BenchProblem
-    point: PointEstimate
-    posterior: Posterior | None
+    problem: BenchProblem = field(repr=False)
+    point: PointEstimate = field(repr=False)
+    posterior: Posterior | None = field(repr=False)
     seed: int
-    t0_C: float
-    prior_set: str = "default"
-    prior_basis: PriorBasis | None = None
-    rate_window_choice: str = "given"
-    checks: CheckReport = field(default_factory=lambda: CheckReport(()))
-    #: When the log's bursts were averaged first: {"segments": K, "rows": n}.
-    segment_means: dict | None = None
-    #: The log the model was fitted to (the segment means when they were fitted).
-    fitted_log: BenchLog | None = field(default=None, repr=False)
+    checks: CheckReport = field(repr=False)
+
+    def __repr__(self) -> str:
+        verdict = "trustworthy" if self.trustworthy else "NOT trustworthy"
+        return (f"BenchFit(terms={','.join(self.problem.model.terms)!r}, "
+                f"n_samples={self.problem.n}, noise={self.problem.noise!r}, {verdict})")
 
     @property
     def trustworthy(self) -> bool:
@@ -56,82 +50,131 @@ class FitResult:
     def model_names(self) -> tuple[str, ...]:
         return self.problem.model.parameter_names
 
+    @property
+    def t0_C(self) -> float:
+        return self.problem.t0_C
+
+    @property
+    def fitted_log(self) -> BenchLog:
+        """The log the model was fitted to (a burst log's segment means when asked)."""
+        return self.problem.log
+
+    @property
+    def segment_means(self) -> dict[str, int] | None:
+        """For a fit of a burst log's segment means: how many means, of how many rows."""
+        segments = self.problem.segments
+        return None if segments is None else {"segments": self.problem.n,
+                                              "rows": segments.log.n}
+
+    @property
+    def input_ranges(self) -> dict[str, list[float]]:
+        """The range of every input the model reads, as seen in the fitted log."""
+        return self.problem.model.input_ranges(self.problem.inputs)
+
+    def summary(self) -> str:
+        """Each coefficient's posterior (or point estimate) and the failed self-checks."""
+        names = self.problem.names
+        source = (self.posterior.summary if self.posterior is not None else
+                  {n: {"mean": self.point.value[n], "sd": self.point.sd[n]} for n in names})
+        kind = "posterior mean +/- sd" if self.posterior is not None else "point estimate"
+        lines = [f"{','.join(self.problem.model.terms)} on {self.problem.n} rows "
+                 f"({self.problem.noise} noise); {kind}:"]
+        for name in names:
+            unit = NOISE_UNITS.get(name) or parameter(name).unit
+            lines.append(f"  {name:>16s} = {source[name]['mean']: .6g} +/- "
+                         f"{source[name]['sd']:.3g} {unit}")
+        lines += [f"  {line}" for line in self.checks.lines()]
+        lines.append(f"  {self.checks.verdict()}")
+        return "\n".join(lines)
+
+    def fitted_drift(self) -> FittedDrift:
+        """The drift model and its posterior draws of the coefficients, for compensation
+        and propagation."""
+        if self.posterior is None:
+            raise ValueError("a fit without a posterior has no draws; fit with sample=True")
+        p = self.problem.n_model
+        draws = self.posterior.draws.reshape(-1, len(self.problem.names))[:, :p]
+        return FittedDrift(model=self.problem.model, draws=draws, t0_C=self.t0_C,
+                           rate_window_s=float(self.problem.rate_window_s),
+                           trustworthy=self.trustworthy, input_ranges=self.input_ranges)
+
+    def inference_data(self):
+        """ArviZ InferenceData: posterior, block log-likelihoods (LOO), observed data."""
+        if self.posterior is None:
+            raise ValueError("a fit without a posterior has no InferenceData")
+        return inference_data(self.problem, self.posterior)
+
     def predict_draws(self, n_draws: int = 200, seed: int = 0, every: int = 1) -> np.ndarray:
         """Modelled drift (deg/h) for ``n_draws`` posterior draws at every ``every``-th row:
         (n_draws, ceil(n / every)). A linear model is its design matrix's rows times the
         draws at the rows kept; otherwise the model runs over the whole log for a few draws at a
         time (memory O(n))."""
+        problem = self.problem
         if self.posterior is None:
-            return np.asarray(self.problem.predict(jnp.asarray(self.point.u)))[None, ::every]
-        flat = self.posterior.draws.reshape(-1, len(self.problem.names))
+            return problem.predict(self.point.u)[None, ::every]
+        flat = self.posterior.draws.reshape(-1, len(problem.names))
         rng = np.random.default_rng(seed)
         pick = rng.choice(flat.shape[0], size=min(n_draws, flat.shape[0]), replace=False)
-        model = self.problem.model
+        model = problem.model
         if model.is_linear:
-            design = np.asarray(model.design(rows_of(self.problem.inputs, slice(None, None,
-                                                                          every))))
-            return flat[pick, : self.problem.n_model] @ design.T
-        u = np.asarray(self.problem.to_sampling(jnp.asarray(flat[pick])))
-        predict = problem_batcher(self.problem, "predict")
-        chunk = int(np.clip(2e6 // max(self.problem.n, 1), 1, 64))
+            design = np.asarray(model.design(rows_of(problem.inputs, slice(None, None, every))))
+            return flat[pick, : problem.n_model] @ design.T
+        u = problem.to_sampling_host(flat[pick])
+        predict = problem_batcher(problem.density, "predict")
+        chunk = int(np.clip(2e6 // max(problem.n, 1), 1, 64))
         return np.concatenate([np.asarray(predict(u[start:start + chunk]))[:, ::every]
                                for start in range(0, u.shape[0], chunk)])
 
     def to_json(self) -> dict:
         """The contract's ``fit.json`` (plus noise, units and convergence sections)."""
-        names = self.model_names
-        noise_names = self.problem.noise_names
+        problem, point, post = self.problem, self.point, self.posterior
+        names, noise_names = self.model_names, problem.noise_names
         out: dict = {
-            "terms": list(self.problem.model.terms),
-            "n_samples": self.problem.n,
-            "point": {k: self.point.value[k] for k in names},
-            "point_sd": {k: self.point.sd[k] for k in names},
+            "terms": list(problem.model.terms),
+            "n_samples": problem.n,
+            "point": {k: point.value[k] for k in names},
+            "point_sd": {k: point.sd[k] for k in names},
             "posterior": {},
-            "rms_residual_deg_h": self.point.rms_residual_deg_h,
+            "rms_residual_deg_h": point.rms_residual,
             "units": {k: parameter(k).unit for k in names},
             "t0_C": self.t0_C,
             "seed": self.seed,
             "noise": {
-                "model": self.problem.noise,
-                "sigma_from_log": self.problem.sigma is not None,
-                "point": {k: self.point.value[k] for k in noise_names},
-                "point_sd": {k: self.point.sd[k] for k in noise_names},
+                "model": problem.noise,
+                "sigma_from_log": problem.sigma_known,
+                "point": {k: point.value[k] for k in noise_names},
+                "point_sd": {k: point.sd[k] for k in noise_names},
                 "posterior": {},
                 "units": {k: NOISE_UNITS[k] for k in noise_names},
             },
-            "priors": {k: _describe(p) for k, p in zip(self.problem.names, self.problem.priors,
+            "priors": {k: _describe(p) for k, p in zip(problem.names, problem.priors,
                                                          strict=True)},
-            "prior_set": self.prior_set,
-            "prior_basis": None if self.prior_basis is None else self.prior_basis.to_json(),
-            "rate_window_s": self.problem.rate_window_s,
-            "rate_window_choice": self.rate_window_choice,
+            "prior_set": problem.prior_set,
+            "prior_basis": problem.prior_basis.to_json(),
+            "rate_window_s": problem.rate_window_s,
+            "rate_window_choice": problem.rate_window_choice,
             "segment_means": self.segment_means,
             "convergence": {
-                "point_estimate": self.point.message,
-                "point_converged": self.point.converged,
-                "starts": self.point.n_starts,
+                "point_estimate": point.message,
+                "point_converged": point.converged,
+                "starts": point.n_starts,
             },
             **self.checks.to_json(),
-            "input_ranges": input_ranges(self.problem.inputs, self.problem.model),
+            "input_ranges": self.input_ranges,
         }
-        if self.posterior is not None:
-            post = self.posterior
+        if post is not None:
             out["posterior"] = {k: post.summary[k] for k in names}
             out["noise"]["posterior"] = {k: post.summary[k] for k in noise_names}
-            flat = post.draws.reshape(-1, len(self.problem.names))[:, : len(names)]
-            corr = np.corrcoef(flat, rowvar=False) if len(names) > 1 else np.ones((1, 1))
-            out["posterior_correlation"] = {
-                a: {b: float(corr[i, j]) for j, b in enumerate(names)}
-                for i, a in enumerate(names)
-            }
+            out["posterior_correlation"] = _correlation(post, problem.names, names)
             out["convergence"]["sampler"] = {
+                "method": post.method,
                 "move": post.move,
                 "walkers": int(post.draws.shape[0]),
                 "steps": post.n_steps,
                 "burn": post.burn,
                 "thin": post.thin,
                 "draws_kept": int(post.draws.shape[0] * post.draws.shape[1]),
-                "tau_steps": {k: float(t) for k, t in zip(self.problem.names, post.tau_steps,
+                "tau_steps": {k: float(t) for k, t in zip(problem.names, post.tau_steps,
                                                           strict=True)},
                 "acceptance": post.acceptance,
                 "converged": post.converged,
@@ -139,29 +182,39 @@ class FitResult:
         return out
 
 
-def input_ranges(inputs, model: DriftModel) -> dict[str, list[float]]:
-    """The range of every input the model reads, as seen in the fitted log."""
-    from gyroid.models._inputs import FIELD_COLUMNS, H0_UT
-
-    out = {}
-    if "temperature_C" in model.columns:
-        t = np.asarray(inputs.temperature_C)
-        r = np.asarray(inputs.rate_C_h)
-        out["temperature_C"] = [float(t.min()), float(t.max())]
-        out["dT_dt_C_h"] = [float(r.min()), float(r.max())]
-    for k, name in enumerate(FIELD_COLUMNS):
-        if name in model.columns:
-            h = np.asarray(inputs.field_rel[:, k]) * H0_UT
-            out[name] = [float(h.min()), float(h.max())]
-    time_h = np.asarray(inputs.time_h)
-    out["elapsed_h"] = [float(time_h.min()), float(time_h.max())]
-    return out
+def _correlation(post: Posterior, sampled: tuple[str, ...], names: tuple[str, ...]) -> dict:
+    flat = post.draws.reshape(-1, len(sampled))[:, : len(names)]
+    corr = np.corrcoef(flat, rowvar=False) if len(names) > 1 else np.ones((1, 1))
+    return {a: {b: float(corr[i, j]) for j, b in enumerate(names)} for i, a in enumerate(names)}
 
 
 def _describe(prior: Prior) -> str:
-    if isinstance(prior, Normal | LogNormal | Flat):
-        return prior.describe()
-    return str(prior)
+    return prior.describe()
+
+
+def bench_checks(problem: BenchProblem, point: PointEstimate, posterior: Posterior | None
+                 ) -> CheckReport:
+    """Every self-check of a bench fit: the shared ones on its evidence, and for a fit of
+    segment means the spike check on the samples behind them."""
+    checks = fit_checks(problem.evidence(point, posterior))
+    segments = problem.segments
+    if segments is None:
+        return checks
+    sigma = point.value.get("sigma_deg_h", segments.within_sd)
+    return checks + CheckReport((spikes_within_segments(
+        segments.log, segments.deviations, segments.within_sd, sigma_of_means=sigma,
+        n_means=problem.n),))
+
+
+def spikes_within_segments(samples: BenchLog, deviations: np.ndarray, within_sd: float, *,
+                           sigma_of_means: float, n_means: int) -> Check:
+    """The spike check of a fit of segment means, on the samples about their segment's
+    mean (``deviations``, over ``within_sd``). A spike shifts the bias by its deviation / n;
+    that is judged against the fit's sd of the bias (about ``sigma_of_means / sqrt(K)`` of
+    the K means), not the samples' ``s / sqrt(n)``."""
+    ratio = (sigma_of_means / math.sqrt(n_means)) / (within_sd / math.sqrt(samples.n))
+    return outliers(deviations, where=samples.where, name="outliers_within_segments",
+                    bias_sd_ratio=max(ratio, 1e-12))
 
 
 def fit_log(
@@ -176,76 +229,14 @@ def fit_log(
     t0_C: float = T0_C,
     rate_window_s: float | None = None,
     sample: bool = True,
-    settings: SamplerSettings | None = None,
+    sampler: AbstractSampler | None = None,
     segment_means: bool = False,
-) -> FitResult:
-    """Fit a bench log: point estimate, then (``sample=True``) the emcee posterior, then
-    the self-checks. ``rate_window_s=None`` chooses the rate estimator's window from the
-    data (:mod:`gyroid.inference._rate_window`). ``segment_means=True`` fits one row per contiguous
-    segment of a burst-sampled log (its mean), so that the bias's wander between bursts is
-    the noise the model estimates rather than a correlation it ignores; the samples are
-    still checked for spikes, which the means would hide."""
-    samples = log
-    if segment_means:
-        log, deviations, within_sd = segment_means_of(
-            log, contiguous_segments(np.asarray(log.time_s)))
-    model = terms if isinstance(terms, DriftModel) else DriftModel.from_terms(terms)
-    if rate_window_s is None:
-        rate_window_s, _ = choose_rate_window(log, model, t0_C=t0_C)
-        window_choice = "auto" if reads_rate(model) else "default (the model reads no dT/dt)"
-    else:
-        window_choice = "given"
-    chosen_set = "flat" if flat_prior else prior_set
-    problem = BenchProblem.from_log(log, model, noise=noise, priors=priors, prior_set=chosen_set,
-                                    t0_C=t0_C, rate_window_s=rate_window_s)
-    point = point_estimate(problem)
-    posterior = sample_posterior(problem, point, seed=seed, settings=settings) if sample else None
-    _, basis = default_priors(model, problem.inputs, np.asarray(log.drift_deg_h))
-    result = FitResult(problem=problem, point=point, posterior=posterior, seed=seed, t0_C=t0_C,
-                       prior_set=chosen_set, prior_basis=basis,
-                       rate_window_choice=window_choice,
-                       segment_means={"segments": log.n, "rows": samples.n}
-                       if segment_means else None, fitted_log=log)
-    result.checks = fit_checks(bench_evidence(result, log))
-    if segment_means:
-        sigma = result.point.value.get("sigma_deg_h", within_sd)
-        result.checks = result.checks + CheckReport((spikes_within_segments(
-            samples, deviations, within_sd, sigma_of_means=sigma, n_means=log.n),))
-    return result
-
-
-def spikes_within_segments(samples: BenchLog, deviations: np.ndarray, within_sd: float, *,
-                           sigma_of_means: float, n_means: int) -> Check:
-    """The spike check of a fit of segment means, on the samples about their segment's
-    mean (``deviations``, over ``within_sd``). A spike shifts the bias by its deviation / n;
-    that is judged against the fit's sd of the bias (about ``sigma_of_means / sqrt(K)`` of
-    the K means), not the samples' ``s / sqrt(n)``."""
-    ratio = (sigma_of_means / math.sqrt(n_means)) / (within_sd / math.sqrt(samples.n))
-    return outliers(deviations, where=samples.where, name="outliers_within_segments",
-                    bias_sd_ratio=max(ratio, 1e-12))
-
-
-def bench_evidence(result: FitResult, log: BenchLog) -> FitEvidence:
-    """What the self-checks need from a bench fit."""
-    problem, point, post = result.problem, result.point, result.posterior
-    model, inputs = problem.model, problem.inputs
-    draws_u = None
-    if post is not None:
-        draws_u = np.asarray(problem.to_sampling(jnp.asarray(post.draws)))
-    return FitEvidence(
-        names=problem.names,
-        n_model=problem.n_model,
-        point_u=np.asarray(point.u),
-        point_converged=point.converged,
-        point_message=point.message,
-        priors=problem.priors,
-        reference_sd=reference_sd(model, inputs, np.asarray(log.drift_deg_h)),
-        residuals=np.asarray(problem.standardised_residuals(jnp.asarray(point.u))),
-        sigma_given=problem.sigma is not None,
-        noise=problem.noise,
-        draws_u=draws_u,
-        summary=None if post is None else post.summary,
-        hints=identifiability_hints(model, inputs),
-        segments=tuple(contiguous_segments(np.asarray(log.time_s))),
-        where=log.where,
-    )
+) -> BenchFit:
+    """Fit ``terms`` to a bench log: :meth:`BenchProblem.from_log` (``rate_window_s=None``
+    chooses the dT/dt window from the data), then :func:`~gyroid.inference.fit` (the mode,
+    with ``sample=True`` the posterior by ``sampler``, default emcee, then the
+    self-checks)."""
+    problem = BenchProblem.from_log(log, terms, noise=noise, priors=priors, prior_set=prior_set,
+                                    flat_prior=flat_prior, t0_C=t0_C,
+                                    rate_window_s=rate_window_s, segment_means=segment_means)
+    return fit(problem, sampler=sampler, seed=seed, sample=sample)

@@ -1,83 +1,55 @@
-"""The posterior of a bench log: drift model, noise model and priors as one JAX pytree.
-
-Sampling coordinates ``u``: model parameters in their own units, except positive ones
-(time constants) as ``log x``; noise parameters as logs. Noise models:
-
-* ``white``: independent Gaussian noise, sd from ``sigma_deg_h`` when the log has it,
-  otherwise one sampled level ``sigma_deg_h``;
-* ``white+gm``: white noise plus a first-order Gauss-Markov (AR(1)) part of sd
-  ``sigma_gm_deg_h`` and correlation time ``tau_gm_s`` (the usual model of a FOG's bias
-  instability). The exact Gaussian likelihood comes from the innovations of a Kalman
-  filter (a JAX scan), for regular or irregular sampling.
-
-For a model linear in its parameters with white noise, the log-likelihood is computed
-from sufficient statistics (cost independent of the log's length).
-"""
+"""A bench log's drift model as a problem to fit (:class:`BenchProblem`): the log, its model's
+density (:class:`~gyroid.inference._bench_density.BenchDensity`), the priors chosen for it,
+and what the self-checks read."""
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
+from dataclasses import dataclass, field
 
-import equinox as eqx
-import jax
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Float, Int
 
-from gyroid.errors import GyroidInputError
-from gyroid.inference._kalman import gauss_markov_innovations
-from gyroid.io._logs import BenchLog
+from gyroid.inference._bench_density import BenchDensity, _noise_names
+from gyroid.inference._check_report import FitEvidence
+from gyroid.inference._point import point_estimate
+from gyroid.inference._problem import AbstractProblem, PointEstimate
+from gyroid.inference._rate_window import choose_rate_window, reads_rate
+from gyroid.io._logs import BenchLog, contiguous_segments
+from gyroid.io._logs import segment_means as means_of_segments
 from gyroid.models._derived import RATE_WINDOW_S
-from gyroid.models._design import least_squares_from_r, with_rows
 from gyroid.models._drift import DriftModel
 from gyroid.models._inputs import T0_C
-from gyroid.models._prior_scales import FOG_NOISE_PRIORS, choose_priors
-from gyroid.models._priors import Flat, LogNormal, Normal, Prior, prior_arrays
-
-NOISE_MODELS = ("white", "white+gm")
-#: Paper A's FOG noise priors (densities on log x); the default priors are scaled to the log
-#: (:mod:`gyroid.models._prior_scales`).
-NOISE_PRIORS: dict[str, Prior] = FOG_NOISE_PRIORS
-NOISE_UNITS = {"sigma_deg_h": "deg/h", "sigma_gm_deg_h": "deg/h", "tau_gm_s": "s"}
-#: Length of the blocks whose summed log-likelihood ArviZ's LOO treats as one observation, s.
-LOO_BLOCK_S = 60.0
-#: At most this many LOO blocks (longer blocks on long logs).
-MAX_LOO_BLOCKS = 500
-_LOG_2PI = math.log(2.0 * math.pi)
+from gyroid.models._prior_scales import (
+    PriorBasis,
+    choose_priors,
+    identifiability_hints,
+    reference_sd,
+)
+from gyroid.models._priors import Prior
 
 
-class BenchProblem(eqx.Module):
-    """Everything the posterior of one bench log needs; build it with :meth:`from_log`."""
+@dataclass(frozen=True, eq=False)
+class SegmentSamples:
+    """The samples behind a fit of segment means (``--segment-means``): each sample's drift
+    about its segment's mean over the pooled within-segment sd (``deviations``), that sd
+    (deg/h), and the samples' log (for naming rows): what the spike check reads, since
+    the means hide spikes."""
 
-    model: DriftModel
-    inputs: eqx.Module
-    drift: Float[Array, " n"]
-    sigma: Float[Array, " n"] | None  # known per-row white-noise sd, deg/h
-    steps_s: Float[Array, " n"]  # time since the previous sample (first: the median step)
-    block: Int[Array, " n"]  # LOO block of each row
-    # Priors as normal densities on the sampling coordinates (arrays, so that logs of one
-    # shape share one compilation whatever their log-scaled priors): ``prior_on`` is 0 for
-    # a flat prior.
-    prior_loc: Float[Array, " d"]
-    prior_scale: Float[Array, " d"]
-    prior_on: Float[Array, " d"]
-    noise: str = eqx.field(static=True)
-    n_blocks: int = eqx.field(static=True)
-    step_s: float = eqx.field(static=True)
-    rate_window_s: float = eqx.field(static=True, default=RATE_WINDOW_S)
-    # Linear-Gaussian fast path: (X'WX, weighted LS solution, residual sum at it).
-    gram: Float[Array, "p p"] | None = None
-    solution: Float[Array, " p"] | None = None
-    rss_min: Float[Array, ""] | None = None
-    log_sigma_sum: Float[Array, ""] | None = None
-    # ... and the same per LOO block, about the solution: (B, p, p), (B, p), (B,), and the
-    # block's row count and sum of log sigma (B,): block log-likelihoods without the rows.
-    block_gram: Float[Array, "b p p"] | None = None
-    block_xr: Float[Array, "b p"] | None = None
-    block_rr: Float[Array, " b"] | None = None
-    block_count: Float[Array, " b"] | None = None
-    block_log_sigma: Float[Array, " b"] | None = None
+    log: BenchLog = field(repr=False)
+    deviations: np.ndarray = field(repr=False)
+    within_sd: float
+
+
+class BenchProblem(AbstractProblem):
+    """The posterior of a drift model given a bench log. Build it with :meth:`from_log`."""
+
+    density: BenchDensity
+    log: BenchLog  # what the model is fitted to (a burst log's segment means when asked)
+    prior_set: str
+    prior_basis: PriorBasis
+    rate_window_choice: str  # "auto", "given", or why the default was kept
+    segments: SegmentSamples | None = None
 
     @classmethod
     def from_log(
@@ -90,243 +62,142 @@ class BenchProblem(eqx.Module):
         prior_set: str = "default",
         flat_prior: bool = False,
         t0_C: float = T0_C,
-        rate_window_s: float = RATE_WINDOW_S,
+        rate_window_s: float | None = RATE_WINDOW_S,
+        segment_means: bool = False,
         fast: bool = True,
     ) -> BenchProblem:
-        """Build the problem. ``prior_set`` is ``default`` (scaled to this log),
-        ``paper_a_fog`` or ``flat`` (see :mod:`gyroid.models._prior_scales`); ``priors`` overrides
-        single parameters by name; ``flat_prior=True`` is ``prior_set="flat"``."""
+        """The problem of fitting ``terms`` to ``log``.
+
+        ``prior_set``: ``default`` (scaled to this log), ``paper_a_fog`` or ``flat``
+        (:mod:`gyroid.models._prior_scales`); ``priors`` overrides single parameters by
+        name; ``flat_prior=True`` is ``prior_set="flat"``. ``rate_window_s=None`` chooses
+        the dT/dt estimator's window from the data (:mod:`gyroid.inference._rate_window`).
+        ``segment_means=True`` fits one row per contiguous segment of a burst-sampled log
+        (its mean), so that the bias's wander between bursts is the noise the model
+        estimates rather than a correlation it ignores; the samples are still checked for
+        spikes, which the means would hide. ``fast=False`` keeps the likelihood on the rows
+        (no sufficient statistics), for tests of the fast path."""
+        samples = None
+        if segment_means:
+            samples = log
+            log, deviations, within_sd = means_of_segments(
+                log, contiguous_segments(np.asarray(log.time_s)))
         model = terms if isinstance(terms, DriftModel) else DriftModel.from_terms(terms)
-        if noise not in NOISE_MODELS:
-            raise GyroidInputError(f"--noise must be one of {', '.join(NOISE_MODELS)}")
+        if rate_window_s is None:
+            rate_window_s, _ = choose_rate_window(log, model, t0_C=t0_C)
+            choice = "auto" if reads_rate(model) else "default (the model reads no dT/dt)"
+        else:
+            choice = "given"
+        chosen_set = "flat" if flat_prior else prior_set
         inputs = log.inputs(t0_C=t0_C, rate_window_s=rate_window_s)
-        time_s = np.asarray(log.time_s)
-        steps = np.diff(time_s)
-        step = float(np.median(steps)) if steps.size else 1.0
-        sigma = None if log.sigma_deg_h is None else jnp.asarray(log.sigma_deg_h)
-        noise_names = _noise_names(noise, sigma is not None)
-        chosen, _ = choose_priors(model, inputs, np.asarray(log.drift_deg_h), noise_names,
-                                  prior_set="flat" if flat_prior else prior_set,
-                                  overrides=priors)
-        positive = [p.positive for p in model.parameters] + [True] * len(noise_names)
-        loc, scale, on = prior_arrays(chosen, positive)
-        duration = float(time_s[-1] - time_s[0])
-        block_s = max(LOO_BLOCK_S, step, duration / MAX_LOO_BLOCKS * 1.0001)
-        block = np.floor((time_s - time_s[0]) / block_s).astype(int)
-        _, block = np.unique(block, return_inverse=True)
-        problem = cls(
-            model=model,
-            inputs=inputs,
-            drift=jnp.asarray(log.drift_deg_h),
-            sigma=sigma,
-            steps_s=jnp.asarray(np.concatenate([[step], steps])),
-            block=jnp.asarray(block),
-            prior_loc=jnp.asarray(loc),
-            prior_scale=jnp.asarray(scale),
-            prior_on=jnp.asarray(on),
-            noise=noise,
-            n_blocks=int(block.max()) + 1,
-            step_s=step,
-            rate_window_s=float(rate_window_s),
-        )
-        if fast and model.is_linear and noise == "white":
-            problem = problem._with_sufficient_statistics()
-        return problem
+        noise_names = _noise_names(noise, log.sigma_deg_h is not None)
+        chosen, basis = choose_priors(model, inputs, np.asarray(log.drift_deg_h), noise_names,
+                                      prior_set=chosen_set, overrides=priors)
+        density = BenchDensity.from_log(log, model, chosen, noise=noise, t0_C=t0_C,
+                                        rate_window_s=rate_window_s, fast=fast)
+        return cls(density=density, log=log, prior_set=chosen_set, prior_basis=basis,
+                   rate_window_choice=choice,
+                   segments=None if samples is None else SegmentSamples(
+                       samples, deviations, within_sd))
 
-    def _with_sufficient_statistics(self) -> BenchProblem:
-        """The linear-Gaussian fast path: the Gram matrix and least-squares solution of the
-        whole log and of each LOO block (about that solution, which keeps the block sums
-        well conditioned). Two passes over the design in blocks of rows (its R factor,
-        then the block sums): memory of one block, whatever the log's length."""
-        y = np.asarray(self.drift)
-        w = None if self.sigma is None else 1.0 / np.asarray(self.sigma)
-        p = self.n_model
-
-        def weighted_blocks():
-            for rows, x in self.model.design_blocks(self.inputs):
-                yield rows, (x, y[rows]) if w is None else (x * w[rows, None], y[rows] * w[rows])
-
-        r = None
-        for _, (xw, yw) in weighted_blocks():
-            r = with_rows(r, np.column_stack([xw, yw]))
-        solution, rss = least_squares_from_r(r)
-        gram = r[:, :p].T @ r[:, :p]
-        block = np.asarray(self.block)
-        n_blocks = int(self.n_blocks)
-        gram_b = np.zeros((n_blocks, p, p))
-        xr_b = np.zeros((n_blocks, p))
-        rr_b = np.zeros(n_blocks)
-        for rows, (xw, yw) in weighted_blocks():
-            r0 = yw - xw @ solution
-            index = block[rows]
-            for i in range(p):
-                xr_b[:, i] += np.bincount(index, xw[:, i] * r0, n_blocks)
-                for j in range(i, p):
-                    gram_b[:, i, j] += np.bincount(index, xw[:, i] * xw[:, j], n_blocks)
-                    gram_b[:, j, i] = gram_b[:, i, j]
-            rr_b += np.bincount(index, r0**2, n_blocks)
-        log_sigma = np.zeros_like(y) if self.sigma is None else np.log(np.asarray(self.sigma))
-        return eqx.tree_at(
-            lambda q: (q.gram, q.solution, q.rss_min, q.log_sigma_sum, q.block_gram,
-                       q.block_xr, q.block_rr, q.block_count, q.block_log_sigma),
-            self,
-            (jnp.asarray(gram), jnp.asarray(solution), jnp.asarray(rss),
-             jnp.asarray(float(np.sum(log_sigma))), jnp.asarray(gram_b), jnp.asarray(xr_b),
-             jnp.asarray(rr_b), jnp.asarray(np.bincount(block, minlength=n_blocks).astype(float)),
-             jnp.asarray(np.bincount(block, log_sigma, n_blocks))),
-            is_leaf=lambda x: x is None,
-        )
-
-    # ----- parameter bookkeeping -------------------------------------------------------
-    @property
-    def n(self) -> int:
-        return int(self.drift.shape[0])
-
-    @property
-    def noise_names(self) -> tuple[str, ...]:
-        return _noise_names(self.noise, self.sigma is not None)
-
+    # ----- description (the density's) -------------------------------------------------------
     @property
     def names(self) -> tuple[str, ...]:
-        """Parameter names in natural units, in sampling order."""
-        return self.model.parameter_names + self.noise_names
+        return self.density.names
 
     @property
     def positive(self) -> tuple[bool, ...]:
-        return tuple(p.positive for p in self.model.parameters) + (True,) * len(self.noise_names)
+        return self.density.positive
 
     @property
     def priors(self) -> tuple[Prior, ...]:
-        """The priors in sampling order, as :mod:`gyroid.models._priors` objects."""
-        out: list[Prior] = []
-        for loc, scale, on, positive in zip(np.asarray(self.prior_loc),
-                                            np.asarray(self.prior_scale),
-                                            np.asarray(self.prior_on), self.positive,
-                                            strict=True):
-            if not on:
-                out.append(Flat())
-            elif positive:
-                out.append(LogNormal(float(np.exp(loc)), float(scale)))
-            else:
-                out.append(Normal(float(loc), float(scale)))
-        return tuple(out)
+        return self.density.priors
 
     @property
     def n_model(self) -> int:
-        return len(self.model.parameter_names)
+        return self.density.n_model
 
-    def to_natural(self, u: Float[Array, "... d"]) -> Float[Array, "... d"]:
-        """Sampling coordinates to natural units (exp of the log-coordinates)."""
-        mask = jnp.asarray(self.positive)
-        return jnp.where(mask, jnp.exp(u), u)
+    @property
+    def model(self) -> DriftModel:
+        return self.density.model
 
-    def to_sampling(self, x: Float[Array, "... d"]) -> Float[Array, "... d"]:
-        mask = jnp.asarray(self.positive)
-        return jnp.where(mask, jnp.log(jnp.where(mask, x, 1.0)), x)
+    @property
+    def inputs(self):
+        return self.density.inputs
 
-    # ----- densities ---------------------------------------------------------------------
-    def predict(self, u: Float[Array, " d"]) -> Float[Array, " n"]:
-        """Modelled drift, deg/h."""
-        theta = self.to_natural(u)[: self.n_model]
-        return self.model.predict(theta, self.inputs)
+    @property
+    def noise(self) -> str:
+        return self.density.noise
 
-    def _noise_levels(self, u: Float[Array, " d"]):
-        x = self.to_natural(u)[self.n_model :]
-        values = dict(zip(self.noise_names, x, strict=True))
-        if self.sigma is not None:
-            white = self.sigma if self.noise == "white" else jnp.median(self.sigma)
-        else:
-            white = values["sigma_deg_h"]
-        return white, values
+    @property
+    def noise_names(self) -> tuple[str, ...]:
+        return self.density.noise_names
 
-    def log_likelihood_rows(self, u: Float[Array, " d"]) -> Float[Array, " n"]:
-        """Log-likelihood of each row (for white+gm: of its innovation)."""
-        residual = self.drift - self.predict(u)
-        white, values = self._noise_levels(u)
-        if self.noise == "white":
-            return -0.5 * (residual / white) ** 2 - jnp.log(white) - 0.5 * _LOG_2PI
-        innovation, variance = self._innovations(
-            residual, white, values["sigma_gm_deg_h"], values["tau_gm_s"]
-        )
-        return -0.5 * innovation**2 / variance - 0.5 * jnp.log(variance) - 0.5 * _LOG_2PI
+    @property
+    def n(self) -> int:
+        return self.density.n
 
-    def standardised_residuals(self, u: Float[Array, " d"]) -> Float[Array, " n"]:
-        """Residuals over their modelled sd (white) or Kalman innovations over theirs
-        (white+gm): independent N(0, 1) when the model and its noise model are right."""
-        residual = self.drift - self.predict(u)
-        white, values = self._noise_levels(u)
-        if self.noise == "white":
-            return residual / white
-        innovation, variance = self._innovations(
-            residual, white, values["sigma_gm_deg_h"], values["tau_gm_s"]
-        )
-        return innovation / jnp.sqrt(variance)
+    @property
+    def t0_C(self) -> float:
+        return self.density.inputs.t0_C
 
-    def _innovations(self, residual, white, sd_gm, tau_s):
-        return gauss_markov_innovations(residual, self.steps_s, white, sd_gm, tau_s)
+    @property
+    def rate_window_s(self) -> float:
+        return self.density.rate_window_s
 
-    def log_likelihood(self, u: Float[Array, " d"]) -> Float[Array, ""]:
-        """Total log-likelihood (the sufficient-statistics path where it applies)."""
-        if self.gram is not None:
-            theta = u[: self.n_model]
-            delta = theta - self.solution
-            rss = self.rss_min + delta @ self.gram @ delta
-            if self.sigma is not None:
-                return -0.5 * rss - self.log_sigma_sum - 0.5 * self.n * _LOG_2PI
-            sd = jnp.exp(u[self.n_model])
-            return -0.5 * rss / sd**2 - self.n * jnp.log(sd) - 0.5 * self.n * _LOG_2PI
-        return jnp.sum(self.log_likelihood_rows(u))
+    @property
+    def sigma_known(self) -> bool:
+        return self.density.sigma is not None
+
+    def predict(self, u) -> np.ndarray:
+        """Modelled drift at every row, deg/h, for sampling coordinates ``u``."""
+        return np.asarray(self.density.predict(jnp.asarray(u)))
+
+    def standardised_residuals(self, u) -> np.ndarray:
+        """Residuals over their modelled sd (Kalman innovations under white+gm)."""
+        return np.asarray(self.density.standardised_residuals(jnp.asarray(u)))
+
+    # ----- fitting ------------------------------------------------------------------------------
+    def mode(self) -> PointEstimate:
+        return point_estimate(self.density)
 
     def host_log_posterior(self):
-        """The log-posterior of many walkers, ``u (w, d) -> (w,)``, in NumPy on the
-        sufficient statistics: what emcee calls every step. For a linear model with white
-        noise a step then costs a (w, p) x (p, p) product and no JAX dispatch, whose
-        overhead had made gyroid's steps 1.7x dearer than a NumPy script's
-        (benchmarks/run.py); None for other models."""
-        if self.gram is None:
-            return None
-        gram, solution = np.asarray(self.gram), np.asarray(self.solution)
-        rss_min, n, p = float(self.rss_min), self.n, self.n_model
-        loc, scale = np.asarray(self.prior_loc), np.asarray(self.prior_scale)
-        on = np.asarray(self.prior_on)
-        constant = -float(np.sum(on * (np.log(scale) + 0.5 * _LOG_2PI))) - 0.5 * n * _LOG_2PI
-        known = None if self.sigma is None else float(self.log_sigma_sum)
+        return self.density.host_log_posterior()
 
-        def log_posterior(u: np.ndarray) -> np.ndarray:
-            u = np.atleast_2d(np.asarray(u, dtype=float))
-            delta = u[:, :p] - solution
-            rss = rss_min + np.einsum("ki,ij,kj->k", delta, gram, delta)
-            if known is not None:
-                log_lik = -0.5 * rss - known
-            else:
-                log_sd = u[:, p]
-                log_lik = -0.5 * rss * np.exp(-2.0 * log_sd) - n * log_sd
-            z = on * (u - loc) / scale
-            with np.errstate(over="ignore", invalid="ignore"):
-                value = log_lik - 0.5 * np.sum(z**2, axis=1) + constant
-            return np.where(np.isfinite(value), value, -np.inf)
+    def evidence(self, point: PointEstimate, posterior) -> FitEvidence:
+        """What the self-checks read of a fit of this problem."""
+        model, inputs, log = self.model, self.inputs, self.log
+        return FitEvidence(
+            names=self.names,
+            n_model=self.n_model,
+            point_u=np.asarray(point.u),
+            point_converged=point.converged,
+            point_message=point.message,
+            priors=self.priors,
+            reference_sd=reference_sd(model, inputs, np.asarray(log.drift_deg_h)),
+            residuals=self.standardised_residuals(point.u),
+            sigma_given=self.sigma_known,
+            noise=self.noise,
+            draws_u=None if posterior is None else self.to_sampling_host(posterior.draws),
+            summary=None if posterior is None else posterior.summary,
+            hints=identifiability_hints(model, inputs),
+            segments=tuple(contiguous_segments(np.asarray(log.time_s))),
+            where=log.where,
+        )
 
-        return log_posterior
+    def result(self, point: PointEstimate, posterior, *, seed: int):
+        from gyroid.inference._bench_fit import BenchFit, bench_checks
 
-    def log_likelihood_blocks(self, u: Float[Array, " d"]) -> Float[Array, " b"]:
-        """Log-likelihood summed over blocks of ``LOO_BLOCK_S`` (what LOO leaves out); from
-        the blocks' sufficient statistics where the likelihood is linear-Gaussian."""
-        if self.block_gram is None:
-            return jax.ops.segment_sum(self.log_likelihood_rows(u), self.block, self.n_blocks)
-        delta = u[: self.n_model] - self.solution
-        rss = (self.block_rr - 2.0 * self.block_xr @ delta
-               + jnp.einsum("bij,i,j->b", self.block_gram, delta, delta))
-        constant = 0.5 * self.block_count * _LOG_2PI
-        if self.sigma is not None:
-            return -0.5 * rss - self.block_log_sigma - constant
-        sd = jnp.exp(u[self.n_model])
-        return -0.5 * rss / sd**2 - self.block_count * jnp.log(sd) - constant
+        return BenchFit(problem=self, point=point, posterior=posterior, seed=seed,
+                        checks=bench_checks(self, point, posterior))
 
+    # ----- storage ------------------------------------------------------------------------------
     def observed_data(self) -> dict[str, np.ndarray]:
-        return {"drift_deg_h": np.asarray(self.drift)}
+        return {"drift_deg_h": np.asarray(self.density.drift)}
 
     def constant_data(self) -> dict[str, np.ndarray]:
-        return {"time_h": np.asarray(self.inputs.time_h), "loo_block": np.asarray(self.block)}
+        return {"time_h": np.asarray(self.inputs.time_h),
+                "loo_block": np.asarray(self.density.block)}
 
     def idata_attrs(self) -> dict[str, str]:
         return {
@@ -335,23 +206,3 @@ class BenchProblem(eqx.Module):
             "log_likelihood_note": "log_likelihood holds sums over blocks of rows "
                                    "(constant_data.loo_block): LOO leaves out whole blocks",
         }
-
-    def prior_residuals(self, u: Float[Array, " d"]) -> Float[Array, " d"]:
-        """Standardised prior residuals: ``-0.5 * sum(r**2)`` is the log prior + const."""
-        return self.prior_on * (u - self.prior_loc) / self.prior_scale
-
-    def log_prior(self, u: Float[Array, " d"]) -> Float[Array, ""]:
-        r = self.prior_residuals(u)
-        return jnp.sum(-0.5 * r**2 - self.prior_on * (jnp.log(self.prior_scale)
-                                                       + 0.5 * _LOG_2PI))
-
-    def log_posterior(self, u: Float[Array, " d"]) -> Float[Array, ""]:
-        value = self.log_likelihood(u) + self.log_prior(u)
-        return jnp.where(jnp.isfinite(value), value, -jnp.inf)
-
-
-def _noise_names(noise: str, sigma_known: bool) -> tuple[str, ...]:
-    white = () if sigma_known else ("sigma_deg_h",)
-    if noise == "white":
-        return white
-    return (*white, "sigma_gm_deg_h", "tau_gm_s")

@@ -1,15 +1,15 @@
 """Posterior sampling with NUTS (blackjax) for posteriors emcee does not mix.
 
-Used by the pooled fit: its sampled space is the between-run sds and every run's noise
-level, ``p + R`` dimensions. emcee's ensemble moves (DE, stretch) slow down with dimension
-faster than the posterior's difficulty grows: on a lot of 30 magnetic runs (34 dimensions,
-136 walkers) emcee stopped at its 30 000-step cap with r_hat above 1.01 after 176 s, where
-NUTS, whose cost per independent draw depends little on the dimension of a smooth
-posterior, converges in seconds (``experiments/pool_sbc.py``).
+The pooled fit's default sampler (:class:`Nuts`): its sampled space is the between-run
+sds and every run's noise level, ``p + R`` dimensions. emcee's ensemble moves (DE,
+stretch) slow down with dimension faster than the posterior's difficulty grows: on a lot
+of 30 magnetic runs (34 dimensions, 136 walkers) emcee stopped at its 30 000-step cap
+with r_hat above 1.01 after 176 s, where NUTS, whose cost per independent draw depends
+little on the dimension of a smooth posterior, converges in seconds (``experiments/pool_sbc.py``).
 
 Four chains start from the mode's Gaussian approximation; blackjax's window adaptation
 (step size and a diagonal mass matrix, ``warmup`` steps) precedes ``draws`` steps per chain.
-When r_hat or the bulk ESS misses its target (as :mod:`gyroid.inference._sampling`), the
+When r_hat or the bulk ESS misses its target (as :mod:`gyroid.inference._emcee`), the
 chains are run again twice as long, up to ``max_draws``. Each chain's loop is one compiled
 function of the problem's arrays (passed as arguments, so a new lot of the same shape
 reuses it).
@@ -17,6 +17,7 @@ reuses it).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import blackjax
@@ -26,13 +27,19 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyroid.inference._checks import MAX_R_HAT, MIN_ESS
-from gyroid.inference._point import PointEstimate
-from gyroid.inference._sampling import Posterior, covariance_factor, summarise_draws
+from gyroid.inference._posterior import (
+    AbstractSampler,
+    Posterior,
+    covariance_factor,
+    summarise_draws,
+)
+from gyroid.inference._problem import AbstractProblem, PointEstimate
 
 
 @dataclass(frozen=True)
-class NutsSettings:
-    """How long to run NUTS."""
+class Nuts(AbstractSampler):
+    """blackjax's NUTS after its window adaptation, run until it has converged (see the
+    module docstring)."""
 
     chains: int = 4
     warmup: int = 500
@@ -41,6 +48,12 @@ class NutsSettings:
     target_acceptance: float = 0.85
     min_ess: float = MIN_ESS
     max_r_hat: float = MAX_R_HAT
+
+    def sample(self, problem: AbstractProblem, point: PointEstimate, *, seed: int = 0,
+               progress: Callable[[str], None] | None = None) -> Posterior:
+        """Sample ``problem.density.log_posterior`` (sampling coordinates) with NUTS from
+        ``point``; draws returned in natural units."""
+        return _sample(problem, point, self, seed, progress)
 
 
 @eqx.filter_jit
@@ -67,24 +80,23 @@ def _run_chain(density, key, start, warmup: int, draws: int, target: float):
     return positions, logdensities, acceptance, divergent
 
 
-def sample_nuts(problem, point: PointEstimate, *, seed: int = 0,
-                settings: NutsSettings | None = None) -> Posterior:
-    """Sample ``problem.density.log_posterior`` (sampling coordinates, all positive
-    parameters as logs) with NUTS; draws returned in natural units."""
-    settings = settings or NutsSettings()
+def _sample(problem: AbstractProblem, point: PointEstimate, settings: Nuts, seed: int,
+            progress: Callable[[str], None] | None) -> Posterior:
+    say = progress or (lambda _message: None)
     rng = np.random.default_rng(seed)
     d = point.u.size
     factor = covariance_factor(point.covariance_u)
     draws = settings.draws
     while True:
         runs = []
+        say(f"NUTS: {settings.chains} chains of {settings.warmup} warm-up and {draws} draws ...")
         for _ in range(settings.chains):
             start = point.u + 0.5 * factor @ rng.standard_normal(d)
             key = jax.random.PRNGKey(int(rng.integers(2**31)))
             runs.append(_run_chain(problem.density, key, jnp.asarray(start), settings.warmup,
                                    draws, settings.target_acceptance))
         positions = np.stack([np.asarray(r[0]) for r in runs])
-        natural = np.where(problem.positive, np.exp(positions), positions)
+        natural = problem.to_natural_host(positions)
         summary = summarise_draws(natural, problem.names)
         good = all(s["r_hat"] <= settings.max_r_hat and s["ess_bulk"] >= settings.min_ess
                    for s in summary.values())
@@ -102,8 +114,7 @@ def sample_nuts(problem, point: PointEstimate, *, seed: int = 0,
         burn=settings.warmup,
         thin=1,
         acceptance=float(np.mean([np.asarray(r[2]).mean() for r in runs])),
-        idata=None,
-        move=f"nuts (blackjax {blackjax.__version__}, {settings.chains} chains)",
+        method=f"nuts (blackjax {blackjax.__version__}, {settings.chains} chains)",
         summary=summary,
         divergent=divergent,
     )

@@ -1,4 +1,4 @@
-"""Point estimates with optimistix: the posterior mode and its Gaussian covariance.
+"""A bench problem's mode with optimistix: the posterior mode and its Gaussian covariance.
 
 1. For given positive parameters (time constants) every drift effect is linear in the
    real parameters, so those are solved exactly (variable projection); the grid of
@@ -19,7 +19,6 @@ The covariance is the Gauss-Newton ``(J'J)^-1`` of the weighted residuals at the
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import equinox as eqx
 import jax
@@ -28,37 +27,18 @@ import numpy as np
 import optimistix as optx
 
 from gyroid.inference._batching import problem_batcher
-from gyroid.inference._bench_problem import BenchProblem
+from gyroid.inference._bench_density import BenchDensity
+from gyroid.inference._problem import PointEstimate
 from gyroid.inference._starts import grid_points, start_grid
 from gyroid.models._priors import natural_with_sd
 
 
-@dataclass(frozen=True)
-class PointEstimate:
-    """Posterior mode in natural units, with standard deviations and the solver's verdict."""
-
-    names: tuple[str, ...]
-    u: np.ndarray  # sampling coordinates
-    covariance_u: np.ndarray  # in sampling coordinates
-    value: dict[str, float]
-    sd: dict[str, float]
-    converged: bool
-    message: str
-    n_starts: int
-    rms_residual_deg_h: float
-
-    def summary(self) -> str:
-        rows = [f"  {n:>16s} = {self.value[n]: .6g} +/- {self.sd[n]:.3g}" for n in self.names]
-        status = "converged" if self.converged else f"NOT converged: {self.message}"
-        return "\n".join([f"point estimate ({status}, {self.n_starts} start(s))", *rows])
-
-
-def _real_mask(problem: BenchProblem) -> np.ndarray:
+def _real_mask(problem: BenchDensity) -> np.ndarray:
     return ~np.asarray(problem.positive[: problem.n_model])
 
 
 @eqx.filter_jit
-def _projected(problem: BenchProblem, u_model: jax.Array, weights: jax.Array):
+def _projected(problem: BenchDensity, u_model: jax.Array, weights: jax.Array):
     """Exact solve of the real parameters with the positive ones fixed (variable projection)."""
     real = np.flatnonzero(_real_mask(problem))  # static: from the model's terms
     n_noise = len(problem.noise_names)
@@ -84,7 +64,7 @@ def _weighted_residuals(u_model, args):
 
 
 @eqx.filter_jit
-def _levenberg_marquardt(problem: BenchProblem, u0: jax.Array, weights: jax.Array):
+def _levenberg_marquardt(problem: BenchDensity, u0: jax.Array, weights: jax.Array):
     solver = optx.LevenbergMarquardt(rtol=1e-10, atol=1e-10)
     solution = optx.least_squares(
         _weighted_residuals, solver, u0, args=(problem, weights), max_steps=500, throw=False
@@ -99,7 +79,7 @@ def _negative_log_posterior(u, problem):
 
 
 @eqx.filter_jit
-def _bfgs(problem: BenchProblem, u0: jax.Array):
+def _bfgs(problem: BenchDensity, u0: jax.Array):
     solver = optx.BFGS(rtol=1e-9, atol=1e-9)
     solution = optx.minimise(
         _negative_log_posterior, solver, u0, args=problem, max_steps=2000, throw=False
@@ -114,7 +94,7 @@ def _message(result) -> tuple[bool, str]:
     return ok, text
 
 
-def _starts(problem: BenchProblem) -> list[np.ndarray]:
+def _starts(problem: BenchDensity) -> list[np.ndarray]:
     """Sampling-coordinate starts for the model parameters: real ones 0, positive ones on
     the grid of :mod:`gyroid.inference._starts`."""
     parameters = problem.model.parameters
@@ -127,7 +107,7 @@ def _starts(problem: BenchProblem) -> list[np.ndarray]:
     return starts
 
 
-def _linear_gaussian(problem: BenchProblem) -> PointEstimate:
+def _linear_gaussian(problem: BenchDensity) -> PointEstimate:
     """Closed form for a linear model with white noise: the posterior mode and covariance
     from the sufficient statistics (exact; no iterations)."""
     n, p = problem.n, problem.n_model
@@ -169,12 +149,13 @@ def _linear_gaussian(problem: BenchProblem) -> PointEstimate:
         sd={k: float(v) for k, v in zip(problem.names, sd, strict=True)},
         converged=True, message="converged (closed form: linear model, white noise)",
         n_starts=1,
-        rms_residual_deg_h=float(np.sqrt(np.mean((np.asarray(problem.drift) - prediction) ** 2))),
+        rms_residual=float(np.sqrt(np.mean((np.asarray(problem.drift) - prediction) ** 2))),
     )
 
 
-def point_estimate(problem: BenchProblem, *, max_refine: int = 3) -> PointEstimate:
-    """Posterior mode and covariance of a bench problem (see the module docstring)."""
+def point_estimate(problem: BenchDensity, *, max_refine: int = 3) -> PointEstimate:
+    """Posterior mode and covariance of a bench log's density (see the module
+    docstring)."""
     if problem.gram is not None:
         return _linear_gaussian(problem)
     n, p = problem.n, problem.n_model
@@ -234,11 +215,11 @@ def point_estimate(problem: BenchProblem, *, max_refine: int = 3) -> PointEstima
         converged=converged,
         message=message,
         n_starts=len(candidates),
-        rms_residual_deg_h=rms,
+        rms_residual=rms,
     )
 
 
-def _noise_start(problem: BenchProblem, residual: np.ndarray, white: float):
+def _noise_start(problem: BenchDensity, residual: np.ndarray, white: float):
     """Starting values (log coordinates) and a rough covariance for the noise parameters."""
     n = residual.size
     values, variances = [], []

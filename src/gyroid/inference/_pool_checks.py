@@ -23,11 +23,32 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
+import jax.numpy as jnp
 import numpy as np
+from scipy import stats
 
-from gyroid.inference._check_report import Check, CheckReport
-from gyroid.inference._checks import PRIOR_TAIL_SD
+from gyroid.inference._bench_fit import spikes_within_segments
+from gyroid.inference._check_report import Check, CheckReport, FitEvidence
+from gyroid.inference._checks import (
+    PRIOR_TAIL_SD,
+    convergence,
+    goodness_of_fit,
+    identifiability,
+    outliers,
+    point_vs_posterior,
+    prior_data_conflict,
+    residual_whiteness,
+)
+from gyroid.inference._pool_problem import PoolProblem
+from gyroid.inference._posterior import Posterior
+from gyroid.inference._problem import PointEstimate
+from gyroid.io._logs import contiguous_segments
 from gyroid.models._priors import Normal
+
+#: What to do when a run's residuals are correlated: pooling models white noise only.
+WHITE_NOISE_REMEDY = ("pooling assumes white noise: fit such runs one by one with 'gyroid "
+                      "fit --noise white+gm' (or --segment-means for burst logs), or look "
+                      "for a missing effect with gyroid discrepancy")
 
 #: Family-wise false-alarm rate of the run-consistency check under the population model.
 RUN_CONSISTENCY_P = 1e-3
@@ -143,3 +164,99 @@ def between_run_sd_identified(names: tuple[str, ...], tau_draws: np.ndarray,
                  f"{n_runs} runs hardly pin down the between-run sd of {', '.join(poor)} "
                  f"({names[worst]}: 95 % within {lo:.3g} ... {hi:.3g}): the new-run "
                  "predictive is correspondingly wide; pool more runs to narrow it")
+
+
+def leave_one_run_out(problem: PoolProblem) -> np.ndarray:
+    """Per run, the probability that a run of the population fitted WITHOUT it lies as far
+    from that population's mean as it does: ``d' (A_r^-1 + T + C)^-1 d`` against chi-square
+    (rank of A_r degrees of freedom), ``d`` the run's own estimate minus the others' mean,
+    ``C`` that mean's covariance, ``T`` the others' between-run variances at their mode
+    widened by one sd of log tau (so that the few runs of a small lot, whose spread is
+    uncertain, do not raise false alarms). Left in, an outlying run inflates the spread
+    and hides: a run 50 spreads away scored p = 0.51 against the full posterior."""
+    p = problem.n_model
+    own = np.asarray(problem.density.offset) + np.asarray(problem.density.centre)
+    p_values = []
+    for r in range(problem.n_runs):
+        others = problem.without_run(r)
+        mode = others.mode()
+        q, b, *_ = others.density._mean_information(jnp.asarray(mode.u))
+        q = np.asarray(q)
+        mean = np.asarray(others.density.centre) + np.linalg.solve(q, np.asarray(b))
+        sd_log_tau = np.sqrt(np.clip(np.diag(mode.covariance_u)[:p], 0.0, None))
+        tau = np.exp(mode.u[:p] + sd_log_tau)
+        gram = np.asarray(problem.density.gram[r])
+        if r in problem.noisy_runs:
+            sigma2 = float(problem.density.rss[r]) / max(
+                float(problem.density.n_rows[r]) - problem.ranks[r], 1.0)
+            gram = gram / sigma2
+        a_inverse = np.linalg.pinv(gram)
+        d = own[r] - mean
+        cov = a_inverse + np.diag(tau**2) + np.linalg.inv(q)
+        statistic = float(d @ np.linalg.solve(cov, d))
+        p_values.append(float(stats.chi2.sf(statistic, max(problem.ranks[r], 1))))
+    return np.array(p_values)
+
+
+def pool_checks(problem: PoolProblem, point: PointEstimate, posterior: Posterior,
+                mean_draws: np.ndarray, run_draws: np.ndarray, summary: dict) -> CheckReport:
+    """The population's checks, every run's residual checks (when logs were pooled), and
+    the lot's own two."""
+    p = problem.n_model
+    reference = problem.reference
+    names = problem.coefficient_names + problem.names
+    sampled_u = np.log(posterior.draws)
+    mean_at_mode = np.asarray(problem.density.mean_conditional(jnp.asarray(point.u),
+                                                               jnp.zeros(p)))
+    evidence = FitEvidence(
+        names=names, n_model=p, point_u=np.concatenate([mean_at_mode, point.u]),
+        point_converged=point.converged, point_message=point.message,
+        priors=problem.mean_priors + problem.priors,
+        reference_sd=dict(zip(problem.coefficient_names, map(float, reference), strict=True)),
+        residuals=None, sigma_given=False, noise="white",
+        draws_u=np.concatenate([mean_draws, sampled_u], axis=-1), summary=summary)
+    own_sd = problem.own_sd
+    population = CheckReport((
+        convergence(evidence), point_vs_posterior(evidence),
+        population_prior_conflict(prior_data_conflict(evidence), problem.coefficient_names,
+                                  mean_draws.reshape(-1, p).mean(axis=0), problem.mean_priors),
+        population_identified(identifiability(evidence), {
+            n: float(np.nanmedian(own_sd[:, k]) / reference[k])
+            if np.isfinite(own_sd[:, k]).any() else np.inf
+            for k, n in enumerate(problem.coefficient_names)})))
+    u_mean = sampled_u.reshape(-1, len(problem.names)).mean(axis=0)
+    per_run = run_checks(problem, u_mean, run_draws.mean(axis=0))
+    tau = posterior.draws.reshape(-1, len(problem.names))[:, :p]
+    lot = CheckReport((
+        run_consistency(leave_one_run_out(problem), problem.run_labels),
+        between_run_sd_identified(problem.coefficient_names, tau, problem.n_runs),
+    ))
+    return population + per_run + lot
+
+
+def run_checks(problem: PoolProblem, u_mean: np.ndarray, pooled_mean: np.ndarray
+               ) -> CheckReport:
+    """Every run's residual checks at its pooled coefficients (and its noise level's
+    posterior mean), combined per kind across runs; for burst logs pooled on their segment
+    means, the spike check on each run's samples too."""
+    p = problem.n_model
+    per_run = {}
+    for r, q in enumerate(problem.runs):
+        noise = [u_mean[p + problem.noisy_runs.index(r)]] if r in problem.noisy_runs else []
+        u_run = np.concatenate([pooled_mean[r], noise])
+        z = q.standardised_residuals(u_run)
+        run_evidence = FitEvidence(names=q.names, n_model=q.n_model, point_u=u_run,
+                                   point_converged=True, point_message="", priors=q.priors,
+                                   reference_sd={}, residuals=z, sigma_given=q.sigma_known,
+                                   noise="white")
+        checks = [goodness_of_fit(run_evidence),
+                  residual_whiteness(z, segments=tuple(contiguous_segments(
+                      np.asarray(q.log.time_s))), remedy=WHITE_NOISE_REMEDY),
+                  outliers(z, where=q.log.where)]
+        if q.segments is not None:
+            sigma = float(np.sqrt(float(q.density.rss_min) / max(q.n - q.n_model, 1)))
+            checks.append(spikes_within_segments(q.segments.log, q.segments.deviations,
+                                                 q.segments.within_sd, n_means=q.n,
+                                                 sigma_of_means=sigma))
+        per_run[problem.run_labels[r]] = CheckReport(tuple(checks))
+    return combine_runs(per_run) if per_run else CheckReport(())

@@ -41,7 +41,8 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, Float
 
-from gyroid.inference._point import PointEstimate
+from gyroid.inference._problem import AbstractProblem, PointEstimate
+from gyroid.models._inputs import T0_C
 from gyroid.models._priors import Flat as FlatPrior
 from gyroid.models._priors import HalfNormal, LogNormal, Normal
 
@@ -173,23 +174,37 @@ class PoolDensity(eqx.Module):
         return mu + solve(factor, jnp.einsum("rij,rj->ri", a, d)) + back(factor, z)
 
 
-class PoolProblem(eqx.Module):
-    """A pooled posterior with its description: parameter names, run labels, priors."""
+class PoolProblem(AbstractProblem):
+    """A pooled posterior with its description: parameter names, run labels, priors, and
+    (when it pools logs) each run's own problem, whose residuals the checks read."""
 
     density: PoolDensity
-    coefficient_names: tuple[str, ...] = eqx.field(static=True)
-    run_labels: tuple[str, ...] = eqx.field(static=True)
-    noisy_runs: tuple[int, ...] = eqx.field(static=True)  # runs whose sigma is sampled
-    ranks: tuple[int, ...] = eqx.field(static=True)  # rank of each run's X'WX
+    coefficient_names: tuple[str, ...]
+    run_labels: tuple[str, ...]
+    noisy_runs: tuple[int, ...]  # runs whose sigma is sampled
+    ranks: tuple[int, ...]  # rank of each run's X'WX
+    #: Pooling logs: each run's single-fit problem (its log, inputs, priors), the drift
+    #: model's terms, t0 and whether burst logs were pooled on their segment means. Empty
+    #: when a paper's published estimates are pooled.
+    runs: tuple = ()
+    terms: tuple[str, ...] = ()
+    t0_C: float = T0_C
+    segment_means: bool = False
+    #: Each run's own least-squares coefficients and their sds (R, p; nan where a run does
+    #: not identify one), and each population mean's identifiability yardstick (p,).
+    own_mean: np.ndarray | None = None
+    own_sd: np.ndarray | None = None
+    reference: np.ndarray | None = None
 
     @classmethod
     def from_statistics(cls, coefficient_names, run_labels, *, gram, solution, rss, n_rows,
                         log_sigma_sum, sigma_known, mean_priors, spread_scales,
-                        noise_priors) -> PoolProblem:
+                        noise_priors, **context) -> PoolProblem:
         """Build from each run's sufficient statistics (``gram`` (R, p, p), ``solution`` (R,
         p), ``rss``, ``n_rows``, ``log_sigma_sum`` (R,), ``sigma_known`` (R,) flags) and the
         priors: ``mean_priors`` (Normal or Flat per coefficient), ``spread_scales`` (p,)
-        and ``noise_priors`` (a LogNormal per run whose sigma is sampled)."""
+        and ``noise_priors`` (a LogNormal per run whose sigma is sampled); ``context``: the
+        description fields (``runs``, ``terms``, ``t0_C``, ``segment_means``)."""
         gram = np.asarray(gram, dtype=float)
         solution = np.asarray(solution, dtype=float)
         r = gram.shape[0]
@@ -216,11 +231,11 @@ class PoolProblem(eqx.Module):
         )
         ranks = tuple(int(np.linalg.matrix_rank(g)) for g in gram)
         return cls(density=density, coefficient_names=tuple(coefficient_names),
-                   run_labels=tuple(run_labels), noisy_runs=noisy, ranks=ranks)
+                   run_labels=tuple(run_labels), noisy_runs=noisy, ranks=ranks, **context)
 
     @classmethod
     def from_estimates(cls, coefficient_names, run_labels, estimates, covariances, *,
-                       mean_priors, spread_scales) -> PoolProblem:
+                       mean_priors, spread_scales, **context) -> PoolProblem:
         """Pool published per-run estimates with given covariances (e.g. a paper's table
         with an assumed within-run sd): each run is one Gaussian observation of its
         coefficients."""
@@ -230,7 +245,7 @@ class PoolProblem(eqx.Module):
             coefficient_names, run_labels, gram=np.linalg.inv(covariances),
             solution=estimates, rss=np.zeros(r), n_rows=np.zeros(r),
             log_sigma_sum=np.zeros(r), sigma_known=[True] * r, mean_priors=mean_priors,
-            spread_scales=spread_scales, noise_priors=[None] * r)
+            spread_scales=spread_scales, noise_priors=[None] * r, **context)
 
     def without_run(self, r: int) -> PoolProblem:
         """The same lot and priors with run ``r``'s data taken out: its statistics zeroed
@@ -299,9 +314,24 @@ class PoolProblem(eqx.Module):
             "log_likelihood_note": "log_likelihood holds each run's marginal log-likelihood "
                                    "given the population (its coefficients integrated out): "
                                    "LOO leaves out whole runs",
+            "draws_note": "the sampler drew the between-run sds and noise levels; population "
+                          "means and runs' coefficients are drawn from their exact "
+                          "conditionals",
         }
 
-    # ----- the mode, where emcee starts ---------------------------------------------------
+    # ----- fitting ---------------------------------------------------------------------------
+    def default_sampler(self):
+        """NUTS: emcee's ensemble moves do not mix this posterior (see
+        :mod:`gyroid.inference._nuts`)."""
+        from gyroid.inference._nuts import Nuts
+
+        return Nuts()
+
+    def result(self, point: PointEstimate, posterior, *, seed: int):
+        from gyroid.inference._pool_fit import pool_result
+
+        return pool_result(self, point, posterior, seed=seed)
+
     def start(self) -> np.ndarray:
         """A starting point: the spread of the runs' least-squares coefficients, and each
         run's residual RMS."""
@@ -337,7 +367,7 @@ class PoolProblem(eqx.Module):
             value=dict(zip(self.names, map(float, natural), strict=True)),
             sd=dict(zip(self.names, map(float, sd), strict=True)), converged=ok,
             message="converged" if ok else optx.RESULTS[result].split("\n")[0],
-            n_starts=1, rms_residual_deg_h=float("nan"))
+            n_starts=1)
 
 
 def _negative_log_posterior(u, density: PoolDensity):

@@ -12,11 +12,10 @@ import numpy as np
 from scipy import stats
 
 from gyroid.inference._check_report import CheckReport
-from gyroid.inference._point import PointEstimate
 from gyroid.inference._pool_problem import PoolProblem
-from gyroid.inference._sampling import Posterior, interval_summary
+from gyroid.inference._posterior import Posterior, inference_data, interval_summary
+from gyroid.inference._problem import PointEstimate
 from gyroid.models._effects import parameter
-from gyroid.models._inputs import T0_C
 
 #: Cochran's Q p-value below which the runs differ by more than their noise.
 HETEROGENEITY_P = 0.05
@@ -38,33 +37,34 @@ class Heterogeneity:
                 "spread_beyond_noise": self.p_value < HETEROGENEITY_P}
 
 
-@dataclass
-class PoolResult:
+@dataclass(frozen=True, eq=False)
+class PoolFit:
     """A pooled fit: the problem, its mode and posterior, the derived draws and checks."""
 
-    problem: PoolProblem
-    point: PointEstimate
-    posterior: Posterior
-    terms: tuple[str, ...]
-    own_mean: np.ndarray  # (R, p) each run's own least-squares coefficients
-    own_sd: np.ndarray  # (R, p) their sds (nan where a run does not identify one)
-    mean_draws: np.ndarray  # (chains, draws, p) the population means
-    run_draws: np.ndarray  # (M, R, p) each run's pooled coefficients, M = chains x draws
-    new_run_draws: np.ndarray  # (M, p) a new run's coefficients
-    run_log_likelihood: np.ndarray  # (chains, draws, R) each run's, given mu, tau, sigma
-    summary: dict[str, dict]  # mean, sd, ci95, r_hat, ess_bulk of mu, tau and sigma
-    heterogeneity: dict[str, Heterogeneity]
-    n_samples: tuple[int, ...] = ()
-    t0_C: float = T0_C
-    rate_window_s: tuple[float, ...] = ()
-    input_ranges: dict[str, list[float]] = field(default_factory=dict)
-    seed: int = 0
-    segment_means: bool = False  # burst logs pooled on one row per burst
-    checks: CheckReport = field(default_factory=lambda: CheckReport(()))
+    problem: PoolProblem = field(repr=False)
+    point: PointEstimate = field(repr=False)
+    posterior: Posterior = field(repr=False)
+    seed: int
+    mean_draws: np.ndarray = field(repr=False)  # (chains, draws, p) the population means
+    run_draws: np.ndarray = field(repr=False)  # (M, R, p) each run's, M = chains x draws
+    new_run_draws: np.ndarray = field(repr=False)  # (M, p) a new run's coefficients
+    run_log_likelihood: np.ndarray = field(repr=False)  # (chains, draws, R) given mu, tau
+    posterior_summary: dict[str, dict] = field(repr=False)  # of mu, tau and sigma
+    heterogeneity: dict[str, Heterogeneity] = field(repr=False)
+    checks: CheckReport = field(repr=False)
+
+    def __repr__(self) -> str:
+        verdict = "trustworthy" if self.trustworthy else "NOT trustworthy"
+        return (f"PoolFit(terms={','.join(self.terms)!r}, runs={len(self.run_labels)}, "
+                f"{verdict})")
 
     @property
     def trustworthy(self) -> bool:
         return self.checks.trustworthy
+
+    @property
+    def terms(self) -> tuple[str, ...]:
+        return self.problem.terms
 
     @property
     def coefficient_names(self) -> tuple[str, ...]:
@@ -73,6 +73,35 @@ class PoolResult:
     @property
     def run_labels(self) -> tuple[str, ...]:
         return self.problem.run_labels
+
+    @property
+    def own_mean(self) -> np.ndarray:
+        return self.problem.own_mean
+
+    @property
+    def own_sd(self) -> np.ndarray:
+        return self.problem.own_sd
+
+    @property
+    def n_samples(self) -> tuple[int, ...]:
+        return tuple(q.n for q in self.problem.runs) or (0,) * len(self.run_labels)
+
+    @property
+    def rate_window_s(self) -> tuple[float, ...]:
+        return (tuple(float(q.rate_window_s) for q in self.problem.runs)
+                or (float("nan"),) * len(self.run_labels))
+
+    @property
+    def input_ranges(self) -> dict[str, list[float]]:
+        """Every input's range over all the runs."""
+        ranges = [q.model.input_ranges(q.inputs) for q in self.problem.runs]
+        if not ranges:
+            return {}
+        return {k: [min(r[k][0] for r in ranges), max(r[k][1] for r in ranges)]
+                for k in ranges[0]}
+
+    def summary(self) -> str:
+        return self.posterior_summary_text()
 
     def summary_text(self) -> str:
         """A few lines per coefficient: population mean, between-run sd, a new run, and
@@ -92,12 +121,10 @@ class PoolResult:
                          f"{new['mean']: .4g} +/- {new['sd']:.2g}{test}")
         return "\n".join(lines)
 
-    def idata(self):
+    def inference_data(self):
         """ArviZ InferenceData: population means, between-run sds and noise levels; each
         run's pooled coefficients (``run_<name>``, dims chain, draw, run) and a new run's
         (``new_run_<name>``); each run's log-likelihood (LOO leaves out runs)."""
-        from gyroid.io._arviz import arviz as az
-
         shape = self.mean_draws.shape[:2]
         post = self.posterior
         posterior = {n: self.mean_draws[..., k] for k, n in enumerate(self.coefficient_names)}
@@ -105,25 +132,17 @@ class PoolResult:
         for k, name in enumerate(self.coefficient_names):
             posterior[f"run_{name}"] = self.run_draws[:, :, k].reshape(*shape, -1)
             posterior[f"new_run_{name}"] = self.new_run_draws[:, k].reshape(shape)
-        observed = self.problem.observed_data()
-        return az.from_dict(
-            posterior=posterior,
-            log_likelihood={"run_n_rows": self.run_log_likelihood},
-            observed_data=observed,
-            sample_stats={"lp": post.log_posterior},
+        return inference_data(
+            self.problem, post, log_likelihood={"run_n_rows": self.run_log_likelihood},
+            extra_posterior={k: v for k, v in posterior.items() if k not in self.problem.names},
             coords={"run": list(self.run_labels)},
             dims={"run_n_rows": ["run"], **{f"run_{n}": ["run"]
-                                            for n in self.coefficient_names}},
-            attrs={**self.problem.idata_attrs(),
-                   "sampler": f"{post.move} on the between-run sds and noise levels; "
-                              "population means and runs' coefficients drawn from their "
-                              "exact conditionals"},
-        )
+                                            for n in self.coefficient_names}})
 
     def to_json(self) -> dict:
         """The contract's ``pool.json`` (plus units, priors, own estimates, heterogeneity)."""
         names = self.coefficient_names
-        summary = self.summary
+        summary = self.posterior_summary
         spread = self.problem.spread_names
         out: dict = {
             "terms": list(self.terms),
@@ -149,15 +168,15 @@ class PoolResult:
             "priors": {n: prior.describe() for n, prior in zip(
                 names + self.problem.names, self.problem.mean_priors + self.problem.priors,
                 strict=True)},
-            "t0_C": self.t0_C,
+            "t0_C": self.problem.t0_C,
             "rate_window_s": dict(zip(self.run_labels, self.rate_window_s, strict=True)),
             "input_ranges": self.input_ranges,
             "seed": self.seed,
-            "segment_means": self.segment_means,
+            "segment_means": self.problem.segment_means,
             "convergence": {
                 "point_estimate": self.point.message,
                 "sampler": {
-                    "method": self.posterior.move,
+                    "method": self.posterior.method,
                     "chains": int(self.posterior.draws.shape[0]),
                     "steps": self.posterior.n_steps,
                     "divergent": self.posterior.divergent,

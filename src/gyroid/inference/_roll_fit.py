@@ -1,7 +1,6 @@
-"""Fitting paper B's loop parameters to a roll log: the point estimate (BFGS, optimistix),
-the posterior (emcee, through :mod:`gyroid.inference._sampling`) and the evidence the
-self-checks read.
-The model and its likelihood are :mod:`gyroid.inference._roll_problem`."""
+"""Fitting paper B's loop parameters to a roll log: the mode (BFGS, optimistix), the result
+(:class:`RollFit`, with its self-checks and the confounded parameter pairs) and
+:func:`fit_roll_log`. The model and its likelihood are :mod:`gyroid.inference._roll_problem`."""
 
 from __future__ import annotations
 
@@ -13,22 +12,26 @@ import jax.numpy as jnp
 import numpy as np
 import optimistix as optx
 
-from gyroid.inference._checks import CheckReport, FitEvidence, fit_checks
+from gyroid.inference._check_report import CheckReport, FitEvidence
+from gyroid.inference._checks import fit_checks
+from gyroid.inference._fit import fit
+from gyroid.inference._posterior import (
+    AbstractSampler,
+    Posterior,
+    inference_data,
+    interval_summary,
+)
+from gyroid.inference._problem import PointEstimate
 from gyroid.inference._roll_problem import RollDensity, RollProblem
 from gyroid.io._roll_log import RollLog
 from gyroid.models._paper_b import DEG
-from gyroid.models._priors import natural_with_sd, prior_arrays
+from gyroid.models._priors import LogNormal, natural_with_sd, prior_arrays
+from gyroid.models._roll_effects import ROLL_CONFOUNDED, roll_parameter
 
-
-@dataclass
-class RollPoint:
-    names: tuple[str, ...]
-    u: np.ndarray
-    covariance_u: np.ndarray
-    value: dict[str, float]
-    sd: dict[str, float]
-    converged: bool
-    message: str
+#: The loop's parameters whose correlations are examined, in report order.
+LOOP_PARAMETERS = ("D0", "D1", "D0gs", "D1gs", "D2")
+#: |correlation| above which two loop parameters are reported as confounded.
+CONFOUNDING_THRESHOLD = 0.9
 
 
 def _nlp_full(v, density: RollDensity):
@@ -54,21 +57,29 @@ def _minimise(density: RollDensity, v0, scale):
     return v, solution.result, jax.hessian(_nlp_full)(v, density)
 
 
-def roll_point_estimate(problem: RollProblem) -> RollPoint:
-    """Linearised least squares for a start, then BFGS (optimistix) on the log-posterior;
-    covariance from the inverse Hessian."""
+def _start(problem: RollProblem) -> dict[str, float]:
+    """Starting values: the loop's offsets, D1 and the encoder terms from a linearised least
+    squares of the stabiliser angle on the integrated SINS rate; the noise levels at their
+    priors' medians; everything else zero."""
     t = np.asarray(problem.time_s)
     psi_x = np.cumsum(np.asarray(problem.sins)) * problem.sample_s
     y = np.asarray(problem.gs_angle) - psi_x
     design = np.column_stack([np.ones_like(t), -psi_x, t, np.sin(psi_x * DEG),
                               np.cos(psi_x * DEG)])
     coef, *_ = np.linalg.lstsq(design, y, rcond=None)
-    start = dict(psi0=coef[0], D0=0.0, D1=coef[1], D0gs=coef[2], D1gs=0.0, enc_a=coef[3],
-                 enc_b=coef[4], D2=0.0, sigma_gs_deg=0.01, sigma_sins_deg_s=0.02,
-                 sigma_m_deg_s=0.01)
+    start = {name: (prior.median if isinstance(prior, LogNormal) else 0.0)
+             for name, prior in zip(problem.names, problem.priors, strict=True)}
+    start |= dict(psi0=coef[0], D1=coef[1], D0gs=coef[2], enc_a=coef[3], enc_b=coef[4])
     if problem.ideal_gs:
         start["D0gs"] = float(np.median(np.asarray(problem.gs_rate)))
         start["D0"] = start["D0gs"] - coef[2]
+    return start
+
+
+def roll_point_estimate(problem: RollProblem) -> PointEstimate:
+    """Linearised least squares for a start, then BFGS (optimistix) on the log-posterior;
+    covariance from the inverse Hessian."""
+    start = _start(problem)
     x0 = np.array([start[n] for n in problem.names])
     slot = np.asarray(problem.density.slot)
     v0 = np.asarray(problem.density.spread(problem.to_sampling(jnp.asarray(x0))))
@@ -86,132 +97,157 @@ def roll_point_estimate(problem: RollProblem) -> RollPoint:
         cov = np.full_like(hessian, np.nan)
     u = np.asarray(value)[slot]
     x, sd = natural_with_sd(u, cov, problem.positive)
-    return RollPoint(problem.names, u, cov, dict(zip(problem.names, x.tolist(), strict=True)),
-                     dict(zip(problem.names, sd.tolist(), strict=True)), ok, message)
+    return PointEstimate(problem.names, u, cov, dict(zip(problem.names, x.tolist(), strict=True)),
+                         dict(zip(problem.names, sd.tolist(), strict=True)), ok, message)
 
 
-CONFOUNDING_THRESHOLD = 0.9
+@dataclass(frozen=True)
+class Confounded:
+    """Two loop parameters the flight does not tell apart (|correlation| above
+    ``CONFOUNDING_THRESHOLD``), with what would separate them."""
+
+    parameters: tuple[str, str]
+    correlation: float
+    suggestion: str
+    follows_from: tuple[tuple[str, str], ...] | None = None  # pairs that cause this one
+
+    def to_json(self) -> dict:
+        out = {"parameters": list(self.parameters), "correlation": self.correlation,
+               "identified": "only their combination", "suggestion": self.suggestion}
+        if self.follows_from is not None:
+            out["follows_from"] = [list(pair) for pair in self.follows_from]
+        return out
 
 
-@dataclass
+def confounded_pairs(names: tuple[str, ...], draws: np.ndarray) -> tuple[Confounded, ...]:
+    """The loop parameters' confounded pairs, from posterior draws (M, d). A pair without
+    advice of its own in the registry is usually a consequence of advised pairs that share
+    a parameter with it (D0 ~ D0gs and D1 ~ D1gs make D0gs ~ D1gs): it says so."""
+    loop = [n for n in LOOP_PARAMETERS if n in names]
+    corr = np.corrcoef(draws[:, [names.index(n) for n in loop]], rowvar=False)
+    pairs = {(a, loop[j]): float(corr[i, j]) for i, a in enumerate(loop)
+             for j in range(i + 1, len(loop)) if abs(corr[i, j]) > CONFOUNDING_THRESHOLD}
+    advised = [pair for pair in pairs if pair in ROLL_CONFOUNDED]
+    out = []
+    for pair, r in pairs.items():
+        if pair in ROLL_CONFOUNDED:
+            out.append(Confounded(pair, r, ROLL_CONFOUNDED[pair]))
+            continue
+        causes = tuple(p for p in advised if set(p) & set(pair))
+        suggestion = ("separates once " + " and ".join(f"{a} and {b}" for a, b in causes)
+                      + " are separated" if causes else
+                      "no manoeuvre in gyroid's catalogue separates them: report their "
+                      "combination")
+        out.append(Confounded(pair, r, suggestion, follows_from=causes))
+    return tuple(out)
+
+
+@dataclass(frozen=True, eq=False)
 class RollFit:
-    problem: RollProblem
-    point: RollPoint
-    posterior: object
-    summary: dict = field(default_factory=dict)
-    checks: CheckReport = field(default_factory=lambda: CheckReport(()))
-    notes: tuple[str, ...] = ()
+    """A fitted roll log: problem, mode, posterior, the encoder error's amplitude and phase,
+    the confounded pairs and the self-checks."""
+
+    problem: RollProblem = field(repr=False)
+    point: PointEstimate = field(repr=False)
+    posterior: Posterior = field(repr=False)
+    seed: int
+    derived: dict[str, dict] = field(repr=False)  # Denc, encoder_phase_rad summaries
+    confounded: tuple[Confounded, ...] = field(repr=False)
+    checks: CheckReport = field(repr=False)
+
+    def __repr__(self) -> str:
+        verdict = "trustworthy" if self.trustworthy else "NOT trustworthy"
+        return (f"RollFit(terms={','.join(self.problem.terms)!r}, "
+                f"n_samples={self.problem.log.n}, {verdict})")
 
     @property
     def trustworthy(self) -> bool:
         return self.checks.trustworthy
 
-    def to_json(self) -> dict:
-        from gyroid.inference._sampling import interval_summary
+    @property
+    def loop_names(self) -> tuple[str, ...]:
+        return tuple(n for n in LOOP_PARAMETERS if n in self.problem.names)
 
-        post = self.posterior
-        flat = post.draws.reshape(-1, len(self.problem.names))
-        derived = {}
-        if "enc_a" in self.problem.names:
-            a = flat[:, self.problem.names.index("enc_a")]
-            b = flat[:, self.problem.names.index("enc_b")]
-            derived = {"Denc": np.hypot(a, b), "encoder_phase_rad": np.arctan2(b, a)}
-        summary = {k: dict(v) for k, v in post.summary.items()}
-        for name, values in derived.items():
-            summary[name] = interval_summary(values) | {"derived_from": ["enc_a", "enc_b"]}
-        loop_names = [n for n in ("D0", "D1", "D0gs", "D1gs", "D2") if n in self.problem.names]
-        corr = np.corrcoef(flat[:, [self.problem.names.index(n) for n in loop_names]],
-                           rowvar=False)
-        confounded = []
-        advice = {
-            ("D0", "D0gs"): "log the stabiliser's MEMS output (gs_rate_deg_s) while it holds "
-                            "the platform (ideal stabiliser): it measures D0gs alone",
-            ("D1", "D1gs"): "vary the roll rate while the stabiliser stays unsaturated, or "
-                            "hold it ideal for part of the flight: D1 then acts alone",
-            ("D0", "D1"): "vary the roll rate (a ramp or a reversal): D1 scales with it, D0 "
-                          "does not",
-        }
-        pairs = {(a_name, loop_names[j]): float(corr[i, j])
-                 for i, a_name in enumerate(loop_names) for j in range(i + 1, len(loop_names))
-                 if abs(corr[i, j]) > CONFOUNDING_THRESHOLD}
-        # A pair without advice of its own is usually a consequence of advised pairs that
-        # share a parameter with it (D0 ~ D0gs and D1 ~ D1gs make D0gs ~ D1gs): say so.
-        advised = [pair for pair in pairs if pair in advice]
-        for pair, r in pairs.items():
-            item = {"parameters": list(pair), "correlation": r,
-                    "identified": "only their combination"}
-            if pair in advice:
-                item["suggestion"] = advice[pair]
-            else:
-                causes = [p for p in advised if set(p) & set(pair)]
-                item["follows_from"] = [list(p) for p in causes]
-                item["suggestion"] = (
-                    "separates once " + " and ".join(f"{a} and {b}" for a, b in causes)
-                    + " are separated" if causes else
-                    "no manoeuvre in gyroid's catalogue separates them: report their "
-                    "combination")
-            confounded.append(item)
+    def summary(self) -> str:
+        """The loop's parameters, the confounded pairs and the failed self-checks."""
+        record = self.to_json()
+        lines = [f"roll loop {','.join(self.problem.terms)} on {self.problem.log.n} rows:"]
+        lines += [f"  {name:>5s} = {s['mean']:.6g} +/- {s['sd']:.2g}"
+                  for name, s in record["parameters"].items()]
+        lines += [f"  confounded: {' and '.join(c.parameters)} (r = {c.correlation:.3f})"
+                  for c in self.confounded]
+        lines += [f"  {line}" for line in self.checks.lines()]
+        return "\n".join([*lines, f"  {self.checks.verdict()}"])
+
+    def inference_data(self):
+        return inference_data(self.problem, self.posterior)
+
+    def to_json(self) -> dict:
+        """``roll_fit.json``."""
+        problem, post = self.problem, self.posterior
+        summary = {k: dict(v) for k, v in post.summary.items()} | self.derived
+        shown = (*self.loop_names, *(["Denc"] if self.derived else []))
         return {
-            "terms": list(self.problem.terms),
-            "parameters": {n: summary[n] for n in (*loop_names, *(["Denc"] if derived else []))},
-            "point": {n: self.point.value[n] for n in self.problem.names},
-            "point_sd": {n: self.point.sd[n] for n in self.problem.names},
+            "terms": list(problem.terms),
+            "parameters": {n: summary[n] for n in shown},
+            "point": {n: self.point.value[n] for n in problem.names},
+            "point_sd": {n: self.point.sd[n] for n in problem.names},
             "posterior": summary,
-            "confounded": confounded,
-            "ideal_stabiliser_assumed": not self.problem.use_gs_rate,
-            "gs_rate_used": bool(self.problem.gs_rate is not None
-                                 and (self.problem.use_gs_rate or self.problem.ideal_gs)),
-            "n_samples": int(self.problem.time_s.shape[0]),
+            "confounded": [c.to_json() for c in self.confounded],
+            "ideal_stabiliser_assumed": not problem.use_gs_rate,
+            "gs_rate_used": bool(problem.gs_rate is not None
+                                 and (problem.use_gs_rate or problem.ideal_gs)),
+            "n_samples": problem.log.n,
             "convergence": {"point_estimate": self.point.message,
                             "sampler_steps": post.n_steps, "sampler_move": post.move,
+                            "sampler": post.method,
                             "converged": post.converged},
-            "units": {"D0": "deg/s", "D1": "relative", "D0gs": "deg/s", "D1gs": "relative",
-                      "Denc": "deg", "psi0": "deg", "sigma_gs_deg": "deg",
-                      "sigma_sins_deg_s": "deg/s"},
-            "notes": list(self.notes),
+            "units": {n: roll_parameter(n).unit for n in problem.names}
+                     | ({"Denc": "deg", "encoder_phase_rad": "rad"} if self.derived else {}),
+            "notes": list(problem.log.notes),
             **self.checks.to_json(),
         }
 
 
-def fit_roll_log(log: RollLog, *, seed: int = 0, settings=None) -> RollFit:
-    from gyroid.inference._sampling import sample_posterior
-
-    problem = RollProblem.from_log(log)
-    point = roll_point_estimate(problem)
-    posterior = sample_posterior(problem, point, seed=seed, settings=settings)
-    fit = RollFit(problem, point, posterior, notes=log.notes)
-    fit.checks = fit_checks(roll_evidence(fit))
-    return fit
-
-
-_ROLL_HINTS = {
-    "D1": "D1 needs a flight whose roll angle advances further (a longer or faster roll)",
-    "D0": "D0 needs the stabiliser's MEMS output (gs_rate_deg_s) from an ideal stabiliser",
-    "D0gs": "D0gs is told apart from D0 only by the stabiliser's MEMS output "
-            "(gs_rate_deg_s) logged while the stabiliser holds the platform",
-    "D1gs": "D1gs needs a stabiliser that is overloaded for part of the flight",
-    "enc_a": "the encoder error needs whole turns of roll", "enc_b": "the encoder error "
-    "needs whole turns of roll",
-}
-
-
-def roll_evidence(fit: RollFit) -> FitEvidence:
+def roll_evidence(problem: RollProblem, point: PointEstimate, posterior: Posterior | None
+                  ) -> FitEvidence:
     """What the self-checks need from a roll fit (its priors are physical, so they are also
     the identifiability yardstick)."""
-    problem, point, post = fit.problem, fit.point, fit.posterior
-    n_model = sum(not n.startswith("sigma_") for n in problem.names)
-    draws_u = np.asarray(problem.to_sampling(jnp.asarray(post.draws)))
     prior_sd = prior_arrays(problem.priors, problem.positive)[1]
-    reference = dict(zip(problem.names, prior_sd.tolist(), strict=True))
     residuals = np.asarray(problem.density.standardised_residuals(jnp.asarray(point.u)))
     return FitEvidence(
-        names=problem.names, n_model=n_model, point_u=np.asarray(point.u),
+        names=problem.names, n_model=problem.n_model, point_u=np.asarray(point.u),
         point_converged=point.converged, point_message=point.message,
-        priors=problem.priors, reference_sd=reference, residuals=residuals,
-        sigma_given=False, noise="white", draws_u=draws_u, summary=post.summary,
-        hints=_ROLL_HINTS,
+        priors=problem.priors, reference_sd=dict(zip(problem.names, prior_sd.tolist(),
+                                                     strict=True)),
+        residuals=residuals, sigma_given=False, noise="white",
+        draws_u=None if posterior is None else problem.to_sampling_host(posterior.draws),
+        summary=None if posterior is None else posterior.summary,
+        hints={n: roll_parameter(n).hint for n in problem.names if roll_parameter(n).hint},
     )
 
 
-# ----- the discrepancy workflow on roll logs ------------------------------------------------
+def roll_result(problem: RollProblem, point: PointEstimate, posterior: Posterior | None, *,
+                seed: int) -> RollFit:
+    """The :class:`RollFit` of a roll problem (its checks, derived quantities and confounded
+    pairs computed first)."""
+    if posterior is None:
+        raise ValueError("a roll fit needs its posterior (the confounding analysis reads it)")
+    flat = posterior.draws.reshape(-1, len(problem.names))
+    derived = {}
+    if "enc_a" in problem.names:
+        a = flat[:, problem.names.index("enc_a")]
+        b = flat[:, problem.names.index("enc_b")]
+        derived = {name: interval_summary(values) | {"derived_from": ["enc_a", "enc_b"]}
+                   for name, values in (("Denc", np.hypot(a, b)),
+                                        ("encoder_phase_rad", np.arctan2(b, a)))}
+    return RollFit(problem=problem, point=point, posterior=posterior, seed=seed,
+                   derived=derived, confounded=confounded_pairs(problem.names, flat),
+                   checks=fit_checks(roll_evidence(problem, point, posterior)))
 
+
+def fit_roll_log(log: RollLog, *, terms="loop", seed: int = 0,
+                 sampler: AbstractSampler | None = None) -> RollFit:
+    """Fit paper B's loop (``terms``, default ``loop``) to a roll log: the mode, the emcee
+    posterior (or ``sampler``'s), the self-checks."""
+    return fit(RollProblem.from_log(log, terms), sampler=sampler, seed=seed)

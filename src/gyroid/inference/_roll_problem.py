@@ -20,7 +20,6 @@ difference.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import equinox as eqx
 import jax
@@ -28,6 +27,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyroid.inference._kalman import random_walk_innovations
+from gyroid.inference._problem import AbstractProblem, PointEstimate
 from gyroid.io._roll_log import RollLog
 from gyroid.models._priors import Prior, prior_arrays
 from gyroid.models._roll import encoder_error_deg, sins_scale
@@ -176,19 +176,19 @@ class ModelDensity(eqx.Module):
         return self.full.log_posterior(self.spread(u))
 
 
-@dataclass(frozen=True)
-class RollProblem:
+class RollProblem(AbstractProblem):
     """Posterior of the roll-loop parameters given a roll log: the model's description
     (terms, parameter names, priors) around its ``density`` (the JAX part)."""
 
     density: ModelDensity
+    log: RollLog
     has_gs_rate: bool
     use_gs_rate: bool  # the platform error integrates m (gs_rate_leak is in the model)
     ideal_gs: bool  # m ~ D0gs: also an observation of D0gs
     terms: tuple[str, ...]
-    names: tuple[str, ...]
-    priors: tuple[Prior, ...]
-    positive: tuple[bool, ...]
+    parameter_names: tuple[str, ...]
+    parameter_priors: tuple[Prior, ...]
+    parameter_positive: tuple[bool, ...]
 
     @classmethod
     def from_log(cls, log: RollLog, terms="loop") -> RollProblem:
@@ -204,56 +204,34 @@ class RollProblem:
         spec = [ROLL_NUISANCE["psi0"],
                 *(p for term in terms for p in ROLL_EFFECTS[term].parameters),
                 *(ROLL_NUISANCE[name] for name in noise)]
-        # The angle comparison is informative on slow time scales: the likelihood uses every
-        # stride-th row (exact for this noise model: the random walk's increments over a
-        # stride add up), with an odd stride so the encoder phase keeps moving.
-        stride = max(1, log.n // MAX_OBSERVED_ROWS)
-        stride += 1 - stride % 2
-        observed = np.arange(stride - 1, log.n, stride)
-        t_obs = log.time_s[observed]
-        block = np.floor((t_obs - t_obs[0]) / max(1.0, (t_obs[-1] - t_obs[0]) / 500.0))
-        _, block = np.unique(block.astype(int), return_inverse=True)
         names = tuple(p.name for p in spec)
         priors = tuple(p.prior for p in spec)
         positive = tuple(p.positive for p in spec)
-        slot = [ALL_PARAMETERS.index(n) for n in names]
-        loc, scale = np.zeros(len(ALL_PARAMETERS)), np.ones(len(ALL_PARAMETERS))
-        loc[slot], scale[slot], _ = prior_arrays(priors, positive)
-        active = np.zeros(len(ALL_PARAMETERS))
-        active[slot] = 1.0
-        positive_all = np.zeros(len(ALL_PARAMETERS), dtype=bool)
-        positive_all[slot] = positive
-        gs_rate = np.asarray(log.gs_rate_deg_s if has_rate else np.zeros(log.n), dtype=float)
-        # Each MEMS sample belongs to the first observed row at or after it (the samples after
-        # the last observed row to the last).
-        owner = np.minimum(np.searchsorted(observed, np.arange(log.n)), observed.size - 1)
-        m_count = np.bincount(owner, minlength=observed.size).astype(float)
-        m_mean = np.bincount(owner, gs_rate, observed.size) / np.maximum(m_count, 1.0)
-        m_spread = np.bincount(owner, (gs_rate - m_mean[owner]) ** 2, observed.size)
-        full = RollDensity(
-            time_s=jnp.asarray(log.time_s - log.time_s[0] + sample_s),
-            sins=jnp.asarray(log.roll_rate_deg_s),
-            gs_angle=jnp.asarray(log.gs_angle_deg),
-            gs_rate=jnp.asarray(gs_rate),
-            cum_sins=jnp.asarray(np.cumsum(log.roll_rate_deg_s) * sample_s),
-            cum_gs_rate=jnp.asarray(np.cumsum(gs_rate) * sample_s),
-            block=jnp.asarray(block),
-            observed=jnp.asarray(observed),
-            m_count=jnp.asarray(m_count),
-            m_mean=jnp.asarray(m_mean),
-            m_spread=jnp.asarray(m_spread),
-            sample_s=jnp.asarray(sample_s),
-            ideal_gs=jnp.asarray(float(ideal)),
-            active=jnp.asarray(active),
-            positive=jnp.asarray(positive_all),
-            prior_loc=jnp.asarray(loc),
-            prior_scale=jnp.asarray(scale),
-            n_blocks=int(block.max()) + 1,
-            has_d2="D2" in names,
-        )
-        density = ModelDensity(full, jnp.asarray(slot))
-        return cls(density, has_rate, "gs_rate_leak" in terms, ideal, terms, names, priors,
-                   positive)
+        full = _density_of(log, names, priors, positive, sample_s=sample_s, ideal=ideal,
+                           has_rate=has_rate)
+        density = ModelDensity(full, jnp.asarray([ALL_PARAMETERS.index(n) for n in names]))
+        return cls(density=density, log=log, has_gs_rate=has_rate,
+                   use_gs_rate="gs_rate_leak" in terms, ideal_gs=ideal, terms=terms,
+                   parameter_names=names, parameter_priors=priors,
+                   parameter_positive=positive)
+
+    # ----- description -------------------------------------------------------------------
+    @property
+    def names(self) -> tuple[str, ...]:
+        return self.parameter_names
+
+    @property
+    def priors(self) -> tuple[Prior, ...]:
+        return self.parameter_priors
+
+    @property
+    def positive(self) -> tuple[bool, ...]:
+        return self.parameter_positive
+
+    @property
+    def n_model(self) -> int:
+        """The loop's parameters (psi0 and the effects'), before the noise levels."""
+        return sum(not n.startswith("sigma_") for n in self.names)
 
     # ----- the log, as the fit sees it -------------------------------------------------------
     @property
@@ -280,31 +258,22 @@ class RollProblem:
     def sample_s(self) -> float:
         return float(self.density.full.sample_s)
 
-    # ----- densities (delegated to the JAX part) ---------------------------------------------
-    def to_natural(self, u):
-        return self.density.to_natural(u)
-
-    def to_sampling(self, x):
-        mask = jnp.asarray(self.positive)
-        return jnp.where(mask, jnp.log(jnp.where(mask, x, 1.0)), x)
-
     def values(self, u) -> dict:
         return dict(zip(self.names, self.to_natural(u), strict=True))
 
     def predict(self, u):
         return self.density.predict(u)
 
-    def log_likelihood_rows(self, u):
-        return self.density.log_likelihood_rows(u)
+    # ----- fitting ----------------------------------------------------------------------------
+    def mode(self) -> PointEstimate:
+        from gyroid.inference._roll_fit import roll_point_estimate
 
-    def log_likelihood_blocks(self, u):
-        return self.density.log_likelihood_blocks(u)
+        return roll_point_estimate(self)
 
-    def log_prior(self, u):
-        return self.density.log_prior(u)
+    def result(self, point: PointEstimate, posterior, *, seed: int):
+        from gyroid.inference._roll_fit import roll_result
 
-    def log_posterior(self, u):
-        return self.density.log_posterior(u)
+        return roll_result(self, point, posterior, seed=seed)
 
     # ----- ArviZ hooks -----------------------------------------------------------------------
     def observed_data(self):
@@ -318,3 +287,51 @@ class RollProblem:
         return {"model": "paper B roll-correction loop", "ideal_stabiliser": str(self.ideal_gs)}
 
 
+def _density_of(log: RollLog, names, priors, positive, *, sample_s: float, ideal: bool,
+                has_rate: bool) -> RollDensity:
+    """The roll log's arrays and the model's priors over all of ``ALL_PARAMETERS``.
+
+    The angle comparison is informative on slow time scales: the likelihood uses every
+    stride-th row (exact for this noise model: the random walk's increments over a stride
+    add up), with an odd stride so the encoder phase keeps moving."""
+    stride = max(1, log.n // MAX_OBSERVED_ROWS)
+    stride += 1 - stride % 2
+    observed = np.arange(stride - 1, log.n, stride)
+    t_obs = log.time_s[observed]
+    block = np.floor((t_obs - t_obs[0]) / max(1.0, (t_obs[-1] - t_obs[0]) / 500.0))
+    _, block = np.unique(block.astype(int), return_inverse=True)
+    slot = [ALL_PARAMETERS.index(n) for n in names]
+    loc, scale = np.zeros(len(ALL_PARAMETERS)), np.ones(len(ALL_PARAMETERS))
+    loc[slot], scale[slot], _ = prior_arrays(priors, positive)
+    active = np.zeros(len(ALL_PARAMETERS))
+    active[slot] = 1.0
+    positive_all = np.zeros(len(ALL_PARAMETERS), dtype=bool)
+    positive_all[slot] = positive
+    gs_rate = np.asarray(log.gs_rate_deg_s if has_rate else np.zeros(log.n), dtype=float)
+    # Each MEMS sample belongs to the first observed row at or after it (the samples after
+    # the last observed row to the last).
+    owner = np.minimum(np.searchsorted(observed, np.arange(log.n)), observed.size - 1)
+    m_count = np.bincount(owner, minlength=observed.size).astype(float)
+    m_mean = np.bincount(owner, gs_rate, observed.size) / np.maximum(m_count, 1.0)
+    m_spread = np.bincount(owner, (gs_rate - m_mean[owner]) ** 2, observed.size)
+    return RollDensity(
+        time_s=jnp.asarray(log.time_s - log.time_s[0] + sample_s),
+        sins=jnp.asarray(log.roll_rate_deg_s),
+        gs_angle=jnp.asarray(log.gs_angle_deg),
+        gs_rate=jnp.asarray(gs_rate),
+        cum_sins=jnp.asarray(np.cumsum(log.roll_rate_deg_s) * sample_s),
+        cum_gs_rate=jnp.asarray(np.cumsum(gs_rate) * sample_s),
+        block=jnp.asarray(block),
+        observed=jnp.asarray(observed),
+        m_count=jnp.asarray(m_count),
+        m_mean=jnp.asarray(m_mean),
+        m_spread=jnp.asarray(m_spread),
+        sample_s=jnp.asarray(sample_s),
+        ideal_gs=jnp.asarray(float(ideal)),
+        active=jnp.asarray(active),
+        positive=jnp.asarray(positive_all),
+        prior_loc=jnp.asarray(loc),
+        prior_scale=jnp.asarray(scale),
+        n_blocks=int(block.max()) + 1,
+        has_d2="D2" in names,
+    )

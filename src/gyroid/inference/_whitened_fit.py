@@ -17,7 +17,7 @@ import numpy as np
 import optimistix as optx
 from scipy.optimize import minimize
 
-from gyroid.inference._bench_problem import NOISE_PRIORS
+from gyroid.inference._bench_density import NOISE_PRIORS
 from gyroid.inference._kalman import gauss_markov_innovations
 from gyroid.inference._starts import grid_points, start_grid
 from gyroid.models._drift import DriftModel

@@ -5,6 +5,7 @@ outputs, reading a fit back, paper A's printed tables.
 from gyroid._lazy import attach
 
 __getattr__, __dir__, __all__ = attach(__name__, {
+    "_arviz": ["arviz as load_arviz", "read_posterior", "write_netcdf"],
     "_fitted": ["FittedDrift"],
     "_logs": [
         "BENCH_COLUMNS", "BenchLog", "bench_log_text", "contiguous_segments", "load_bench_log",

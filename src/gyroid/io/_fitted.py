@@ -1,18 +1,17 @@
-"""A fit read back: its drift model and posterior draws, from a
-:class:`gyroid.inference._bench_fit.FitResult`
-in memory or from the folder ``gyroid fit`` wrote (fit.json, posterior.nc). What compensation
-and propagation start from."""
+"""A fit read back: its drift model and posterior draws, from the folder ``gyroid fit`` or
+``gyroid pool`` wrote (fit.json or pool.json, posterior.nc), or from a fit in memory
+(``BenchFit.fitted_drift()``). What compensation and propagation start from."""
 
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
 from gyroid.errors import GyroidInputError
-from gyroid.io._arviz import arviz as az
+from gyroid.io._arviz import read_posterior
 from gyroid.models._derived import RATE_WINDOW_S
 from gyroid.models._drift import DriftModel
 from gyroid.models._inputs import T0_C
@@ -29,17 +28,9 @@ class FittedDrift:
     trustworthy: bool = True  # the fit's own verdict (fit.json)
     #: What the draws are: a fit's posterior, or a pool's predictive for a new run.
     source: str = "fit posterior"
-
-    @classmethod
-    def from_result(cls, result) -> FittedDrift:
-        """From a bench fit with a posterior (draws of the model's coefficients, noise
-        parameters dropped)."""
-        model = result.problem.model
-        p = len(model.parameter_names)
-        draws = np.asarray(result.posterior.draws).reshape(-1, len(result.problem.names))[:, :p]
-        return cls(model=model, draws=draws, t0_C=result.t0_C,
-                   rate_window_s=float(result.problem.rate_window_s),
-                   trustworthy=result.trustworthy)
+    #: The range of every input the fit saw ([min, max] by name; see
+    #: ``DriftModel.input_ranges``): compensation flags rows beyond them.
+    input_ranges: dict[str, list[float]] = field(default_factory=dict)
 
     @classmethod
     def from_dir(cls, folder: str | Path) -> FittedDrift:
@@ -55,11 +46,12 @@ class FittedDrift:
                                        "of 'gyroid fit'")
         fit = json.loads(fit_json.read_text())
         model = DriftModel.from_terms(fit["terms"])
-        posterior = az.from_netcdf(str(netcdf)).posterior
+        posterior = read_posterior(netcdf)
         columns = [np.asarray(posterior[name]).reshape(-1) for name in model.parameter_names]
         return cls(model=model, draws=np.column_stack(columns), t0_C=fit.get("t0_C", T0_C),
                    rate_window_s=float(fit.get("rate_window_s", RATE_WINDOW_S)),
-                   trustworthy=bool(fit.get("trustworthy", True)))
+                   trustworthy=bool(fit.get("trustworthy", True)),
+                   input_ranges=fit.get("input_ranges", {}))
 
 
     @classmethod
@@ -73,18 +65,12 @@ class FittedDrift:
             raise GyroidInputError(f"{folder}/pool.json pools published estimates, not logs: "
                                    "it has no drift model to compensate with")
         model = DriftModel.from_terms(pool["terms"])
-        posterior = az.from_netcdf(str(netcdf)).posterior
+        posterior = read_posterior(netcdf)
         columns = [np.asarray(posterior[f"new_run_{name}"]).reshape(-1)
                    for name in model.parameter_names]
         windows = [w for w in pool.get("rate_window_s", {}).values() if w is not None]
         return cls(model=model, draws=np.column_stack(columns), t0_C=pool.get("t0_C", T0_C),
                    rate_window_s=float(np.median(windows)) if windows else RATE_WINDOW_S,
                    trustworthy=bool(pool.get("trustworthy", True)),
-                   source="pool: predictive for a new run")
-
-
-def fitted_ranges_from(folder: str | Path) -> dict[str, list[float]]:
-    """The input ranges a fit (fit.json) or a pool (pool.json: over all its runs) saw."""
-    folder = Path(folder)
-    record = folder / "fit.json" if (folder / "fit.json").exists() else folder / "pool.json"
-    return json.loads(record.read_text()).get("input_ranges", {})
+                   source="pool: predictive for a new run",
+                   input_ranges=pool.get("input_ranges", {}))

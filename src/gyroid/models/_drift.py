@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterator
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -13,23 +13,8 @@ from gyroid.errors import GyroidInputError
 from gyroid.models import _effects as registry
 from gyroid.models._design import row_blocks, rows_of, with_rows
 from gyroid.models._effects import Effect, Parameter, Params
-from gyroid.models._inputs import FIELD_COLUMNS, DriftInputs
+from gyroid.models._inputs import FIELD_COLUMNS, H0_UT, DriftInputs
 from gyroid.models._terms import resolve_terms
-
-#: Which log column drives each linear parameter (for error messages).
-_DRIVER_COLUMN = {
-    "w1": "temperature_C",
-    "w2": "temperature_C",
-    "w3": "temperature_C",
-    "wD": "temperature_C",
-    "wx": "Hx_uT",
-    "wy": "Hy_uT",
-    "wz": "Hz_uT",
-    "hys_x": "Hx_uT",
-    "hys_y": "Hy_uT",
-    "hys_z": "Hz_uT",
-    "w_trend": "time_s",
-}
 
 
 class DriftModel(eqx.Module):
@@ -81,13 +66,30 @@ class DriftModel(eqx.Module):
         """Parameter vector (model order) to a name -> value mapping."""
         return {name: theta[i] for i, name in enumerate(self.parameter_names)}
 
-    def pack(self, params: Mapping[str, float]) -> Float[Array, " p"]:
-        """Name -> value mapping to a parameter vector in model order."""
-        return jnp.asarray([params[name] for name in self.parameter_names], dtype=float)
-
     def predict(self, theta: Float[Array, " p"], inputs: DriftInputs) -> Float[Array, " n"]:
         """Modelled drift, deg/h, for a parameter vector in model order."""
         return self(self.unpack(theta), inputs)
+
+    def input_ranges(self, inputs: DriftInputs) -> dict[str, list[float]]:
+        """The range of every input the model reads (the temperature's level, its rate,
+        field components; only those the terms read) and of the elapsed time, as
+        ``inputs`` has them: [min, max] by name."""
+        out = {}
+        reads_level = any("temperature_C" in e.columns for e in self.effects
+                          if e.name != "temperature_rate")
+        for name, values, read in (("temperature_C", inputs.temperature_C, reads_level),
+                                   ("dT_dt_C_h", inputs.rate_C_h,
+                                    "temperature_rate" in self.terms)):
+            if read:
+                values = np.asarray(values)
+                out[name] = [float(values.min()), float(values.max())]
+        for k, name in enumerate(FIELD_COLUMNS):
+            if name in self.columns:
+                h = np.asarray(inputs.field_rel[:, k]) * H0_UT
+                out[name] = [float(h.min()), float(h.max())]
+        time_h = np.asarray(inputs.time_h)
+        out["elapsed_h"] = [float(time_h.min()), float(time_h.max())]
+        return out
 
     def design(self, inputs: DriftInputs) -> Float[Array, "n p"]:
         """Design matrix of a linear model: ``predict(theta) == design @ theta``."""
@@ -119,6 +121,7 @@ class DriftModel(eqx.Module):
         linear = [e for e in self.effects if e.linear]
         names = [p.name for e in linear for p in e.parameters]
         owner = {p.name: e.name for e in linear for p in e.parameters}
+        regressor = {p.name: p.regressor or "time_s" for e in linear for p in e.parameters}
         if not linear:
             return
         # The singular values and right vectors of the n x p matrix are those of its R
@@ -133,7 +136,7 @@ class DriftModel(eqx.Module):
             if name == "w0":
                 continue
             if high[j] - low[j] <= 1e-9 * max(1.0, abs(low[j]), abs(high[j])):
-                column = _DRIVER_COLUMN.get(name, "time_s")
+                column = regressor[name]
                 raise GyroidInputError(
                     f"column {column} does not vary enough to identify {name} of term "
                     f"{owner[name]!r} (its regressor is constant at {first[j]:.6g}); drop the "

@@ -48,6 +48,12 @@ class Parameter:
     #: For a positive parameter whose plausible values depend on the log (a step's time):
     #: the starting values to try, from the log's inputs (else multiples of the median).
     start_values: Callable[[DriftInputs], np.ndarray] | None = None
+    #: The log column whose variation identifies this coefficient (named in messages when
+    #: it does not vary), e.g. temperature_C for w1, Hx_uT for wx, time_s for w_trend.
+    regressor: str | None = None
+    #: What a log needs for this parameter to be identified (the identifiability check's
+    #: advice); by default, that its regressor varies more.
+    hint: str | None = None
 
 
 @dataclass(frozen=True)
@@ -158,7 +164,7 @@ EFFECTS: dict[str, Effect] = {
             formula="w1 t, t = T - t0",
             parameters=(
                 Parameter("w1", "deg/h/degC", "linear temperature sensitivity", Normal(0.0, 1.0),
-                          span=10.0),
+                          span=10.0, regressor="temperature_C"),
             ),
             columns=("temperature_C",),
             paper=True,
@@ -171,7 +177,7 @@ EFFECTS: dict[str, Effect] = {
             parameters=(
                 Parameter(
                     "w2", "deg/h/degC^2", "quadratic temperature sensitivity", Normal(0.0, 0.1),
-                    span=100.0,
+                    span=100.0, regressor="temperature_C",
                 ),
             ),
             columns=("temperature_C",),
@@ -189,6 +195,8 @@ EFFECTS: dict[str, Effect] = {
                     "sensitivity to the rate of temperature change",
                     Normal(0.0, 10.0),
                     span=10.0,
+                    regressor="temperature_C",
+                    hint="wD needs a log in which the temperature's rate (dT/dt) varies more",
                 ),
             ),
             columns=("temperature_C",),
@@ -206,6 +214,7 @@ EFFECTS: dict[str, Effect] = {
                         _MAGNETIC_UNIT,
                         f"sensitivity to the field along O{axis.upper()}",
                         Normal(0.0, 2.0),
+                        regressor=FIELD_COLUMNS[k],
                     ),
                 ),
                 columns=(FIELD_COLUMNS[k],),
@@ -262,7 +271,8 @@ EFFECTS: dict[str, Effect] = {
             formula="w_trend (time - time[0]), time in h",
             parameters=(
                 Parameter(
-                    "w_trend", "deg/h per h", "drift growing with elapsed time", Normal(0.0, 1.0)
+                    "w_trend", "deg/h per h", "drift growing with elapsed time", Normal(0.0, 1.0),
+                    regressor="time_s", hint="w_trend needs a longer log",
                 ),
             ),
             columns=(),
@@ -282,8 +292,9 @@ EFFECTS: dict[str, Effect] = {
                     "deg/h",
                     f"half-width of the hysteresis loop along O{axis.upper()}",
                     Normal(0.0, 1.0),
+                    regressor=FIELD_COLUMNS[k],
                 )
-                for axis in "xyz"
+                for k, axis in enumerate("xyz")
             ),
             columns=FIELD_COLUMNS,
             paper=False,
@@ -309,7 +320,7 @@ EFFECTS: dict[str, Effect] = {
             formula="w3 t^3",
             parameters=(
                 Parameter("w3", "deg/h/degC^3", "cubic temperature sensitivity", Normal(0.0, 0.01),
-                          span=1000.0),
+                          span=1000.0, regressor="temperature_C"),
             ),
             columns=("temperature_C",),
             paper=False,
@@ -333,7 +344,8 @@ def extra_effect(column: str) -> Effect:
         name=EXTRA_PREFIX + column, signature=column,
         formula=f"w_extra_{column} ({column} - mean)",
         parameters=(Parameter(f"w_extra_{column}", f"deg/h per unit of {column}",
-                              f"sensitivity to the logged {column}", Normal(0.0, 10.0)),),
+                              f"sensitivity to the logged {column}", Normal(0.0, 10.0),
+                              regressor=column),),
         columns=(column,), paper=False, design=design)
 
 

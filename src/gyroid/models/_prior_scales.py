@@ -47,13 +47,6 @@ FOG_NOISE_PRIORS: dict[str, Prior] = {
     "sigma_gm_deg_h": LogNormal(0.05, 3.0),
     "tau_gm_s": LogNormal(300.0, 2.0),
 }
-#: What to vary so that a coefficient's regressor is exercised (identifiability advice).
-_REGRESSOR_OF = {"w1": "temperature_C", "w2": "temperature_C", "w3": "temperature_C",
-                 "wD": "temperature_C (its rate)", "wx": "Hx_uT", "wy": "Hy_uT",
-                 "wz": "Hz_uT", "hys_x": "Hx_uT", "hys_y": "Hy_uT", "hys_z": "Hz_uT",
-                 "w_trend": "elapsed time"}
-
-
 @dataclass(frozen=True)
 class PriorBasis:
     """The log-derived numbers behind the default priors (for fit.json)."""
@@ -113,19 +106,22 @@ def reference_sd(model: DriftModel, inputs: DriftInputs, drift_deg_h: np.ndarray
 
 
 def identifiability_hints(model: DriftModel, inputs: DriftInputs) -> dict[str, str]:
-    """Per coefficient: the regressor to vary, with how much it varied in this log."""
+    """Per coefficient with a regressor: what the log needs to identify it (the registry's
+    hint, or that its regressor vary more), with how much the regressor varied here."""
     hints = {}
-    for name in model.parameter_names:
-        column = _REGRESSOR_OF.get(name)
-        if column is None:
+    for p in model.parameters:
+        if p.regressor is None and p.hint is None:
             continue
         seen = ""
-        if column.startswith("temperature_C"):
+        if p.regressor == "temperature_C":
             seen = f" (it spans {np.ptp(np.asarray(inputs.temperature_C)):.3g} degC here)"
-        elif column in FIELD_COLUMNS:
-            k = FIELD_COLUMNS.index(column)
+        elif p.regressor in FIELD_COLUMNS:
+            k = FIELD_COLUMNS.index(p.regressor)
             seen = f" (it spans {100 * np.ptp(np.asarray(inputs.field_rel[:, k])):.3g} uT here)"
-        hints[name] = f"{name} needs a log in which {column} varies more{seen}"
+        elif p.regressor == "time_s":
+            seen = f" (this one lasts {np.ptp(np.asarray(inputs.time_h)):.3g} h)"
+        advice = p.hint or f"{p.name} needs a log in which {p.regressor} varies more"
+        hints[p.name] = advice + seen
     return hints
 
 

@@ -38,24 +38,35 @@ ROLL_EFFECTS: dict[str, RollEffect] = {
     e.name: e
     for e in (
         RollEffect("sf_error", "w_x = (1 + D1) w", "the SINS roll gyro's SF error D1",
-                   (Parameter("D1", "1", "SINS roll-gyro scale-factor error", Normal(0.0, 2e-3)),),
+                   (Parameter("D1", "1", "SINS roll-gyro scale-factor error", Normal(0.0, 2e-3),
+                              hint="D1 needs a flight whose roll angle advances further (a "
+                                   "longer or faster roll)"),),
                    candidate=False),
         RollEffect("gs_bias", "platform error D0gs t", "the stabiliser's MEMS bias D0gs",
-                   (Parameter("D0gs", "deg/s", "stabiliser MEMS bias", Normal(0.0, 0.02)),),
+                   (Parameter("D0gs", "deg/s", "stabiliser MEMS bias", Normal(0.0, 0.02),
+                              hint="D0gs is told apart from D0 only by the stabiliser's MEMS "
+                                   "output (gs_rate_deg_s) logged while the stabiliser "
+                                   "holds the platform"),),
                    candidate=False),
         RollEffect("roll_bias", "w_x = D0 + (1 + D1) w", "an additive SINS roll-gyro bias D0",
-                   (Parameter("D0", "deg/s", "SINS roll-gyro bias", Normal(0.0, 0.1)),),
+                   (Parameter("D0", "deg/s", "SINS roll-gyro bias", Normal(0.0, 0.1),
+                              hint="D0 needs the stabiliser's MEMS output (gs_rate_deg_s) "
+                                   "from an ideal stabiliser"),),
                    candidate=True),
         RollEffect("gs_rate_leak", "platform error int (D1gs m + D0gs) / (1 + D1gs) dt",
                    "an overloaded stabiliser integrating its uncompensated rate with SF error "
                    "D1gs (needs gs_rate_deg_s)",
                    (Parameter("D1gs", "1", "stabiliser MEMS scale-factor error",
-                              Normal(0.0, 1e-3)),),
+                              Normal(0.0, 1e-3),
+                              hint="D1gs needs a stabiliser that is overloaded for part of the "
+                                   "flight"),),
                    candidate=True, columns=("gs_rate_deg_s",)),
         RollEffect("encoder_error", "a sin(psi) + b cos(psi)",
                    "an encoder error periodic per revolution, a sin(psi) + b cos(psi)",
-                   (Parameter("enc_a", "deg", "encoder error, sine part", Normal(0.0, 1.0)),
-                    Parameter("enc_b", "deg", "encoder error, cosine part", Normal(0.0, 1.0))),
+                   (Parameter("enc_a", "deg", "encoder error, sine part", Normal(0.0, 1.0),
+                              hint="the encoder error needs whole turns of roll"),
+                    Parameter("enc_b", "deg", "encoder error, cosine part", Normal(0.0, 1.0),
+                              hint="the encoder error needs whole turns of roll")),
                    candidate=True),
         RollEffect("sf_nonlinearity", "w_x = D0 + (1 + D1 + D2 |w| / 1000) w",
                    "SF error growing with |w|: D2 per 1000 deg/s",
@@ -85,6 +96,25 @@ ROLL_NUISANCE: dict[str, Parameter] = {
                   LogNormal(0.01, 3.0), positive=True),
     )
 }
+
+
+#: What separates each pair of loop parameters that a flight can leave confounded.
+ROLL_CONFOUNDED: dict[tuple[str, str], str] = {
+    ("D0", "D0gs"): "log the stabiliser's MEMS output (gs_rate_deg_s) while it holds the "
+                    "platform (ideal stabiliser): it measures D0gs alone",
+    ("D1", "D1gs"): "vary the roll rate while the stabiliser stays unsaturated, or hold it "
+                    "ideal for part of the flight: D1 then acts alone",
+    ("D0", "D1"): "vary the roll rate (a ramp or a reversal): D1 scales with it, D0 does not",
+}
+
+
+def roll_parameter(name: str) -> Parameter:
+    """A roll-side parameter (an effect's, or ``psi0`` and the noise levels)."""
+    for effect in ROLL_EFFECTS.values():
+        for p in effect.parameters:
+            if p.name == name:
+                return p
+    return ROLL_NUISANCE[name]
 
 
 def resolve_roll_terms(spec: str | tuple[str, ...] | list[str]) -> tuple[str, ...]:

@@ -21,8 +21,9 @@ import math
 
 import numpy as np
 
-from gyroid.inference._nuts import NutsSettings
-from gyroid.inference._pool_fit import PoolResult, pool_estimates
+from gyroid.inference._nuts import Nuts
+from gyroid.inference._pool_fit import pool_estimates
+from gyroid.inference._pool_result import PoolFit
 from gyroid.io._paper_tables import paper_a_magnetic_coefficients
 from gyroid.models._priors import Normal
 
@@ -42,8 +43,8 @@ def within_test_sd(arw_deg_rt_h: float = ASSUMED_ARW_DEG_RT_H, dwell_s: float = 
     return math.sqrt(2.0) * mean_sd / SPAN_H0
 
 
-def magnetic_repeatability(*, seed: int = 0, settings: NutsSettings | None = None
-                           ) -> dict[int, PoolResult]:
+def magnetic_repeatability(*, seed: int = 0, sampler: Nuts | None = None
+                           ) -> dict[int, PoolFit]:
     """Each device's two tests pooled (device number -> result)."""
     table = paper_a_magnetic_coefficients()
     s = within_test_sd()
@@ -54,11 +55,11 @@ def magnetic_repeatability(*, seed: int = 0, settings: NutsSettings | None = Non
         out[device] = pool_estimates(
             AXES, tuple(f"test {t}" for t in tests), estimates, np.full(estimates.shape, s),
             mean_priors=[Normal(0.0, 1.0)] * len(AXES), spread_scales=np.full(len(AXES), 0.5),
-            seed=seed, settings=settings)
+            seed=seed, sampler=sampler)
     return out
 
 
-def repeatability_json(results: dict[int, PoolResult]) -> dict:
+def repeatability_json(results: dict[int, PoolFit]) -> dict:
     """``reproduce.json``'s ``paper_a.magnetic_repeatability``."""
     s = within_test_sd()
     devices = {}

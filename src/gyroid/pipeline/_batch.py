@@ -14,13 +14,13 @@ from __future__ import annotations
 import csv
 import io
 import logging
-from collections.abc import Callable, Mapping, Sequence
-from dataclasses import dataclass, field
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from gyroid.errors import GyroidInputError
 from gyroid.io._logs import run_labels
-from gyroid.models._priors import Prior
+from gyroid.pipeline._fit_file import FitOptions
 
 
 @dataclass(frozen=True)
@@ -71,22 +71,15 @@ class BatchResult:
         return all(o.trustworthy for o in self.outcomes if not o.failed)
 
 
-def fit_one(path: str, terms: str, folder: str, seed: int, noise: str,
-            prior_set: str = "default", priors: Mapping[str, Prior] | None = None
-            ) -> LogOutcome:
-    """Fit one log and write its files into ``folder`` (runs in a worker)."""
-    from gyroid.inference._bench_fit import fit_log
-    from gyroid.inference._sampling import SamplerSettings
-    from gyroid.io._logs import load_bench_log
-    from gyroid.io._outputs import output_dir
-    from gyroid.reports._files import write_fit_outputs
+def fit_one(path: str, options: FitOptions, folder: str) -> LogOutcome:
+    """Fit one log as ``gyroid fit`` would and write its files into ``folder`` (runs in a
+    worker)."""
+    from gyroid._config import configure
+    from gyroid.pipeline._fit_file import fit_file
 
+    configure()  # a worker process: float64 and the compilation cache, as the CLI's
     try:
-        log = load_bench_log(path, terms)
-        result = fit_log(log, terms, noise=noise, seed=seed, prior_set=prior_set,
-                         priors=priors, settings=SamplerSettings(progress=False))
-        with output_dir(Path(folder)) as stage:
-            write_fit_outputs(stage, log, result)
+        result = fit_file(path, replace(options, progress=False), Path(folder))
     except GyroidInputError as error:
         return LogOutcome(path, message=str(error))
     except Exception as error:  # noqa: BLE001 - one log's fault must not stop the lot
@@ -94,19 +87,18 @@ def fit_one(path: str, terms: str, folder: str, seed: int, noise: str,
                                         "(a bug in gyroid; fit this log alone with "
                                         "GYROID_DEBUG=1 for the traceback)")
     summary = result.to_json()["posterior"]
-    return LogOutcome(path, n_samples=log.n, trustworthy=result.trustworthy,
+    return LogOutcome(path, n_samples=result.problem.n, trustworthy=result.trustworthy,
                       posterior={p: {"mean": s["mean"], "sd": s["sd"]}
                                  for p, s in summary.items()})
 
 
-def run_batch(paths: Sequence[str | Path], terms: str, out: Path, *, workers: int = 2,
-              scheduler: str | None = None, seed: int = 0, noise: str = "white",
-              prior_set: str = "default", priors: Mapping[str, Prior] | None = None,
+def run_batch(paths: Sequence[str | Path], options: FitOptions, out: Path, *,
+              workers: int = 2, scheduler: str | None = None,
               progress: Callable[[str], None] | None = None) -> BatchResult:
     """Fit every log in ``paths`` into ``out/LABEL/`` on Dask (``LABEL`` as
-    :func:`gyroid.io._logs.run_labels` names runs: the file's stem, or its folder's name when
-    stems repeat); every fit with the same seed, noise model and priors (``prior_set`` and
-    per-parameter ``priors``, as ``gyroid fit`` takes them). See the module docstring."""
+    :func:`gyroid.io.run_labels` names runs: the file's stem, or its folder's name when
+    stems repeat), every one with the same ``options`` (every option ``gyroid fit`` takes).
+    See the module docstring."""
     from dask.distributed import Client, LocalCluster, as_completed
 
     say = progress or (lambda _msg: None)
@@ -125,8 +117,7 @@ def run_batch(paths: Sequence[str | Path], terms: str, out: Path, *, workers: in
         where = "LocalCluster"
     try:
         n_workers = len(client.scheduler_info()["workers"])
-        futures = {client.submit(fit_one, p, terms, str(out / s), seed, noise, prior_set,
-                                 dict(priors or {}), pure=False): p
+        futures = {client.submit(fit_one, p, options, str(out / s), pure=False): p
                    for p, s in zip(paths, stems, strict=True)}
         done: dict[str, LogOutcome] = {}
         for future in as_completed(futures):

@@ -13,12 +13,11 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
-import jax.numpy as jnp
 import numpy as np
 
-from gyroid.inference._bench_fit import fit_log, input_ranges
+from gyroid.inference._bench_fit import fit_log
+from gyroid.inference._emcee import Emcee
 from gyroid.inference._pool_fit import fit_pool
-from gyroid.inference._sampling import SamplerSettings
 from gyroid.io._fitted import FittedDrift
 from gyroid.io._logs import bench_log_text
 from gyroid.io._outputs import json_text, output_dir
@@ -29,14 +28,8 @@ from gyroid.plotting import (
     save,
     thermal_run,
 )
-from gyroid.reports._files import (
-    write_compensate_outputs,
-    write_discrepancy_outputs,
-    write_fit_outputs,
-    write_pool_outputs,
-    write_propagate_outputs,
-)
 from gyroid.reports._reproduction import write_reproduction
+from gyroid.reports._write import write
 from gyroid.simulation._bench import (
     ThermalProtocol,
     simulate_magnetic_bench,
@@ -80,7 +73,7 @@ def run_demo(out: str | Path, *, seed: int = 0, echo: Callable[[str], None] = pr
     size = size or DemoSize()
     out = Path(out)
     started = time.time()
-    settings = SamplerSettings(progress=False)
+    sampler = Emcee(progress=False)
     lines: list[str] = []
     figures = 0
 
@@ -107,23 +100,21 @@ def run_demo(out: str | Path, *, seed: int = 0, echo: Callable[[str], None] = pr
         fits = {}
         for name, sim, terms in (("thermal", thermal, "thermal"),
                                  ("magnetic", magnetic, "magnetic")):
-            fits[name] = fit_log(sim.log, terms, seed=seed, settings=settings)
+            fits[name] = fit_log(sim.log, terms, seed=seed, sampler=sampler)
             (stage / name / "fit").mkdir()
-            write_fit_outputs(stage / name / "fit", sim.log, fits[name],
-                              truth=sim.truth["parameters"])
+            write(stage / name / "fit", fits[name], truth=sim.truth["parameters"])
         mag_fit = fits["magnetic"]
         save(magnetic_sweep(magnetic.log, np.asarray(
-            mag_fit.problem.predict(jnp.asarray(mag_fit.point.u)))), stage / "fig_magnetic_sweep")
+            mag_fit.problem.predict(mag_fit.point.u))), stage / "fig_magnetic_sweep")
         ks = {axis: magnetic_k(magnetic.log, axis) for axis in "xyz"}
 
         echo("[3/6] propagating the thermal fit to paper B's dK ...")
         fitted = FittedDrift.from_dir(stage / "thermal" / "fit")
-        tf_problem = fits["thermal"].problem
         scenario = PRESETS["paper_b_worked"]
         propagation = propagate(fitted, scenario, draws=size.propagate_draws, seed=seed,
                                 sobol_n=size.sobol_samples)
         (stage / "propagate").mkdir()
-        write_propagate_outputs(stage / "propagate", propagation)
+        write(stage / "propagate", propagation)
         prop = propagation.to_json()
 
         report_disc = None
@@ -136,17 +127,16 @@ def run_demo(out: str | Path, *, seed: int = 0, echo: Callable[[str], None] = pr
             (stage / "discrepancy").mkdir()
             (stage / "discrepancy" / "bench.csv").write_text(
                 bench_log_text(hidden.log.columns, hidden.log.comments))
-            write_discrepancy_outputs(stage / "discrepancy", report_disc, hidden.log)
+            write(stage / "discrepancy", report_disc)
         else:
             echo("[4/6] discrepancy workflow skipped (reduced demo)")
 
         echo("[5/6] compensating a second thermal run and reproducing both papers ...")
         second = simulate_thermal_bench(
             seed=seed + 3, protocol=ThermalProtocol(setpoints_C=(28.0, 36.0, 44.0, 52.0)))
-        comp = compensate(second.log, fitted, input_ranges(tf_problem.inputs,
-                                                           tf_problem.model))
+        comp = compensate(second.log, fitted)
         (stage / "compensate").mkdir()
-        write_compensate_outputs(stage / "compensate", second.log, comp)
+        write(stage / "compensate", comp)
         (stage / "reproduce").mkdir()
         repro = write_reproduction(stage / "reproduce")
 
@@ -154,7 +144,7 @@ def run_demo(out: str | Path, *, seed: int = 0, echo: Callable[[str], None] = pr
         lot = simulate_lot("magnetic", 6, seed=seed + 4, hours=0.5)
         pooled = fit_pool([r.log for r in lot.runs], lot.labels, "magnetic", seed=seed)
         (stage / "pool").mkdir()
-        write_pool_outputs(stage / "pool", pooled, title="Six simulated magnetic runs pooled")
+        write(stage / "pool", pooled, title="Six simulated magnetic runs pooled")
         (stage / "pool" / "lot.json").write_text(json_text(lot.truth()))
         tf, mf = fits["thermal"], fits["magnetic"]
         lines += [

@@ -93,7 +93,7 @@ def fit_overview(time_s: np.ndarray, drift: np.ndarray, predictions: np.ndarray,
     estimate (at the data's scale it is thinner than a line, so it has its own panel); and
     the residuals against time. ``predictions`` are draws of the model at every
     :func:`plot_step`-th sample (what
-    :meth:`gyroid.inference._bench_fit.FitResult.predict_draws` gives with that ``every``); long
+    :meth:`~gyroid.inference.BenchFit.predict_draws` gives with that ``every``); long
     logs are drawn thinned the same way."""
     shown, thinned = _every(np.asarray(time_s).size)
     with plt.rc_context(STYLE):

@@ -14,7 +14,7 @@ _Z95 = 1.959964
 
 
 def forest_plot(result, *, units: dict[str, str] | None = None, title: str | None = None):
-    """Runs against the population (a :class:`gyroid.inference._pool_fit.PoolResult`).
+    """Runs against the population (a :class:`~gyroid.inference.PoolFit`).
 
     Per run: its own least-squares estimate (open circle, thin line, +/- 1.96 sd) and its
     pooled coefficient (filled square, thick line, central 95 % of the posterior). Below:

@@ -10,14 +10,13 @@ instead of extrapolated silently.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from gyroid.errors import GyroidInputError
-from gyroid.inference._bench_fit import input_ranges
 from gyroid.inference._checks import Check, CheckReport, fit_verdict
 from gyroid.io._fitted import FittedDrift
 from gyroid.io._logs import BenchLog
@@ -25,20 +24,39 @@ from gyroid.models._effects import EXTRA_PREFIX, effect
 from gyroid.workflows._allan import AllanDeviation, allan_deviation
 
 
-@dataclass
+@dataclass(frozen=True, eq=False)
 class Compensation:
-    model_deg_h: np.ndarray
-    model_sd_deg_h: np.ndarray
-    compensated_deg_h: np.ndarray
-    summary: dict
-    adev_before: AllanDeviation
-    adev_after: AllanDeviation
-    checks: CheckReport
+    """A log compensated with a fitted model: per row the modelled drift, its sd over the
+    posterior draws and the compensated drift (deg/h); the Allan deviations before and
+    after; ``summary`` (compensate.json) and the self-checks."""
+
+    log: BenchLog = field(repr=False)
+    model_deg_h: np.ndarray = field(repr=False)
+    model_sd_deg_h: np.ndarray = field(repr=False)
+    compensated_deg_h: np.ndarray = field(repr=False)
+    summary: dict = field(repr=False)
+    adev_before: AllanDeviation = field(repr=False)
+    adev_after: AllanDeviation = field(repr=False)
+    checks: CheckReport = field(repr=False)
+
+    def __repr__(self) -> str:
+        s = self.summary
+        return (f"Compensation(rows={s['rows']}, rms {s['rms_before_deg_h']:.3g} -> "
+                f"{s['rms_after_deg_h']:.3g} deg/h, trustworthy={self.checks.trustworthy})")
+
+    @property
+    def trustworthy(self) -> bool:
+        return self.checks.trustworthy
+
+    def to_json(self) -> dict:
+        """``compensate.json``."""
+        return self.summary
 
 
-def compensate(log: BenchLog, fitted: FittedDrift, fitted_ranges: dict[str, list[float]],
-               *, max_draws: int = 400, seed: int = 0) -> Compensation:
-    """Apply a fit's posterior to ``log``."""
+def compensate(log: BenchLog, fitted: FittedDrift, *, max_draws: int = 400, seed: int = 0
+               ) -> Compensation:
+    """Apply a fit's posterior (``fitted``: ``BenchFit.fitted_drift()``, or a fit's folder
+    read back) to ``log``; rows beyond the ranges the fit saw are flagged."""
     extra = [name for name in fitted.model.terms if name.startswith(EXTRA_PREFIX)]
     if extra:
         raise GyroidInputError(
@@ -65,7 +83,8 @@ def compensate(log: BenchLog, fitted: FittedDrift, fitted_ranges: dict[str, list
     def rms(x):
         return float(np.sqrt(np.mean(x**2)))
 
-    new_ranges = input_ranges(inputs, fitted.model)
+    new_ranges = fitted.model.input_ranges(inputs)
+    fitted_ranges = fitted.input_ranges
     outside = []
     for name, (lo, hi) in new_ranges.items():
         if name == "elapsed_h" and not any(effect(t).reads_only_clock
@@ -99,7 +118,7 @@ def compensate(log: BenchLog, fitted: FittedDrift, fitted_ranges: dict[str, list
     }
     checks = compensation_checks(drift, compensated, outside, fitted.trustworthy)
     summary.update(checks.to_json())
-    return Compensation(model, sd, compensated, summary, before, after, checks)
+    return Compensation(log, model, sd, compensated, summary, before, after, checks)
 
 
 #: Rows outside the fitted ranges above this fraction make the compensation an

@@ -97,6 +97,15 @@ def _final_checks(log: BenchLog, fit: ModelFit, noise: NoiseLevels, steps_s) -> 
     return fit_checks(evidence)
 
 
+def _plotted_regressor(steps: list[Step], regs: dict[str, np.ndarray], residual: np.ndarray
+                       ) -> tuple[str, np.ndarray] | None:
+    """What the figure draws the baseline residual against: the regressor the first added
+    effect follows, else the one the residuals correlate with most."""
+    name = steps[0].regressor if steps else next(iter(correlations(residual, regs)),
+                                                 "elapsed time")
+    return (name, regs[name]) if name in regs else None
+
+
 def find_discrepancies(
     log: BenchLog,
     terms: str | tuple[str, ...],
@@ -190,5 +199,5 @@ def find_discrepancies(
         residual_after=fit_now.residual,
         time_s=time_s,
         skipped=search.skipped,
-        searched_log=log,
+        regressor=_plotted_regressor(search.steps, regs, baseline_fit.residual),
     )

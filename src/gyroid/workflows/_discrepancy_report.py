@@ -140,7 +140,7 @@ def add_while_evidence(
     return Search(baseline, current, steps, skipped, ambiguous)
 
 
-@dataclass
+@dataclass(frozen=True, eq=False)
 class DiscrepancyReport:
     """The discrepancy workflow's result on one log (``discrepancy.json``)."""
 
@@ -162,11 +162,11 @@ class DiscrepancyReport:
     where: list[dict] = field(default_factory=list)
     lines_up_with: dict[str, float] = field(default_factory=dict)
     #: Bench logs: the rate estimator's window, s, the final noise levels (of one sample),
-    #: and the log the search ran on (a fast log's means; ``time_s`` and the residuals are
-    #: its rows).
+    #: and the regressor the figure draws the baseline residual against (name, values at
+    #: the rows searched: a fast log's means; ``time_s`` and the residuals are its rows).
     rate_window_s: float | None = None
     noise: Any = None
-    searched_log: Any = field(default=None, repr=False)
+    regressor: tuple[str, np.ndarray] | None = field(default=None, repr=False)
 
     @property
     def added(self) -> list[str]:

@@ -22,7 +22,7 @@ import numpy as np
 
 from gyroid.errors import GyroidInputError
 from gyroid.inference._checks import CheckReport, fit_verdict
-from gyroid.inference._sampling import interval_summary
+from gyroid.inference._posterior import interval_summary
 from gyroid.io._fitted import FittedDrift
 from gyroid.models import _paper_b as pb
 from gyroid.models._drift import DriftModel

@@ -10,7 +10,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyroid.inference._checks import CheckReport, fit_checks, point_fit_evidence
-from gyroid.inference._roll_fit import RollPoint, roll_point_estimate
+from gyroid.inference._problem import PointEstimate
+from gyroid.inference._roll_fit import roll_point_estimate
 from gyroid.inference._roll_problem import RollDensity, RollProblem
 from gyroid.io._roll_log import RollLog
 from gyroid.models._roll_effects import ROLL_EFFECTS, resolve_roll_terms
@@ -36,7 +37,7 @@ def _fit_quality(density: RollDensity, v):
     return jnp.sum(density.log_likelihood_rows(v)), density.gs_angle - density.predict(v)
 
 
-def _max_log_likelihood(problem: RollProblem) -> tuple[float, RollPoint, np.ndarray]:
+def _max_log_likelihood(problem: RollProblem) -> tuple[float, PointEstimate, np.ndarray]:
     point = roll_point_estimate(problem)
     v = problem.density.spread(jnp.asarray(point.u))
     log_lik, residual = _fit_quality(problem.density.full, v)
@@ -58,7 +59,7 @@ def roll_regressors(problem: RollProblem) -> dict[str, np.ndarray]:
 @dataclass(frozen=True)
 class RollTrialFit:
     problem: RollProblem
-    point: RollPoint
+    point: PointEstimate
     residual: np.ndarray  # stabiliser angle minus model, deg
 
     @property

@@ -1,14 +1,18 @@
-"""Writing each step's files (the CLI and the demo both call these): a fit's fit.json,
-posterior.nc and figures; a roll fit's; compensation; propagation; discrepancy."""
+"""One entry point for writing a result's files: :func:`write` (the CLI, ``gyroid batch``
+and the demo all call it). Per kind of result: a fit's fit.json, posterior.nc and figures;
+a roll fit's; a pooled fit's; compensation; propagation; discrepancy.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from pathlib import Path
 
-import jax.numpy as jnp
 import numpy as np
 
-from gyroid.inference._bench_fit import FitResult
+from gyroid.inference._bench_fit import BenchFit
+from gyroid.inference._pool_result import PoolFit
+from gyroid.inference._roll_fit import RollFit
 from gyroid.io._arviz import write_netcdf
 from gyroid.io._logs import BENCH_COLUMNS, BenchLog
 from gyroid.io._outputs import json_text
@@ -26,23 +30,37 @@ from gyroid.plotting import (
     save,
     sobol_bars,
 )
+from gyroid.plotting._pool import forest_plot
 from gyroid.workflows._compensate import Compensation
+from gyroid.workflows._discrepancy_report import DiscrepancyReport
 from gyroid.workflows._propagate import Propagation
 
 
-def write_fit_outputs(folder: Path, log: BenchLog, result: FitResult,
-                      truth: dict[str, float] | None = None) -> list[Path]:
-    """Write fit.json, posterior.nc, fit.png and pair.png into ``folder``."""
-    folder = Path(folder)
+def write(folder: str | Path, result, **context) -> list[Path]:
+    """Write ``result``'s files into ``folder`` (which exists) and return their paths.
+    ``result`` is a :class:`~gyroid.inference.BenchFit`, :class:`~gyroid.inference.RollFit`,
+    :class:`~gyroid.inference.PoolFit`, :class:`~gyroid.workflows.Compensation`,
+    :class:`~gyroid.workflows.Propagation` or :class:`~gyroid.workflows.DiscrepancyReport`;
+    ``context`` is what only some figures take (``truth``: known values drawn in a fit's
+    pair plot; ``title``: a forest plot's)."""
+    for kind, writer in _WRITERS.items():
+        if isinstance(result, kind):
+            return writer(Path(folder), result, **context)
+    raise TypeError(f"gyroid does not know how to write a {type(result).__name__}")
+
+
+def _bench_fit(folder: Path, result: BenchFit, truth: dict[str, float] | None = None
+               ) -> list[Path]:
+    """fit.json, posterior.nc, fit.png and pair.png."""
     (folder / "fit.json").write_text(json_text(result.to_json()))
     written = [folder / "fit.json"]
     if result.posterior is not None:
-        write_netcdf(result.posterior.idata, folder / "posterior.nc")
+        write_netcdf(result.inference_data(), folder / "posterior.nc")
         written.append(folder / "posterior.nc")
-    if result.fitted_log is not None:
-        log = result.fitted_log  # e.g. the segment means, not the samples
-    point_prediction = np.asarray(result.problem.predict(jnp.asarray(result.point.u)))
-    draws = result.predict_draws(every=plot_step(log.n))
+    log = result.fitted_log  # e.g. the segment means, not the samples
+    step = plot_step(log.n)
+    point_prediction = result.problem.predict(result.point.u)
+    draws = result.predict_draws(every=step)
     written += save(fit_overview(log.time_s, log.drift_deg_h, draws, point_prediction),
                     folder / "fit")
     if result.posterior is not None:
@@ -53,43 +71,38 @@ def write_fit_outputs(folder: Path, log: BenchLog, result: FitResult,
     return written
 
 
-def write_roll_fit_outputs(folder: Path, log, result) -> list[Path]:
-    """Write roll_fit.json, posterior.nc, roll_fit.png (angle residuals) and pair.png."""
-    folder = Path(folder)
+def _roll_fit(folder: Path, result: RollFit) -> list[Path]:
+    """roll_fit.json, posterior.nc, roll_fit.png (angle residuals) and pair.png."""
     summary = result.to_json()
     problem = result.problem
     (folder / "roll_fit.json").write_text(json_text(summary))
-    write_netcdf(result.posterior.idata, folder / "posterior.nc")
+    write_netcdf(result.inference_data(), folder / "posterior.nc")
     written = [folder / "roll_fit.json", folder / "posterior.nc"]
-    residual = np.asarray(problem.gs_angle - problem.predict(jnp.asarray(result.point.u)))
-    written += save(roll_residual_figure(log.time_s, residual), folder / "roll_fit")
+    residual = np.asarray(problem.gs_angle) - np.asarray(problem.predict(result.point.u))
+    written += save(roll_residual_figure(problem.log.time_s, residual), folder / "roll_fit")
     loop = [n for n in ("D0", "D1", "D0gs", "D1gs", "enc_a", "enc_b") if n in problem.names]
     flat = result.posterior.draws.reshape(-1, len(problem.names))
     draws = flat[:, [problem.names.index(n) for n in loop]]
-    units = summary["units"] | {"enc_a": "deg", "enc_b": "deg"}
-    written += save(pair_plot(draws, loop, units), folder / "pair")
+    written += save(pair_plot(draws, loop, summary["units"]), folder / "pair")
     return written
 
 
-def write_pool_outputs(folder: Path, result, title: str | None = None) -> list[Path]:
-    """Write pool.json, posterior.nc and forest.png (a :class:`PoolResult`)."""
-    from gyroid.plotting._pool import forest_plot
-
-    folder = Path(folder)
+def _pool_fit(folder: Path, result: PoolFit, title: str | None = None) -> list[Path]:
+    """pool.json, posterior.nc and forest.png."""
     record = result.to_json()
     (folder / "pool.json").write_text(json_text(record))
-    write_netcdf(result.idata(), folder / "posterior.nc")
+    write_netcdf(result.inference_data(), folder / "posterior.nc")
     written = [folder / "pool.json", folder / "posterior.nc"]
     written += save(forest_plot(result, units=record["units"], title=title),
                     folder / "forest.png")
     return written
 
 
-def write_compensate_outputs(folder: Path, log: BenchLog, result) -> list[Path]:
-    """Write compensated.csv, compensate.json, compensation.png and allan.png."""
-    folder = Path(folder)
+def _compensation(folder: Path, result: Compensation) -> list[Path]:
+    """compensated.csv, compensate.json, compensation.png and allan.png."""
+    log = result.log
     (folder / "compensated.csv").write_text(compensated_csv(log, result))
-    (folder / "compensate.json").write_text(json_text(result.summary))
+    (folder / "compensate.json").write_text(json_text(result.to_json()))
     written = [folder / "compensated.csv", folder / "compensate.json"]
     written += save(compensation_figure(log.time_s, log.drift_deg_h, result.compensated_deg_h),
                     folder / "compensation")
@@ -97,9 +110,8 @@ def write_compensate_outputs(folder: Path, log: BenchLog, result) -> list[Path]:
     return written
 
 
-def write_propagate_outputs(folder: Path, result: Propagation) -> list[Path]:
-    """Write propagate.json, dk_samples.csv, dk_distribution.png and drivers.png."""
-    folder = Path(folder)
+def _propagation(folder: Path, result: Propagation) -> list[Path]:
+    """propagate.json, dk_samples.csv, dk_distribution.png and drivers.png."""
     summary = result.to_json()
     (folder / "propagate.json").write_text(json_text(summary))
     (folder / "dk_samples.csv").write_text(dk_samples_csv(result.samples["dK"]))
@@ -112,26 +124,21 @@ def write_propagate_outputs(folder: Path, result: Propagation) -> list[Path]:
     return written
 
 
-def write_discrepancy_outputs(folder: Path, report, log: BenchLog | None = None,
-                              t0_C: float | None = None) -> list[Path]:
-    """Write discrepancy.json and discrepancy.png (a bench log's figure also shows the
-    regressor the first added effect follows, so it needs the log)."""
-    from gyroid.workflows._residual_structure import regressors
-
-    folder = Path(folder)
+def _discrepancy(folder: Path, report: DiscrepancyReport) -> list[Path]:
+    """discrepancy.json and discrepancy.png."""
     (folder / "discrepancy.json").write_text(json_text(report.to_json()))
     if report.log_kind == "roll":
-        return [folder / "discrepancy.json",
-                *save(roll_discrepancy_figure(report), folder / "discrepancy")]
-    if log is None:
-        raise ValueError("a bench log's discrepancy figure needs the log")
-    kwargs = {} if t0_C is None else {"t0_C": t0_C}
-    searched = report.searched_log if report.searched_log is not None else log
-    regs = regressors(searched.inputs(rate_window_s=report.rate_window_s, **kwargs))
-    name = (report.steps[0].regressor if report.steps
-            else next(iter(report.lines_up_with), "elapsed time"))
-    return [folder / "discrepancy.json",
-            *save(discrepancy_figure(report, regs.get(name), name), folder / "discrepancy")]
+        figure = roll_discrepancy_figure(report)
+    else:
+        name, values = report.regressor or ("elapsed time", None)
+        figure = discrepancy_figure(report, values, name)
+    return [folder / "discrepancy.json", *save(figure, folder / "discrepancy")]
+
+
+_WRITERS: dict[type, Callable[..., list[Path]]] = {
+    BenchFit: _bench_fit, RollFit: _roll_fit, PoolFit: _pool_fit,
+    Compensation: _compensation, Propagation: _propagation, DiscrepancyReport: _discrepancy,
+}
 
 
 def dk_samples_csv(dk: np.ndarray) -> str:
