@@ -27,12 +27,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from gyroid.inference import Emcee, problem_batcher, summarise_draws
-from gyroid.inference._bench_problem import BenchProblem
-from gyroid.io._logs import BenchLog
-from gyroid.models._paper_b import G
-from gyroid.models._roll import Flight, RollParams, correction_coefficients, navigation_errors
-from gyroid.simulation._bench import (
+from gyroid.inference import BenchProblem, Emcee, problem_batcher, summarise_draws
+from gyroid.io import BenchLog
+from gyroid.models import Flight, G, RollParams, correction_coefficients, navigation_errors
+from gyroid.simulation import (
     PAPER_A_DEVICE_2,
     PAPER_A_THERMAL,
     MagneticProtocol,
@@ -328,7 +326,7 @@ import json, sys, time
 start = time.perf_counter()
 sys.path.insert(0, "benchmarks")
 from run import six_hour_log
-from gyroid.inference._bench_problem import BenchProblem
+from gyroid.inference import BenchProblem
 from gyroid.inference import Emcee
 out = {"import_s": time.perf_counter() - start}
 problem = BenchProblem.from_log(six_hour_log(0), "full")

@@ -43,7 +43,7 @@ _LOAD = (
     "import json, sys, time\n"
     "start = time.perf_counter()\n"
     "if sys.argv[1] == 'gyroid':\n"
-    "    from gyroid.io._logs import load_bench_log\n"
+    "    from gyroid.io import load_bench_log\n"
     "    load_bench_log(sys.argv[2])\n"
     "else:\n"
     "    import numpy as np, pyarrow.parquet as pq\n"
@@ -62,8 +62,8 @@ def measure(*command: str) -> dict:
 
 
 def make_log(rows: int, folder: Path) -> Path:
-    from gyroid.io._logs import write_bench_log
-    from gyroid.simulation._bench import ThermalProtocol, simulate_thermal_bench
+    from gyroid.io import write_bench_log
+    from gyroid.simulation import ThermalProtocol, simulate_thermal_bench
 
     protocol = ThermalProtocol()
     rate_hz = rows / protocol.duration_s

@@ -9,7 +9,7 @@ import time
 from pathlib import Path
 
 import gyroid
-from gyroid.io._outputs import atomic_write_text, json_text
+from gyroid.io import atomic_write_text, json_text
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -36,9 +36,8 @@ def save_run(folder: Path, *, seed: int, config: dict, results: dict, started: f
 
 def fitted_thermal(seed: int):
     """A thermal bench simulated with paper A's truth, fitted (emcee), as a FittedDrift."""
-    from gyroid.inference import Emcee
-    from gyroid.inference._bench_fit import fit_log
-    from gyroid.simulation._bench import simulate_thermal_bench
+    from gyroid.inference import Emcee, fit_log
+    from gyroid.simulation import simulate_thermal_bench
 
     sim = simulate_thermal_bench(seed=seed)
     fit = fit_log(sim.log, "thermal", seed=seed, sampler=Emcee(progress=False))

@@ -23,11 +23,11 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from _common import results_dir, save_run  # noqa: E402
 
-from gyroid.inference._bench_problem import BenchProblem  # noqa: E402
-from gyroid.io._fitted import FittedDrift  # noqa: E402
-from gyroid.simulation._bench import ThermalProtocol, simulate_thermal_bench  # noqa: E402
-from gyroid.workflows._propagate import propagate  # noqa: E402
-from gyroid.workflows._scenarios import PRESETS  # noqa: E402
+from gyroid.inference import BenchProblem  # noqa: E402
+from gyroid.io import FittedDrift  # noqa: E402
+from gyroid.simulation import ThermalProtocol, simulate_thermal_bench  # noqa: E402
+from gyroid.workflows import SCENARIOS as PRESETS  # noqa: E402
+from gyroid.workflows import propagate  # noqa: E402
 
 DESIGNS = {
     "paper A (31...55, 40 min soaks)": ThermalProtocol(),

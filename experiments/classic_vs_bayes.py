@@ -16,9 +16,9 @@ import numpy as np
 from _common import results_dir, save_run
 
 from gyroid import GyroNoise
-from gyroid.inference._bench_problem import BenchProblem
-from gyroid.papers._classic import magnetic_k
-from gyroid.simulation._bench import PAPER_A_DEVICE_2, simulate_magnetic_bench
+from gyroid.inference import BenchProblem
+from gyroid.papers import magnetic_k
+from gyroid.simulation import PAPER_A_DEVICE_2, simulate_magnetic_bench
 
 
 def main() -> None:

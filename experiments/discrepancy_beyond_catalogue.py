@@ -25,10 +25,10 @@ import numpy as np
 from _common import results_dir, save_run
 
 from gyroid import GyroNoise
-from gyroid.io._logs import BenchLog
-from gyroid.models._effects import CANDIDATES
-from gyroid.simulation._bench import simulate_thermal_bench
-from gyroid.workflows._discrepancy import find_discrepancies
+from gyroid.io import BenchLog
+from gyroid.models import CANDIDATES
+from gyroid.simulation import simulate_thermal_bench
+from gyroid.workflows import find_discrepancies
 
 WHITE_DEG_H = 0.3
 NOT_STEP = tuple(c for c in CANDIDATES if c != "bias_step")

@@ -21,8 +21,8 @@ import numpy as np  # noqa: E402
 from _common import results_dir, save_run  # noqa: E402
 
 from gyroid import GyroNoise  # noqa: E402
-from gyroid.simulation._bench import simulate_magnetic_bench, simulate_thermal_bench  # noqa: E402
-from gyroid.workflows._discrepancy import find_discrepancies  # noqa: E402
+from gyroid.simulation import simulate_magnetic_bench, simulate_thermal_bench  # noqa: E402
+from gyroid.workflows import find_discrepancies  # noqa: E402
 
 #: (bench, effect, parameters as a function of a scale s in [0.25, 2]).
 CASES = {

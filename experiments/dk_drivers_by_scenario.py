@@ -18,8 +18,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from _common import fitted_thermal, results_dir, save_run  # noqa: E402
 
-from gyroid.workflows._propagate import propagate  # noqa: E402
-from gyroid.workflows._scenarios import PRESETS  # noqa: E402
+from gyroid.workflows import SCENARIOS as PRESETS  # noqa: E402
+from gyroid.workflows import propagate  # noqa: E402
 
 
 def main() -> None:

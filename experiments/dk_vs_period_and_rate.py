@@ -22,8 +22,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from _common import fitted_thermal, results_dir, save_run  # noqa: E402
 
-from gyroid.workflows._propagate import propagate  # noqa: E402
-from gyroid.workflows._scenarios import PRESETS  # noqa: E402
+from gyroid.workflows import SCENARIOS as PRESETS  # noqa: E402
+from gyroid.workflows import propagate  # noqa: E402
 
 PERIODS_S = (1.0, 2.0, 3.0, 5.0, 8.0, 12.0, 20.0)
 RATES_DEG_S = (900.0, 1800.0, 3600.0)

@@ -22,10 +22,13 @@ import numpy as np  # noqa: E402
 from _common import results_dir, save_run  # noqa: E402
 from scipy import stats  # noqa: E402
 
-from gyroid.inference._pool_fit import fit_pool  # noqa: E402
-from gyroid.models._priors import Normal  # noqa: E402
-from gyroid.simulation._bench import MagneticProtocol, simulate_magnetic_bench  # noqa: E402
-from gyroid.simulation._noise import GyroNoise  # noqa: E402
+from gyroid.inference import fit_pool  # noqa: E402
+from gyroid.models import Normal  # noqa: E402
+from gyroid.simulation import (  # noqa: E402
+    GyroNoise,  # noqa: E402
+    MagneticProtocol,
+    simulate_magnetic_bench,
+)
 
 LEVELS = (0.5, 0.9, 0.95)
 LOT_SIZES = (3, 8, 30)

@@ -27,11 +27,14 @@ from scipy import stats  # noqa: E402
 
 from gyroid import BenchLog, DriftModel, GyroNoise  # noqa: E402
 from gyroid.inference import Emcee  # noqa: E402
-from gyroid.io import load_arviz  # noqa: E402
-from gyroid.io._logs import run_labels, write_bench_log  # noqa: E402
-from gyroid.models._priors import LogNormal  # noqa: E402
-from gyroid.pipeline._batch import run_batch  # noqa: E402
-from gyroid.simulation._bench import (  # noqa: E402
+from gyroid.io import (  # noqa: E402
+    load_arviz,  # noqa: E402
+    run_labels,
+    write_bench_log,
+)
+from gyroid.models import LogNormal  # noqa: E402
+from gyroid.pipeline import run_batch  # noqa: E402
+from gyroid.simulation import (  # noqa: E402
     MagneticProtocol,
     ThermalProtocol,
     simulate_magnetic_bench,

@@ -6,7 +6,7 @@ import numpy as np
 import paths
 
 from gyroid.io import load_arviz
-from gyroid.models._effects import PARAMETERS
+from gyroid.models import PARAMETERS
 from gyroid.plotting import pair_plot, save
 
 az = load_arviz()

@@ -4,8 +4,8 @@ import json
 
 import paths
 
-from gyroid.io._logs import load_bench_log
-from gyroid.models._derived import RATE_WINDOW_S
+from gyroid.io import load_bench_log
+from gyroid.models import RATE_WINDOW_S
 from gyroid.plotting import save, thermal_run
 
 log = load_bench_log(paths.data("thermal", "bench.csv"), "thermal")

@@ -5,7 +5,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import paths
 
-from gyroid.io._logs import load_bench_log
+from gyroid.io import load_bench_log
 from gyroid.plotting import STYLE, save
 
 DWELL_S = 180.0

@@ -6,9 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from gyroid.io._logs import bench_log_text
-from gyroid.simulation._bench import MagneticProtocol, ThermalProtocol
-from gyroid.simulation._noise import GyroNoise
+from gyroid.io import bench_log_text
+from gyroid.simulation import GyroNoise, MagneticProtocol, ThermalProtocol
 
 QUIET = GyroNoise(arw_deg_rt_h=0.0, temperature_noise_C=0.0, field_noise_uT=0.0)
 #: A short thermal schedule (3 setpoints, 10 s samples) for fast tests.

@@ -7,7 +7,7 @@ import pytest
 from helpers import SHORT_THERMAL, write_log
 
 from gyroid.cli import main
-from gyroid.simulation._bench import simulate_thermal_bench
+from gyroid.simulation import simulate_thermal_bench
 
 
 @pytest.mark.slow
@@ -24,7 +24,7 @@ def test_a_lot_is_fitted_on_dask_and_a_bad_log_fails_alone(tmp_path, capsys):
     out = tmp_path / "lot"
     code = main(["batch", str(logs[0]), str(bad), str(logs[1]), "--terms", "thermal",
                  "--out", str(out), "--workers", "2", "--priors", "paper_a_fog",
-                 "--prior", "w0=normal(0,5)"])
+                 "--prior", "w0=normal(0,5)", "--t0", "20", "--rate-window", "900"])
     assert code == 3  # a log failed: the lot's summary is incomplete
     summary = json.loads((out / "batch.json").read_text())
     assert summary["workers"] == 2 and summary["scheduler"] == "LocalCluster"
@@ -37,6 +37,7 @@ def test_a_lot_is_fitted_on_dask_and_a_bad_log_fails_alone(tmp_path, capsys):
         fit = json.loads((out / log.parent.name / "fit.json").read_text())
         assert (out / log.parent.name / "posterior.nc").exists()
         assert fit["prior_set"] == "paper_a_fog" and fit["priors"]["w0"] == "Normal(0, 5)"
+        assert fit["t0_C"] == 20.0 and fit["rate_window_s"] == 900.0
         assert float(row["w1_mean"]) == pytest.approx(fit["posterior"]["w1"]["mean"])
         assert row["trustworthy"] == str(fit["trustworthy"])
         assert int(row["n_samples"]) == fit["n_samples"]
@@ -55,3 +56,25 @@ def test_logs_that_would_share_a_folder_are_refused_before_any_work(tmp_path, ca
     assert code == 2
     assert "the same name 'unit' and folder" in capsys.readouterr().err
     assert not (tmp_path / "lot").exists()
+
+
+def test_batch_takes_every_option_fit_takes():
+    from gyroid.cli import cli
+
+    def options(command) -> set[str]:
+        return {name for p in command.params for name in p.opts if name.startswith("--")}
+
+    fit, batch = cli.commands["fit"], cli.commands["batch"]
+    assert options(fit) <= options(batch), options(fit) - options(batch)
+
+
+def test_bad_options_are_refused_before_any_log_is_read(tmp_path, capsys):
+    log = tmp_path / "does_not_exist.csv"
+    for args, message in ((["--seed", "-1"], "--seed -1"), (["--t0", "nan"], "--t0 nan"),
+                          (["--rate-window", "-5"], "--rate-window")):
+        for command in ("fit", "batch"):
+            code = main([command, str(log), "--terms", "thermal", "--out",
+                         str(tmp_path / "o"), *args])
+            assert code == 2, (command, args)
+            err = capsys.readouterr().err
+            assert message in err and "no such file" not in err, err

@@ -5,7 +5,7 @@ import pytest
 from helpers import QUIET, SHORT_THERMAL
 
 from gyroid import DriftModel, GyroidInputError, GyroNoise
-from gyroid.simulation._bench import (
+from gyroid.simulation import (
     PAPER_A_DEVICE_2,
     PAPER_A_THERMAL,
     MagneticProtocol,

@@ -28,10 +28,9 @@ def test_the_bare_script_baseline_fits_the_same_coefficients(tmp_path):
     import subprocess
     import sys
 
-    from gyroid.inference import Emcee
-    from gyroid.inference._bench_fit import fit_log
-    from gyroid.io._logs import write_bench_log
-    from gyroid.simulation._bench import ThermalProtocol, simulate_thermal_bench
+    from gyroid.inference import Emcee, fit_log
+    from gyroid.io import write_bench_log
+    from gyroid.simulation import ThermalProtocol, simulate_thermal_bench
 
     protocol = ThermalProtocol()
     rate_hz = 2e4 / protocol.duration_s

@@ -4,7 +4,7 @@ that do or do not disagree with the data), and the contract's JSON shape."""
 import numpy as np
 import pytest
 
-from gyroid.inference._checks import (
+from gyroid.inference import (
     Check,
     CheckReport,
     FitEvidence,
@@ -18,7 +18,7 @@ from gyroid.inference._checks import (
     residual_whiteness,
     segment_variance_ratio,
 )
-from gyroid.models._priors import Flat, LogNormal, Normal
+from gyroid.models import Flat, LogNormal, Normal
 
 
 def _ar1(rng, n, phi):
@@ -64,7 +64,9 @@ def test_correlated_residuals_fail_as_an_error_under_white_noise_and_warn_under_
     z = _ar1(rng, 20_000, 0.9)
     check = residual_whiteness(z)
     assert not check.passed and check.severity == "error"
-    assert "--noise white+gm" in check.message
+    # The advice names the remedy (white+gm) by a code the command line turns into its own
+    # option (gyroid fit: --noise white+gm).
+    assert "white+gm" in check.message and check.remedies[0] == "noise_model"
     assert residual_whiteness(z, correlated_noise_modelled=True).severity == "warning"
 
 
@@ -91,6 +93,7 @@ def test_bias_wander_between_bursts_fails_the_whiteness_test_and_white_bursts_pa
     check = residual_whiteness(z, segments=segments)
     assert not check.passed and check.severity == "error"
     assert "25 contiguous segments" in check.message and "white+gm" in check.message
+    assert check.remedies[:2] == ("segment_means", "noise_model")
     assert residual_whiteness(z, segments=segments, correlated_noise_modelled=True
                               ).severity == "warning"
 
@@ -207,3 +210,18 @@ def test_a_noise_parameter_held_up_by_its_prior_is_only_a_warning():
     check = prior_data_conflict(evidence)
     assert not check.passed and check.severity == "warning"
     assert "lognormal(" in check.message
+
+
+def test_advice_names_only_what_the_kind_of_fit_can_do():
+    # A roll fit has no --noise option: its correlated residuals are not answered with one.
+    from gyroid.cli.base import check_lines
+    from gyroid.inference import CheckReport
+
+    z = _ar1(np.random.default_rng(4), 20_000, 0.9)
+    roll = residual_whiteness(z, remedies=frozenset({"discrepancy"}))
+    assert roll.remedies == ("discrepancy",) and "white+gm" not in roll.message
+    bench = residual_whiteness(z)
+    assert check_lines(CheckReport((bench,)), "fit")[0].endswith(
+        "(try: --noise white+gm; gyroid discrepancy)")
+    assert "--noise" not in check_lines(CheckReport((bench,)), "roll fit")[0]
+    assert "--noise" not in check_lines(CheckReport((roll,)), "roll fit")[0]

@@ -4,13 +4,13 @@ import numpy as np
 import pytest
 from helpers import QUIET
 
-from gyroid.io._paper_tables import (
+from gyroid.io import (
     paper_a_magnetic_coefficients,
     paper_a_thermal_coefficients,
     paper_a_thermal_table,
 )
-from gyroid.papers._classic import chi2_of, magnetic_k, setpoint_table_fit
-from gyroid.simulation._bench import PAPER_A_DEVICE_2, simulate_magnetic_bench
+from gyroid.papers import chi2_of, magnetic_k, setpoint_table_fit
+from gyroid.simulation import PAPER_A_DEVICE_2, simulate_magnetic_bench
 
 
 def test_k_equals_the_coefficient_on_a_noise_free_sweep():
@@ -60,8 +60,8 @@ def test_package_data_holds_the_papers_numbers():
 
 
 def test_setpoint_readings_from_a_noise_free_thermal_log():
-    from gyroid.papers._classic import setpoint_readings
-    from gyroid.simulation._bench import ThermalProtocol, simulate_thermal_bench
+    from gyroid.papers import setpoint_readings
+    from gyroid.simulation import ThermalProtocol, simulate_thermal_bench
 
     protocol = ThermalProtocol()
     sim = simulate_thermal_bench(noise=QUIET, protocol=protocol)

@@ -122,7 +122,7 @@ def test_console_script_exit_code_and_no_traceback(tmp_path):
 def test_reduced_demo_writes_a_report_whose_figures_exist(tmp_path):
     import re
 
-    from gyroid.pipeline._demo import DemoSize, run_demo
+    from gyroid.pipeline import DemoSize, run_demo
 
     out = tmp_path / "demo"
     report = run_demo(out, seed=1, echo=lambda _m: None,
@@ -141,6 +141,15 @@ def test_reduced_demo_writes_a_report_whose_figures_exist(tmp_path):
         "magnetic_hysteresis"]
     assert "audit" in json.loads((out / "reproduce" / "reproduce.json").read_text())
     assert not list(tmp_path.glob(".*staging*"))
+    # Each figure sits in its own section, on a line of its own (the pooling figures once
+    # came before the pooling heading, one inside a bullet).
+    assert text.index("## 7.") < text.index("(pool/forest.png)")
+    assert all(line.startswith("![Figure") for line in text.splitlines() if "![Figure" in line)
+    # The discrepancy section gives the size of the effect it added, and RMS values that
+    # differ where they differ.
+    assert "hys_y = " in text
+    rms = re.search(r"- RMS (\S+) -> (\S+) deg/h", text)
+    assert rms and rms.group(1) != rms.group(2)
 
 
 @pytest.fixture(scope="module")
@@ -204,8 +213,7 @@ def test_discrepancy_help_names_both_log_kinds_and_every_effect():
     from click.testing import CliRunner
 
     from gyroid.cli import cli
-    from gyroid.models._effects import EFFECTS
-    from gyroid.models._roll_effects import ROLL_EFFECTS, ROLL_PRESETS
+    from gyroid.models import EFFECTS, ROLL_EFFECTS, ROLL_PRESETS
 
     text = " ".join(CliRunner().invoke(cli, ["discrepancy", "--help"]).output.split())
     assert "bench log" in text and "roll log" in text

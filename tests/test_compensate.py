@@ -6,13 +6,10 @@ import numpy as np
 import pytest
 
 from gyroid.cli import main
-from gyroid.inference import Emcee
-from gyroid.inference._bench_fit import fit_log
-from gyroid.io._fitted import FittedDrift
-from gyroid.simulation._bench import ThermalProtocol, simulate_thermal_bench
-from gyroid.simulation._noise import gauss_markov
-from gyroid.workflows._allan import allan_deviation
-from gyroid.workflows._compensate import compensate
+from gyroid.inference import Emcee, fit_log
+from gyroid.io import FittedDrift
+from gyroid.simulation import ThermalProtocol, gauss_markov, simulate_thermal_bench
+from gyroid.workflows import allan_deviation, compensate
 
 
 def test_white_noise_has_slope_minus_half_and_the_arw_level():

@@ -8,12 +8,9 @@ import numpy as np
 import pytest
 from helpers import SHORT_MAGNETIC
 
-from gyroid.inference import Emcee, problem_batcher
-from gyroid.inference._bench_problem import BenchProblem
-from gyroid.inference._roll_problem import ALL_PARAMETERS, RollProblem
-from gyroid.io._roll_log import RollLog
-from gyroid.simulation._bench import simulate_magnetic_bench
-from gyroid.simulation._flight import FlightProfile, simulate_flight
+from gyroid.inference import ALL_PARAMETERS, BenchProblem, Emcee, RollProblem, problem_batcher
+from gyroid.io import RollLog
+from gyroid.simulation import FlightProfile, simulate_flight, simulate_magnetic_bench
 
 
 def _compilations(caplog, name: str) -> int:

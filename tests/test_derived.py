@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from gyroid.models._derived import (
+from gyroid.models import (
     RATE_WINDOW_S,
     field_change_sign,
     lagged_temperature,
@@ -147,9 +147,9 @@ def test_rate_window_scores_by_projection_equal_full_least_squares():
     # instead of refitting: the residual sums must be the least-squares ones.
     import jax.numpy as jnp
 
-    from gyroid.inference._rate_window import choose_rate_window
-    from gyroid.models._drift import DriftModel
-    from gyroid.simulation._bench import simulate_thermal_bench
+    from gyroid.inference import choose_rate_window
+    from gyroid.models import DriftModel
+    from gyroid.simulation import simulate_thermal_bench
 
     log = simulate_thermal_bench(seed=2).log
     model = DriftModel.from_terms("thermal")

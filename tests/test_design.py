@@ -8,13 +8,11 @@ import pytest
 from helpers import SHORT_THERMAL
 
 from gyroid import GyroidInputError
-from gyroid.inference._bench_problem import BenchProblem
-from gyroid.inference._rate_window import choose_rate_window
-from gyroid.io._logs import BenchLog
+from gyroid.inference import BenchProblem, choose_rate_window
+from gyroid.io import BenchLog
+from gyroid.models import DriftModel, least_squares_from_r, with_rows
 from gyroid.models import _design as design
-from gyroid.models._design import least_squares_from_r, with_rows
-from gyroid.models._drift import DriftModel
-from gyroid.simulation._bench import simulate_thermal_bench
+from gyroid.simulation import simulate_thermal_bench
 
 
 @pytest.fixture(scope="module")

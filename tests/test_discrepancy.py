@@ -7,12 +7,12 @@ import pytest
 
 from gyroid import GyroNoise
 from gyroid.cli import main
-from gyroid.simulation._bench import (
+from gyroid.simulation import (
     ThermalProtocol,
     simulate_magnetic_bench,
     simulate_thermal_bench,
 )
-from gyroid.workflows._discrepancy import find_discrepancies
+from gyroid.workflows import find_discrepancies
 
 pytestmark = pytest.mark.slow  # the whole module: end-to-end fits
 
@@ -97,8 +97,8 @@ def test_cli_writes_the_contract_json(tmp_path):
 def test_where_reports_whole_windows_only():
     """The last samples of a log join the last window: no window of a few samples at the end
     (whose mean is mostly noise) can top the list."""
-    from gyroid.inference._whitened_fit import NoiseLevels
-    from gyroid.workflows._residual_structure import where_largest as _where
+    from gyroid.inference import NoiseLevels
+    from gyroid.workflows import where_largest as _where
 
     sim = simulate_magnetic_bench(seed=3)
     log = sim.log
@@ -115,7 +115,7 @@ def test_where_reports_whole_windows_only():
 def test_a_step_outside_the_catalogue_is_reported_unexplained():
     """Without bias_step among the candidates, a 0.4 deg/h step is soaked up by the noise
     model, whose correlation time then sits at its cap: reported, never 'nothing missing'."""
-    from gyroid.models._effects import CANDIDATES
+    from gyroid.models import CANDIDATES
 
     sim = simulate_thermal_bench(seed=5, effects={"bias_step": {"w_step": 0.4,
                                                                 "t_step_h": 5.0}})
@@ -128,7 +128,7 @@ def test_a_step_outside_the_catalogue_is_reported_unexplained():
 def _pressure_log(tmp_path):
     """A thermal bench whose drift also follows a logged chamber pressure (a two-hour
     oscillation, 0.1 deg/h rms), with a supply voltage that does nothing."""
-    from gyroid.io._logs import write_bench_log
+    from gyroid.io import write_bench_log
 
     sim = simulate_thermal_bench(seed=7)
     columns = dict(sim.log.columns)

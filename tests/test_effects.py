@@ -7,9 +7,8 @@ import pytest
 from helpers import SHORT_MAGNETIC
 
 from gyroid import CANDIDATES, EFFECTS, PRESETS, DriftModel, GyroidInputError, resolve_terms
-from gyroid.models._effects import PARAMETERS
-from gyroid.simulation._bench import simulate_magnetic_bench, simulate_thermal_bench
-from gyroid.simulation._noise import GyroNoise
+from gyroid.models import PARAMETERS
+from gyroid.simulation import GyroNoise, simulate_magnetic_bench, simulate_thermal_bench
 
 CONTRACT_PARAMETERS = {
     "bias": ("w0",),
@@ -70,7 +69,7 @@ def rich_inputs():
     columns = dict(sim.log.columns)
     for name in ("Hx_uT", "Hy_uT", "Hz_uT"):
         columns[name] = np.resize(mag.log.columns[name], n)
-    from gyroid.models._inputs import build_inputs
+    from gyroid.models import build_inputs
 
     return build_inputs(columns)
 
@@ -108,7 +107,7 @@ def test_linear_effects_design_reproduces_the_model(effect, rich_inputs):
 
 
 def test_thermal_lag_is_the_temperature_terms_on_the_lagged_temperature(rich_inputs):
-    from gyroid.models._derived import lagged_temperature
+    from gyroid.models import lagged_temperature
 
     model = DriftModel.from_terms("bias,temperature,temperature_sq,thermal_lag")
     params = {"w0": 0.3, "w1": -0.1, "w2": 0.004, "tau_lag_min": 12.0}
@@ -127,8 +126,7 @@ def test_model_is_float64(rich_inputs):
 def test_a_bias_step_and_an_extra_column_effect_contribute_as_documented():
     import numpy as np
 
-    from gyroid.models._effects import effect
-    from gyroid.models._inputs import build_inputs
+    from gyroid.models import build_inputs, effect
 
     t = np.arange(0.0, 36000.0, 10.0)  # 10 h
     pressure = np.sin(t / 3000.0)

@@ -7,12 +7,10 @@ from helpers import SHORT_MAGNETIC, SHORT_THERMAL
 from scipy import stats
 
 from gyroid import BenchLog, GyroNoise
-from gyroid.inference import Emcee
-from gyroid.inference._bench_fit import fit_log
-from gyroid.inference._bench_problem import BenchProblem
-from gyroid.io._paper_tables import paper_a_table_log, paper_a_thermal_table
-from gyroid.papers._classic import setpoint_table_fit
-from gyroid.simulation._bench import (
+from gyroid.inference import BenchProblem, Emcee, fit_log
+from gyroid.io import paper_a_table_log, paper_a_thermal_table
+from gyroid.papers import setpoint_table_fit
+from gyroid.simulation import (
     PAPER_A_DEVICE_2,
     PAPER_A_THERMAL,
     MagneticProtocol,
@@ -236,10 +234,9 @@ def test_posterior_predictions_of_a_linear_model_are_its_design_rows_times_the_d
 def test_every_mode_finder_starts_on_one_grid():
     # The point estimate and the discrepancy's whitened fits start from the same grid: 7
     # multiples of a time constant's registry median, a step's own candidates from the log.
+    from gyroid.inference import START_MULTIPLES, grid_points, start_grid
     from gyroid.inference._point import _starts
-    from gyroid.inference._starts import START_MULTIPLES, grid_points, start_grid
-    from gyroid.models._drift import DriftModel
-    from gyroid.models._effects import parameter
+    from gyroid.models import DriftModel, parameter
 
     sim = simulate_thermal_bench(seed=3, protocol=SHORT_THERMAL)
     inputs = sim.log.inputs()
@@ -248,7 +245,7 @@ def test_every_mode_finder_starts_on_one_grid():
     median = parameter("tau_warmup_min").prior.median
     np.testing.assert_allclose(np.exp(grid[0]), median * np.asarray(START_MULTIPLES))
     problem = BenchProblem.from_log(sim.log, model)
-    starts = _starts(problem)
+    starts = _starts(problem.density)
     tau = model.parameter_names.index("tau_warmup_min")
     np.testing.assert_allclose([s[tau] for s in starts], grid[0])
     assert all(np.all(np.delete(s, tau) == 0.0) for s in starts)

@@ -9,11 +9,9 @@ from helpers import SHORT_MAGNETIC, write_log
 
 from gyroid.cli import main
 from gyroid.errors import GyroidInputError
-from gyroid.io._logs import load_bench_log
-from gyroid.io._roll_log import load_roll_log
-from gyroid.simulation._bench import simulate_magnetic_bench
-from gyroid.simulation._flight import FlightProfile, roll_log_text, simulate_flight
-from gyroid.workflows._allan import allan_deviation
+from gyroid.io import load_bench_log, load_roll_log
+from gyroid.simulation import FlightProfile, roll_log_text, simulate_flight, simulate_magnetic_bench
+from gyroid.workflows import allan_deviation
 
 
 @pytest.fixture(scope="module")
@@ -84,7 +82,7 @@ def test_vendor_columns_and_units_through_map(tmp_path, magnetic_columns):
                  "--map", "time_s=t_ms:ms", "--map", "drift_deg_h=gyro_x:rad/s",
                  "--map", "Hx_uT=mag_x:G", "--map", "Hy_uT=mag_y:nT",
                  "--map", "Hz_uT=mag_z:T", "--map", "temperature_C=temp:K"]) in (0, 3)
-    from gyroid.io._units import parse_column_maps
+    from gyroid.io import parse_column_maps
 
     maps = parse_column_maps(["time_s=t_ms:ms", "drift_deg_h=gyro_x:rad/s", "Hx_uT=mag_x:G",
                               "Hy_uT=mag_y:nT", "Hz_uT=mag_z:T", "temperature_C=temp:K"])
@@ -164,7 +162,7 @@ def test_extra_column_terms_are_fitted_but_refused_where_they_cannot_apply(tmp_p
     import numpy as np
 
     from gyroid.cli import main
-    from gyroid.io._logs import write_bench_log
+    from gyroid.io import write_bench_log
 
     rng = np.random.default_rng(0)
     t = np.arange(0.0, 7200.0)

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 from helpers import SHORT_MAGNETIC, SHORT_THERMAL, write_log
 
-from gyroid import GyroidInputError, load_bench_log
-from gyroid.io._logs import bench_log_text
-from gyroid.simulation._bench import simulate_magnetic_bench, simulate_thermal_bench
+from gyroid import BenchProblem, GyroidInputError, load_bench_log
+from gyroid.io import bench_log_text
+from gyroid.simulation import simulate_magnetic_bench, simulate_thermal_bench
 
 
 @pytest.fixture(scope="module")
@@ -109,12 +109,12 @@ def test_constant_columns_that_leave_a_coefficient_unidentifiable(
     columns["Hy_uT"] = np.zeros_like(columns["Hy_uT"])
     path = write_log(tmp_path / "bench.csv", columns)
     with pytest.raises(GyroidInputError, match="column Hy_uT does not vary enough to identify wy"):
-        load_bench_log(path, "magnetic")
+        BenchProblem.from_log(load_bench_log(path, "magnetic"), "magnetic")
     columns = dict(thermal_columns)
     columns["temperature_C"] = np.full_like(columns["temperature_C"], 25.0)
     path = write_log(tmp_path / "bench2.csv", columns)
     with pytest.raises(GyroidInputError, match="column temperature_C does not vary enough"):
-        load_bench_log(path, "thermal")
+        BenchProblem.from_log(load_bench_log(path, "thermal"), "thermal")
 
 
 def test_collinear_terms_are_refused(tmp_path, thermal_columns):
@@ -122,7 +122,7 @@ def test_collinear_terms_are_refused(tmp_path, thermal_columns):
     columns["Hx_uT"] = (columns["temperature_C"] - 21.0) * 3.0
     path = write_log(tmp_path / "bench.csv", columns)
     with pytest.raises(GyroidInputError, match=r"cannot be told apart .*temperature"):
-        load_bench_log(path, "bias,temperature,magnetic_x")
+        BenchProblem.from_log(load_bench_log(path), "bias,temperature,magnetic_x")
 
 
 def test_kelvin_temperatures_are_refused(tmp_path, thermal_columns):
@@ -169,8 +169,7 @@ def test_the_header_alone_is_read_the_same_as_by_the_full_reader(tmp_path):
     # gyroid discrepancy decides bench or roll from the header without parsing the log.
     import numpy as np
 
-    from gyroid.io._logs import write_bench_log
-    from gyroid.io._tables import log_kind, read_header, read_log_table
+    from gyroid.io import log_kind, read_header, read_log_table, write_bench_log
 
     columns = {"time_s": np.arange(5.0), "drift_deg_h": np.ones(5), "temperature_C": np.ones(5)}
     paths = [write_bench_log(tmp_path / name, columns, ["a comment"])
@@ -223,7 +222,7 @@ def test_quoted_header_names_are_read(tmp_path, thermal_columns):
     import pyarrow as pa
     import pyarrow.csv as pacsv
 
-    from gyroid.io._tables import read_header, read_log_table
+    from gyroid.io import read_header, read_log_table
 
     path = tmp_path / "quoted.csv"
     pacsv.write_csv(pa.table({k: np.asarray(v) for k, v in thermal_columns.items()}), path)
@@ -251,7 +250,7 @@ def test_files_that_are_not_csv_text_are_refused(tmp_path, content, name, expect
 
 
 def test_a_gzip_log_is_read_like_the_plain_one(tmp_path, thermal_columns):
-    from gyroid.io._logs import write_bench_log
+    from gyroid.io import write_bench_log
 
     plain = load_bench_log(write_bench_log(tmp_path / "a.csv", thermal_columns), "thermal")
     packed = load_bench_log(write_bench_log(tmp_path / "a.csv.gz", thermal_columns), "thermal")

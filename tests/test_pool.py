@@ -11,13 +11,11 @@ from scipy.stats import multivariate_normal
 
 from gyroid.cli import main
 from gyroid.errors import GyroidInputError
-from gyroid.inference._pool_fit import fit_pool
-from gyroid.inference._pool_problem import PoolProblem
-from gyroid.io._logs import run_labels
-from gyroid.models._priors import LogNormal, Normal
-from gyroid.papers._repeatability import magnetic_repeatability, repeatability_json
-from gyroid.simulation._bench import MagneticProtocol
-from gyroid.simulation._lot import simulate_lot
+from gyroid.inference import PoolProblem, fit_pool
+from gyroid.io import run_labels
+from gyroid.models import LogNormal, Normal
+from gyroid.papers import magnetic_repeatability, repeatability_json
+from gyroid.simulation import MagneticProtocol, simulate_lot
 
 SHORT_MAGNETIC = MagneticProtocol(dwell_s=60.0, sample_s=5.0, turn_gap_s=100.0)
 
@@ -109,7 +107,7 @@ def test_pooled_lot_recovers_the_population_and_its_spread():
 def test_a_run_from_another_population_is_named():
     lot = simulate_lot("magnetic", 6, seed=5, spread=0.1, hours=SHORT_MAGNETIC.duration_s / 3600)
     logs = [r.log for r in lot.runs]
-    from gyroid.simulation._bench import simulate_magnetic_bench
+    from gyroid.simulation import simulate_magnetic_bench
 
     odd = dict(lot.runs[0].truth["parameters"])
     odd["wy"] = lot.population_mean["wy"] + 3.0  # 50 between-run sds away
@@ -199,7 +197,7 @@ def test_pooled_intervals_cover_at_the_nominal_rate():
     population means and between-run sds must cover within the binomial 99.9 % band."""
     from scipy import stats
 
-    from gyroid.simulation._bench import simulate_magnetic_bench
+    from gyroid.simulation import simulate_magnetic_bench
 
     priors = {"w0": Normal(1.0, 0.5), "wx": Normal(0.0, 0.3), "wy": Normal(-0.3, 0.3),
               "wz": Normal(0.0, 0.3)}
@@ -228,8 +226,7 @@ def test_pooled_intervals_cover_at_the_nominal_rate():
 def test_correlated_runs_are_refused_with_advice_pool_can_follow():
     """Runs with Gauss-Markov noise: whiteness fails, and the advice names what works
     (pool has no --noise option)."""
-    from gyroid.simulation._bench import simulate_magnetic_bench
-    from gyroid.simulation._noise import GyroNoise
+    from gyroid.simulation import GyroNoise, simulate_magnetic_bench
 
     noise = GyroNoise(arw_deg_rt_h=0.002, bias_instability_deg_h=0.3, correlation_time_s=600)
     logs = [simulate_magnetic_bench(protocol=SHORT_MAGNETIC, noise=noise, seed=s).log
@@ -238,7 +235,7 @@ def test_correlated_runs_are_refused_with_advice_pool_can_follow():
     check = next(c for c in result.checks.checks if c.name == "residual_whiteness")
     assert not check.passed and check.severity == "error"
     assert "pooling assumes white noise" in check.message
-    assert "refit with --noise" not in check.message
+    assert "refit with --noise" not in check.message and "noise_model" not in check.remedies
     assert not result.trustworthy
 
 

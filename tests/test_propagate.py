@@ -7,12 +7,11 @@ import numpy as np
 import pytest
 
 from gyroid.cli import main
-from gyroid.io._fitted import FittedDrift
+from gyroid.io import FittedDrift
+from gyroid.models import DriftModel, RollParams, constant_flight, run_loop
 from gyroid.models import _paper_b as pb
-from gyroid.models._drift import DriftModel
-from gyroid.models._roll import RollParams, constant_flight, run_loop
-from gyroid.workflows._propagate import propagate
-from gyroid.workflows._scenarios import PRESETS, load_scenario
+from gyroid.workflows import SCENARIOS as PRESETS
+from gyroid.workflows import load_scenario, propagate
 
 CERTAIN = replace(PRESETS["paper_b_worked"], uncompensated_sd_deg_s=0.0, mems_sf_error_sd=0.0,
                   mems_bias_sd_deg_h=0.0, encoder_deg=0.0, encoder_phase="0.0",

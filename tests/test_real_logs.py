@@ -11,10 +11,8 @@ import pytest
 
 from gyroid.cli import main
 from gyroid.inference import Emcee, fit_log
-from gyroid.io._logs import BenchLog, contiguous_segments, load_bench_log
-from gyroid.io._units import parse_column_maps
-from gyroid.workflows._allan import allan_deviation
-from gyroid.workflows._compensate import compensate
+from gyroid.io import BenchLog, contiguous_segments, load_bench_log, parse_column_maps
+from gyroid.workflows import allan_deviation, compensate
 
 LOG = Path(__file__).parent / "data" / "pan_lsm6dsm_tvac_2020-03-07.csv.gz"
 MAP = ["time_s=time (ms):ms", "drift_deg_h=gyrox rad/s:rad/s", "temperature_C=temp_degC"]

@@ -5,8 +5,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from gyroid.models import Flight, RollParams, constant_flight, run_loop
 from gyroid.models import _paper_b as pb
-from gyroid.models._roll import Flight, RollParams, constant_flight, run_loop
 
 
 def _numpy_loop(params: dict, w, w_h, drift, noise, gs_noise, dt, period, rng_deg, phase,
@@ -203,7 +203,7 @@ def _busy_flight(seed: int, n: int, rate: float, period_s: float) -> tuple[RollP
 
 
 def test_period_sums_fast_path_equals_the_full_loop():
-    from gyroid.models._roll import correction_coefficients
+    from gyroid.models import correction_coefficients
 
     params, flight = _busy_flight(1, 3000, 1500.0, 3.0)
     np.testing.assert_allclose(np.asarray(correction_coefficients(params, flight)),
@@ -211,7 +211,7 @@ def test_period_sums_fast_path_equals_the_full_loop():
 
 
 def test_navigation_errors_at_report_samples_equal_the_full_loop():
-    from gyroid.models._roll import navigation_errors
+    from gyroid.models import navigation_errors
 
     params, flight = _busy_flight(2, 4000, 1200.0, 2.5)
     full = run_loop(params, flight)

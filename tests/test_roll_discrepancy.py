@@ -7,9 +7,9 @@ import json
 import pytest
 
 from gyroid.cli import main
-from gyroid.io._roll_log import RollLog
-from gyroid.simulation._flight import FlightProfile, roll_log_text, simulate_flight
-from gyroid.workflows._roll_discrepancy import find_roll_discrepancies
+from gyroid.io import RollLog
+from gyroid.simulation import FlightProfile, roll_log_text, simulate_flight
+from gyroid.workflows import find_roll_discrepancies
 
 pytestmark = pytest.mark.slow  # the whole module: end-to-end fits
 

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from gyroid.workflows._sensitivity import sobol_indices
+from gyroid.workflows import sobol_indices
 
 A, B = 7.0, 0.1
 # Exact indices of f = sin x1 + a sin^2 x2 + b x3^4 sin x1, x_i ~ U(-pi, pi).

@@ -32,8 +32,9 @@ def parse_effects(specs: tuple[str, ...]) -> dict[str, dict[str, float]]:
 def map_option(function):
     return click.option(
         "--map", "mappings", multiple=True, metavar="CONTRACT_COLUMN=LOG_COLUMN[:UNIT]",
-        help="Read a vendor's column as a contract column, converting its unit, e.g. "
-             "drift_deg_h=gyro_x:rad/s, temperature_C=temp:K, Hx_uT=mag_x:G. Repeatable.")(
+        help="Read a vendor's column as one of gyroid's (docs/formats.md section 1), "
+             "converting its unit, e.g. drift_deg_h=gyro_x:rad/s, temperature_C=temp:K, "
+             "Hx_uT=mag_x:G. Repeatable.")(
         function)
 
 
@@ -163,10 +164,37 @@ def fit_options(function):
     return wrapper
 
 
+_FIT_FLAGS = {"noise_model": "--noise white+gm", "segment_means": "--segment-means",
+              "discrepancy": "gyroid discrepancy", "prior": "--prior NAME=normal(MU,SD)"}
+#: How each command acts on a failed check's remedy codes (a code it cannot act on is only
+#: described, in the check's message).
+REMEDY_FLAGS = {
+    "fit": _FIT_FLAGS, "batch": _FIT_FLAGS, "discrepancy": _FIT_FLAGS,
+    "pool": {"segment_means": "--segment-means", "single_fits": "gyroid fit --noise white+gm",
+             "discrepancy": "gyroid discrepancy", "prior": "--prior NAME=normal(MU,SD)"},
+    "roll fit": {"discrepancy": "gyroid discrepancy"},
+}
+
+
+def check_lines(checks, command: str) -> list[str]:
+    """One line per failed check (errors first), with the options of ``command`` that act on
+    its remedies."""
+    flags = REMEDY_FLAGS.get(command, {})
+    lines = []
+    for check in sorted(checks.failed, key=lambda c: c.severity != "error"):
+        tries = [flags[code] for code in check.remedies if code in flags]
+        hint = f" (try: {'; '.join(tries)})" if tries else ""
+        lines.append(f"{check.severity}: {check.name}: {check.message}{hint}")
+    return lines
+
+
 def report_checks(checks) -> None:
-    """Print every failed self-check in one line, then the verdict; exit 3 when the result
-    must not be used (outputs are written first)."""
-    for line in checks.lines():
+    """Print every failed self-check in one line (with this command's options for its
+    remedies), then the verdict; exit 3 when the result must not be used (outputs are
+    written first)."""
+    context = click.get_current_context(silent=True)
+    command = " ".join(context.command_path.split()[1:]) if context is not None else ""
+    for line in check_lines(checks, command):
         click.echo(line, err=True)
     if not checks.trustworthy:
         click.echo(checks.verdict(), err=True)

@@ -265,7 +265,7 @@ def propagate(fit_dir, out, scenario, seed, draws) -> None:
 def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings) -> None:
     """Find what the model TERMS misses in DATA, add it, refit, show the gap shrink.
 
-    DATA is a bench log (contract section 1) or a roll log (section 4: roll_rate_deg_s,
+    DATA is a bench log (docs/formats.md section 1) or a roll log (section 4: roll_rate_deg_s,
     gs_angle_deg), as .csv, .csv.gz or .parquet. Exit code 3 when a self-check of the
     final model fails."""
     from gyroid.io._logs import load_bench_log

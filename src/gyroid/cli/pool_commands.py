@@ -29,7 +29,7 @@ def pool(logs, terms, out, seed, t0_C, prior_choice, prior_items, segment_means,
     """Pool repeated runs (or units) LOGS of one gyro type: the type's coefficients, the
     run-to-run spread (repeatability), each run's shrunk coefficients and the predictive
     for a new run, which 'gyroid compensate --fit OUT' uses. Each log is a bench log of one
-    run (contract section 1); runs are named by file stem, or by folder when stems repeat.
+    run (docs/formats.md section 1); runs are named by file stem, or by folder when stems repeat.
     Exit code 3 when a self-check says the result must not be used."""
     from gyroid.inference._pool_fit import fit_pool
     from gyroid.io._logs import load_bench_log, run_labels

@@ -43,7 +43,7 @@ def roll() -> None:
                    "uncompensated (an overloaded stabiliser).")
 def roll_simulate(out, seed, overrides, roll_profile, rate, duration, period, overload,
                   gs_capacity) -> None:
-    """Simulate a flight with known truth: roll.csv (contract section 4) and truth.json."""
+    """Simulate a flight with known truth: roll.csv (docs/formats.md section 4) and truth.json."""
     from gyroid.io._outputs import json_text
     from gyroid.simulation._flight import FlightProfile, roll_log_text, simulate_flight
 
@@ -72,7 +72,7 @@ def roll_simulate(out, seed, overrides, roll_profile, rate, duration, period, ov
               help="Show the sampler's progress bar.")
 def roll_fit(data, out, seed, mappings, progress) -> None:
     """Fit the loop parameters (D0, D1, D0gs, D1gs, Denc) to a roll log ROLL (.csv, .csv.gz
-    or .parquet; contract section 4). Exit code 3 when a self-check fails."""
+    or .parquet; docs/formats.md section 4). Exit code 3 when a self-check fails."""
     from gyroid.inference._emcee import Emcee
     from gyroid.inference._roll_fit import fit_roll_log
     from gyroid.io._roll_log import load_roll_log

@@ -31,7 +31,7 @@ from gyroid.io._logs import BenchLog
 from gyroid.models._derived import RATE_WINDOW_S
 from gyroid.models._design import least_squares_from_r, with_rows
 from gyroid.models._drift import DriftModel
-from gyroid.models._inputs import T0_C
+from gyroid.models._inputs import DriftInputs
 from gyroid.models._prior_scales import FOG_NOISE_PRIORS
 from gyroid.models._priors import Flat, LogNormal, Normal, Prior, prior_arrays
 
@@ -86,17 +86,16 @@ class BenchDensity(eqx.Module):
         log: BenchLog,
         model: DriftModel,
         priors: tuple[Prior, ...],
+        inputs: DriftInputs,
         *,
         noise: str = "white",
-        t0_C: float = T0_C,
         rate_window_s: float = RATE_WINDOW_S,
         fast: bool = True,
     ) -> BenchDensity:
-        """The density of ``model`` on ``log`` with ``priors`` (model parameters, then the
-        noise model's, in sampling order)."""
+        """The density of ``model`` on ``log`` (whose model inputs are ``inputs``) with
+        ``priors`` (model parameters, then the noise model's, in sampling order)."""
         if noise not in NOISE_MODELS:
             raise GyroidInputError(f"--noise must be one of {', '.join(NOISE_MODELS)}")
-        inputs = log.inputs(t0_C=t0_C, rate_window_s=rate_window_s)
         time_s = np.asarray(log.time_s)
         steps = np.diff(time_s)
         step = float(np.median(steps)) if steps.size else 1.0

@@ -7,6 +7,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
+import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
@@ -17,7 +18,7 @@ from gyroid.inference._problem import AbstractProblem, PointEstimate
 from gyroid.inference._rate_window import choose_rate_window, reads_rate
 from gyroid.io._logs import BenchLog, contiguous_segments
 from gyroid.io._logs import segment_means as means_of_segments
-from gyroid.models._derived import RATE_WINDOW_S
+from gyroid.models._derived import RATE_WINDOW_S, temperature_rate_deg_c_per_h
 from gyroid.models._drift import DriftModel
 from gyroid.models._inputs import T0_C
 from gyroid.models._prior_scales import (
@@ -83,17 +84,23 @@ class BenchProblem(AbstractProblem):
             log, deviations, within_sd = means_of_segments(
                 log, contiguous_segments(np.asarray(log.time_s)))
         model = terms if isinstance(terms, DriftModel) else DriftModel.from_terms(terms)
+        inputs = log.inputs(t0_C=t0_C)  # the one set built (10^7 rows: 0.8 GB)
         if rate_window_s is None:
-            rate_window_s, _ = choose_rate_window(log, model, t0_C=t0_C)
+            rate_window_s, _ = choose_rate_window(log, model, t0_C=t0_C, inputs=inputs)
             choice = "auto" if reads_rate(model) else "default (the model reads no dT/dt)"
         else:
             choice = "given"
+        if rate_window_s != RATE_WINDOW_S and "temperature_C" in log.columns:
+            rate = temperature_rate_deg_c_per_h(np.asarray(log.time_s),
+                                                np.asarray(log.columns["temperature_C"]),
+                                                rate_window_s)
+            inputs = eqx.tree_at(lambda x: x.rate_C_h, inputs, jnp.asarray(rate))
+        model.check_identifiable(inputs, frozenset(log.columns))
         chosen_set = "flat" if flat_prior else prior_set
-        inputs = log.inputs(t0_C=t0_C, rate_window_s=rate_window_s)
         noise_names = _noise_names(noise, log.sigma_deg_h is not None)
         chosen, basis = choose_priors(model, inputs, np.asarray(log.drift_deg_h), noise_names,
                                       prior_set=chosen_set, overrides=priors)
-        density = BenchDensity.from_log(log, model, chosen, noise=noise, t0_C=t0_C,
+        density = BenchDensity.from_log(log, model, chosen, inputs, noise=noise,
                                         rate_window_s=rate_window_s, fast=fast)
         return cls(density=density, log=log, prior_set=chosen_set, prior_basis=basis,
                    rate_window_choice=choice,

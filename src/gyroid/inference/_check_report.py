@@ -15,9 +15,23 @@ from gyroid.models._priors import Flat, Prior
 Severity = Literal["error", "warning"]
 
 
+#: What a failed check may advise, as codes (``Check.remedies``); a command turns the codes
+#: it can act on into its own options (the command line's ``report_checks``).
+REMEDIES = {
+    "noise_model": "model the correlated noise (white+gm)",
+    "segment_means": "fit the bursts' means, one row per burst",
+    "discrepancy": "look for a missing effect (the discrepancy workflow)",
+    "prior": "widen a prior, or choose another prior set",
+    "single_fits": "pooling assumes white noise: fit such runs one by one",
+}
+#: The remedies a bench fit can take; other kinds of fit give their own.
+BENCH_REMEDIES = frozenset({"noise_model", "segment_means", "discrepancy", "prior"})
+
+
 @dataclass(frozen=True)
 class Check:
-    """One self-check: what was measured against what, and one sentence of advice."""
+    """One self-check: what was measured against what, one sentence of advice, and the
+    codes of the remedies that advice names (keys of :data:`REMEDIES`)."""
 
     name: str
     passed: bool
@@ -25,10 +39,12 @@ class Check:
     value: float | None
     threshold: float | None
     message: str
+    remedies: tuple[str, ...] = ()
 
     def to_json(self) -> dict:
-        return {"passed": self.passed, "severity": self.severity, "value": self.value,
-                "threshold": self.threshold, "message": self.message}
+        out = {"passed": self.passed, "severity": self.severity, "value": self.value,
+               "threshold": self.threshold, "message": self.message}
+        return out | ({"remedies": list(self.remedies)} if self.remedies else {})
 
 
 @dataclass(frozen=True)
@@ -51,12 +67,6 @@ class CheckReport:
     def to_json(self) -> dict:
         return {"checks": {c.name: c.to_json() for c in self.checks},
                 "trustworthy": self.trustworthy}
-
-    @classmethod
-    def from_json(cls, record: Mapping) -> CheckReport:
-        """Back from a result's JSON (its ``"checks"`` mapping)."""
-        return cls(tuple(Check(name=name, **fields)
-                         for name, fields in record["checks"].items()))
 
     def lines(self) -> list[str]:
         """One line per failed check, errors first."""
@@ -98,6 +108,8 @@ class FitEvidence:
     hints: Mapping[str, str] = field(default_factory=dict)  # per coefficient: what to vary
     segments: tuple[tuple[int, int], ...] | None = None
     where: Callable[[int], str] | None = None
+    #: The remedies this kind of fit can take (codes of :data:`REMEDIES`).
+    remedies: frozenset[str] = BENCH_REMEDIES
 
 
 def fit_verdict(trustworthy: bool, use: str) -> Check:
@@ -113,11 +125,12 @@ def point_fit_evidence(names: tuple[str, ...], n_model: int, point_u: np.ndarray
                        residuals: np.ndarray, *, noise: str, converged: bool = True,
                        message: str = "converged",
                        segments: tuple[tuple[int, int], ...] | None = None,
-                       where: Callable[[int], str] | None = None) -> FitEvidence:
+                       where: Callable[[int], str] | None = None,
+                       remedies: frozenset[str] = BENCH_REMEDIES) -> FitEvidence:
     """Evidence of a maximum-likelihood fit without priors or posterior (the discrepancy
     workflow's): the checks that need draws report that they do not apply."""
     return FitEvidence(names=tuple(names), n_model=n_model, point_u=np.asarray(point_u),
                        point_converged=converged, point_message=message,
                        priors=tuple(Flat() for _ in names), reference_sd={},
                        residuals=np.asarray(residuals), sigma_given=False, noise=noise,
-                       segments=segments, where=where)
+                       segments=segments, where=where, remedies=remedies)

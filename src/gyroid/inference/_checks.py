@@ -1,4 +1,4 @@
-"""Self-checks: every fit says whether it may be used (contract section 3, "Self-checks").
+"""Self-checks: every fit says whether it may be used (docs/formats.md section 3, "Self-checks").
 
 Written once for every kind of fit. A fit (bench drift, roll loop, and later pooled fits)
 hands :func:`fit_checks` a :class:`FitEvidence`: its parameter names, point estimate and
@@ -54,6 +54,8 @@ from collections.abc import Callable
 import numpy as np
 
 from gyroid.inference._check_report import (  # noqa: F401  (the checks' public surface)
+    BENCH_REMEDIES,
+    REMEDIES,
     Check,
     CheckReport,
     FitEvidence,
@@ -85,7 +87,8 @@ def fit_checks(evidence: FitEvidence) -> CheckReport:
         prior_data_conflict(evidence),
         goodness_of_fit(evidence),
         residual_whiteness(evidence.residuals, segments=evidence.segments,
-                           correlated_noise_modelled=evidence.noise not in ("white",)),
+                           correlated_noise_modelled=evidence.noise not in ("white",),
+                           remedies=evidence.remedies),
         outliers(evidence.residuals, where=evidence.where),
         identifiability(evidence),
     ))
@@ -133,8 +136,9 @@ def point_vs_posterior(evidence: FitEvidence) -> Check:
                f"sd, {name})" if ok else
                f"the point estimate of {name} is {value:.1f} posterior sd from the posterior "
                "mean: the posterior is multimodal or the fit stopped early; do not use either "
-               "until they agree (check the priors, --priors flat, or simplify the model)")
-    return Check("point_vs_posterior", ok, "error", value, POINT_POSTERIOR_SD, message)
+               "until they agree (check the priors, try flat priors, or simplify the model)")
+    return Check("point_vs_posterior", ok, "error", value, POINT_POSTERIOR_SD, message,
+                 () if ok else ("prior",))
 
 
 def _prior_moments(prior: Prior) -> tuple[float, float] | None:
@@ -172,8 +176,8 @@ def prior_data_conflict(evidence: FitEvidence) -> Check:
         form = "lognormal(MEDIAN,LOG_SD)" if isinstance(prior, LogNormal) else "normal(MU,SD)"
         return Check("prior_data_conflict", False, severity, pull, PRIOR_PULL_SD,
                      f"the prior of {name} ({prior.describe()}) disagrees with the log and "
-                     f"pulls its posterior by {pull:.1f} posterior sd; widen it with --prior "
-                     f"{name}={form}, or choose another --priors set")
+                     f"pulls its posterior by {pull:.1f} posterior sd; widen it ({name} = "
+                     f"{form}) or choose another prior set", ("prior",))
     tail, tail_name = worst_tail
     if tail_name is not None and tail > PRIOR_TAIL_SD:
         return Check("prior_data_conflict", False, "warning", tail, PRIOR_TAIL_SD,
@@ -202,13 +206,14 @@ def goodness_of_fit(evidence: FitEvidence) -> Check:
         severity: Severity = "error" if scale > GOF_SCALE_ERROR else "warning"
         message = (f"the residuals are {scale:.2f} times the stated sigma_deg_h: the model "
                    "misses part of the drift or sigma_deg_h is too small, and the intervals "
-                   "are too narrow; run gyroid discrepancy, or drop sigma_deg_h to estimate "
-                   "the noise")
+                   "are too narrow; look for a missing effect, or drop sigma_deg_h to "
+                   "estimate the noise")
     else:
         severity = "warning"
         message = (f"the residuals are only {scale:.2f} times the stated sigma_deg_h: "
                    "sigma_deg_h is too large and the intervals are too wide")
-    return Check("goodness_of_fit", False, severity, scale, 1.0 + band, message)
+    return Check("goodness_of_fit", False, severity, scale, 1.0 + band, message,
+                 ("discrepancy",) if q > 1.0 else ())
 
 
 def block_variance_ratios(z: np.ndarray, min_blocks: int = 16
@@ -248,10 +253,10 @@ def segment_variance_ratio(z: np.ndarray, segments: tuple[tuple[int, int], ...]
 def residual_whiteness(residuals: np.ndarray | None, *,
                        segments: tuple[tuple[int, int], ...] | None = None,
                        correlated_noise_modelled: bool = False,
-                       remedy: str | None = None) -> Check:
-    """Block-variance test of standardised residuals (see the module docstring).
-    ``remedy`` replaces the advice of a severe failure (for a fit whose command has no
-    --noise or --segment-means option)."""
+                       remedies: frozenset[str] = BENCH_REMEDIES) -> Check:
+    """Block-variance test of standardised residuals (see the module docstring). A severe
+    failure advises what this kind of fit can do of ``remedies`` (codes of
+    :data:`~gyroid.inference._check_report.REMEDIES`)."""
     from scipy import stats
 
     if_failed: Severity = "warning" if correlated_noise_modelled else "error"
@@ -281,24 +286,23 @@ def residual_whiteness(residuals: np.ndarray | None, *,
     where = f"{blocks} vary {inflation:.1f}x as much as white noise would (p = {p:.1g})"
 
     if correlated_noise_modelled:
+        advised = ("discrepancy",)
         message = (f"the innovations are still correlated ({where}): an effect is missing or "
-                   "the noise model is too simple; run gyroid discrepancy")
-    elif severe and remedy:
-        message = (f"the residuals are correlated ({where}), so the intervals are too "
-                   f"narrow; {remedy}")
-    elif severe and m == "segment":
-        message = (f"the bias wanders between the log's bursts ({where}), so the intervals are "
-                   "too narrow; refit with --segment-means (one row per burst: the wander "
-                   "becomes the noise), or --noise white+gm")
-    elif severe:
-        message = (f"the residuals are correlated ({where}), so the intervals are too narrow; "
-                   "refit with --noise white+gm, or look for a missing effect with gyroid "
-                   "discrepancy")
-    else:
+                   "the noise model is too simple; look for the missing effect")
+    elif not severe:
+        advised = ()
         message = (f"the residuals are mildly correlated ({where}); the intervals may be up "
                    f"to {math.sqrt(inflation):.2f}x too narrow")
+    else:
+        order = (("segment_means", "noise_model", "single_fits", "discrepancy")
+                 if m == "segment" else ("noise_model", "single_fits", "discrepancy"))
+        advised = tuple(code for code in order if code in remedies)
+        what = ("the bias wanders between the log's bursts" if m == "segment" else
+                "the residuals are correlated")
+        message = (f"{what} ({where}), so the intervals are too narrow; "
+                   + ", or ".join(REMEDIES[code] for code in advised))
     return Check("residual_whiteness", False, severity, inflation, WHITENESS_INFLATION,
-                 message)
+                 message, advised)
 
 
 def outliers(residuals: np.ndarray | None, *,
@@ -336,12 +340,13 @@ def outliers(residuals: np.ndarray | None, *,
     # Isolated excursions are spikes; neighbours beyond z_max are a stretch the model
     # misses (or correlated noise), which removing rows would hide rather than mend.
     in_runs = np.isin(rows - 1, rows) | np.isin(rows + 1, rows)
+    structure = in_runs.mean() > 0.5
     advice = ("most come in runs of neighbouring rows: structure the model or the noise model "
-              "misses, not spikes; run gyroid discrepancy" if in_runs.mean() > 0.5 else
+              "misses, not spikes; look for the missing effect" if structure else
               "remove spikes from the log, or find their cause")
     return Check(name, False, severity, shift, OUTLIER_SHIFT_SD,
                  f"{rows.size} sample(s) lie beyond {z_max:.1f} sd of the model ({named}{more}); "
-                 f"{consequence}; {advice}")
+                 f"{consequence}; {advice}", ("discrepancy",) if structure else ())
 
 
 def identifiability(evidence: FitEvidence) -> Check:

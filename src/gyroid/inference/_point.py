@@ -30,7 +30,7 @@ from gyroid.inference._batching import problem_batcher
 from gyroid.inference._bench_density import BenchDensity
 from gyroid.inference._problem import PointEstimate
 from gyroid.inference._starts import grid_points, start_grid
-from gyroid.models._priors import natural_with_sd
+from gyroid.models._priors import Normal, natural_with_sd
 
 
 def _real_mask(problem: BenchDensity) -> np.ndarray:
@@ -116,7 +116,7 @@ def _linear_gaussian(problem: BenchDensity) -> PointEstimate:
     precision = np.zeros(p)
     mean = np.zeros(p)
     for i, prior in enumerate(problem.priors[:p]):
-        if hasattr(prior, "scale"):
+        if isinstance(prior, Normal):
             precision[i], mean[i] = 1.0 / prior.scale**2, prior.loc
     known = problem.sigma is not None
     scale = 1.0 if known else math.sqrt(float(problem.rss_min) / max(n - p, 1))

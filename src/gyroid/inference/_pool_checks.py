@@ -45,10 +45,8 @@ from gyroid.inference._problem import PointEstimate
 from gyroid.io._logs import contiguous_segments
 from gyroid.models._priors import Normal
 
-#: What to do when a run's residuals are correlated: pooling models white noise only.
-WHITE_NOISE_REMEDY = ("pooling assumes white noise: fit such runs one by one with 'gyroid "
-                      "fit --noise white+gm' (or --segment-means for burst logs), or look "
-                      "for a missing effect with gyroid discrepancy")
+#: What a pooled fit can do about a run's correlated residuals (pooling models white noise).
+POOL_REMEDIES = frozenset({"segment_means", "single_fits", "discrepancy"})
 
 #: Family-wise false-alarm rate of the run-consistency check under the population model.
 RUN_CONSISTENCY_P = 1e-3
@@ -251,7 +249,7 @@ def run_checks(problem: PoolProblem, u_mean: np.ndarray, pooled_mean: np.ndarray
                                    noise="white")
         checks = [goodness_of_fit(run_evidence),
                   residual_whiteness(z, segments=tuple(contiguous_segments(
-                      np.asarray(q.log.time_s))), remedy=WHITE_NOISE_REMEDY),
+                      np.asarray(q.log.time_s))), remedies=POOL_REMEDIES),
                   outliers(z, where=q.log.where)]
         if q.segments is not None:
             sigma = float(np.sqrt(float(q.density.rss_min) / max(q.n - q.n_model, 1)))

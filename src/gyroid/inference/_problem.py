@@ -61,6 +61,9 @@ class AbstractProblem(eqx.Module):
 
     density: eqx.AbstractVar[eqx.Module]
 
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}(parameters={', '.join(self.names)})"
+
     # ----- description ----------------------------------------------------------------------
     @property
     @abc.abstractmethod

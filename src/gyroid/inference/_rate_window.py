@@ -59,15 +59,17 @@ def _design(model: DriftModel, inputs) -> np.ndarray:
 
 
 def choose_rate_window(log: BenchLog, model: DriftModel, *, t0_C: float,
-                       grid: np.ndarray | None = None) -> tuple[float, dict[float, float]]:
-    """The window (s) with the least residual sum of squares, and the RSS per window.
+                       grid: np.ndarray | None = None, inputs=None
+                       ) -> tuple[float, dict[float, float]]:
+    """The window (s) with the least residual sum of squares, and the RSS per window
+    (``inputs``: the log's inputs at ``t0_C``, if the caller has them).
 
     For a linear model only the dT/dt column changes between windows: the other columns'
     design ``A`` is kept (n x (p - 1)) with the R factor of ``[A, y]``, and each window
     costs one product ``A' r`` of its dT/dt ``r``: O(n p), with no Q factor formed."""
     if not reads_rate(model) or not log.has("temperature_C"):
         return RATE_WINDOW_S, {}
-    inputs = log.inputs(t0_C=t0_C)
+    inputs = log.inputs(t0_C=t0_C) if inputs is None else inputs
     time_s = np.asarray(log.time_s)
     temperature = np.asarray(log.columns["temperature_C"])
     weights = 1.0 / np.asarray(log.sigma_deg_h) if log.sigma_deg_h is not None else None

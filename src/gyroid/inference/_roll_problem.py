@@ -1,4 +1,4 @@
-"""The posterior of paper B's loop parameters given a roll log (contract section 4).
+"""The posterior of paper B's loop parameters given a roll log (docs/formats.md section 4).
 
 The SINS output ``w_x`` is inverted for the true rate, ``w = (w_x - D0) / (1 + D1)``, and
 integrated into the roll angle; the stabiliser's angle is then predicted as

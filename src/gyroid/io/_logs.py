@@ -1,4 +1,4 @@
-"""Bench logs (contract section 1): loading with validation, and writing."""
+"""Bench logs (docs/formats.md section 1): loading with validation, and writing."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ from gyroid.errors import GyroidInputError
 from gyroid.io._outputs import atomic_path
 from gyroid.io._tables import (
     PLAUSIBLE,
+    LogTable,
     check_plausible,
     check_time_increasing,
     read_log_table,
@@ -46,7 +47,6 @@ class BenchLog:
     row_name: Callable[[int], str] | None = field(default=None, compare=False, repr=False)
     #: The user's own numeric columns offered as ``extra:COLUMN`` effects (--extra-columns).
     extra_columns: tuple[str, ...] = ()
-    _inputs: dict = field(default_factory=dict, init=False, compare=False, repr=False)
 
     @property
     def n(self) -> int:
@@ -73,17 +73,10 @@ class BenchLog:
 
     def inputs(self, *, t0_C: float = T0_C, rate_window_s: float = RATE_WINDOW_S,
                deadband_uT: float = HYSTERESIS_DEADBAND_UT) -> DriftInputs:
-        """The drift model's inputs, derived quantities included. The last inputs built are
-        kept (one set: a 10^7-row log's are 0.8 GB), since loading, the rate window's
-        choice and the fit ask for the same ones in turn."""
-        key = (float(t0_C), float(rate_window_s), float(deadband_uT))
-        if key not in self._inputs:
-            self._inputs.clear()  # before building: never two sets at once
-            self._inputs[key] = build_inputs(self.columns, t0_C=t0_C,
-                                             extra_columns=self.extra_columns,
-                                             rate_window_s=rate_window_s,
-                                             deadband_uT=deadband_uT)
-        return self._inputs[key]
+        """The drift model's inputs, derived quantities included (built anew each call: a
+        10^7-row log's are 0.8 GB, so a caller keeps the set it needs)."""
+        return build_inputs(self.columns, t0_C=t0_C, extra_columns=self.extra_columns,
+                            rate_window_s=rate_window_s, deadband_uT=deadband_uT)
 
 
 #: A step longer than this many median steps splits the log into segments.
@@ -197,10 +190,33 @@ def load_bench_log(
     ``column_map`` reads a vendor's columns and units as contract columns (``--map``). Every
     needed column must be numeric, finite and plausible in every row; time must increase
     strictly; temperatures must be in degC; ``sigma_deg_h``, where present, must be
-    positive; the selected terms must be identifiable on the log. The first problem found
-    ends the load with a :class:`GyroidInputError` that names the row or column.
+    positive. The first problem found ends the load with a :class:`GyroidInputError` that
+    names the row or column. (Whether the terms are identifiable on the log is the
+    problem's to check: :meth:`gyroid.inference.BenchProblem.from_log`.)
     """
     table = read_log_table(path, tuple(column_map))
+    _check_shape(table)
+    if terms is None or isinstance(terms, DriftModel):
+        model = terms
+    else:
+        model = DriftModel.from_terms(terms if isinstance(terms, str) else tuple(terms))
+    needed = ["time_s", "drift_deg_h"]
+    if model is not None:
+        needed += [c for c in model.columns if c not in needed]
+    columns = _contract_columns(table, needed)
+    wanted = {name[len(EXTRA_PREFIX):] for name in (model.terms if model else ())
+              if name.startswith(EXTRA_PREFIX)}
+    extras = _extra_columns(table, columns, wanted) if extra_columns or wanted else ()
+    log = BenchLog(columns=columns, source=str(table.path), comments=table.comments,
+                   row_name=table.where, extra_columns=extras)
+    if model is not None and log.n <= len(model.parameter_names):
+        raise GyroidInputError(f"{table.path.name}: {log.n} rows cannot identify "
+                               f"{len(model.parameter_names)} coefficients; use a longer log")
+    return log
+
+
+def _check_shape(table: LogTable) -> None:
+    """Refuse a roll log, and a header of one column (a separator gyroid does not read)."""
     if not table.has("drift_deg_h") and all(table.has(c) for c in ROLL_SIGNATURE):
         raise GyroidInputError(f"{table.path.name} is a roll log (it has roll_rate_deg_s and "
                                "gs_angle_deg, no drift_deg_h): use 'gyroid roll fit' (or "
@@ -209,25 +225,25 @@ def load_bench_log(
         raise GyroidInputError(f"{table.path.name}: the header has a single column "
                                f"{table.header[0]!r}; gyroid reads comma-, semicolon- or "
                                "tab-separated logs")
-    if terms is None:
-        model = None
-    elif isinstance(terms, DriftModel):
-        model = terms
-    else:
-        model = DriftModel.from_terms(terms if isinstance(terms, str) else tuple(terms))
-    needed = ["time_s", "drift_deg_h"]
-    if model is not None:
-        needed += [c for c in model.columns if c not in needed]
-    advice = {
-        "time_s": "every log needs the sample time in s; map yours with --map "
-                  "time_s=COLUMN[:UNIT] (units s, ms, us, ns, min, h)",
-        "drift_deg_h": "gyroid always needs the measured drift (gyro output minus the known "
-                       "input rate); map your gyro's column with --map "
-                       "drift_deg_h=COLUMN[:UNIT] (units deg/h, deg/s, mdps, rad/s)",
-    }
+
+
+#: What to do when a column every log needs is missing.
+_ADVICE = {
+    "time_s": "every log needs the sample time in s; map yours with --map "
+              "time_s=COLUMN[:UNIT] (units s, ms, us, ns, min, h)",
+    "drift_deg_h": "gyroid always needs the measured drift (gyro output minus the known "
+                   "input rate); map your gyro's column with --map "
+                   "drift_deg_h=COLUMN[:UNIT] (units deg/h, deg/s, mdps, rad/s)",
+}
+
+
+def _contract_columns(table: LogTable, needed: list[str]) -> dict[str, np.ndarray]:
+    """The needed contract columns (each numeric, finite and plausible in every row), a
+    positive ``sigma_deg_h`` when the log has one, and the other contract columns that are
+    clean (kept for context); time increasing, temperatures in degC."""
     columns: dict[str, np.ndarray] = {}
     for name in needed:
-        columns[name] = table.number_column(name, advice.get(name))
+        columns[name] = table.number_column(name, _ADVICE.get(name))
         check_plausible(table, name, columns[name])
     if table.has("sigma_deg_h"):
         sigma = table.number_column("sigma_deg_h")
@@ -236,11 +252,9 @@ def load_bench_log(
             raise GyroidInputError(
                 f"{table.path.name}: {table.where(int(bad[0]))}, column sigma_deg_h: "
                 f"{sigma[bad[0]]:g} is not a positive noise level; fix it or drop the column "
-                "to let gyroid estimate the noise"
-            )
+                "to let gyroid estimate the noise")
         check_plausible(table, "sigma_deg_h", sigma)
         columns["sigma_deg_h"] = sigma
-    # Known context columns that are clean are kept (e.g. for residual diagnostics).
     for name in BENCH_COLUMNS:
         if name not in columns:
             values = table.try_number_column(name)
@@ -249,32 +263,27 @@ def load_bench_log(
     check_time_increasing(table, columns["time_s"])
     if "temperature_C" in needed:
         check_temperature_celsius(columns["temperature_C"])
-    extras: list[str] = []
-    wanted = {name[len(EXTRA_PREFIX):] for name in (model.terms if model else ())
-              if name.startswith(EXTRA_PREFIX)}
-    if extra_columns or wanted:
-        taken = {m.source for m in table.maps} | set(BENCH_COLUMNS)
-        for name in table.header:
-            if name in taken:
-                continue
-            values = columns[name] if name in columns else table.try_number_column(name)
-            if values is not None and np.ptp(values) > 0:
-                columns[name] = values
-                extras.append(name)
-        for name in sorted(wanted - set(extras)):
-            raise GyroidInputError(f"{table.path.name}: term extra:{name} needs a numeric, "
-                                   f"varying column {name!r}; the header has "
-                                   f"{', '.join(table.header)}")
-    log = BenchLog(columns=columns, source=str(table.path), comments=table.comments,
-                   row_name=table.where, extra_columns=tuple(extras))
-    if model is not None:
-        if log.n <= len(model.parameter_names):
-            raise GyroidInputError(
-                f"{table.path.name}: {log.n} rows cannot identify "
-                f"{len(model.parameter_names)} coefficients; use a longer log"
-            )
-        model.check_identifiable(log.inputs(t0_C=t0_C), set(needed))
-    return log
+    return columns
+
+
+def _extra_columns(table: LogTable, columns: dict[str, np.ndarray], wanted: set[str]
+                   ) -> tuple[str, ...]:
+    """Every other numeric, varying column, added to ``columns`` as a candidate cause
+    (``--extra-columns``); a term ``extra:COLUMN`` in ``wanted`` needs its column."""
+    extras = []
+    taken = {m.source for m in table.maps} | set(BENCH_COLUMNS)
+    for name in table.header:
+        if name in taken:
+            continue
+        values = columns[name] if name in columns else table.try_number_column(name)
+        if values is not None and np.ptp(values) > 0:
+            columns[name] = values
+            extras.append(name)
+    for name in sorted(wanted - set(extras)):
+        raise GyroidInputError(f"{table.path.name}: term extra:{name} needs a numeric, "
+                               f"varying column {name!r}; the header has "
+                               f"{', '.join(table.header)}")
+    return tuple(extras)
 
 
 def _ordered(columns: Mapping[str, np.ndarray]) -> list[str]:

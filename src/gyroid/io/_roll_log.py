@@ -1,4 +1,4 @@
-"""Roll logs (contract section 4): the SINS roll rate, the stabiliser's encoder angle and,
+"""Roll logs (docs/formats.md section 4): the SINS roll rate, the stabiliser's encoder angle and,
 optionally, the stabiliser's MEMS output, read and validated, with a wrapped encoder angle
 unwrapped."""
 
@@ -35,7 +35,7 @@ class RollLog:
 
 
 def load_roll_log(path, column_map=()) -> RollLog:
-    """Read and validate a roll log (contract section 4; .csv, .csv.gz or .parquet).
+    """Read and validate a roll log (docs/formats.md section 4; .csv, .csv.gz or .parquet).
 
     A stabiliser angle that wraps (to [0, 360) or by one whole turn somewhere) is unwrapped
     with a note when every jump is a whole number of turns away from what the SINS rate
@@ -47,8 +47,8 @@ def load_roll_log(path, column_map=()) -> RollLog:
                                "with drift terms")
     time_s = table.number_column("time_s")
     columns = {name: table.number_column(name, "a roll log needs roll_rate_deg_s and "
-                                               "gs_angle_deg (contract section 4); map yours "
-                                               f"with --map {name}=COLUMN[:UNIT]")
+                                               "gs_angle_deg (docs/formats.md section 4); map "
+                                               f"yours with --map {name}=COLUMN[:UNIT]")
                for name in ("roll_rate_deg_s", "gs_angle_deg")}
     gs_rate = table.number_column("gs_rate_deg_s") if table.has("gs_rate_deg_s") else None
     for name, values in (("time_s", time_s), *columns.items(),

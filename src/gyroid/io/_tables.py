@@ -102,17 +102,6 @@ class LogTable:
                 break  # the first bad cell ends the scan: it is what the error names
         return out
 
-    def numeric_columns(self) -> list[str]:
-        """Columns whose every cell is a finite number."""
-        out = []
-        for name in self.header:
-            try:
-                if np.all(np.isfinite(self._floats(name))):
-                    out.append(name)
-            except (TypeError, ValueError):
-                continue
-        return out
-
 
 def _is_float(text: str) -> bool:
     try:
@@ -175,7 +164,7 @@ def read_header(path: str | Path) -> tuple[str, ...]:
 
 
 def log_kind(path: str | Path, maps: tuple[ColumnMap, ...] = ()) -> str:
-    """``"roll"`` for a roll log (contract section 4: roll_rate_deg_s and no drift_deg_h,
+    """``"roll"`` for a roll log (docs/formats.md section 4: roll_rate_deg_s and no drift_deg_h,
     after the column maps), else ``"bench"``; reads the header only."""
     names = {*read_header(path), *(m.target for m in maps)}
     return "roll" if "roll_rate_deg_s" in names and "drift_deg_h" not in names else "bench"

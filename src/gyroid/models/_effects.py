@@ -1,4 +1,4 @@
-"""The registry of named drift effects (contract section 2).
+"""The registry of named drift effects (docs/formats.md section 2).
 
 Each :class:`Effect` declares its parameters (name, unit, default prior), the log columns it
 needs and its contribution to the drift, deg/h, as a pure JAX function of the parameters

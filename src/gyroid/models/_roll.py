@@ -53,7 +53,7 @@ def encoder_terms(Denc, phase_rad):
 
 
 class RollParams(eqx.Module):
-    """Roll-loop error parameters (contract section 4 names)."""
+    """Roll-loop error parameters (docs/formats.md section 4 names)."""
 
     D0: Float[Array, ""] | float = 0.0  # SINS gyro bias, deg/s
     D1: Float[Array, ""] | float = 600e-6  # SINS gyro relative SF error

@@ -1,4 +1,4 @@
-"""The registry of roll-loop effects (paper B; contract section 2), in the bench registry's
+"""The registry of roll-loop effects (paper B; docs/formats.md section 2), in the bench registry's
 form: each effect declares its parameters (name, unit, default prior) with the same
 :class:`~gyroid.models.Parameter` as the drift effects, and whether the discrepancy
 workflow may add it.

@@ -1,4 +1,5 @@
-"""``--terms``: presets and effect names to the effects of a drift model (contract section 2).
+"""``--terms``: presets and effect names to the effects of a drift model (docs/formats.md
+section 2).
 
 ``thermal`` and ``magnetic`` are paper A's two models; ``full`` is both. Any registry effect
 (:mod:`gyroid.models._effects`) or a user's column as ``extra:COLUMN`` may be added by name.

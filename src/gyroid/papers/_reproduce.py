@@ -47,6 +47,10 @@ def paper_b() -> dict:
 
 def audit(a: dict, b: dict) -> list[dict]:
     """Every disagreement found, with the paper, the item, both numbers and a sentence."""
+    return _audit_paper_a(a) + _audit_paper_b(b)
+
+
+def _audit_paper_a(a: dict) -> list[dict]:
     items = []
     row55 = a["table"]["55"]
     off55 = row55["model_published_deg_h"] - row55["dw_deg_h"]
@@ -89,6 +93,11 @@ def audit(a: dict, b: dict) -> list[dict]:
                  f"{len(negative)} of 12 printed coefficients are (e.g. {axis} = {value} for "
                  f"{name}): the signs must come from dw(+300) - dw(-300) without the modulus."),
     })
+    return items
+
+
+def _audit_paper_b(b: dict) -> list[dict]:
+    items = []
     t2 = b["table2"]
     items.append({
         "paper": "B", "item": "Table 2 lateral error at 10 s",

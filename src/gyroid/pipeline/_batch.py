@@ -1,4 +1,4 @@
-"""Many logs of one gyro type fitted at once, one fit per log, on Dask (contract section 3,
+"""Many logs of one gyro type fitted at once, one fit per log, on Dask (docs/formats.md section 3,
 ``gyroid batch``): a production lot of gyros, repeated runs of one unit, or an SBC study.
 
 Each log is fitted in a worker process exactly as ``gyroid fit`` fits it, and its files are
@@ -45,7 +45,7 @@ class BatchResult:
     outcomes: list[LogOutcome]
 
     def to_json(self) -> dict:
-        """``batch.json`` (contract section 3)."""
+        """``batch.json`` (docs/formats.md section 3)."""
         return {"scheduler": self.scheduler, "workers": self.workers,
                 "logs": [o.log for o in self.outcomes],
                 "failed": [{"log": o.log, "message": o.message}

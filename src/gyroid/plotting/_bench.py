@@ -3,34 +3,32 @@ pairs, discrepancy, compensation and Allan deviation."""
 
 from __future__ import annotations
 
-import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from gyroid.io._logs import BenchLog  # noqa: E402
-from gyroid.models._inputs import FIELD_COLUMNS  # noqa: E402
-from gyroid.plotting._style import (  # noqa: E402
-    STYLE,
+from gyroid.io._logs import BenchLog
+from gyroid.models._inputs import FIELD_COLUMNS
+from gyroid.plotting._style import (
     _break_gaps,
     _every,
     _rate_label,
+    figure_style,
     moving_mean,
+    subplots,
 )
 
 
 def thermal_run(
     log: BenchLog, rate_C_h: np.ndarray, true_drift: np.ndarray | None = None,
     rate_window_s: float | None = None,
-) -> plt.Figure:
+) -> Figure:
     """Paper A Fig. 1 style: drift, temperature and its rate against time. The logged
     drift is drawn over the true drift (when known); its noise is shown in its own panel,
     because at the heating peaks' scale it is thinner than a line. ``rate_C_h`` is dT/dt as
     gyroid estimates it from the logged temperature (window ``rate_window_s``)."""
-    with plt.rc_context(STYLE):
+    with figure_style():
         rows = 4 if true_drift is not None else 3
-        fig, axes = plt.subplots(rows, 1, figsize=(6.5, 1.9 * rows + 0.8), sharex=True)
+        fig, axes = subplots(rows, 1, figsize=(6.5, 1.9 * rows + 0.8), sharex=True)
         shown, thinned = _every(log.n)
         hours = ((log.time_s - log.time_s[0]) / 3600.0)[shown]
         drift = np.asarray(log.drift_deg_h)[shown]
@@ -58,11 +56,11 @@ def thermal_run(
         return fig
 
 
-def magnetic_sweep(log: BenchLog, model_deg_h: np.ndarray | None = None) -> plt.Figure:
+def magnetic_sweep(log: BenchLog, model_deg_h: np.ndarray | None = None) -> Figure:
     """Field projections and drift against time for a Helmholtz sweep log, with a fitted
     model's drift over the data when given. Lines break at gaps (the azimuth turn)."""
-    with plt.rc_context(STYLE):
-        fig, axes = plt.subplots(2, 1, figsize=(6.5, 5.0), sharex=True)
+    with figure_style():
+        fig, axes = subplots(2, 1, figsize=(6.5, 5.0), sharex=True)
         shown, thinned = _every(log.n)
         hours = ((log.time_s - log.time_s[0]) / 3600.0)[shown]
         h, drift = _break_gaps(hours, np.asarray(log.drift_deg_h)[shown])
@@ -88,7 +86,7 @@ def magnetic_sweep(log: BenchLog, model_deg_h: np.ndarray | None = None) -> plt.
 
 
 def fit_overview(time_s: np.ndarray, drift: np.ndarray, predictions: np.ndarray,
-                 point_prediction: np.ndarray) -> plt.Figure:
+                 point_prediction: np.ndarray) -> Figure:
     """Data with the modelled drift; the posterior 95 % band of the model about its point
     estimate (at the data's scale it is thinner than a line, so it has its own panel); and
     the residuals against time. ``predictions`` are draws of the model at every
@@ -96,8 +94,8 @@ def fit_overview(time_s: np.ndarray, drift: np.ndarray, predictions: np.ndarray,
     :meth:`~gyroid.inference.BenchFit.predict_draws` gives with that ``every``); long
     logs are drawn thinned the same way."""
     shown, thinned = _every(np.asarray(time_s).size)
-    with plt.rc_context(STYLE):
-        fig, axes = plt.subplots(3, 1, figsize=(6.5, 6.4), sharex=True,
+    with figure_style():
+        fig, axes = subplots(3, 1, figsize=(6.5, 6.4), sharex=True,
                                  gridspec_kw={"height_ratios": [2, 1, 1]})
         hours = ((time_s - time_s[0]) / 3600.0)[shown]
         point = np.asarray(point_prediction)[shown]
@@ -128,13 +126,13 @@ def fit_overview(time_s: np.ndarray, drift: np.ndarray, predictions: np.ndarray,
 
 
 def pair_plot(draws: np.ndarray, names: list[str], units: dict[str, str],
-              truth: dict[str, float] | None = None, max_points: int = 1500) -> plt.Figure:
+              truth: dict[str, float] | None = None, max_points: int = 1500) -> Figure:
     """Corner plot of posterior draws (n, d): histograms and pairwise scatter."""
     d = len(names)
     rng = np.random.default_rng(0)
     pick = rng.choice(draws.shape[0], size=min(max_points, draws.shape[0]), replace=False)
-    with plt.rc_context(STYLE | {"axes.grid": False, "font.size": 7}):
-        fig, axes = plt.subplots(d, d, figsize=(1.6 * d + 1, 1.6 * d + 1), squeeze=False)
+    with figure_style({"axes.grid": False, "font.size": 7}):
+        fig, axes = subplots(d, d, figsize=(1.6 * d + 1, 1.6 * d + 1), squeeze=False)
         for i in range(d):
             for j in range(d):
                 ax = axes[i, j]
@@ -166,7 +164,7 @@ def pair_plot(draws: np.ndarray, names: list[str], units: dict[str, str],
 
 
 def discrepancy_figure(report, regressor_values: np.ndarray | None, regressor_name: str
-                       ) -> plt.Figure:
+                       ) -> Figure:
     """Residuals before/after against time, the regressor that explains them, RMS per step."""
     time_s = np.asarray(report.time_s)
     window = max(60.0, (time_s[-1] - time_s[0]) / 400.0)
@@ -179,8 +177,8 @@ def discrepancy_figure(report, regressor_values: np.ndarray | None, regressor_na
 
     hours = means((time_s - time_s[0]) / 3600.0)
     before, after = means(report.residual_before), means(report.residual_after)
-    with plt.rc_context(STYLE):
-        fig = plt.figure(figsize=(7.5, 6.0))
+    with figure_style():
+        fig = Figure(figsize=(7.5, 6.0))
         grid = fig.add_gridspec(2, 2, height_ratios=[1.2, 1])
         ax = fig.add_subplot(grid[0, :])
         h, b, a = _break_gaps(hours, before, after)
@@ -217,10 +215,10 @@ def discrepancy_figure(report, regressor_values: np.ndarray | None, regressor_na
 
 
 def compensation_figure(time_s: np.ndarray, before: np.ndarray, after: np.ndarray
-                        ) -> plt.Figure:
+                        ) -> Figure:
     """Drift before and after compensation against time."""
-    with plt.rc_context(STYLE):
-        fig, ax = plt.subplots(figsize=(6.5, 3.6))
+    with figure_style():
+        fig, ax = subplots(figsize=(6.5, 3.6))
         hours = (time_s - time_s[0]) / 3600.0
         ax.plot(hours, before, color="0.6", lw=0.5, ls="-", label="logged drift")
         ax.plot(hours, after, color="0.0", lw=0.5, ls="-", label="compensated")
@@ -230,12 +228,12 @@ def compensation_figure(time_s: np.ndarray, before: np.ndarray, after: np.ndarra
         return fig
 
 
-def allan_figure(before, after) -> plt.Figure:
+def allan_figure(before, after) -> Figure:
     """Log-log Allan deviation before and after, with the after-curve's angle random walk
     (slope -1/2 through its shortest tau) and bias-instability level drawn as references
     (the before-curve of a thermal run is the drift itself, not noise: no slope fits it)."""
-    with plt.rc_context(STYLE):
-        fig, ax = plt.subplots(figsize=(5.5, 4.0))
+    with figure_style():
+        fig, ax = subplots(figsize=(5.5, 4.0))
         for adev, style, label in ((before, "s", "before"), (after, "o", "after")):
             ax.fill_between(adev.tau_s, adev.lower_deg_h, adev.upper_deg_h, color="0.85", lw=0)
             ax.loglog(adev.tau_s, adev.adev_deg_h, style + "-", color="0.0" if label == "after"

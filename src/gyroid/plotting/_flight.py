@@ -3,21 +3,19 @@ residuals."""
 
 from __future__ import annotations
 
-import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from gyroid.plotting._style import (  # noqa: E402
-    STYLE,
+from gyroid.plotting._style import (
+    figure_style,
+    subplots,
 )
 
 
-def dk_distribution(dk: np.ndarray, recomputed: float, printed: float) -> plt.Figure:
+def dk_distribution(dk: np.ndarray, recomputed: float, printed: float) -> Figure:
     """Distribution of dK with paper B's recomputed (eq. 7) and printed values marked."""
-    with plt.rc_context(STYLE):
-        fig, ax = plt.subplots(figsize=(5.5, 3.6))
+    with figure_style():
+        fig, ax = subplots(figsize=(5.5, 3.6))
         scaled = dk * 1e6
         lo, hi = np.percentile(scaled, [0.5, 99.5])
         counts, _, _ = ax.hist(scaled[(scaled >= lo) & (scaled <= hi)], bins=60, color="0.6",
@@ -34,12 +32,12 @@ def dk_distribution(dk: np.ndarray, recomputed: float, printed: float) -> plt.Fi
 
 
 def sobol_bars(first: dict[str, float], total: dict[str, float],
-               interactions: dict | None = None) -> plt.Figure:
+               interactions: dict | None = None) -> Figure:
     """First-order and total Sobol indices of dK, with the share left to interactions."""
     names = list(first)
     y = np.arange(len(names))
-    with plt.rc_context(STYLE):
-        fig, ax = plt.subplots(figsize=(5.5, 0.5 * len(names) + 1.2))
+    with figure_style():
+        fig, ax = subplots(figsize=(5.5, 0.5 * len(names) + 1.2))
         ax.barh(y + 0.2, [first[n] for n in names], height=0.4, color="0.2", label="first order")
         ax.barh(y - 0.2, [total[n] for n in names], height=0.4, color="white", edgecolor="0.0",
                 hatch="//", label="total")
@@ -54,10 +52,10 @@ def sobol_bars(first: dict[str, float], total: dict[str, float],
         return fig
 
 
-def roll_residual_figure(time_s: np.ndarray, residual_deg: np.ndarray) -> plt.Figure:
+def roll_residual_figure(time_s: np.ndarray, residual_deg: np.ndarray) -> Figure:
     """Stabiliser angle minus the fitted loop's prediction against time."""
-    with plt.rc_context(STYLE):
-        fig, ax = plt.subplots(figsize=(6.5, 3.2))
+    with figure_style():
+        fig, ax = subplots(figsize=(6.5, 3.2))
         ax.plot(time_s - time_s[0], residual_deg, color="0.3", lw=0.5, ls="-")
         ax.axhline(0.0, color="0.0", lw=0.6, ls=":")
         ax.set_xlabel("time since start, s")
@@ -65,11 +63,11 @@ def roll_residual_figure(time_s: np.ndarray, residual_deg: np.ndarray) -> plt.Fi
         return fig
 
 
-def roll_discrepancy_figure(report) -> plt.Figure:
+def roll_discrepancy_figure(report) -> Figure:
     """Stabiliser-angle residuals before/after the added roll effects, and RMS per step
     (bars from zero)."""
-    with plt.rc_context(STYLE):
-        fig, (ax, ax2) = plt.subplots(1, 2, figsize=(8.0, 3.4),
+    with figure_style():
+        fig, (ax, ax2) = subplots(1, 2, figsize=(8.0, 3.4),
                                       gridspec_kw={"width_ratios": [2, 1]})
         t = report.time_s
         ax.plot(t, report.residual_before, color="0.6", lw=0.6, ls="-", label="baseline")

@@ -2,18 +2,16 @@
 
 from __future__ import annotations
 
-import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from gyroid.plotting._style import (  # noqa: E402
-    STYLE,
+from gyroid.plotting._style import (
+    figure_style,
+    subplots,
 )
 
 
-def paper_a_table(reproduce: dict) -> plt.Figure:
+def paper_a_table(reproduce: dict) -> Figure:
     """Paper A's setpoint table with the printed and the refitted quadratic."""
     a = reproduce["paper_a"]
     rows = a["table"]
@@ -22,8 +20,8 @@ def paper_a_table(reproduce: dict) -> plt.Figure:
     sigma = np.array([rows[s]["sigma_deg_h"] for s in rows])
     grid = np.linspace(setpoints.min() - 2, setpoints.max() + 2, 200)
     t = grid - reproduce["constants"]["t0_C"]
-    with plt.rc_context(STYLE):
-        fig, ax = plt.subplots(figsize=(5.5, 3.8))
+    with figure_style():
+        fig, ax = subplots(figsize=(5.5, 3.8))
         ax.errorbar(setpoints, dw, yerr=sigma, fmt="o", color="0.0", ms=4, capsize=3,
                     label="paper A's table (+/- sigma)")
         for key, style, label in (("published", "--", "printed w0, w1, w2"),
@@ -37,13 +35,13 @@ def paper_a_table(reproduce: dict) -> plt.Figure:
         return fig
 
 
-def paper_b_lateral(reproduce: dict) -> plt.Figure:
+def paper_b_lateral(reproduce: dict) -> Figure:
     """Paper B Table 2: lateral error by eq. 8, exactly, as printed, and the g t^2/2 bound."""
     from gyroid.models import _paper_b as pb
 
     times = np.linspace(0.5, 125.0, 300)
-    with plt.rc_context(STYLE):
-        fig, ax = plt.subplots(figsize=(5.5, 3.8))
+    with figure_style():
+        fig, ax = subplots(figsize=(5.5, 3.8))
         ax.plot(times, pb.lateral_error_eq8_m(pb.SINS_SF_ERROR, pb.TABLE2_ROLL_RATE_DEG_S, times),
                 color="0.0", ls="--", label="eq. 8 in SI (small angle)")
         ax.plot(times, pb.lateral_error_exact_m(pb.SINS_SF_ERROR, pb.TABLE2_ROLL_RATE_DEG_S,
@@ -63,12 +61,12 @@ def paper_b_lateral(reproduce: dict) -> plt.Figure:
         return fig
 
 
-def paper_b_stabiliser(reproduce: dict) -> plt.Figure:
+def paper_b_stabiliser(reproduce: dict) -> Figure:
     """Paper B's ideal-stabiliser angle error (eq. 9): printed, and recomputed."""
     table = reproduce["paper_b"]["table_gs"]
     ts = np.array([float(t) for t in table])
-    with plt.rc_context(STYLE):
-        fig, ax = plt.subplots(figsize=(5.0, 3.4))
+    with figure_style():
+        fig, ax = subplots(figsize=(5.0, 3.4))
         ax.plot(ts, [table[t]["dpsi_gs_printed_deg"] for t in table], "o", color="0.0",
                 label="printed")
         ax.plot(ts, [table[t]["dpsi_gs_deg"] for t in table], "-", color="0.0",

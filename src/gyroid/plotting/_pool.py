@@ -7,7 +7,7 @@ import math
 
 import numpy as np
 
-from gyroid.plotting._style import STYLE, plt
+from gyroid.plotting._style import figure_style, subplots
 
 #: Two-sided 95 % normal quantile (the runs' own intervals: estimate +/- 1.96 sd).
 _Z95 = 1.959964
@@ -26,8 +26,8 @@ def forest_plot(result, *, units: dict[str, str] | None = None, title: str | Non
     columns = min(len(names), 2 if len(names) == 4 else 3)
     rows = math.ceil(len(names) / columns)
     height = 0.6 + 0.28 * (len(labels) + 3)
-    with plt.rc_context(STYLE):
-        fig, axes = plt.subplots(rows, columns, figsize=(3.4 * columns, height * rows),
+    with figure_style():
+        fig, axes = subplots(rows, columns, figsize=(3.4 * columns, height * rows),
                                  squeeze=False, sharey=True)
         y_runs = np.arange(len(labels))[::-1] + 3.0
         for k, name in enumerate(names):

@@ -6,10 +6,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import matplotlib
-
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import numpy as np
+from matplotlib.figure import Figure
 
 STYLE = {
     "figure.dpi": 110,
@@ -23,15 +21,28 @@ STYLE = {
 }
 
 
-def save(fig: plt.Figure, path: Path, *, pdf: bool = False) -> list[Path]:
-    """Save a figure as PNG (and PDF) and close it; returns the written paths."""
+def subplots(*args, figsize: tuple[float, float], **kwargs):
+    """A figure and its axes, as ``pyplot.subplots`` makes them but without pyplot: no
+    backend is chosen and no global figure registry is kept (a figure is a plain object,
+    freed when dropped, and saved by :func:`save`)."""
+    fig = Figure(figsize=figsize)
+    return fig, fig.subplots(*args, **kwargs)
+
+
+def figure_style(overrides: dict | None = None):
+    """The context in which every gyroid figure is drawn (:data:`STYLE`, with
+    ``overrides``)."""
+    return matplotlib.rc_context(STYLE | (overrides or {}))
+
+
+def save(fig: Figure, path: Path, *, pdf: bool = False) -> list[Path]:
+    """Save a figure as PNG (and PDF); returns the written paths."""
     path = Path(path)
     written = [path.with_suffix(".png")]
     fig.savefig(written[0], bbox_inches="tight")
     if pdf:
         written.append(path.with_suffix(".pdf"))
         fig.savefig(written[1], bbox_inches="tight")
-    plt.close(fig)
     return written
 
 
@@ -57,7 +68,13 @@ def plot_step(n: int) -> int:
 def _every(n: int) -> tuple[slice, str]:
     """The samples to draw of ``n`` and a label suffix saying so when thinned."""
     step = plot_step(n)
-    return slice(None, None, step), ("" if step == 1 else f", every {step}th sample drawn")
+    return slice(None, None, step), ("" if step == 1 else f", every {ordinal(step)} sample drawn")
+
+
+def ordinal(k: int) -> str:
+    """2 -> '2nd', 3 -> '3rd', 11 -> '11th', 21 -> '21st'."""
+    suffix = "th" if 10 <= k % 100 <= 20 else {1: "st", 2: "nd", 3: "rd"}.get(k % 10, "th")
+    return f"{k}{suffix}"
 
 
 def moving_mean(values: np.ndarray, window: int) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""Flights of paper B's vehicle with known truth, written as roll logs (contract section 4).
+"""Flights of paper B's vehicle with known truth, written as roll logs (docs/formats.md section 4).
 
 The roll rate follows a profile (constant, a ramp, or a slow oscillation about a mean); the
 SINS roll gyro, the gyrostabiliser's MEMS gyro and its encoder are simulated with

@@ -32,11 +32,12 @@ from gyroid.inference._whitened_fit import ModelFit, NoiseLevels, fit_with_noise
 from gyroid.io._logs import BenchLog, block_means, contiguous_segments
 from gyroid.models import _effects as registry
 from gyroid.models._drift import DriftModel
-from gyroid.models._effects import EFFECTS, EXTRA_PREFIX
+from gyroid.models._effects import EFFECTS, EXTRA_PREFIX, parameter
 from gyroid.models._inputs import T0_C, DriftInputs
 from gyroid.models._terms import resolve_terms
 from gyroid.workflows._discrepancy_report import (
     DiscrepancyReport,
+    Search,
     Step,
     Trial,
     add_while_evidence,
@@ -129,75 +130,95 @@ def find_discrepancies(
     if per_mean > 1:
         say(f"  searching on means of {per_mean} samples ({per_mean * step:.3g} s) ...")
         log = block_means(log, per_mean)
-    of_means = f" (of {per_mean}-sample means)" if per_mean > 1 else ""
     start = DriftModel.from_terms(terms)
     window = _choose_rate_window(log, start, t0_C)
     inputs = log.inputs(t0_C=t0_C, rate_window_s=window)
-    time_s = log.time_s
-    steps_s = jnp.asarray(np.concatenate([[np.median(np.diff(time_s))], np.diff(time_s)]))
-    y = np.asarray(log.drift_deg_h)
+    start.check_identifiable(inputs, frozenset(log.columns))
+    search = _Search(log, inputs, per_mean)
     pool = candidates or tuple(
         [name for name in EFFECTS if name not in start.terms]
         + [EXTRA_PREFIX + column for column in log.extra_columns])
-    regs = regressors(inputs)
+    found = add_while_evidence(
+        search.trial(start, NoiseLevels(1.0, 1e-6, 300.0)), pool,
+        try_adding=search.try_adding, describe=search.describe, n=n_samples,
+        threshold=ADD_THRESHOLD, max_added=max_added, progress=say)
+    say("  testing the final model against a flexible term ...")
+    return search.report(found, window)
 
-    def trial(model: DriftModel, noise: NoiseLevels) -> Trial:
-        fit, new_noise = fit_with_noise(model, inputs, y, steps_s, noise)
+
+class _Search:
+    """The discrepancy search on one log (or its means): its inputs, the fits it compares,
+    the step descriptions and the final report."""
+
+    def __init__(self, log: BenchLog, inputs: DriftInputs, per_mean: int) -> None:
+        self.log, self.inputs, self.per_mean = log, inputs, per_mean
+        time_s = np.asarray(log.time_s)
+        self.time_s = time_s
+        self.steps_s = jnp.asarray(np.concatenate([[np.median(np.diff(time_s))],
+                                                   np.diff(time_s)]))
+        self.y = np.asarray(log.drift_deg_h)
+        self.regs = regressors(inputs)
+        self.of_means = f" (of {per_mean}-sample means)" if per_mean > 1 else ""
+
+    def trial(self, model: DriftModel, noise: NoiseLevels) -> Trial:
+        fit, new_noise = fit_with_noise(model, self.inputs, self.y, self.steps_s, noise)
         return Trial(model.terms, fit.log_likelihood, fit.n_parameters, (fit, new_noise))
 
-    def try_adding(current: Trial, name: str) -> Trial | str:
-        reason = _applicable(name, current.terms, log, inputs)
+    def try_adding(self, current: Trial, name: str) -> Trial | str:
+        reason = _applicable(name, current.terms, self.log, self.inputs)
         if reason:
             return reason
-        return trial(DriftModel(terms=resolve_terms((*current.terms, name))), current.fit[1])
+        return self.trial(DriftModel(terms=resolve_terms((*current.terms, name))),
+                          current.fit[1])
 
-    def describe(best, current, chosen, scores, rivals) -> Step:
+    def describe(self, best, current, chosen, scores, rivals) -> Step:
         before, after = current.fit[0], chosen.fit[0]
-        signature = registry.effect(best).signature
+        effect = registry.effect(best)
         regressor, r = explaining_regressor(before.residual, before.residual - after.residual,
-                                             regs, time_s, signature)
+                                             self.regs, self.time_s, effect.signature)
         follows = (f"residuals follow {regressor} (r = {r:.2f} on 60 s means)"
                    if abs(r) >= MIN_FOLLOW_R else
                    f"the residuals line up with no single logged quantity (at most r = "
                    f"{r:.2f}, with {regressor}, on 60 s means)")
+        size = {name: after.values[name] for name in effect.parameter_names}
+        fitted = ", ".join(f"{name} = {value:.4g} {parameter(name).unit}"
+                           for name, value in size.items())
         evidence = (
-            f"{follows}; adding {best} cuts the RMS{of_means} from {before.rms_ols:.3g} to "
-            f"{after.rms_ols:.3g} deg/h; dBIC = {scores[best]:.1f} (threshold {ADD_THRESHOLD:g})"
+            f"{follows}; adding {best} ({fitted}) cuts the RMS{self.of_means} from "
+            f"{before.rms_ols:.3g} to {after.rms_ols:.3g} deg/h; dBIC = {scores[best]:.1f} "
+            f"(threshold {ADD_THRESHOLD:g})"
             + (f"; nearly interchangeable here with {', '.join(rivals)}" if rivals else "")
             + ("; it is a function of time alone, so it says when, not why: on a longer log "
-               "it may prove a stand-in for a slow cause"
-               if registry.effect(best).reads_only_clock else "")
+               "it may prove a stand-in for a slow cause" if effect.reads_only_clock else "")
         )
         return Step(best, evidence, before.rms_ols, after.rms_ols, scores[best], scores, rivals,
-                    regressor, r)
+                    regressor, r, size)
 
-    search = add_while_evidence(
-        trial(start, NoiseLevels(1.0, 1e-6, 300.0)), pool, try_adding=try_adding,
-        describe=describe, n=n_samples, threshold=ADD_THRESHOLD, max_added=max_added,
-        progress=say)
-    baseline_fit = search.baseline.fit[0]
-    fit_now, noise = search.final.fit
-    say("  testing the final model against a flexible term ...")
-    return DiscrepancyReport(
-        log_kind="bench",
-        unexplained=find_unexplained(log, fit_now, noise, steps_s, regs, ADD_THRESHOLD),
-        checks=_final_checks(log, fit_now, noise, steps_s),
-        baseline_terms=start.terms,
-        final_terms=search.final.terms,
-        steps=search.steps,
-        rms_baseline=baseline_fit.rms_ols,
-        rms_final=min(fit_now.rms_ols, baseline_fit.rms_ols),
-        rms_unit="deg/h" + of_means,
-        threshold_dbic=ADD_THRESHOLD,
-        rate_window_s=window,
-        # The noise of one sample (a mean's white noise is a sample's over sqrt(per_mean)).
-        noise=NoiseLevels(noise.white * math.sqrt(per_mean), noise.gm, noise.tau_s),
-        where=where_largest(time_s, baseline_fit.residual, inputs, noise, log),
-        lines_up_with=correlations(baseline_fit.residual, regs),
-        ambiguous=search.ambiguous,
-        residual_before=baseline_fit.residual,
-        residual_after=fit_now.residual,
-        time_s=time_s,
-        skipped=search.skipped,
-        regressor=_plotted_regressor(search.steps, regs, baseline_fit.residual),
-    )
+    def report(self, found: Search, window: float) -> DiscrepancyReport:
+        baseline_fit = found.baseline.fit[0]
+        fit_now, noise = found.final.fit
+        return DiscrepancyReport(
+            log_kind="bench",
+            unexplained=find_unexplained(self.log, fit_now, noise, self.steps_s, self.regs,
+                                         ADD_THRESHOLD),
+            checks=_final_checks(self.log, fit_now, noise, self.steps_s),
+            baseline_terms=found.baseline.terms,
+            final_terms=found.final.terms,
+            steps=found.steps,
+            rms_baseline=baseline_fit.rms_ols,
+            rms_final=min(fit_now.rms_ols, baseline_fit.rms_ols),
+            rms_unit="deg/h" + self.of_means,
+            threshold_dbic=ADD_THRESHOLD,
+            rate_window_s=window,
+            # The noise of one sample (a mean's white noise is a sample's over sqrt(n)).
+            noise=NoiseLevels(noise.white * math.sqrt(self.per_mean), noise.gm, noise.tau_s),
+            where=where_largest(self.time_s, baseline_fit.residual, self.inputs, noise,
+                                self.log),
+            lines_up_with=correlations(baseline_fit.residual, self.regs),
+            ambiguous=found.ambiguous,
+            residual_before=baseline_fit.residual,
+            residual_after=fit_now.residual,
+            time_s=self.time_s,
+            skipped=found.skipped,
+            regressor=_plotted_regressor(found.steps, self.regs, baseline_fit.residual),
+        )

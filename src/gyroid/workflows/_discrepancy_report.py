@@ -47,10 +47,13 @@ class Step:
     interchangeable_with: list[str]
     regressor: str
     correlation: float
+    #: The added effect's fitted parameters (its size), in their registry units.
+    values: dict[str, float] = field(default_factory=dict)
 
     def to_json(self) -> dict:
         return {
             "effect": self.effect,
+            "values": self.values,
             "evidence": self.evidence,
             "rms_before_deg_h": self.rms_before,
             "rms_after_deg_h": self.rms_after,

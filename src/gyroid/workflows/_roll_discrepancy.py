@@ -14,7 +14,7 @@ from gyroid.inference._problem import PointEstimate
 from gyroid.inference._roll_fit import roll_point_estimate
 from gyroid.inference._roll_problem import RollDensity, RollProblem
 from gyroid.io._roll_log import RollLog
-from gyroid.models._roll_effects import ROLL_EFFECTS, resolve_roll_terms
+from gyroid.models._roll_effects import ROLL_EFFECTS, resolve_roll_terms, roll_parameter
 from gyroid.workflows._discrepancy_report import (
     DiscrepancyReport,
     Step,
@@ -94,13 +94,16 @@ def find_roll_discrepancies(log: RollLog, terms="ideal", *, max_added: int = 3,
         name, _ = max(((k, float(np.corrcoef(change, v)[0, 1])) for k, v in regs.items()
                        if np.ptp(v) > 0), key=lambda kv: abs(kv[1]))
         r = float(np.corrcoef(before.residual, regs[name])[0, 1])
+        size = {p.name: after.point.value[p.name] for p in ROLL_EFFECTS[best].parameters}
+        fitted = ", ".join(f"{k} = {v:.4g} {roll_parameter(k).unit}" for k, v in size.items())
         evidence = (f"the stabiliser-angle residuals follow {name} (r = {r:.2f}); adding "
-                    f"{best} ({ROLL_EFFECTS[best].what}) cuts the RMS from {before.rms:.3g} "
-                    f"to {after.rms:.3g} deg; dBIC = {scores[best]:.1f} (threshold "
-                    f"{ROLL_ADD_THRESHOLD:g})"
+                    f"{best} ({ROLL_EFFECTS[best].what}; {fitted}) cuts the RMS from "
+                    f"{before.rms:.3g} to {after.rms:.3g} deg; dBIC = {scores[best]:.1f} "
+                    f"(threshold {ROLL_ADD_THRESHOLD:g})"
                     + (f"; nearly interchangeable here with {', '.join(rivals)}"
                        if rivals else ""))
-        return Step(best, evidence, before.rms, after.rms, scores[best], scores, rivals, name, r)
+        return Step(best, evidence, before.rms, after.rms, scores[best], scores, rivals, name, r,
+                    size)
 
     candidates = tuple(name for name, e in ROLL_EFFECTS.items() if e.candidate)
     search = add_while_evidence(
