@@ -1,7 +1,15 @@
+import os
+from pathlib import Path
+
 import jax
 import pytest
 
 import gyroid
+
+#: The public real logs the tests read (gyroid's dataset registry finds them there; the
+#: project commits none of them).
+REAL_LOGS = Path(__file__).resolve().parents[2] / "shared" / "data" / "real"
+os.environ.setdefault("GYROID_DATA", str(REAL_LOGS))
 
 # float64 and the persistent compilation cache, as the command line sets them.
 gyroid.configure()

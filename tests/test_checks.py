@@ -75,7 +75,7 @@ def _bursts(n_bursts=25, size=250):
 
 
 def test_bias_wander_between_bursts_fails_the_whiteness_test_and_white_bursts_pass():
-    """A burst-sampled log (25 bursts of 250, as the real TVAC log in tests/data): white
+    """A burst-sampled log (25 bursts of 250, as the real TVAC log, dataset pan_tvac): white
     residuals pass; an offset per burst of 2 / sqrt(250) sd (between-burst variance ratio
     1 + 2**2 = 5; that log measures 2.9, at the edge of what 25 bursts can show) fails, an
     error under white noise; within each burst the residuals are white, so only the segment

@@ -256,3 +256,24 @@ def test_a_gzip_log_is_read_like_the_plain_one(tmp_path, thermal_columns):
     packed = load_bench_log(write_bench_log(tmp_path / "a.csv.gz", thermal_columns), "thermal")
     for name in plain.columns:
         np.testing.assert_array_equal(plain.columns[name], packed.columns[name])
+
+
+def test_a_jittered_clock_is_one_stretch_and_a_real_pause_still_splits_it():
+    """Host time stamps in bursts (the MPU6050 runs: a steady ~99 Hz sensor whose samples
+    arrive 1 ms to 0.5 s apart) once shattered a log into hundreds of 'segments' and crashed
+    the discrepancy search; a pause of seconds is still a gap."""
+    from gyroid.io import contiguous_segments
+
+    rng = np.random.default_rng(0)
+    true = np.arange(60_000) / 99.0
+    arrival = np.maximum.accumulate(true + rng.exponential(0.03, true.size)
+                                    * (rng.random(true.size) < 0.25))
+    arrival += np.arange(arrival.size) * 1e-6  # strictly increasing
+    assert np.mean(np.diff(arrival) > 3 * np.median(np.diff(arrival))) > 0.05
+    assert len(contiguous_segments(arrival)) == 1
+    paused = np.concatenate([arrival[:30_000], arrival[30_000:] + 5.0])
+    assert len(contiguous_segments(paused)) == 2
+    # a regular 10 s log with the odd missing sample is one stretch; a 10 min pause is not
+    regular = np.delete(np.arange(0.0, 20_000.0, 10.0), [50, 51, 700])
+    assert len(contiguous_segments(regular)) == 1
+    assert len(contiguous_segments(np.concatenate([regular, regular[-1] + 600 + regular]))) == 2

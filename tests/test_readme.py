@@ -84,7 +84,7 @@ def test_every_repository_path_the_readme_and_docs_name_exists():
 
 #: Tour commands whose exit code 3 the README announces (a self-check refuses the result);
 #: the real log fitted by its burst means is trusted.
-REFUSED = (("roll", "fit"), ("fit", "tests/data/pan_lsm6dsm_tvac_2020-03-07.csv.gz"))
+REFUSED = (("roll", "fit"), ("fit", "runs/pan_data/pan_tvac.csv"))
 
 
 @pytest.mark.slow

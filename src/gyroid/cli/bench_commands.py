@@ -87,7 +87,7 @@ def simulate(
 ) -> None:
     """Simulate paper A's thermal or magnetic bench with known truth (of any length and
     sample rate with --hours and --rate-hz; a lot of runs with --runs)."""
-    from gyroid.io._logs import write_bench_log
+    from gyroid.io._log_writer import write_bench_log
     from gyroid.io._outputs import json_text
     from gyroid.models._derived import RATE_WINDOW_S
     from gyroid.plotting import magnetic_sweep, save, thermal_run
@@ -148,7 +148,7 @@ def simulate(
 
 def _simulate_lot(bench: str, out: Path, *, runs: int, **options) -> None:
     """Write a simulated lot: OUT/run_NN/bench.csv and truth.json, and OUT/lot.json."""
-    from gyroid.io._logs import write_bench_log
+    from gyroid.io._log_writer import write_bench_log
     from gyroid.io._outputs import json_text
     from gyroid.simulation._lot import simulate_lot
 
@@ -193,8 +193,8 @@ def fit(data, out, options) -> None:
 def compensate(data, fit_dir, out, seed, mappings) -> None:
     """Compensate a new bench log DATA with a fitted drift model; Allan deviation before and
     after. Exit code 3 when a self-check (extrapolation, gain) says not to use it."""
+    from gyroid.io._bench_reader import load_bench_log
     from gyroid.io._fitted import FittedDrift
-    from gyroid.io._logs import load_bench_log
     from gyroid.reports._write import write
     from gyroid.workflows._compensate import compensate as run
 
@@ -268,7 +268,7 @@ def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings) -> N
     DATA is a bench log (docs/formats.md section 1) or a roll log (section 4: roll_rate_deg_s,
     gs_angle_deg), as .csv, .csv.gz or .parquet. Exit code 3 when a self-check of the
     final model fails."""
-    from gyroid.io._logs import load_bench_log
+    from gyroid.io._bench_reader import load_bench_log
     from gyroid.io._roll_log import load_roll_log
     from gyroid.io._tables import log_kind
     from gyroid.reports._write import write

@@ -32,7 +32,8 @@ def pool(logs, terms, out, seed, t0_C, prior_choice, prior_items, segment_means,
     run (docs/formats.md section 1); runs are named by file stem, or by folder when stems repeat.
     Exit code 3 when a self-check says the result must not be used."""
     from gyroid.inference._pool_fit import fit_pool
-    from gyroid.io._logs import load_bench_log, run_labels
+    from gyroid.io._bench_reader import load_bench_log
+    from gyroid.io._logs import run_labels
     from gyroid.models._prior_scales import resolve_prior_option
     from gyroid.reports._write import write
 

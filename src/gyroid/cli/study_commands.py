@@ -9,6 +9,7 @@ import click
 from gyroid.cli.base import (
     cli,
 )
+from gyroid.errors import GyroidInputError
 from gyroid.io._outputs import output_dir
 
 
@@ -40,3 +41,30 @@ def demo(out, seed) -> None:
 
     report = run_demo(out, seed=seed, echo=click.echo)
     click.echo(f"report: {report}")
+
+
+@cli.command()
+@click.argument("name", required=False)
+@click.option("--out", "out", default=None, type=click.Path(file_okay=False, path_type=Path),
+              help="Folder to write the dataset's logs into (NAME.csv each, gyroid's columns, "
+                   "with their provenance as comment lines).")
+def datasets(name, out) -> None:
+    """Public real gyro logs gyroid knows: list them, or with NAME and --out fetch one
+    (into GYROID_DATA or the user's cache, checked by its SHA-256) and write its logs in
+    gyroid's columns (one drift_AXIS_deg_h column per gyro axis)."""
+    from gyroid.io._datasets import DATASETS, data_home, dataset_logs
+    from gyroid.io._log_writer import write_bench_log
+
+    if name is None:
+        for dataset in DATASETS.values():
+            click.echo(f"{dataset.name}: {dataset.description} [{dataset.licence}]")
+        click.echo(f"(kept in {data_home()}; set GYROID_DATA to move it)")
+        return
+    if out is None:
+        raise GyroidInputError("give --out DIR to write the dataset's logs into")
+    logs = dataset_logs(name)
+    with output_dir(out) as stage:
+        for log_name, (columns, comments) in logs.items():
+            write_bench_log(stage / f"{log_name}.csv", columns, comments)
+    click.echo(f"wrote {len(logs)} log(s) of {name} to {out}: "
+               + ", ".join(f"{k}.csv" for k in logs))

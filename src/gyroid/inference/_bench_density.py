@@ -45,6 +45,8 @@ LOO_BLOCK_S = 60.0
 #: At most this many LOO blocks (longer blocks on long logs).
 MAX_LOO_BLOCKS = 500
 _LOG_2PI = math.log(2.0 * math.pi)
+#: The white-noise sd (relative) that makes a left-out row carry no information.
+_UNOBSERVED = 1e12
 
 
 class BenchDensity(eqx.Module):
@@ -79,6 +81,9 @@ class BenchDensity(eqx.Module):
     block_rr: Float[Array, " b"] | None = None
     block_count: Float[Array, " b"] | None = None
     block_log_sigma: Float[Array, " b"] | None = None
+    #: Rows the likelihood reads (1) or leaves out (0): held-out stretches of a predictive
+    #: check, kept in place so that every fold shares one compilation. None: every row.
+    weight: Float[Array, " n"] | None = None
 
     @classmethod
     def from_log(
@@ -170,10 +175,27 @@ class BenchDensity(eqx.Module):
             is_leaf=lambda x: x is None,
         )
 
+    def without_rows(self, held_out: np.ndarray) -> BenchDensity:
+        """The same density with the rows ``held_out`` (a boolean mask) left out of the
+        likelihood: a white row's term is dropped; under white+gm the Kalman filter runs on
+        through them without an observation (exact: the marginal likelihood of the rows
+        kept). The sufficient statistics, which sum every row, are dropped too."""
+        weight = jnp.asarray(~np.asarray(held_out, dtype=bool), dtype=float)
+        none = (None,) * 9
+        return eqx.tree_at(
+            lambda q: (q.weight, q.gram, q.solution, q.rss_min, q.log_sigma_sum, q.block_gram,
+                       q.block_xr, q.block_rr, q.block_count, q.block_log_sigma),
+            self, (weight, *none), is_leaf=lambda x: x is None)
+
     # ----- parameter bookkeeping -------------------------------------------------------
     @property
     def n(self) -> int:
         return int(self.drift.shape[0])
+
+    @property
+    def n_observed(self) -> int:
+        """Rows the likelihood reads."""
+        return self.n if self.weight is None else int(np.sum(np.asarray(self.weight)))
 
     @property
     def noise_names(self) -> tuple[str, ...]:
@@ -233,15 +255,17 @@ class BenchDensity(eqx.Module):
         return white, values
 
     def log_likelihood_rows(self, u: Float[Array, " d"]) -> Float[Array, " n"]:
-        """Log-likelihood of each row (for white+gm: of its innovation)."""
+        """Log-likelihood of each row (for white+gm: of its innovation); 0 for a row left
+        out (:meth:`without_rows`)."""
         residual = self.drift - self.predict(u)
         white, values = self._noise_levels(u)
         if self.noise == "white":
-            return -0.5 * (residual / white) ** 2 - jnp.log(white) - 0.5 * _LOG_2PI
-        innovation, variance = self._innovations(
-            residual, white, values["sigma_gm_deg_h"], values["tau_gm_s"]
-        )
-        return -0.5 * innovation**2 / variance - 0.5 * jnp.log(variance) - 0.5 * _LOG_2PI
+            rows = -0.5 * (residual / white) ** 2 - jnp.log(white) - 0.5 * _LOG_2PI
+        else:
+            innovation, variance = self._innovations(
+                residual, white, values["sigma_gm_deg_h"], values["tau_gm_s"])
+            rows = -0.5 * innovation**2 / variance - 0.5 * jnp.log(variance) - 0.5 * _LOG_2PI
+        return rows if self.weight is None else rows * self.weight
 
     def standardised_residuals(self, u: Float[Array, " d"]) -> Float[Array, " n"]:
         """Residuals over their modelled sd (white) or Kalman innovations over theirs
@@ -256,6 +280,8 @@ class BenchDensity(eqx.Module):
         return innovation / jnp.sqrt(variance)
 
     def _innovations(self, residual, white, sd_gm, tau_s):
+        if self.weight is not None:  # a row left out: no observation (infinite noise)
+            white = jnp.where(self.weight > 0, white, _UNOBSERVED * (1.0 + white + sd_gm))
         return gauss_markov_innovations(residual, self.steps_s, white, sd_gm, tau_s)
 
     def log_likelihood(self, u: Float[Array, " d"]) -> Float[Array, ""]:

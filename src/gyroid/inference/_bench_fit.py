@@ -11,6 +11,7 @@ import numpy as np
 
 from gyroid.inference._batching import problem_batcher
 from gyroid.inference._bench_density import NOISE_UNITS
+from gyroid.inference._bench_predictive import bench_predictive
 from gyroid.inference._bench_problem import BenchProblem
 from gyroid.inference._check_report import Check, CheckReport
 from gyroid.inference._checks import fit_checks, outliers
@@ -194,9 +195,11 @@ def _describe(prior: Prior) -> str:
 
 def bench_checks(problem: BenchProblem, point: PointEstimate, posterior: Posterior | None
                  ) -> CheckReport:
-    """Every self-check of a bench fit: the shared ones on its evidence, and for a fit of
-    segment means the spike check on the samples behind them."""
-    checks = fit_checks(problem.evidence(point, posterior))
+    """Every self-check of a bench fit: the shared ones on its evidence, the predictive check
+    (held-out stretches), and for a fit of segment means the spike check on the samples
+    behind them."""
+    checks = fit_checks(problem.evidence(point, posterior)) + CheckReport((
+        bench_predictive(problem.density, np.asarray(problem.log.time_s)),))
     segments = problem.segments
     if segments is None:
         return checks

@@ -158,9 +158,11 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3) -> PointEstima
     docstring)."""
     if problem.gram is not None:
         return _linear_gaussian(problem)
-    n, p = problem.n, problem.n_model
+    n, p = problem.n_observed, problem.n_model
     known = problem.sigma is not None and problem.noise == "white"
-    weights = 1.0 / problem.sigma if known else jnp.ones(n)
+    weights = 1.0 / problem.sigma if known else jnp.ones(problem.n)
+    if problem.weight is not None:  # rows left out (a predictive check's training fit)
+        weights = weights * problem.weight
     candidates = []
     for start in _starts(problem):
         u_model, rss = _projected(problem, jnp.asarray(start), weights)
@@ -179,10 +181,14 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3) -> PointEstima
     converged, message = _message(result)
     padded = jnp.concatenate([jnp.asarray(u_model), jnp.zeros(len(problem.noise_names))])
     residual = np.asarray(problem.drift) - np.asarray(problem.predict(padded))
+    if problem.weight is not None:
+        residual = residual[np.asarray(problem.weight) > 0]
     if not known:
         # Unknown white level: the residual RMS with n - p degrees of freedom (the exact
         # posterior scale of a linear model under a flat prior); refine the weights once.
         w = np.ones(n) if problem.sigma is None else 1.0 / np.asarray(problem.sigma)
+        if problem.sigma is not None and problem.weight is not None:
+            w = w[np.asarray(problem.weight) > 0]
         scale = math.sqrt(float(np.sum((residual * w) ** 2)) / max(n - p, 1))
         value, result, _, jacobian = _levenberg_marquardt(
             problem, jnp.asarray(u_model), weights / scale
@@ -205,7 +211,8 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3) -> PointEstima
     if not np.all(np.isfinite(sd)):
         converged, message = False, "the covariance at the optimum is singular"
     prediction = np.asarray(problem.predict(jnp.asarray(u)))
-    rms = float(np.sqrt(np.mean((np.asarray(problem.drift) - prediction) ** 2)))
+    kept = slice(None) if problem.weight is None else np.asarray(problem.weight) > 0
+    rms = float(np.sqrt(np.mean(((np.asarray(problem.drift) - prediction)[kept]) ** 2)))
     return PointEstimate(
         names=problem.names,
         u=u,

@@ -8,9 +8,11 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "_arviz": ["arviz as load_arviz", "read_posterior", "write_netcdf"],
     "_fitted": ["FittedDrift"],
     "_logs": [
-        "BENCH_COLUMNS", "BenchLog", "bench_log_text", "contiguous_segments", "load_bench_log",
-        "run_labels", "write_bench_log",
+        "BENCH_COLUMNS", "BenchLog", "contiguous_segments", "gap_threshold", "run_labels",
     ],
+    "_bench_reader": ["load_bench_log"],
+    "_log_writer": ["bench_log_text", "write_bench_log"],
+    "_datasets": ["DATASETS", "data_home", "dataset_logs", "fetch"],
     "_outputs": ["atomic_write_text", "json_text", "output_dir"],
     "_paper_tables": [
         "paper_a_magnetic_coefficients", "paper_a_table_log", "paper_a_thermal_coefficients",

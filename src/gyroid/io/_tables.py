@@ -5,14 +5,14 @@ checks every column gets (finite, plausible, time increasing). CSV parsing is
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
 
 from gyroid.errors import GyroidInputError
 from gyroid.io._csv_reader import arrow_columns, header_names, read_bytes, read_csv, split_head
-from gyroid.io._units import ColumnMap
+from gyroid.io._units import AXIS_COLUMN, ColumnMap, axis_column
 
 
 @dataclass(frozen=True)
@@ -46,6 +46,21 @@ class LogTable:
 
     def has(self, name: str) -> bool:
         return self._source(name)[0] in self.header
+
+    def axes(self) -> tuple[str, ...]:
+        """The gyro axes the log has, by their drift columns ``drift_AXIS_deg_h`` (in the
+        header, or mapped onto with --map)."""
+        names = [*self.header, *(m.target for m in self.maps)]
+        return tuple(dict.fromkeys(m.group(1) for name in names
+                                   if (m := AXIS_COLUMN.match(name)) and self.has(name)))
+
+    def with_axis(self, axis: str) -> LogTable:
+        """The table read with ``axis``'s drift column as ``drift_deg_h`` (its unit map, if
+        any, kept)."""
+        source, mapped = self._source(axis_column(axis))
+        drift = ColumnMap("drift_deg_h", source, mapped.unit if mapped else None)
+        maps = tuple(m for m in self.maps if m.target != "drift_deg_h") + (drift,)
+        return replace(self, maps=maps)
 
     def missing(self, name: str, advice: str) -> GyroidInputError:
         source, mapped = self._source(name)

@@ -4,6 +4,7 @@ stands for which contract column, and the conversion of its unit to the contract
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Iterable
 from dataclasses import dataclass
 
@@ -38,6 +39,21 @@ CONVERSIONS = {
 }
 
 
+#: A gyro axis's drift column (``drift_x_deg_h``): one per axis of a log with several.
+AXIS_COLUMN = re.compile(r"^drift_([a-z0-9]+)_deg_h$")
+
+
+def conversions(target: str) -> dict | None:
+    """The unit conversions of a contract column (an axis's drift column included)."""
+    if AXIS_COLUMN.match(target):
+        return CONVERSIONS["drift_deg_h"]
+    return CONVERSIONS.get(target)
+
+
+def axis_column(axis: str) -> str:
+    return f"drift_{axis}_deg_h"
+
+
 @dataclass(frozen=True)
 class ColumnMap:
     """``--map CONTRACT_COLUMN=LOG_COLUMN[:UNIT]``."""
@@ -49,7 +65,7 @@ class ColumnMap:
     def convert(self, values: np.ndarray) -> np.ndarray:
         if self.unit is None:
             return values
-        return CONVERSIONS[self.target][self.unit](values)
+        return conversions(self.target)[self.unit](values)
 
 
 def parse_column_maps(items: Iterable[str]) -> tuple[ColumnMap, ...]:
@@ -60,14 +76,15 @@ def parse_column_maps(items: Iterable[str]) -> tuple[ColumnMap, ...]:
         target, rest = target.strip(), rest.strip()
         if not sep or not target or not rest:
             raise GyroidInputError(f"--map {item!r}: write CONTRACT_COLUMN=LOG_COLUMN[:UNIT]")
-        if target not in CONVERSIONS:
-            raise GyroidInputError(f"--map {item!r}: {target!r} is not a contract column; use "
-                                   f"one of {', '.join(CONVERSIONS)}")
+        units = conversions(target)
+        if units is None:
+            raise GyroidInputError(f"--map {item!r}: {target!r} is not one of gyroid's columns; "
+                                   f"use one of {', '.join(CONVERSIONS)} or drift_AXIS_deg_h")
         source, _, unit = rest.rpartition(":") if ":" in rest else (rest, "", "")
         unit = unit.strip() or None
-        if unit is not None and unit not in CONVERSIONS[target]:
+        if unit is not None and unit not in units:
             raise GyroidInputError(f"--map {item!r}: unknown unit {unit!r} for {target}; use "
-                                   f"one of {', '.join(CONVERSIONS[target])}")
+                                   f"one of {', '.join(units)}")
         if any(m.target == target for m in maps):
             raise GyroidInputError(f"--map names {target} twice")
         maps.append(ColumnMap(target, source.strip(), unit))

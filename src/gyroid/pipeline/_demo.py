@@ -19,7 +19,7 @@ from gyroid.inference._bench_fit import fit_log
 from gyroid.inference._emcee import Emcee
 from gyroid.inference._pool_fit import fit_pool
 from gyroid.io._fitted import FittedDrift
-from gyroid.io._logs import bench_log_text
+from gyroid.io._log_writer import bench_log_text
 from gyroid.io._outputs import json_text, output_dir
 from gyroid.models._derived import RATE_WINDOW_S
 from gyroid.papers._classic import magnetic_k

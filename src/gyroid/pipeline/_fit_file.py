@@ -13,7 +13,7 @@ from gyroid.errors import GyroidInputError
 from gyroid.inference._bench_density import NOISE_MODELS
 from gyroid.inference._bench_fit import BenchFit, fit_log
 from gyroid.inference._emcee import Emcee
-from gyroid.io._logs import load_bench_log
+from gyroid.io._bench_reader import load_bench_log
 from gyroid.io._outputs import output_dir
 from gyroid.io._units import ColumnMap
 from gyroid.models._inputs import T0_C

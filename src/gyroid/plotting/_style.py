@@ -9,6 +9,8 @@ import matplotlib
 import numpy as np
 from matplotlib.figure import Figure
 
+from gyroid.io._logs import gap_threshold
+
 STYLE = {
     "figure.dpi": 110,
     "savefig.dpi": 150,
@@ -47,12 +49,12 @@ def save(fig: Figure, path: Path, *, pdf: bool = False) -> list[Path]:
 
 
 def _break_gaps(hours: np.ndarray, *series: np.ndarray) -> tuple[np.ndarray, ...]:
-    """Insert NaN rows where the sampling stops for more than 5 intervals, so that lines are
-    not drawn across a gap (e.g. the magnetic bench's azimuth turn)."""
-    steps = np.diff(hours)
-    if steps.size == 0:
+    """Insert NaN rows where the log pauses (:func:`gyroid.io.gap_threshold`), so that lines
+    are not drawn across a gap (e.g. the magnetic bench's azimuth turn)."""
+    hours = np.asarray(hours, dtype=float)
+    if hours.size < 2:
         return (hours, *series)
-    cut = np.flatnonzero(steps > 5.0 * np.median(steps)) + 1
+    cut = np.flatnonzero(np.diff(hours) > gap_threshold(hours * 3600.0) / 3600.0) + 1
     return tuple(np.insert(np.asarray(x, dtype=float), cut, np.nan) for x in (hours, *series))
 
 

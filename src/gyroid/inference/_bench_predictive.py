@@ -1,0 +1,136 @@
+"""The predictive check of a bench fit (:mod:`gyroid.inference._predictive`): each fold left
+out, the drift model refitted on the rest, the fold's part means predicted.
+
+A linear model with white noise is refitted in closed form from per-part sums (one pass
+over the design in blocks of rows, whatever the log's length); any other model by its
+posterior mode with the fold's rows masked (:meth:`BenchDensity.without_rows`)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from gyroid.inference._bench_density import BenchDensity
+from gyroid.inference._check_report import Check
+from gyroid.inference._point import point_estimate
+from gyroid.inference._predictive import (
+    HeldOut,
+    Stretches,
+    gauss_markov_mean_covariance,
+    mean_jacobian,
+    part_means,
+    predictive_check,
+    stretches,
+)
+from gyroid.io._logs import contiguous_segments
+
+
+def bench_predictive(density: BenchDensity, time_s: np.ndarray) -> Check:
+    """The predictive check of a bench log's density (rows at ``time_s``, s)."""
+    segments = tuple(contiguous_segments(np.asarray(time_s)))
+    parts = stretches(density.n, segments if len(segments) > 1 else None)
+    if parts is None:
+        return predictive_check(None)
+    folds = (_linear_folds(density, parts) if density.gram is not None else
+             _refit_folds(density, parts, np.asarray(time_s)))
+    durations = [np.ptp(np.asarray(time_s)[parts.part == s]) for s in range(parts.n_parts)]
+    return predictive_check(folds, part_s=float(np.median(durations)) or None)
+
+
+def _part_sums(density: BenchDensity, parts: Stretches) -> dict[str, np.ndarray]:
+    """Per part: row count, sum of the design rows and of the drift (unweighted, for the
+    means), and the weighted cross products a least-squares fit needs."""
+    p, n_parts = density.n_model, parts.n_parts
+    y = np.asarray(density.drift)
+    sigma = None if density.sigma is None else np.asarray(density.sigma)
+    out = {"count": np.zeros(n_parts), "x": np.zeros((n_parts, p)), "y": np.zeros(n_parts),
+           "xx": np.zeros((n_parts, p, p)), "xy": np.zeros((n_parts, p)),
+           "yy": np.zeros(n_parts), "var": np.zeros(n_parts)}
+    for rows, x in density.model.design_blocks(density.inputs):
+        index, yb = parts.part[rows], y[rows]
+        w2 = np.ones(yb.size) if sigma is None else 1.0 / sigma[rows] ** 2
+        out["count"] += np.bincount(index, minlength=n_parts)
+        out["y"] += np.bincount(index, yb, n_parts)
+        out["yy"] += np.bincount(index, w2 * yb**2, n_parts)
+        if sigma is not None:
+            out["var"] += np.bincount(index, sigma[rows] ** 2, n_parts)
+        for i in range(p):
+            out["x"][:, i] += np.bincount(index, x[:, i], n_parts)
+            out["xy"][:, i] += np.bincount(index, w2 * x[:, i] * yb, n_parts)
+            for j in range(i, p):
+                out["xx"][:, i, j] += np.bincount(index, w2 * x[:, i] * x[:, j], n_parts)
+                out["xx"][:, j, i] = out["xx"][:, i, j]
+    return out
+
+
+def _linear_folds(density: BenchDensity, parts: Stretches) -> list[HeldOut]:
+    """Closed-form refits of a linear model with white noise, one per fold."""
+    sums = _part_sums(density, parts)
+    p = density.n_model
+    on = np.asarray(density.prior_on)[:p]
+    precision = on / np.asarray(density.prior_scale)[:p] ** 2
+    prior_mean = np.asarray(density.prior_loc)[:p]
+    known = density.sigma is not None
+    folds = []
+    for k in range(int(parts.fold_of.max()) + 1):
+        held = parts.fold_of == k
+        train = {key: value[~held].sum(axis=0) for key, value in sums.items()}
+        gram, xy = train["xx"], train["xy"]
+        scale2 = 1.0
+        if not known:
+            solution = np.linalg.lstsq(gram, xy, rcond=None)[0]
+            rss = train["yy"] - 2.0 * solution @ xy + solution @ gram @ solution
+            scale2 = max(float(rss) / max(train["count"] - p, 1.0), 1e-300)
+        a = gram / scale2 + np.diag(precision)
+        covariance = np.linalg.pinv(a)
+        theta = covariance @ (xy / scale2 + precision * prior_mean)
+        counts = sums["count"][held]
+        x_mean = sums["x"][held] / counts[:, None]
+        noise = sums["var"][held] / counts**2 if known else scale2 / counts
+        folds.append(HeldOut(observed=sums["y"][held] / counts, predicted=x_mean @ theta,
+                             covariance=x_mean @ covariance @ x_mean.T + np.diag(noise),
+                             counts=counts,
+                             noise_dof=np.inf if known else float(train["count"] - p)))
+    return folds
+
+
+def _refit_folds(density: BenchDensity, parts: Stretches, time_s: np.ndarray
+                 ) -> list[HeldOut]:
+    """Refits by the posterior mode with each fold's rows masked (any model, any noise
+    model); every fold has the same shapes, so they share one compilation."""
+    p = density.n_model
+    y = np.asarray(density.drift)
+    observed = part_means(y, parts.part, parts.n_parts)
+    counts = np.bincount(parts.part, minlength=parts.n_parts).astype(float)
+    folds = []
+    for k in range(int(parts.fold_of.max()) + 1):
+        held = parts.fold_of == k
+        point = point_estimate(density.without_rows(parts.rows_of_fold(k)))
+        predicted = part_means(np.asarray(density.predict(point.u)), parts.part,
+                               parts.n_parts)
+        jacobian = mean_jacobian(density.predict, point.u[:p], point.u[p:], parts.part,
+                                 parts.n_parts)[held]
+        model = jacobian @ point.covariance_u[:p, :p] @ jacobian.T
+        folds.append(HeldOut(observed=observed[held], predicted=predicted[held],
+                             covariance=model + _noise_covariance(density, point, parts,
+                                                                  time_s)[np.ix_(held, held)],
+                             counts=counts[held]))
+    return folds
+
+
+def _noise_covariance(density: BenchDensity, point, parts: Stretches, time_s: np.ndarray
+                      ) -> np.ndarray:
+    """The noise model's covariance of the parts' means, at the training fit's noise
+    levels."""
+    counts = np.bincount(parts.part, minlength=parts.n_parts).astype(float)
+    if density.sigma is not None:
+        sigma = np.asarray(density.sigma)
+        white = (np.bincount(parts.part, sigma**2, parts.n_parts) / counts**2
+                 if density.noise == "white" else np.median(sigma) ** 2 / counts)
+    else:
+        white = point.value["sigma_deg_h"] ** 2 / counts
+    covariance = np.diag(white)
+    if density.noise == "white+gm":
+        covariance = covariance + gauss_markov_mean_covariance(
+            time_s, parts.part, parts.n_parts, point.value["sigma_gm_deg_h"],
+            point.value["tau_gm_s"])
+    return covariance

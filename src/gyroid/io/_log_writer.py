@@ -1,0 +1,85 @@
+"""Writing bench logs (docs/formats.md section 1): contract CSV (plain or gzip) or parquet,
+atomically and in batches."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+
+import numpy as np
+
+from gyroid.io._logs import BENCH_COLUMNS
+from gyroid.io._outputs import atomic_path
+from gyroid.io._units import AXIS_COLUMN
+
+_UNITS = {
+    "time_s": "s",
+    "drift_deg_h": "deg/h",
+    "temperature_C": "degC",
+    "Hx_uT": "uT",
+    "Hy_uT": "uT",
+    "Hz_uT": "uT",
+    "sigma_deg_h": "deg/h",
+}
+
+
+def _unit(column: str) -> str:
+    return "deg/h" if AXIS_COLUMN.match(column) else _UNITS.get(column, "-")
+
+
+def _ordered(columns: Mapping[str, np.ndarray]) -> list[str]:
+    """Contract columns first (time, a gyro axis's drift columns after the drift), then the
+    log's others."""
+    lead = [c for c in ("time_s", "drift_deg_h") if c in columns]
+    names = lead + [c for c in columns if AXIS_COLUMN.match(c)]
+    names += [c for c in BENCH_COLUMNS if c in columns and c not in names]
+    return names + [c for c in columns if c not in names]
+
+
+def _header_lines(names: list[str], comments: Iterable[str]) -> list[str]:
+    lines = [f"# {c}" for c in comments]
+    lines.append("# units: " + ", ".join(f"{c} [{_unit(c)}]" for c in names))
+    lines.append(",".join(names))
+    return lines
+
+
+def bench_log_text(columns: Mapping[str, np.ndarray], comments: Iterable[str] = ()) -> str:
+    """Render bench-log columns as contract CSV text (known columns first, in order)."""
+    names = _ordered(columns)
+    data = np.column_stack([np.asarray(columns[c], dtype=float) for c in names])
+    body = "\n".join(",".join(f"{v:.10g}" for v in row) for row in data)
+    return "\n".join(_header_lines(names, comments)) + "\n" + body + "\n"
+
+
+#: Rows written per batch by :func:`write_bench_log` (bounds its memory on long logs).
+WRITE_BATCH_ROWS = 1_000_000
+
+
+def write_bench_log(
+    path: str | Path, columns: Mapping[str, np.ndarray], comments: Iterable[str] = ()
+) -> Path:
+    """Write a bench log atomically: ``.csv`` or ``.csv.gz`` (contract CSV with the comment
+    and units lines; values by pyarrow's CSV writer, in batches) or ``.parquet`` (comments
+    in the file's metadata). Memory stays bounded on 10^7-row logs."""
+    import gzip
+
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+    import pyarrow.parquet as pq
+
+    path = Path(path)
+    names = _ordered(columns)
+    table = pa.table({c: np.asarray(columns[c], dtype=float) for c in names})
+    comments = list(comments)
+    with atomic_path(path) as tmp:
+        if path.suffix == ".parquet":
+            meta = {b"gyroid_comments": "\n".join(comments).encode()}
+            pq.write_table(table.replace_schema_metadata(meta), tmp)
+            return path
+        opener = gzip.open if path.name.endswith(".gz") else open
+        options = pacsv.WriteOptions(include_header=False)
+        with opener(tmp, "wb") as handle:
+            handle.write(("\n".join(_header_lines(names, comments)) + "\n").encode())
+            for start in range(0, max(table.num_rows, 1), WRITE_BATCH_ROWS):
+                pacsv.write_csv(table.slice(start, WRITE_BATCH_ROWS), handle, options)
+    return path
