@@ -155,8 +155,10 @@ def test_held_out_bursts_are_compensated_as_well_as_numpy_least_squares(pan_log)
 
     assert _rms(burst_means(comp.compensated_deg_h)) <= 1.15 * _rms(burst_means(plain))
     assert _rms(burst_means(comp.compensated_deg_h)) < 0.2 * _rms(burst_means(constant))
+    # The fit's own verdict, and the held-out bursts themselves: their means wander outside
+    # the per-sample fit's bands.
     failed = {c.name for c in comp.checks.failed}
-    assert failed == {"fit_trustworthy"} and not comp.checks.trustworthy
+    assert failed == {"fit_trustworthy", "predictive"} and not comp.checks.trustworthy
 
 
 def test_a_colder_held_out_third_is_flagged_as_extrapolation(pan_log):

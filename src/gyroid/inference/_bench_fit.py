@@ -97,7 +97,21 @@ class BenchFit:
         draws = self.posterior.draws.reshape(-1, len(self.problem.names))[:, :p]
         return FittedDrift(model=self.problem.model, draws=draws, t0_C=self.t0_C,
                            rate_window_s=float(self.problem.rate_window_s),
-                           trustworthy=self.trustworthy, input_ranges=self.input_ranges)
+                           trustworthy=self.trustworthy, input_ranges=self.input_ranges,
+                           noise=self.noise_levels())
+
+    def noise_levels(self) -> dict:
+        """The noise model and its levels (posterior means, else the point estimate):
+        ``model``, ``white_sd_deg_h`` (a row's white sd; the median of a log's
+        ``sigma_deg_h``), and for white+gm ``sigma_gm_deg_h`` and ``tau_gm_s``."""
+        names = self.problem.noise_names
+        source = (self.posterior.summary if self.posterior is not None else
+                  {n: {"mean": self.point.value[n]} for n in names})
+        levels = {n: source[n]["mean"] for n in names}
+        sigma = self.problem.density.sigma
+        white = (levels["sigma_deg_h"] if sigma is None else
+                 float(np.median(np.asarray(sigma))))
+        return {"model": self.problem.noise, "white_sd_deg_h": white, **levels}
 
     def inference_data(self):
         """ArviZ InferenceData: posterior, block log-likelihoods (LOO), observed data."""
@@ -147,6 +161,7 @@ class BenchFit:
                 "point_sd": {k: point.sd[k] for k in noise_names},
                 "posterior": {},
                 "units": {k: NOISE_UNITS[k] for k in noise_names},
+                "white_sd_deg_h": self.noise_levels()["white_sd_deg_h"],
             },
             "priors": {k: _describe(p) for k, p in zip(problem.names, problem.priors,
                                                          strict=True)},

@@ -150,10 +150,12 @@ def _fold_statistic(fold: HeldOut, group: int) -> tuple[float, int, float, int]:
 
 
 def predictive_check(folds: list[HeldOut] | None, *, name: str = "predictive",
-                     part_s: float | None = None, why_none: str = "") -> Check:
+                     part_s: float | None = None, why_none: str = "",
+                     subject: str | None = None) -> Check:
     """The calibration of held-out means (see the module docstring). Each fold's errors are
     tested on their own (their covariance within the fold is exact; across folds the
-    training sets overlap), the family of folds and scales corrected by Bonferroni."""
+    training sets overlap), the family of folds and scales corrected by Bonferroni.
+    ``subject`` says what was held out (default: the log's stretches)."""
     if not folds:
         return Check(name, True, "error", None, PREDICTIVE_INFLATION,
                      why_none or "the log is too short to hold a stretch out: its bands "
@@ -176,19 +178,20 @@ def predictive_check(folds: list[HeldOut] | None, *, name: str = "predictive",
               f" {worst['group']}-part" if worst["group"] > 1 else "")
     where = (f"{worst['outside']} of {worst['means']} held-out{length} means fall outside "
              f"their 95 % bands (by chance about {0.05 * worst['means']:.1f})")
+    subject = subject or f"held out in {len(folds)} stretches"
     if not failing:
         return Check(name, True, "error", worst["ratio"], PREDICTIVE_INFLATION,
-                     f"held out in {len(folds)} stretches, the fit predicts the data it did "
-                     f"not see within its stated bands ({where}; variance ratio "
-                     f"{worst['ratio']:.2f})")
+                     f"{subject}, the fit predicts the data it did not see within its "
+                     f"stated bands ({where}; variance ratio {worst['ratio']:.2f})")
     inflation = worst["fold_ratio"]
+    stretch = f"in stretch {worst['fold'] + 1} " if len(folds) > 1 else ""
     severity: Severity = "error" if inflation > PREDICTIVE_INFLATION else "warning"
     return Check(name, False, severity, inflation, PREDICTIVE_INFLATION,
-                 f"held out in {len(folds)} stretches, {where}; in stretch "
-                 f"{worst['fold'] + 1} they vary {inflation:.1f}x as much as the fit states "
-                 f"(p = {worst['p']:.1g}): the stated uncertainty does not describe data the "
-                 f"fit has not seen; its bands would have to be {np.sqrt(inflation):.1f}x "
-                 "wider", ("noise_model", "segment_means", "discrepancy"))
+                 f"{subject}, {where}; {stretch}they vary {inflation:.1f}x as much as the "
+                 f"fit states (p = {worst['p']:.1g}): the stated uncertainty does not describe "
+                 f"data the fit has not seen; its bands would have to be "
+                 f"{np.sqrt(inflation):.1f}x wider", ("noise_model", "segment_means",
+                                                      "discrepancy"))
 
 
 def _duration(seconds: float) -> str:

@@ -31,6 +31,10 @@ class FittedDrift:
     #: The range of every input the fit saw ([min, max] by name; see
     #: ``DriftModel.input_ranges``): compensation flags rows beyond them.
     input_ranges: dict[str, list[float]] = field(default_factory=dict)
+    #: The fit's noise model: ``model`` ("white" or "white+gm") and its levels,
+    #: ``white_sd_deg_h`` (a row's white noise), ``sigma_gm_deg_h``, ``tau_gm_s``; what the
+    #: predictive check of a compensation needs (empty: unknown).
+    noise: dict = field(default_factory=dict)
 
     @classmethod
     def from_dir(cls, folder: str | Path) -> FittedDrift:
@@ -51,7 +55,7 @@ class FittedDrift:
         return cls(model=model, draws=np.column_stack(columns), t0_C=fit.get("t0_C", T0_C),
                    rate_window_s=float(fit.get("rate_window_s", RATE_WINDOW_S)),
                    trustworthy=bool(fit.get("trustworthy", True)),
-                   input_ranges=fit.get("input_ranges", {}))
+                   input_ranges=fit.get("input_ranges", {}), noise=_noise_of(fit))
 
 
     @classmethod
@@ -73,4 +77,19 @@ class FittedDrift:
                    rate_window_s=float(np.median(windows)) if windows else RATE_WINDOW_S,
                    trustworthy=bool(pool.get("trustworthy", True)),
                    source="pool: predictive for a new run",
-                   input_ranges=pool.get("input_ranges", {}))
+                   input_ranges=pool.get("input_ranges", {}),
+                   noise=({"model": "white", "white_sd_deg_h": float(np.median(
+                       [s["mean"] for s in pool["noise"].values()]))}
+                          if pool.get("noise") else {}))
+
+
+def _noise_of(fit: dict) -> dict:
+    """The noise model a fit.json records (posterior means, or the point estimate)."""
+    noise = fit.get("noise", {})
+    levels = {k: v["mean"] for k, v in (noise.get("posterior") or {}).items()} or dict(
+        noise.get("point") or {})
+    if "white_sd_deg_h" in noise:
+        levels["white_sd_deg_h"] = noise["white_sd_deg_h"]
+    elif "sigma_deg_h" in levels:
+        levels["white_sd_deg_h"] = levels["sigma_deg_h"]
+    return {"model": noise.get("model", "white"), **levels} if levels else {}

@@ -18,8 +18,15 @@ import numpy as np
 
 from gyroid.errors import GyroidInputError
 from gyroid.inference._checks import Check, CheckReport, fit_verdict
+from gyroid.inference._predictive import (
+    HeldOut,
+    gauss_markov_mean_covariance,
+    part_means,
+    predictive_check,
+    stretches,
+)
 from gyroid.io._fitted import FittedDrift
-from gyroid.io._logs import BenchLog
+from gyroid.io._logs import BenchLog, contiguous_segments
 from gyroid.models._effects import EXTRA_PREFIX, effect
 from gyroid.workflows._allan import AllanDeviation, allan_deviation
 
@@ -116,7 +123,8 @@ def compensate(log: BenchLog, fitted: FittedDrift, *, max_draws: int = 400, seed
         "posterior_draws_used": int(draws.shape[0]),
         "rows": int(drift.size),
     }
-    checks = compensation_checks(drift, compensated, outside, fitted.trustworthy)
+    checks = compensation_checks(drift, compensated, outside, fitted.trustworthy) + \
+        CheckReport((compensation_predictive(log, fitted, predictions),))
     summary.update(checks.to_json())
     return Compensation(log, model, sd, compensated, summary, before, after, checks)
 
@@ -153,6 +161,41 @@ def compensation_checks(drift: np.ndarray, compensated: np.ndarray, outside: lis
         f"compensation makes the drift's spread about its mean {ratio:.2f}x larger than "
         "removing a constant would: do not use this model on this log")
     return CheckReport((extrapolation, gain, fit_verdict(fit_trustworthy, "compensating with it")))
+
+
+def compensation_predictive(log: BenchLog, fitted: FittedDrift, predictions: np.ndarray
+                            ) -> Check:
+    """The predictive check of a compensation: the compensated drift's means over parts of
+    the new log (up to 16, whole bursts for a log of bursts) against the fit's bands: the
+    model's uncertainty (the covariance of the parts' means over the posterior draws) plus
+    the fit's noise model's covariance of those means (:mod:`gyroid.inference._predictive`).
+    A fit whose stated uncertainty describes this log passes; a log that departs from it
+    (another unit, wander the fit's noise model lacks) fails, saying by how much."""
+    noise = fitted.noise
+    time_s = np.asarray(log.time_s)
+    segments = tuple(contiguous_segments(time_s))
+    parts = stretches(log.n, segments if len(segments) > 1 else None, folds=1)
+    if parts is None or not noise:
+        return predictive_check(None, why_none=(
+            "the fit's noise model is unknown (an old fit folder?): the bands are not tested "
+            "on this log" if not noise else ""))
+    means = np.stack([part_means(row, parts.part, parts.n_parts) for row in predictions])
+    model_cov = np.cov(means, rowvar=False) if means.shape[0] > 1 else np.zeros(
+        (parts.n_parts,) * 2)
+    counts = np.bincount(parts.part, minlength=parts.n_parts).astype(float)
+    sigma = log.sigma_deg_h
+    white = (np.bincount(parts.part, np.asarray(sigma) ** 2, parts.n_parts) / counts**2
+             if sigma is not None else noise["white_sd_deg_h"] ** 2 / counts)
+    covariance = np.atleast_2d(model_cov) + np.diag(white)
+    if noise.get("model") == "white+gm":
+        covariance = covariance + gauss_markov_mean_covariance(
+            time_s, parts.part, parts.n_parts, noise["sigma_gm_deg_h"], noise["tau_gm_s"])
+    held = HeldOut(observed=part_means(np.asarray(log.drift_deg_h), parts.part,
+                                       parts.n_parts),
+                   predicted=means.mean(axis=0), covariance=covariance, counts=counts)
+    durations = [np.ptp(time_s[parts.part == s]) for s in range(parts.n_parts)]
+    return predictive_check([held], part_s=float(np.median(durations)) or None,
+                            subject="on this log, which the fit did not see")
 
 
 def _input_values(name: str, inputs) -> np.ndarray:
