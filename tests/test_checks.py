@@ -225,3 +225,52 @@ def test_advice_names_only_what_the_kind_of_fit_can_do():
         "(try: --noise white+gm; gyroid discrepancy)")
     assert "--noise" not in check_lines(CheckReport((bench,)), "roll fit")[0]
     assert "--noise" not in check_lines(CheckReport((roll,)), "roll fit")[0]
+
+
+def test_a_handful_of_spikes_cannot_hide_correlated_residuals():
+    """The Astro Pi log: six handling samples (0.05 % of rows) had doubled and quintupled the
+    estimated noise, and that inflated scale hid the correlated residuals of all the rest
+    (issue 25). The whiteness test now leaves spikes out, and the outliers check rates them
+    by their share of the residual variance too."""
+    from gyroid.inference import block_variance_ratios
+
+    rng = np.random.default_rng(5)
+    z = rng.standard_normal(24_000) + 0.3 * _ar1(rng, 24_000, 0.995)
+    z /= z.std()
+    spiky = z.copy()
+    spiky[[3000, 3500, 9000, 12_000, 15_000, 20_000]] = [400, -300, 350, 380, -420, 300]
+    spiky /= spiky.std()  # what a fit that estimates its noise level divides by
+    assert max(r for _, r, _ in block_variance_ratios(spiky)) < 2.0  # blind before
+    check = residual_whiteness(spiky)
+    assert not check.passed and check.severity == "error" and check.value > 2.0
+    rated = outliers(spiky)
+    assert rated.severity == "error" and "% of the residual variance" in rated.message
+    # Heavy-tailed noise is not a handful of spikes: Student-t (3 dof) typically leaves a
+    # quarter of the variance beyond the threshold (over 200 seeds: 90 % below 0.30).
+    t3 = rng.standard_t(3, 24_000)
+    assert "% of the residual variance" not in outliers(t3 / t3.std()).message
+
+
+@pytest.mark.parametrize(("column", "scale", "offset", "names"), [
+    ("drift_deg_h", 1 / 3600, 0.0, "COLUMN:deg/s"),  # a MEMS rate in deg/s under deg/h
+    ("temperature_C", 9 / 5, 32.0, "COLUMN:degF"),  # a room's temperature in degF
+    ("time_s", 1000.0, 0.0, "COLUMN:ms"),  # a 1 Hz clock in ms
+])
+def test_a_column_in_the_wrong_unit_is_named(column, scale, offset, names):
+    """Units silently wrong (issue 25): each once gave a confident answer; now the units
+    check says what the log implies and which unit to map. (A consumer MEMS gyro at 100 Hz,
+    0.3 deg/sqrt(h): in deg/s its noise would be a strategic FOG's. Sampled at 1 Hz it could
+    pass for a navigation FOG: there the check cannot tell.)"""
+    from gyroid.inference._plausibility import units_sanity
+    from gyroid.io import BenchLog
+
+    rng = np.random.default_rng(0)
+    time_s = np.arange(0.0, 720.0, 0.01) if column == "drift_deg_h" else np.arange(7200.0)
+    columns = {"time_s": time_s,
+               "drift_deg_h": 16_000 + 0.3 * 60 / np.sqrt(np.median(np.diff(time_s)))
+               * rng.standard_normal(time_s.size),
+               "temperature_C": 24.0 + 0.3 * time_s / time_s[-1]}
+    assert units_sanity(BenchLog(columns)).passed
+    columns[column] = columns[column] * scale + offset
+    check = units_sanity(BenchLog(columns))
+    assert not check.passed and check.severity == "warning" and names in check.message

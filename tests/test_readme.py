@@ -15,17 +15,20 @@ ROOT = Path(__file__).parent.parent
 README = (ROOT / "README.md").read_text()
 
 
-def _commands() -> list[list[str]]:
-    """Every `gyroid ...` command of the README's bash blocks, as argument lists."""
+def _commands(with_exit: bool = False) -> list:
+    """Every `gyroid ...` command of the README's bash blocks, as argument lists (with the
+    exit code a trailing comment ``# exit N ...`` announces, else 0)."""
     commands = []
     for block in re.findall(r"```bash\n(.*?)```", README, flags=re.S):
         text = block.replace("\\\n", " ")
         for line in text.splitlines():
-            line = line.split("  #")[0].strip()
-            for part in line.split("&&"):
+            line, _, comment = line.partition("  #")
+            announced = re.match(r"\s*exit (\d)", comment)
+            for part in line.strip().split("&&"):
                 words = shlex.split(part.strip())
                 if words and words[0] == "gyroid":
-                    commands.append(words[1:])
+                    code = int(announced.group(1)) if announced else 0
+                    commands.append((words[1:], code) if with_exit else words[1:])
     return commands
 
 
@@ -82,23 +85,18 @@ def test_every_repository_path_the_readme_and_docs_name_exists():
     assert not missing, f"the README names paths that are not in the repository: {missing}"
 
 
-#: Tour commands whose exit code 3 the README announces (a self-check refuses the result);
-#: the real log fitted by its burst means is trusted.
-REFUSED = (("roll", "fit"), ("fit", "runs/pan_data/pan_tvac.csv"))
-
-
 @pytest.mark.slow
 def test_the_tour_runs_as_written(tmp_path, monkeypatch):
-    """Every README command, top to bottom, in a fresh folder (about 2 minutes); the Python
-    block too."""
+    """Every README command, top to bottom, in a fresh folder, with the exit code the README
+    announces for it (``# exit 3``: a self-check refuses the result); the Python block
+    too."""
     from gyroid.cli import main
 
     (tmp_path / "tests").symlink_to(ROOT / "tests")
     monkeypatch.chdir(tmp_path)
-    for args in _commands():
+    for args, expected in _commands(with_exit=True):
         if args[:1] == ["demo"]:
             continue  # the first set-up command; test_demo covers it
-        expected = 3 if tuple(args[:2]) in REFUSED and "--segment-means" not in args else 0
         # The shell would expand a glob such as runs/lot/run_*/bench.csv.
         expanded = [m for w in args for m in (sorted(glob.glob(w)) if "*" in w else [w])]
         assert main(expanded) == expected, f"gyroid {' '.join(args)}"

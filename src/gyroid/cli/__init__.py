@@ -33,6 +33,10 @@ def main(argv: list[str] | None = None) -> int:
     except click.exceptions.Abort:
         click.echo("gyroid: aborted", err=True)
         return 130
+    except click.UsageError as error:  # a bad option or argument: one line, as for bad input
+        where = f" (see '{error.ctx.command_path} --help')" if error.ctx is not None else ""
+        click.echo(f"gyroid: error: {error.format_message()}{where}", err=True)
+        return 2
     except click.ClickException as error:
         error.show()
         return error.exit_code

@@ -8,6 +8,28 @@ import click
 from gyroid.errors import GyroidInputError, UntrustworthyResult
 
 
+class FiniteFloat(click.FloatRange):
+    """A float in a range that is a number (click's FloatRange lets nan through)."""
+
+    name = "finite float"
+
+    def convert(self, value, param, ctx):
+        import math
+
+        number = super().convert(value, param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{value!r} is not a finite number", param, ctx)
+        return number
+
+
+#: A random seed: what NumPy's and JAX's generators take.
+SEED = click.IntRange(0, 2**32 - 1)
+#: A reference temperature, degC.
+TEMPERATURE = FiniteFloat(-273.15, 1000.0, min_open=True)
+#: A positive number (durations, rates, periods).
+POSITIVE = FiniteFloat(0.0, min_open=True)
+
+
 def parse_assignments(text: str, what: str) -> dict[str, float]:
     values: dict[str, float] = {}
     for item in filter(None, (s.strip() for s in text.split(","))):
@@ -140,12 +162,12 @@ def fit_options(function):
 
     for decorate in reversed((
         terms_option(),
-        click.option("--seed", default=0, show_default=True, type=int,
+        click.option("--seed", default=0, show_default=True, type=SEED,
                      help="Random seed of emcee."),
         click.option("--noise", type=click.Choice(["white", "white+gm"]), default="white",
                      show_default=True, help="Noise model: white, or white plus a "
                      "Gauss-Markov (bias-instability) part."),
-        click.option("--t0", "t0_C", default=21.0, show_default=True, type=float,
+        click.option("--t0", "t0_C", default=21.0, show_default=True, type=TEMPERATURE,
                      help="Reference temperature t0, degC (t = T - t0)."),
         prior_options,
         click.option("--flat-prior", is_flag=True, help="Same as --priors flat."),

@@ -8,6 +8,9 @@ from pathlib import Path
 import click
 
 from gyroid.cli.base import (
+    POSITIVE,
+    SEED,
+    TEMPERATURE,
     cli,
     fit_options,
     map_option,
@@ -31,7 +34,7 @@ from gyroid.io._outputs import output_dir
     type=click.Path(file_okay=False, path_type=Path),
     help="Folder to write bench.csv, truth.json and bench.png into.",
 )
-@click.option("--seed", default=0, show_default=True, type=int, help="Random seed.")
+@click.option("--seed", default=0, show_default=True, type=SEED, help="Random seed.")
 @click.option(
     "--set",
     "overrides",
@@ -70,11 +73,11 @@ from gyroid.io._outputs import output_dir
     type=float,
     help="Write window averages over this many seconds (paper A: 60), with sigma_deg_h.",
 )
-@click.option("--hours", default=None, type=float,
+@click.option("--hours", default=None, type=POSITIVE,
               help="Stretch the bench's schedule to last this long, h (every phase alike).")
-@click.option("--rate-hz", "rate_hz", default=None, type=float,
+@click.option("--rate-hz", "rate_hz", default=None, type=POSITIVE,
               help="Sample rate, Hz (default: the paper's 1 Hz).")
-@click.option("--runs", default=1, show_default=True, type=int,
+@click.option("--runs", default=1, show_default=True, type=click.IntRange(1),
               help="Simulate a lot of this many runs (or units) of one gyro type, each "
                    "with its own coefficients drawn from the population, into "
                    "OUT/run_NN/bench.csv, with the lot's truth in OUT/lot.json.")
@@ -187,7 +190,7 @@ def fit(data, out, options) -> None:
               help="The --out folder of 'gyroid fit' (fit.json and posterior.nc).")
 @click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder for compensated.csv, compensate.json and figures.")
-@click.option("--seed", default=0, show_default=True, type=int,
+@click.option("--seed", default=0, show_default=True, type=SEED,
               help="Seed for choosing posterior draws.")
 @map_option
 def compensate(data, fit_dir, out, seed, mappings) -> None:
@@ -217,8 +220,8 @@ def compensate(data, fit_dir, out, seed, mappings) -> None:
 @click.option("--scenario", default=None, metavar="NAME|FILE",
               help="A preset (paper_b_worked, paper_b_worked_stabiliser, ideal_stabiliser, "
                    "table2) or a JSON/TOML file of scenario fields. Default: paper_b_worked.")
-@click.option("--seed", default=0, show_default=True, type=int, help="Random seed.")
-@click.option("--draws", default=2000, show_default=True, type=int,
+@click.option("--seed", default=0, show_default=True, type=SEED, help="Random seed.")
+@click.option("--draws", default=2000, show_default=True, type=click.IntRange(10),
               help="Monte-Carlo draws for the distributions.")
 def propagate(fit_dir, out, scenario, seed, draws) -> None:
     """Push a fit's posterior through paper B's correction loop: dK, roll and lateral error."""
@@ -253,9 +256,9 @@ def propagate(fit_dir, out, scenario, seed, draws) -> None:
                    "gs_rate_leak, encoder_error, sf_nonlinearity).")
 @click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder for discrepancy.json and discrepancy.png.")
-@click.option("--t0", "t0_C", default=21.0, show_default=True, type=float,
+@click.option("--t0", "t0_C", default=21.0, show_default=True, type=TEMPERATURE,
               help="Reference temperature t0, degC.")
-@click.option("--max-added", default=3, show_default=True, type=int,
+@click.option("--max-added", default=3, show_default=True, type=click.IntRange(0),
               help="Stop after adding this many effects.")
 @click.option("--extra-columns", is_flag=True,
               help="Offer every other numeric column of the log (pressure, supply voltage, "
@@ -302,7 +305,7 @@ def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings) -> N
 @click.argument("logs", nargs=-1, required=True, type=click.Path(path_type=Path))
 @click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder for one sub-folder of fit files per log, batch.csv and batch.json.")
-@click.option("--workers", default=2, show_default=True, type=int,
+@click.option("--workers", default=2, show_default=True, type=click.IntRange(1),
               help="Worker processes of the local Dask cluster.")
 @click.option("--scheduler", default=None, metavar="ADDRESS",
               help="An existing Dask scheduler (e.g. tcp://host:8786) instead of a local "

@@ -6,7 +6,16 @@ from pathlib import Path
 
 import click
 
-from gyroid.cli.base import cli, map_option, parse_maps, prior_options, report_checks, terms_option
+from gyroid.cli.base import (
+    SEED,
+    TEMPERATURE,
+    cli,
+    map_option,
+    parse_maps,
+    prior_options,
+    report_checks,
+    terms_option,
+)
 from gyroid.io._outputs import output_dir
 
 
@@ -15,8 +24,8 @@ from gyroid.io._outputs import output_dir
 @terms_option()
 @click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder for pool.json, posterior.nc and forest.png.")
-@click.option("--seed", default=0, show_default=True, type=int, help="Random seed of NUTS.")
-@click.option("--t0", "t0_C", default=21.0, show_default=True, type=float,
+@click.option("--seed", default=0, show_default=True, type=SEED, help="Random seed of NUTS.")
+@click.option("--t0", "t0_C", default=21.0, show_default=True, type=TEMPERATURE,
               help="Reference temperature t0, degC (t = T - t0).")
 @prior_options
 @click.option("--segment-means", is_flag=True,

@@ -7,6 +7,7 @@ from pathlib import Path
 import click
 
 from gyroid.cli.base import (
+    SEED,
     cli,
     map_option,
     parse_assignments,
@@ -25,7 +26,7 @@ def roll() -> None:
 @roll.command("simulate")
 @click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder to write roll.csv and truth.json into.")
-@click.option("--seed", default=0, show_default=True, type=int, help="Random seed.")
+@click.option("--seed", default=0, show_default=True, type=SEED, help="Random seed.")
 @click.option("--set", "overrides", default="", metavar="NAME=VALUE,...",
               help="Override roll-loop parameters (D0 deg/s, D1, D0gs deg/s, D1gs, Denc deg, "
                    "D2), e.g. 'D1=8e-4'.")
@@ -66,7 +67,7 @@ def roll_simulate(out, seed, overrides, roll_profile, rate, duration, period, ov
 @click.argument("data", type=click.Path(path_type=Path))
 @click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder for roll_fit.json, posterior.nc and figures.")
-@click.option("--seed", default=0, show_default=True, type=int, help="Random seed of emcee.")
+@click.option("--seed", default=0, show_default=True, type=SEED, help="Random seed of emcee.")
 @map_option
 @click.option("--progress/--no-progress", default=True, show_default=True,
               help="Show the sampler's progress bar.")

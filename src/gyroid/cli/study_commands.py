@@ -7,6 +7,7 @@ from pathlib import Path
 import click
 
 from gyroid.cli.base import (
+    SEED,
     cli,
 )
 from gyroid.errors import GyroidInputError
@@ -34,7 +35,7 @@ def reproduce(out) -> None:
     type=click.Path(file_okay=False, path_type=Path),
     help="Folder for the study.",
 )
-@click.option("--seed", default=0, show_default=True, type=int, help="Random seed.")
+@click.option("--seed", default=0, show_default=True, type=SEED, help="Random seed.")
 def demo(out, seed) -> None:
     """The whole study on built-in data, written as report.md with figures."""
     from gyroid.pipeline._demo import run_demo

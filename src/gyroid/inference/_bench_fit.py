@@ -15,11 +15,13 @@ from gyroid.inference._bench_predictive import bench_predictive
 from gyroid.inference._bench_problem import BenchProblem
 from gyroid.inference._check_report import Check, CheckReport
 from gyroid.inference._checks import fit_checks, outliers
+from gyroid.inference._excitation import excitation
 from gyroid.inference._fit import fit
+from gyroid.inference._plausibility import units_sanity
 from gyroid.inference._posterior import AbstractSampler, Posterior, inference_data
 from gyroid.inference._problem import PointEstimate
 from gyroid.io._fitted import FittedDrift
-from gyroid.io._logs import BenchLog
+from gyroid.io._logs import BenchLog, contiguous_segments
 from gyroid.models._design import rows_of
 from gyroid.models._drift import DriftModel
 from gyroid.models._effects import parameter
@@ -213,8 +215,11 @@ def bench_checks(problem: BenchProblem, point: PointEstimate, posterior: Posteri
     """Every self-check of a bench fit: the shared ones on its evidence, the predictive check
     (held-out stretches), and for a fit of segment means the spike check on the samples
     behind them."""
+    time_s = np.asarray(problem.log.time_s)
+    samples = problem.log if problem.segments is None else problem.segments.log
     checks = fit_checks(problem.evidence(point, posterior)) + CheckReport((
-        bench_predictive(problem.density, np.asarray(problem.log.time_s)),))
+        excitation(problem.model, problem.inputs, time_s, tuple(contiguous_segments(time_s))),
+        bench_predictive(problem.density, time_s), units_sanity(samples)))
     segments = problem.segments
     if segments is None:
         return checks
@@ -232,7 +237,7 @@ def spikes_within_segments(samples: BenchLog, deviations: np.ndarray, within_sd:
     the K means), not the samples' ``s / sqrt(n)``."""
     ratio = (sigma_of_means / math.sqrt(n_means)) / (within_sd / math.sqrt(samples.n))
     return outliers(deviations, where=samples.where, name="outliers_within_segments",
-                    bias_sd_ratio=max(ratio, 1e-12))
+                    bias_sd_ratio=max(ratio, 1e-12), sets_noise_level=False)
 
 
 def fit_log(

@@ -40,7 +40,10 @@ Thresholds and where they come from:
   n = 6000). Each moves a bias-like coefficient by ``z / sqrt(n)`` posterior sd; when the
   outliers together move it by more than 1 posterior sd it is an error (spikes decide the
   answer), else a warning naming the rows. Outliers that mostly sit next to each other are
-  called structure, not spikes.
+  called structure, not spikes. Outliers that make more than half the residual variance
+  are an error too: the noise level, and every interval and check scaled by it, rest on a
+  handful of samples (heavy-tailed noise such as Student-t with 3 dof leaves about a
+  quarter). The whiteness test leaves them out, so that they cannot hide correlation.
 * identifiability: a coefficient's posterior sd over its reference scale (the default
   prior's sd, set from the log's drift scale and the regressor's physical span: see
   :mod:`gyroid.models._prior_scales`). Above 0.5 the log does not pin the coefficient down.
@@ -77,6 +80,7 @@ WHITENESS_INFLATION = 2.0
 IDENTIFIED_RATIO = 0.5
 OUTLIER_FALSE_ALARM = 0.01
 OUTLIER_SHIFT_SD = 1.0
+OUTLIER_VARIANCE_SHARE = 0.5
 
 
 def fit_checks(evidence: FitEvidence) -> CheckReport:
@@ -216,6 +220,28 @@ def goodness_of_fit(evidence: FitEvidence) -> Check:
                  ("discrepancy",) if q > 1.0 else ())
 
 
+def spike_threshold(n: int) -> float:
+    """|z| beyond which white Gaussian noise leaves one of ``n`` samples with probability
+    ``OUTLIER_FALSE_ALARM`` (4.8 for n = 6000)."""
+    from scipy import stats
+
+    return float(stats.norm.isf(0.5 * OUTLIER_FALSE_ALARM / max(n, 1)))
+
+
+def without_spikes(z: np.ndarray) -> np.ndarray:
+    """Standardised residuals with the samples beyond :func:`spike_threshold` replaced by
+    the others' mean and rescaled to the others' variance: a handful of spikes (six handling
+    samples in a 24 000-row log) would otherwise set the scale the whiteness test divides by
+    and hide the correlation of all the rest."""
+    z = np.asarray(z, dtype=float)
+    spikes = np.abs(z) > spike_threshold(z.size)
+    if not spikes.any() or spikes.all():
+        return z
+    kept = z[~spikes]
+    clean = np.where(spikes, kept.mean(), z)
+    return (clean - kept.mean()) / max(float(kept.std()), 1e-300)
+
+
 def block_variance_ratios(z: np.ndarray, min_blocks: int = 16
                           ) -> list[tuple[int, float, int]]:
     """(m, m * var(block means) / var(z), blocks) for m = 2, 4, 8, ... while at least
@@ -263,9 +289,9 @@ def residual_whiteness(residuals: np.ndarray | None, *,
     if residuals is None or np.asarray(residuals).size < 64:
         return Check("residual_whiteness", True, if_failed, None, WHITENESS_INFLATION,
                      "too few residuals to test for correlation")
-    ratios: list[tuple[int | str, float, int]] = list(
-        block_variance_ratios(np.asarray(residuals)))
-    between = segment_variance_ratio(np.asarray(residuals), segments)
+    clean = without_spikes(np.asarray(residuals, dtype=float))
+    ratios: list[tuple[int | str, float, int]] = list(block_variance_ratios(clean))
+    between = segment_variance_ratio(clean, segments)
     if between is not None:
         ratios.append(("segment", *between))
     if not ratios:
@@ -307,31 +333,37 @@ def residual_whiteness(residuals: np.ndarray | None, *,
 
 def outliers(residuals: np.ndarray | None, *,
              where: Callable[[int], str] | None = None, name: str = "outliers",
-             bias_sd_ratio: float = 1.0) -> Check:
+             bias_sd_ratio: float = 1.0, sets_noise_level: bool = True) -> Check:
     """Standardised residuals no Gaussian noise would leave (see the module docstring).
     ``bias_sd_ratio``: the fit's sd of a bias-like coefficient over ``s / sqrt(n)`` of these
     residuals (1 when the fit is of these very samples; larger for a fit of their means,
-    whose noise includes wander the samples do not show)."""
-    from scipy import stats
+    whose noise includes wander the samples do not show). ``sets_noise_level``: these
+    residuals set the fit's noise level (not so for a fit of their segments' means), so
+    outliers with most of their variance are an error."""
 
     if residuals is None or np.asarray(residuals).size < 16:
         return Check(name, True, "error", None, OUTLIER_SHIFT_SD,
                      "too few residuals to look for outliers")
     z = np.asarray(residuals, dtype=float)
     n = z.size
-    z_max = float(stats.norm.isf(0.5 * OUTLIER_FALSE_ALARM / n))
+    z_max = spike_threshold(n)
     rows = np.flatnonzero(np.abs(z) > z_max)
     if rows.size == 0:
         return Check(name, True, "error", 0.0, OUTLIER_SHIFT_SD,
                      f"no residual beyond {z_max:.1f} sd")
     shift = float(abs(z[rows].sum()) / math.sqrt(n) / bias_sd_ratio)
+    share = float(np.sum(z[rows] ** 2) / np.sum(z**2)) if sets_noise_level else 0.0
     worst = rows[np.argsort(-np.abs(z[rows]))][:3]
     first = where(int(worst[0])) if where else f"row {int(worst[0]) + 1}"
     named = ", ".join([f"{first} at {z[worst[0]]:+.0f} sd"]
                       + [f"row {int(i) + 1} at {z[i]:+.0f} sd" for i in worst[1:]])
     more = f" and {rows.size - worst.size} more" if rows.size > worst.size else ""
-    severity: Severity = "error" if shift > OUTLIER_SHIFT_SD else "warning"
-    if severity == "error":
+    severity: Severity = ("error" if shift > OUTLIER_SHIFT_SD or share > OUTLIER_VARIANCE_SHARE
+                          else "warning")
+    if share > OUTLIER_VARIANCE_SHARE:
+        consequence = (f"they make {100 * share:.0f} % of the residual variance, so the noise "
+                       "level, every interval and every check scaled by it rest on them")
+    elif severity == "error":
         consequence = (f"they move a bias-like coefficient by {shift:.1f} sd of its estimate, "
                        "so the answer rests on them")
     else:

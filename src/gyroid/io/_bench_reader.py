@@ -75,7 +75,7 @@ def load_bench_log(
     log = BenchLog(columns=columns, source=str(table.path), comments=table.comments,
                    row_name=table.where, extra_columns=extras, axis=axis)
     if model is not None and log.n <= len(model.parameter_names):
-        raise GyroidInputError(f"{table.path.name}: {log.n} rows cannot identify "
+        raise GyroidInputError(f"{table.label}: {log.n} rows cannot identify "
                                f"{len(model.parameter_names)} coefficients; use a longer log")
     return log
 
@@ -89,23 +89,23 @@ def _for_axis(table: LogTable, axis: str | None) -> tuple[LogTable, str | None]:
             return table, None
         if len(axes) > 1:
             raise GyroidInputError(
-                f"{table.path.name} has {len(axes)} gyro axes ({', '.join(axes)}): choose "
+                f"{table.label} has {len(axes)} gyro axes ({', '.join(axes)}): choose "
                 f"one with --axes, or fit them all with --axes {','.join(axes)}")
         axis = axes[0]
     if axis not in axes:
         have = f"its axes are {', '.join(axes)}" if axes else "it has no drift_AXIS_deg_h column"
-        raise GyroidInputError(f"{table.path.name} has no gyro axis {axis!r} ({have})")
+        raise GyroidInputError(f"{table.label} has no gyro axis {axis!r} ({have})")
     return table.with_axis(axis), axis
 
 
 def _check_shape(table: LogTable) -> None:
     """Refuse a roll log, and a header of one column (a separator gyroid does not read)."""
     if not table.has("drift_deg_h") and all(table.has(c) for c in ROLL_SIGNATURE):
-        raise GyroidInputError(f"{table.path.name} is a roll log (it has roll_rate_deg_s and "
+        raise GyroidInputError(f"{table.label} is a roll log (it has roll_rate_deg_s and "
                                "gs_angle_deg, no drift_deg_h): use 'gyroid roll fit' (or "
                                "'gyroid discrepancy' with roll terms)")
     if len(table.header) == 1:
-        raise GyroidInputError(f"{table.path.name}: the header has a single column "
+        raise GyroidInputError(f"{table.label}: the header has a single column "
                                f"{table.header[0]!r}; gyroid reads comma-, semicolon- or "
                                "tab-separated logs")
 
@@ -133,7 +133,7 @@ def _contract_columns(table: LogTable, needed: list[str]) -> dict[str, np.ndarra
         bad = np.flatnonzero(sigma <= 0)
         if bad.size:
             raise GyroidInputError(
-                f"{table.path.name}: {table.where(int(bad[0]))}, column sigma_deg_h: "
+                f"{table.label}: {table.where(int(bad[0]))}, column sigma_deg_h: "
                 f"{sigma[bad[0]]:g} is not a positive noise level; fix it or drop the column "
                 "to let gyroid estimate the noise")
         check_plausible(table, "sigma_deg_h", sigma)
@@ -180,7 +180,7 @@ def _extra_columns(table: LogTable, columns: dict[str, np.ndarray], wanted: set[
             columns[name] = values
             extras.append(name)
     for name in sorted(wanted - set(extras)):
-        raise GyroidInputError(f"{table.path.name}: term extra:{name} needs a numeric, "
+        raise GyroidInputError(f"{table.label}: term extra:{name} needs a numeric, "
                                f"varying column {name!r}; the header has "
                                f"{', '.join(table.header)}")
     return tuple(extras)

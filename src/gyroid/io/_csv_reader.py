@@ -43,6 +43,10 @@ class ParsedCsv:
 def read_csv(path: Path) -> ParsedCsv:
     """Parse a CSV log (.csv or .csv.gz; see the module docstring)."""
     head_bytes = read_bytes(path, 1 << 16)
+    if head_bytes[:2] in (b"\xff\xfe", b"\xfe\xff") or (
+            b"\x00" in head_bytes[:4096] and head_bytes[1:2] == b"\x00"):
+        raise GyroidInputError(f"{path.name} is UTF-16 text: save it as UTF-8 (in Excel: "
+                               "'CSV UTF-8'), then read it again")
     if b"\x00" in head_bytes[:4096]:
         raise GyroidInputError(f"{path.name}: not a text file; give a CSV, .csv.gz or .parquet "
                                "log")
@@ -116,7 +120,7 @@ def read_bytes(path: Path, limit: int = -1) -> bytes:
 #: Bytes read at a time when a log is scanned.
 SCAN_CHUNK = 1 << 24
 #: A blank or comment line, with the newline before it and the one that ends it.
-_INNER_LINE_ENDED = re.compile(rb"\n[ \t\r]*(?:#[^\n]*)?\n")
+_INNER_LINE_ENDED = re.compile(rb"\n[ \t\r]*(?:[#%][^\n]*)?\n")
 
 
 def _scan_body(path: Path, offset: int) -> bool:
@@ -141,10 +145,13 @@ def _scan_body(path: Path, offset: int) -> bool:
     except (EOFError, gzip.BadGzipFile, zlib.error):
         raise GyroidInputError(f"{path}: a damaged gzip file; compress it again") from None
     # the last line, when the file does not end with a newline
-    return inner or re.fullmatch(rb"\n[ \t\r]*(?:#.*)?", tail, re.S) is not None and tail != b"\n"
+    return inner or re.fullmatch(rb"\n[ \t\r]*(?:[#%].*)?", tail, re.S) is not None and (
+        tail != b"\n")
 
 
 _DELIMITERS = (",", ";", "\t")
+#: What starts a comment line: ``#``, or MATLAB's ``%``.
+COMMENT_MARKS = ("#", "%")
 
 
 def split_head(text_head: str) -> tuple[list[str], int, str | None]:
@@ -155,7 +162,7 @@ def split_head(text_head: str) -> tuple[list[str], int, str | None]:
         stripped = line.strip()
         if not stripped:
             continue
-        if stripped.startswith("#"):
+        if stripped.startswith(COMMENT_MARKS):
             comments.append(stripped[1:].strip())
             continue
         return comments, line_no, line
@@ -187,7 +194,7 @@ def _arrow_stream(path: Path, offset: int):
 
 
 #: A blank or comment line after the header, with the newline that ends the line before it.
-_INNER_LINE = re.compile(rb"\n[ \t\r]*(?:#[^\n]*)?(?=\n|\Z)")
+_INNER_LINE = re.compile(rb"\n[ \t\r]*(?:[#%][^\n]*)?(?=\n|\Z)")
 
 
 def _without_inner_lines(data: bytes, offset: int, header_line: int
@@ -206,7 +213,7 @@ def _without_inner_lines(data: bytes, offset: int, header_line: int
         previous = start
         removed.append(count + 1)  # the line's index after the header (header: 0)
         text = data[start:end].strip()
-        if text.startswith(b"#"):
+        if text.startswith((b"#", b"%")):
             comments.append(text[1:].decode("utf-8", errors="replace").strip())
         pieces.append(data[kept_from:start])
         kept_from = end
@@ -295,6 +302,9 @@ def arrow_columns(holder: list) -> tuple[dict, dict]:
         elif pa.types.is_null(column.type):
             raw[name] = np.full(len(column), np.nan)
             empty[name] = np.ones(len(column), dtype=bool)
+        elif pa.types.is_timestamp(column.type):  # a date-time clock (UTC if it has a zone)
+            raw[name] = np.asarray(column.cast(pa.timestamp("ns")).to_numpy(
+                zero_copy_only=False), dtype="datetime64[ns]")
         else:
             raw[name] = np.asarray(column.to_pylist(), dtype=object)
         del column
@@ -318,7 +328,7 @@ def _read_python_csv(path: Path, data: bytes, delimiter: str, decimal_comma: boo
         line = reader.line_num
         if not cells or all(not c.strip() for c in cells):
             continue
-        if cells[0].lstrip().startswith("#"):
+        if cells[0].lstrip().startswith(COMMENT_MARKS):
             comments.append(delimiter.join(cells).lstrip()[1:].strip())
             continue
         if header is None:

@@ -48,10 +48,10 @@ class FittedDrift:
             if not path.exists():
                 raise GyroidInputError(f"{folder} has no {path.name}: give the --out folder "
                                        "of 'gyroid fit'")
-        fit = json.loads(fit_json.read_text())
+        fit = _record(fit_json, "gyroid fit")
         model = DriftModel.from_terms(fit["terms"])
-        posterior = read_posterior(netcdf)
-        columns = [np.asarray(posterior[name]).reshape(-1) for name in model.parameter_names]
+        posterior = _posterior(netcdf, "gyroid fit")
+        columns = [_draws(posterior, name, netcdf) for name in model.parameter_names]
         return cls(model=model, draws=np.column_stack(columns), t0_C=fit.get("t0_C", T0_C),
                    rate_window_s=float(fit.get("rate_window_s", RATE_WINDOW_S)),
                    trustworthy=bool(fit.get("trustworthy", True)),
@@ -64,13 +64,13 @@ class FittedDrift:
         if not netcdf.exists():
             raise GyroidInputError(f"{folder} has no posterior.nc: give the --out folder of "
                                    "'gyroid pool'")
-        pool = json.loads((folder / "pool.json").read_text())
+        pool = _record(folder / "pool.json", "gyroid pool")
         if not pool.get("terms"):
             raise GyroidInputError(f"{folder}/pool.json pools published estimates, not logs: "
                                    "it has no drift model to compensate with")
         model = DriftModel.from_terms(pool["terms"])
-        posterior = read_posterior(netcdf)
-        columns = [np.asarray(posterior[f"new_run_{name}"]).reshape(-1)
+        posterior = _posterior(netcdf, "gyroid pool")
+        columns = [_draws(posterior, f"new_run_{name}", netcdf)
                    for name in model.parameter_names]
         windows = [w for w in pool.get("rate_window_s", {}).values() if w is not None]
         return cls(model=model, draws=np.column_stack(columns), t0_C=pool.get("t0_C", T0_C),
@@ -81,6 +81,34 @@ class FittedDrift:
                    noise=({"model": "white", "white_sd_deg_h": float(np.median(
                        [s["mean"] for s in pool["noise"].values()]))}
                           if pool.get("noise") else {}))
+
+
+def _record(path: Path, command: str) -> dict:
+    """A fit's JSON record, or one message saying it is damaged."""
+    try:
+        record = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as error:
+        raise GyroidInputError(f"{path} cannot be read ({error}): give a folder that "
+                               f"'{command}' wrote whole, or run it again") from None
+    if not isinstance(record, dict) or "terms" not in record:
+        raise GyroidInputError(f"{path} is not a {command} record (no 'terms'): give the "
+                               f"--out folder of '{command}'")
+    return record
+
+
+def _posterior(path: Path, command: str):
+    try:
+        return read_posterior(path)
+    except Exception as error:  # noqa: BLE001 - a damaged or foreign netCDF file
+        raise GyroidInputError(f"{path} cannot be read ({type(error).__name__}): give a "
+                               f"folder that '{command}' wrote whole, or run it again") from None
+
+
+def _draws(posterior, name: str, path: Path) -> np.ndarray:
+    if name not in posterior:
+        raise GyroidInputError(f"{path} has no draws of {name}: it does not belong to this "
+                               "fit record; run the fit again")
+    return np.asarray(posterior[name]).reshape(-1)
 
 
 def _noise_of(fit: dict) -> dict:

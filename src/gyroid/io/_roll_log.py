@@ -42,7 +42,7 @@ def load_roll_log(path, column_map=()) -> RollLog:
     predicts; a jump that is not is refused, naming its row."""
     table = read_log_table(path, tuple(column_map))
     if table.has("drift_deg_h") and not table.has("roll_rate_deg_s"):
-        raise GyroidInputError(f"{table.path.name} is a bench log (it has drift_deg_h, no "
+        raise GyroidInputError(f"{table.label} is a bench log (it has drift_deg_h, no "
                                "roll_rate_deg_s): use 'gyroid fit' or 'gyroid discrepancy' "
                                "with drift terms")
     time_s = table.number_column("time_s")
@@ -58,10 +58,10 @@ def load_roll_log(path, column_map=()) -> RollLog:
     steps = np.diff(time_s)
     if steps.size and np.ptp(steps) > 1e-6 * np.median(steps):
         bad = int(np.argmax(np.abs(steps - np.median(steps)) > 1e-6 * np.median(steps))) + 1
-        raise GyroidInputError(f"{table.path.name}: the roll log must be uniformly sampled; the "
+        raise GyroidInputError(f"{table.label}: the roll log must be uniformly sampled; the "
                                f"step changes at {table.where(bad)}; resample the log")
     if table.n_rows < 50:
-        raise GyroidInputError(f"{table.path.name}: {table.n_rows} rows are too few for a fit")
+        raise GyroidInputError(f"{table.label}: {table.n_rows} rows are too few for a fit")
     angle, notes = unwrap_gs_angle(table, time_s, columns["roll_rate_deg_s"],
                                    columns["gs_angle_deg"])
     return RollLog(time_s, columns["roll_rate_deg_s"], angle, gs_rate, str(table.path),
@@ -87,7 +87,7 @@ def unwrap_gs_angle(table, time_s, roll_rate_deg_s, gs_angle_deg
     if bad.size:
         i = int(bad[0]) + 1
         raise GyroidInputError(
-            f"{table.path.name}: gs_angle_deg jumps by {np.diff(gs_angle_deg)[i - 1]:.6g} deg at "
+            f"{table.label}: gs_angle_deg jumps by {np.diff(gs_angle_deg)[i - 1]:.6g} deg at "
             f"{table.where(i)} where the roll rate predicts {predicted[i - 1]:.6g} deg: not a "
             "whole turn, so it cannot be unwrapped; fix the encoder log (gyroid needs the "
             "unwrapped angle)")

@@ -5,6 +5,7 @@ checks every column gets (finite, plausible, time increasing). CSV parsing is
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
@@ -65,7 +66,7 @@ class LogTable:
     def missing(self, name: str, advice: str) -> GyroidInputError:
         source, mapped = self._source(name)
         what = f"column {source!r} (mapped to {name})" if mapped else f"column {name!r}"
-        return GyroidInputError(f"{self.path.name}: {what} is missing (the header has "
+        return GyroidInputError(f"{self.label}: {what} is missing (the header has "
                                 f"{', '.join(self.header)}); {advice}")
 
     def number_column(self, name: str, advice: str | None = None) -> np.ndarray:
@@ -78,17 +79,46 @@ class LogTable:
         values = self._floats(source)
         bad = np.flatnonzero(~np.isfinite(values))
         if bad.size:
-            i = int(bad[0])
-            cell = self.raw[source][i]
-            empty = source in self.empty and bool(self.empty[source][i])
-            text = "" if cell is None or empty else str(cell).strip()
-            what = "is empty" if not text or text.lower() in ("none", "null") else (
-                f"is {text!r}, not a number" if not _is_float(text) else f"is {text}")
-            advice_row = ("fix or remove the row" if "not a number" in what or "empty" in what
-                          else "remove the row or fill in a measured value")
-            raise GyroidInputError(f"{self.path.name}: {self.where(i)}, column {source}: the "
-                                   f"value {what}; {advice_row}")
+            raise self._bad_cell(source, values, bad)
         return mapped.convert(values) if mapped is not None else values
+
+    def _bad_cell(self, source: str, values: np.ndarray, bad: np.ndarray) -> GyroidInputError:
+        """The message for a column's first cell that is not a finite value."""
+        column = self.raw[source]
+        if bad.size == values.size and all(
+                c is None or (source in self.empty and self.empty[source][k]) or
+                str(c).strip().lower() in ("", "nan", "none", "null")
+                for k, c in enumerate(column[: min(column.size, 1000)])):
+            return GyroidInputError(
+                f"{self.label}: column {source} is empty in every row: fill it in, or map "
+                "another column onto it with --map")
+        i = int(bad[0])
+        cell = column[i]
+        empty = source in self.empty and bool(self.empty[source][i])
+        text = "" if cell is None or empty else str(cell).strip()
+        kind = ("an ISO 8601 date-time" if values.dtype.kind == "f" and self._is_clock(source)
+                else "a number")
+        what = "is empty" if not text or text.lower() in ("none", "null") else (
+            f"is {text!r}, not {kind}" if not _is_float(text) or kind != "a number"
+            else f"is {text}")
+        if re.fullmatch(r"[+-]?\d+,\d+", text):
+            return GyroidInputError(
+                f"{self.label}: {self.where(i)}, column {source}: the value {text!r} has a "
+                "decimal comma, which gyroid reads only in ;-separated files: save the log "
+                "with '.' decimals, or with ';' between the columns")
+        advice = ("fix or remove the row" if ", not " in what or "empty" in what
+                  else "remove the row or fill in a measured value")
+        return GyroidInputError(f"{self.label}: {self.where(i)}, column {source}: the value "
+                                f"{what}; {advice}")
+
+    @property
+    def label(self) -> str:
+        """How messages name the file: its path as given when relative, else its folder
+        and name (several logs named bench.csv are told apart)."""
+        if not self.path.is_absolute():
+            return str(self.path)
+        return f"{self.path.parent.name}/{self.path.name}" if self.path.parent.name else \
+            self.path.name
 
     def try_number_column(self, name: str) -> np.ndarray | None:
         """A column if present and clean, else ``None`` (for optional context columns)."""
@@ -103,6 +133,8 @@ class LogTable:
         column = self.raw[source]
         if column.dtype.kind in "fiub":
             return np.asarray(column, dtype=float)  # no copy when already float64
+        if column.dtype.kind == "M" or self._is_clock(source):
+            return _seconds(column)
         text = np.asarray(column, dtype=object)
         out = np.full(text.size, np.nan)
         for i, cell in enumerate(text):
@@ -116,6 +148,43 @@ class LogTable:
             except ValueError:
                 break  # the first bad cell ends the scan: it is what the error names
         return out
+
+
+    def _is_clock(self, source: str) -> bool:
+        """A text column read as a date-time clock: mapped with the unit ``datetime``, or
+        the ``time_s`` column holding ISO 8601 date-times."""
+        for m in self.maps:
+            if m.source == source and m.target == "time_s":
+                return m.unit == "datetime" or (m.unit is None and _looks_like_date(
+                    self.raw[source]))
+        return source == "time_s" and _looks_like_date(self.raw[source])
+
+
+def _looks_like_date(column: np.ndarray) -> bool:
+    first = next((c for c in column[:10] if c is not None), None)
+    if first is None or _is_float(str(first).strip()):
+        return False
+    try:
+        np.datetime64(str(first).strip().rstrip("Z"), "ns")
+    except ValueError:
+        return False
+    return True
+
+
+def _seconds(column: np.ndarray) -> np.ndarray:
+    """A date-time column (datetime64, or ISO 8601 text; a zone-less time taken as UTC) as
+    seconds since 1970; a cell that is no date-time is NaN (the caller names its row)."""
+    if column.dtype.kind != "M":
+        out = np.full(column.size, np.datetime64("NaT"), dtype="datetime64[ns]")
+        for i, cell in enumerate(column):
+            try:
+                out[i] = np.datetime64(str(cell).strip().rstrip("Z"), "ns")
+            except (ValueError, TypeError):
+                break  # the first bad cell ends the scan: it is what the error names
+        column = out
+    nat = np.isnat(column)
+    seconds = column.astype("datetime64[ns]").astype(np.int64) / 1e9
+    return np.where(nat, np.nan, seconds)
 
 
 def _is_float(text: str) -> bool:
@@ -192,7 +261,7 @@ def check_time_increasing(table: LogTable, time_s: np.ndarray) -> None:
     if bad.size:
         i = int(bad[0]) + 1
         raise GyroidInputError(
-            f"{table.path.name}: time_s does not increase at {table.where(i)}: "
+            f"{table.label}: time_s does not increase at {table.where(i)}: "
             f"{time_s[i]:g} s follows {time_s[i - 1]:g} s; sort the log by time and remove "
             "repeated samples"
         )
@@ -224,6 +293,6 @@ def check_plausible(table: LogTable, name: str, values: np.ndarray) -> None:
         advice = ("fix the row, or give the column's unit with --map" if bad.size <= 1 else
                   "if it holds raw sensor counts, convert them to physical units first, or "
                   "give the column's unit with --map")
-        raise GyroidInputError(f"{table.path.name}: {table.where(i)}, column {column}: "
+        raise GyroidInputError(f"{table.label}: {table.where(i)}, column {column}: "
                                f"{values[i]:g} is not a plausible value (expected {limit})"
                                f"{many}; {advice}")

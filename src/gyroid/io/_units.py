@@ -28,7 +28,7 @@ _TEMPERATURE = {"degC": lambda v: v, "C": lambda v: v, "K": lambda v: v - 273.15
                 "degF": lambda v: (v - 32.0) * 5.0 / 9.0, "F": lambda v: (v - 32.0) * 5.0 / 9.0}
 #: Per contract column: its unit conversions (unit -> function to the contract's unit).
 CONVERSIONS = {
-    "time_s": _scale(_S_PER, 1.0),
+    "time_s": _scale(_S_PER, 1.0) | {"datetime": lambda v: v},  # date-times parsed on read
     "drift_deg_h": _scale(_DEG_H_PER, 1.0),
     "sigma_deg_h": _scale(_DEG_H_PER, 1.0),
     "temperature_C": _TEMPERATURE,

@@ -18,6 +18,7 @@ import numpy as np
 
 from gyroid.errors import GyroidInputError
 from gyroid.inference._checks import Check, CheckReport, fit_verdict
+from gyroid.inference._plausibility import units_sanity
 from gyroid.inference._predictive import (
     HeldOut,
     gauss_markov_mean_covariance,
@@ -124,7 +125,7 @@ def compensate(log: BenchLog, fitted: FittedDrift, *, max_draws: int = 400, seed
         "rows": int(drift.size),
     }
     checks = compensation_checks(drift, compensated, outside, fitted.trustworthy) + \
-        CheckReport((compensation_predictive(log, fitted, predictions),))
+        CheckReport((compensation_predictive(log, fitted, predictions), units_sanity(log)))
     summary.update(checks.to_json())
     return Compensation(log, model, sd, compensated, summary, before, after, checks)
 

@@ -4,6 +4,7 @@ example and its variants as presets, or a user's JSON/TOML file of the same fiel
 from __future__ import annotations
 
 import json
+import math
 import tomllib
 from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
@@ -61,24 +62,82 @@ def load_scenario(spec: str | None) -> Scenario:
     if spec in PRESETS:
         return PRESETS[spec]
     path = Path(spec)
-    if not path.exists():
+    if not path.is_file():
         raise GyroidInputError(f"--scenario {spec!r} is neither a preset "
                                f"({', '.join(PRESETS)}) nor a file")
-    text = path.read_text()
     try:
+        text = path.read_text(encoding="utf-8")
         data = tomllib.loads(text) if path.suffix == ".toml" else json.loads(text)
-    except (json.JSONDecodeError, tomllib.TOMLDecodeError) as error:
+    except (UnicodeDecodeError, json.JSONDecodeError, tomllib.TOMLDecodeError) as error:
         raise GyroidInputError(f"{path.name}: not valid {path.suffix[1:]}: {error}") from None
+    if not isinstance(data, dict):
+        raise GyroidInputError(f"{path.name}: a scenario file holds one table (JSON object) "
+                               "of scenario fields")
     known = {f.name for f in fields(Scenario)}
     unknown = sorted(set(data) - known)
     if unknown:
         raise GyroidInputError(f"{path.name}: unknown scenario key {unknown[0]!r}; known: "
                                f"{', '.join(sorted(known))}")
-    if "earth_field_uT" in data:
-        data["earth_field_uT"] = tuple(data["earth_field_uT"])
-    scenario = replace(PRESETS["paper_b_worked"], name=path.stem, **data)
-    if scenario.fitted_gyro_role not in ("sins", "stabiliser"):
-        raise GyroidInputError(f"{path.name}: fitted_gyro_role must be 'sins' or 'stabiliser'")
-    if scenario.period_s > scenario.duration_s or scenario.sample_s <= 0:
-        raise GyroidInputError(f"{path.name}: need 0 < sample_s and period_s <= duration_s")
+    values = {"name": path.stem} | {key: _checked(path.name, key, value)
+                                    for key, value in data.items()}
+    scenario = replace(PRESETS["paper_b_worked"], **values)
+    if scenario.period_s > scenario.duration_s or scenario.sample_s > scenario.period_s:
+        raise GyroidInputError(f"{path.name}: need sample_s <= period_s <= duration_s (here "
+                               f"{scenario.sample_s:g}, {scenario.period_s:g}, "
+                               f"{scenario.duration_s:g} s)")
     return scenario
+
+
+#: Fields that must be positive, and fields that must not be negative.
+_POSITIVE = ("period_s", "duration_s", "sample_s")
+_NOT_NEGATIVE = ("uncompensated_sd_deg_s", "mems_sf_error_sd", "mems_bias_sd_deg_h",
+                 "encoder_deg")
+
+
+def _checked(file: str, key: str, value):
+    """A scenario field's value of the right kind (one message naming the key if not)."""
+    default = getattr(PRESETS["paper_b_worked"], key)
+
+    def refuse(what: str):
+        return GyroidInputError(f"{file}: scenario key {key!r} = {value!r}: {what}")
+
+    if key == "name":
+        if not isinstance(value, str) or not value.strip():
+            raise refuse("give a name (text)")
+        return value
+    if key == "fitted_gyro_role":
+        if value not in ("sins", "stabiliser"):
+            raise refuse("use 'sins' or 'stabiliser'")
+        return value
+    if key == "encoder_phase":
+        if value != "uniform" and not _number(value, text_ok=True):
+            raise refuse("use 'uniform' or a phase in rad")
+        return str(value)
+    if key == "earth_field_uT":
+        if not isinstance(value, list | tuple) or len(value) != 2 or not all(
+                _number(v) for v in value):
+            raise refuse("give two numbers, uT (along the roll axis, across it)")
+        return (float(value[0]), float(value[1]))
+    if key == "period_index":
+        if not isinstance(value, int) or isinstance(value, bool):
+            raise refuse("give a whole number (-1: drawn uniformly)")
+        return value
+    if not _number(value):
+        raise refuse(f"give a number (as {default!r} is), not {type(value).__name__}")
+    value = float(value)
+    if key in _POSITIVE and value <= 0:
+        raise refuse("must be positive")
+    if key in _NOT_NEGATIVE and value < 0:
+        raise refuse("must not be negative")
+    return value
+
+
+def _number(value, text_ok: bool = False) -> bool:
+    if isinstance(value, bool):
+        return False
+    if isinstance(value, str) and text_ok:
+        try:
+            value = float(value)
+        except ValueError:
+            return False
+    return isinstance(value, int | float) and math.isfinite(value)
