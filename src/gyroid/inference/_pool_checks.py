@@ -28,6 +28,7 @@ import numpy as np
 from scipy import stats
 
 from gyroid.inference._bench_fit import spikes_within_segments
+from gyroid.inference._bench_predictive import bench_predictive
 from gyroid.inference._check_report import Check, CheckReport, FitEvidence
 from gyroid.inference._checks import (
     PRIOR_TAIL_SD,
@@ -250,7 +251,10 @@ def run_checks(problem: PoolProblem, u_mean: np.ndarray, pooled_mean: np.ndarray
         checks = [goodness_of_fit(run_evidence),
                   residual_whiteness(z, segments=tuple(contiguous_segments(
                       np.asarray(q.log.time_s))), remedies=POOL_REMEDIES),
-                  outliers(z, where=q.log.where)]
+                  outliers(z, where=q.log.where),
+                  # held-out stretches of the run, predicted by its own fit: the white noise
+                  # pooling assumes must describe what each run does not show
+                  bench_predictive(q.density, np.asarray(q.log.time_s))]
         if q.segments is not None:
             sigma = float(np.sqrt(float(q.density.rss_min) / max(q.n - q.n_model, 1)))
             checks.append(spikes_within_segments(q.segments.log, q.segments.deviations,

@@ -25,7 +25,10 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyroid.errors import GyroidInputError
-from gyroid.inference._checks import CheckReport, fit_checks, point_fit_evidence
+from gyroid.inference._bench_predictive import bench_predictive
+from gyroid.inference._bench_problem import BenchProblem
+from gyroid.inference._checks import Check, CheckReport, fit_checks, point_fit_evidence
+from gyroid.inference._excitation import excitation
 from gyroid.inference._kalman import gauss_markov_innovations
 from gyroid.inference._rate_window import choose_rate_window
 from gyroid.inference._whitened_fit import ModelFit, NoiseLevels, fit_with_noise
@@ -98,6 +101,13 @@ def _final_checks(log: BenchLog, fit: ModelFit, noise: NoiseLevels, steps_s) -> 
     return fit_checks(evidence)
 
 
+def _motion(column: str) -> bool:
+    """A column that records motion (an accelerometer's), by its name."""
+    name = column.lower()
+    return any(key in name for key in ("accel", "acc_", "vibration")) or name in (
+        "ax", "ay", "az")
+
+
 def _plotted_regressor(steps: list[Step], regs: dict[str, np.ndarray], residual: np.ndarray
                        ) -> tuple[str, np.ndarray] | None:
     """What the figure draws the baseline residual against: the regressor the first added
@@ -134,7 +144,7 @@ def find_discrepancies(
     window = _choose_rate_window(log, start, t0_C)
     inputs = log.inputs(t0_C=t0_C, rate_window_s=window)
     start.check_identifiable(inputs, frozenset(log.columns))
-    search = _Search(log, inputs, per_mean)
+    search = _Search(log, inputs, per_mean, window)
     pool = candidates or tuple(
         [name for name in EFFECTS if name not in start.terms]
         + [EXTRA_PREFIX + column for column in log.extra_columns])
@@ -150,8 +160,10 @@ class _Search:
     """The discrepancy search on one log (or its means): its inputs, the fits it compares,
     the step descriptions and the final report."""
 
-    def __init__(self, log: BenchLog, inputs: DriftInputs, per_mean: int) -> None:
+    def __init__(self, log: BenchLog, inputs: DriftInputs, per_mean: int,
+                 rate_window_s: float) -> None:
         self.log, self.inputs, self.per_mean = log, inputs, per_mean
+        self.rate_window_s = rate_window_s
         time_s = np.asarray(log.time_s)
         self.time_s = time_s
         self.steps_s = jnp.asarray(np.concatenate([[np.median(np.diff(time_s))],
@@ -176,10 +188,18 @@ class _Search:
         effect = registry.effect(best)
         regressor, r = explaining_regressor(before.residual, before.residual - after.residual,
                                              self.regs, self.time_s, effect.signature)
-        follows = (f"residuals follow {regressor} (r = {r:.2f} on 60 s means)"
-                   if abs(r) >= MIN_FOLLOW_R else
-                   f"the residuals line up with no single logged quantity (at most r = "
-                   f"{r:.2f}, with {regressor}, on 60 s means)")
+        scale = "on 60 s means"
+        if regressor in self.regs:  # sample by sample, a fast cause can show where means do not
+            r_samples = float(np.corrcoef(before.residual, self.regs[regressor])[0, 1])
+            if abs(r_samples) > abs(r):
+                r, scale = r_samples, "sample by sample"
+        if abs(r) >= MIN_FOLLOW_R:
+            follows = f"residuals follow {regressor} (r = {r:.2f} {scale})"
+        else:  # the effect's own form explains them: its RMS cut below says how much
+            follows = (f"the residuals follow no single logged quantity closely (at most "
+                       f"r = {r:.2f}, with {regressor}, {scale})")
+        if best.startswith(EXTRA_PREFIX) and _motion(best[len(EXTRA_PREFIX):]):
+            follows += " (a motion channel: handling or vibration, not a cause of drift)"
         size = {name: after.values[name] for name in effect.parameter_names}
         fitted = ", ".join(f"{name} = {value:.4g} {parameter(name).unit}"
                            for name, value in size.items())
@@ -194,6 +214,14 @@ class _Search:
         return Step(best, evidence, before.rms_ols, after.rms_ols, scores[best], scores, rivals,
                     regressor, r, size)
 
+    def _predictive(self, terms: tuple[str, ...]) -> Check:
+        """The final model's predictive check, under the search's white + Gauss-Markov
+        noise model (each held-out stretch refitted by the mode, all in one compilation)."""
+        problem = BenchProblem.from_log(self.log, terms, noise="white+gm",
+                                        t0_C=self.inputs.t0_C,
+                                        rate_window_s=self.rate_window_s)
+        return bench_predictive(problem.density, self.time_s)
+
     def report(self, found: Search, window: float) -> DiscrepancyReport:
         baseline_fit = found.baseline.fit[0]
         fit_now, noise = found.final.fit
@@ -201,7 +229,10 @@ class _Search:
             log_kind="bench",
             unexplained=find_unexplained(self.log, fit_now, noise, self.steps_s, self.regs,
                                          ADD_THRESHOLD),
-            checks=_final_checks(self.log, fit_now, noise, self.steps_s),
+            checks=_final_checks(self.log, fit_now, noise, self.steps_s) + CheckReport((
+                excitation(DriftModel(terms=found.final.terms), self.inputs, self.time_s,
+                           tuple(contiguous_segments(self.time_s))),
+                self._predictive(found.final.terms))),
             baseline_terms=found.baseline.terms,
             final_terms=found.final.terms,
             steps=found.steps,
