@@ -4,6 +4,8 @@ same thing before their times are compared); no timing is asserted."""
 import importlib.util
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).parent.parent
 
 
@@ -21,6 +23,7 @@ def test_benchmark_jobs_agree_with_their_baselines():
     assert bench.bench_point(flat, design, y, 1)
 
 
+@pytest.mark.slow
 def test_the_bare_script_baseline_fits_the_same_coefficients(tmp_path):
     """benchmarks/scaling.py compares gyroid with benchmarks/bare_thermal_fit.py: that
     comparison is only fair if the bare script answers the same question."""

@@ -274,3 +274,37 @@ def test_a_column_in_the_wrong_unit_is_named(column, scale, offset, names):
     columns[column] = columns[column] * scale + offset
     check = units_sanity(BenchLog(columns))
     assert not check.passed and check.severity == "warning" and names in check.message
+
+
+def test_effects_that_cancel_each_other_are_named():
+    """Two inputs moving together let two effects grow without bound in opposite directions
+    while their sum fits the drift (the Astro Pi field and temperature): sizes no gyro has,
+    named by the effect-size warning; the true sizes pass."""
+    from gyroid.inference._plausibility import CANCELLING_FACTOR, effect_sizes
+    from gyroid.io import BenchLog
+    from gyroid.models import H0_UT, DriftModel
+
+    rng = np.random.default_rng(1)
+    time_s = np.arange(3600.0)
+    temperature = 20.0 + 10.0 * time_s / time_s[-1]
+    field = 30.0 + 2.0 * (temperature - 20.0)  # uT, moves with the temperature
+    columns = {"time_s": time_s, "temperature_C": temperature, "Hx_uT": field,
+               "Hy_uT": np.zeros_like(time_s), "Hz_uT": np.zeros_like(time_s),
+               "drift_deg_h": 1.0 + 0.1 * (temperature - 20.0) + 0.3 * rng.standard_normal(
+                   time_s.size)}
+    log = BenchLog(columns)
+    model = DriftModel(terms=("bias", "temperature", "magnetic_x"))
+    inputs = log.inputs(t0_C=20.0)
+    truth = {"w0": 1.0, "w1": 0.1, "wx": 0.0}
+    drift = np.asarray(log.drift_deg_h)
+    assert effect_sizes(model, truth, inputs, drift).passed
+    # wx Hx / H0 = wx (30 + 2 (T - 20)) / H0: wx = -big H0 / 2 cancels w1's extra big
+    # (T - 20), leaving a constant the bias absorbs.
+    big = 50.0
+    cancelling = truth | {"w0": 1.0 + 15.0 * big, "w1": 0.1 + big, "wx": -big * H0_UT / 2.0}
+    np.testing.assert_allclose(np.asarray(model(cancelling, inputs)),
+                               np.asarray(model(truth, inputs)), atol=1e-9)
+    check = effect_sizes(model, cancelling, inputs, drift)
+    assert not check.passed and check.severity == "warning"
+    assert "temperature's fitted contribution" in check.message
+    assert "magnetic_x's fitted contribution" in check.message and CANCELLING_FACTOR == 10.0

@@ -219,3 +219,31 @@ def test_discrepancy_help_names_both_log_kinds_and_every_effect():
     assert "bench log" in text and "roll log" in text
     for name in (*EFFECTS, *ROLL_EFFECTS, *ROLL_PRESETS):
         assert name in text, name
+
+
+def test_a_second_writer_to_one_out_is_refused_and_a_stale_lock_taken_over(
+        tmp_path, capsys, simulated_magnetic):
+    """Two commands writing one --out at once: the second is refused before it reads the
+    log, naming the folder and the process; a lock whose process is gone is taken over and
+    removed when the command ends."""
+    import subprocess
+    import sys
+
+    out = tmp_path / "fit"
+    lock = tmp_path / ".fit.lock"
+    writer = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    try:
+        lock.write_text(f"{writer.pid}\n")
+        args = ["fit", str(simulated_magnetic), "--terms", "magnetic", "--out", str(out),
+                "--no-progress"]
+        assert main(args) == 2
+        err = capsys.readouterr().err
+        assert f"--out {out} is being written by another gyroid command (process " \
+               f"{writer.pid})" in err and "Traceback" not in err
+        assert not out.exists() and lock.exists()
+    finally:
+        writer.kill()
+        writer.wait()
+    # The writer is gone: its lock is stale.
+    assert main(args) in (0, 3)
+    assert (out / "fit.json").exists() and not lock.exists()

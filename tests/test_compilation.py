@@ -61,6 +61,7 @@ def test_roll_candidate_models_share_one_optimiser(compile_log):
     assert set(fits[-1].names) <= set(ALL_PARAMETERS)
 
 
+@pytest.mark.slow
 def test_an_absent_roll_parameter_is_exactly_absent():
     """A model without D0 equals the wider model with D0 held at zero: the shared density's
     masked entries do not leak into the likelihood."""

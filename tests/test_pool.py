@@ -223,6 +223,7 @@ def test_pooled_intervals_cover_at_the_nominal_rate():
         assert band[0] <= sum(values) <= band[1], (kind, sum(values), len(values), band)
 
 
+@pytest.mark.slow
 def test_correlated_runs_are_refused_with_advice_pool_can_follow():
     """Runs with Gauss-Markov noise: whiteness fails, and the advice names what works
     (pool has no --noise option)."""

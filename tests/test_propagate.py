@@ -26,6 +26,7 @@ def _quiet_gyro(n_draws=50, spread=0.0, seed=0):
     return FittedDrift(model=model, draws=draws, t0_C=21.0)
 
 
+@pytest.mark.slow
 def test_without_uncertainty_dk_is_eq7_and_the_loop():
     result = propagate(_quiet_gyro(), CERTAIN, draws=20, sobol_n=20)
     samples = result.samples

@@ -91,6 +91,7 @@ def test_the_real_log_is_refused_naming_its_spikes_and_its_bias_wander(tmp_path,
     assert (tmp_path / "fit" / "fit.json").exists()
 
 
+@pytest.mark.slow
 def test_discrepancy_on_the_real_log_reads_vendor_columns_and_checks_itself(tmp_path, capsys,
                                                                             pan_csv):
     import json
@@ -187,6 +188,7 @@ def mpu_folder(tmp_path_factory) -> Path:
     return out
 
 
+@pytest.mark.slow
 def test_a_jittered_clock_does_not_crash_the_discrepancy_search(tmp_path, mpu_folder):
     """The MPU6050's 10-minute run (host time stamps 1 ms to 0.5 s apart): gyroid
     discrepancy ended in an internal error on every axis (issue 25)."""

@@ -55,6 +55,7 @@ def test_fast_ramps_are_recovered_or_refused():
     assert (auto.trustworthy and _within(auto, truth)) or not auto.trustworthy
 
 
+@pytest.mark.slow
 def test_white_noise_model_on_correlated_noise_is_refused():
     """Case 3: --noise white on Gauss-Markov noise: the intervals would be far too narrow."""
     sim = simulate_magnetic_bench(seed=4, noise=GyroNoise(bias_instability_deg_h=0.1,
@@ -127,6 +128,7 @@ def test_held_out_compensation_matches_plain_least_squares(tmp_path):
     assert comp.checks.trustworthy, comp.checks.lines()
 
 
+@pytest.mark.slow
 def test_bias_wander_between_bursts_is_refused_per_sample_and_covered_by_segment_means():
     """Bursts whose bias wanders (30 deg/h per burst against 200 / sqrt(250) = 12.6 for a
     burst's white noise): the per-sample white fit must not pass; the fit of the 36 burst

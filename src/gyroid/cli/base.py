@@ -68,13 +68,20 @@ def parse_maps(items: tuple[str, ...]):
 
 class Command(click.Command):
     """A gyroid command: JAX is configured (float64, the compilation cache) when the command
-    runs, not when the command line starts, so that --help and --version stay quick."""
+    runs, not when the command line starts, so that --help and --version stay quick; its
+    ``--out`` folder is held for the whole command (a second command writing there at the
+    same time is refused before it reads or fits anything)."""
 
     def invoke(self, ctx: click.Context):
+        import contextlib
+
         from gyroid._config import configure
+        from gyroid.io._outputs import output_lock
 
         configure()
-        return super().invoke(ctx)
+        out = ctx.params.get("out")
+        with output_lock(out) if out is not None else contextlib.nullcontext():
+            return super().invoke(ctx)
 
 
 class Group(click.Group):

@@ -45,8 +45,6 @@ LOO_BLOCK_S = 60.0
 #: At most this many LOO blocks (longer blocks on long logs).
 MAX_LOO_BLOCKS = 500
 _LOG_2PI = math.log(2.0 * math.pi)
-#: The white-noise sd (relative) that makes a left-out row carry no information.
-_UNOBSERVED = 1e12
 
 
 class BenchDensity(eqx.Module):
@@ -280,9 +278,9 @@ class BenchDensity(eqx.Module):
         return innovation / jnp.sqrt(variance)
 
     def _innovations(self, residual, white, sd_gm, tau_s):
-        if self.weight is not None:  # a row left out: no observation (infinite noise)
-            white = jnp.where(self.weight > 0, white, _UNOBSERVED * (1.0 + white + sd_gm))
-        return gauss_markov_innovations(residual, self.steps_s, white, sd_gm, tau_s)
+        # a row left out (weight 0) is predicted through, not learnt from
+        return gauss_markov_innovations(residual, self.steps_s, white, sd_gm, tau_s,
+                                        self.weight)
 
     def log_likelihood(self, u: Float[Array, " d"]) -> Float[Array, ""]:
         """Total log-likelihood (the sufficient-statistics path where it applies)."""

@@ -17,7 +17,7 @@ from gyroid.inference._check_report import Check, CheckReport
 from gyroid.inference._checks import fit_checks, outliers
 from gyroid.inference._excitation import excitation
 from gyroid.inference._fit import fit
-from gyroid.inference._plausibility import units_sanity
+from gyroid.inference._plausibility import effect_sizes, units_sanity
 from gyroid.inference._posterior import AbstractSampler, Posterior, inference_data
 from gyroid.inference._problem import PointEstimate
 from gyroid.io._fitted import FittedDrift
@@ -219,7 +219,9 @@ def bench_checks(problem: BenchProblem, point: PointEstimate, posterior: Posteri
     samples = problem.log if problem.segments is None else problem.segments.log
     checks = fit_checks(problem.evidence(point, posterior)) + CheckReport((
         excitation(problem.model, problem.inputs, time_s, tuple(contiguous_segments(time_s))),
-        bench_predictive(problem.density, time_s), units_sanity(samples)))
+        bench_predictive(problem.density, time_s), units_sanity(samples),
+        effect_sizes(problem.model, point.value, problem.inputs,
+                     np.asarray(problem.log.drift_deg_h))))
     segments = problem.segments
     if segments is None:
         return checks

@@ -3,7 +3,10 @@ out, the drift model refitted on the rest, the fold's part means predicted.
 
 A linear model with white noise is refitted in closed form from per-part sums (one pass
 over the design in blocks of rows, whatever the log's length); any other model by its
-posterior mode with the fold's rows masked (:meth:`BenchDensity.without_rows`)."""
+posterior mode with the fold's rows masked (:meth:`BenchDensity.without_rows`). A
+whitened least-squares fit with its noise levels and time constants fixed (the discrepancy
+search's) is refitted by generalised least squares, the Kalman filter predicting through
+the fold (:func:`whitened_predictive`)."""
 
 from __future__ import annotations
 
@@ -21,19 +24,76 @@ from gyroid.inference._predictive import (
     predictive_check,
     stretches,
 )
+from gyroid.inference._whitened_fit import NoiseLevels, held_out_solution
 from gyroid.io._logs import contiguous_segments
+from gyroid.models._drift import DriftModel
+from gyroid.models._inputs import DriftInputs
 
 
 def bench_predictive(density: BenchDensity, time_s: np.ndarray) -> Check:
     """The predictive check of a bench log's density (rows at ``time_s``, s)."""
-    segments = tuple(contiguous_segments(np.asarray(time_s)))
+    folds, part_s = bench_held_out(density, time_s)
+    return predictive_check(folds, part_s=part_s)
+
+
+def bench_held_out(density: BenchDensity, time_s: np.ndarray
+                   ) -> tuple[list[HeldOut] | None, float | None]:
+    """The held-out folds of a bench log's density and the median part's duration (s);
+    None when the log is too short to hold a stretch out."""
+    time_s = np.asarray(time_s)
+    segments = tuple(contiguous_segments(time_s))
     parts = stretches(density.n, segments if len(segments) > 1 else None)
     if parts is None:
-        return predictive_check(None)
+        return None, None
     folds = (_linear_folds(density, parts) if density.gram is not None else
-             _refit_folds(density, parts, np.asarray(time_s)))
-    durations = [np.ptp(np.asarray(time_s)[parts.part == s]) for s in range(parts.n_parts)]
-    return predictive_check(folds, part_s=float(np.median(durations)) or None)
+             _refit_folds(density, parts, time_s))
+    return folds, _part_seconds(parts, time_s)
+
+
+def _part_seconds(parts: Stretches, time_s: np.ndarray) -> float | None:
+    """The median part's duration, s (None for parts of one instant)."""
+    durations = [np.ptp(time_s[parts.part == s]) for s in range(parts.n_parts)]
+    return float(np.median(durations)) or None
+
+
+def whitened_predictive(model: DriftModel, inputs: DriftInputs, drift: np.ndarray,
+                        time_s: np.ndarray, values: dict[str, float], noise: NoiseLevels
+                        ) -> Check:
+    """The predictive check of a whitened least-squares fit under white + Gauss-Markov noise
+    (``noise``), its real coefficients refitted per fold with its time constants
+    (``values``' positive parameters) and noise levels held: a fold then costs one Kalman
+    pass. Holding them at the full fit's values leaves their uncertainty out of the bands,
+    which can only make the check stricter."""
+    import jax.numpy as jnp
+
+    time_s = np.asarray(time_s)
+    segments = tuple(contiguous_segments(time_s))
+    parts = stretches(time_s.size, segments if len(segments) > 1 else None)
+    if parts is None:
+        return predictive_check(None)
+    positive_u = jnp.asarray([np.log(values[p.name]) for p in model.parameters if p.positive],
+                             dtype=float)
+    steps_s = jnp.asarray(np.concatenate([[np.median(np.diff(time_s))], np.diff(time_s)]))
+    levels = (jnp.asarray(noise.white), jnp.asarray(noise.gm), jnp.asarray(noise.tau_s))
+    observed = part_means(np.asarray(drift), parts.part, parts.n_parts)
+    counts = np.bincount(parts.part, minlength=parts.n_parts).astype(float)
+    noise_cov = np.diag(noise.white**2 / counts) + gauss_markov_mean_covariance(
+        time_s, parts.part, parts.n_parts, noise.gm, noise.tau_s)
+    folds = []
+    for k in range(int(parts.fold_of.max()) + 1):
+        held = parts.fold_of == k
+        weight = jnp.asarray(~parts.rows_of_fold(k), dtype=float)
+        predicted, covariance, design = held_out_solution(
+            model, inputs, jnp.asarray(drift), positive_u, steps_s, levels, weight)
+        design = np.asarray(design)
+        jacobian = np.column_stack([part_means(design[:, i], parts.part, parts.n_parts)
+                                    for i in range(design.shape[1])])[held]
+        folds.append(HeldOut(
+            observed=observed[held],
+            predicted=part_means(np.asarray(predicted), parts.part, parts.n_parts)[held],
+            covariance=jacobian @ np.asarray(covariance) @ jacobian.T
+            + noise_cov[np.ix_(held, held)], counts=counts[held]))
+    return predictive_check(folds, part_s=_part_seconds(parts, time_s))
 
 
 def _part_sums(density: BenchDensity, parts: Stretches) -> dict[str, np.ndarray]:

@@ -27,52 +27,59 @@ def scalar_state_innovations(
     q: Float[Array, " n"],
     r: Float[Array, " n"],
     start_var: Float[Array, ""],
+    update: Float[Array, " n"] | None = None,
 ) -> tuple[Float[Array, "n ..."], Float[Array, " n"]]:
     """Innovations and their variances of ``observed_k = x_k + e_k``.
 
     State ``x_k = phi_k x_(k-1) + eta_k`` with ``eta_k ~ N(0, q_k)``, white ``e_k ~ N(0,
     r_k)``, and ``x_0`` before the first step ``~ N(0, start_var)``. ``observed`` may have
     trailing columns, each filtered alike (the filter is linear in the data; the variances
-    do not depend on it).
+    do not depend on it). Rows with ``update == 0`` are not learnt from (a held-out
+    stretch): the state is only predicted through them, so their innovations are the
+    errors of a prediction from the rows before, and ``innovation**2 / variance`` sums to
+    the exact chi-square of those rows only row by row, not jointly.
     """
 
     def step(carry, row):
         mean, var = carry  # of x after the previous update
-        e_k, phi_k, q_k, r_k = row
+        e_k, phi_k, q_k, r_k, u_k = row
         prior_mean = phi_k * mean
         prior_var = phi_k**2 * var + q_k
         total = prior_var + r_k
         innovation = e_k - prior_mean
-        gain = prior_var / total
+        gain = u_k * prior_var / total
         return (prior_mean + gain * innovation, (1.0 - gain) * prior_var), (innovation, total)
 
+    update = jnp.ones_like(phi) if update is None else update
     start = (jnp.zeros(observed.shape[1:]), jnp.asarray(start_var, dtype=float))
-    _, (innovation, variance) = jax.lax.scan(step, start, (observed, phi, q, r))
+    _, (innovation, variance) = jax.lax.scan(step, start, (observed, phi, q, r, update))
     return innovation, variance
 
 
-def gauss_markov_innovations(residual, steps_s, white, sd_gm, tau_s):
+def gauss_markov_innovations(residual, steps_s, white, sd_gm, tau_s, update=None):
     """Innovations of white + Gauss-Markov noise and their variances.
 
     The residual is ``g + w``: ``g`` a stationary Gauss-Markov state of sd ``sd_gm`` and
     correlation time ``tau_s`` (s), ``w`` white of sd ``white`` (scalar or per row). Exact
     for any sampling (``phi_k = exp(-step_k / tau)``, ``steps_s`` the time since the
-    previous row); the state starts stationary (mean 0, variance ``sd_gm**2``).
+    previous row); the state starts stationary (mean 0, variance ``sd_gm**2``); ``update``:
+    0 at rows not learnt from.
     """
     phi = jnp.exp(-steps_s / tau_s)
     q = sd_gm**2 * (1.0 - phi**2)
     r = jnp.broadcast_to(white**2, steps_s.shape)
-    return scalar_state_innovations(residual, phi, q, r, sd_gm**2)
+    return scalar_state_innovations(residual, phi, q, r, sd_gm**2, update)
 
 
-def random_walk_innovations(residual, steps, walk_sd, white):
+def random_walk_innovations(residual, steps, walk_sd, white, update=None):
     """Innovations of a random walk from zero plus white noise, and their variances.
 
     ``steps``: samples since the previous observed row; the walk adds ``walk_sd**2`` of
     variance per sample (an angle random walk sampled every ``steps`` samples); ``white``:
-    the read-out noise's sd at each observed row.
+    the read-out noise's sd at each observed row; ``update``: 0 at rows not learnt from.
     """
     steps = jnp.asarray(steps, dtype=float)
     q = walk_sd**2 * steps
     r = jnp.broadcast_to(white**2, steps.shape)
-    return scalar_state_innovations(residual, jnp.ones_like(steps), q, r, jnp.zeros(()))
+    return scalar_state_innovations(residual, jnp.ones_like(steps), q, r, jnp.zeros(()),
+                                    update)

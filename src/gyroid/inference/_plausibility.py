@@ -96,3 +96,41 @@ def _clock_findings(log) -> list[str]:
         return [f"the log lasts {days:.3g} days at a step of {step:.3g} s: if time_s holds "
                 "milliseconds, read it with --map time_s=COLUMN:ms"]
     return []
+
+
+#: An effect whose fitted contribution spans this many times the drift's own observed span
+#: is being cancelled by another effect's.
+CANCELLING_FACTOR = 10.0
+
+
+def _span(values: np.ndarray) -> float:
+    """The robust span of a series: its 1st to 99th percentile."""
+    low, high = np.percentile(values, [1.0, 99.0])
+    return float(high - low)
+
+
+def effect_sizes(model, values: dict[str, float], inputs, drift: np.ndarray) -> Check:
+    """Sizes no gyro has: an effect whose fitted contribution spans more than
+    ``CANCELLING_FACTOR`` times the drift's observed span (1st to 99th percentile) can only
+    fit the data by cancelling another effect's (inputs that move together: the Astro Pi's
+    field and temperature). The sizes are then not physical even when each is "significant";
+    a warning, naming the effect."""
+    import jax.numpy as jnp
+
+    observed = _span(np.asarray(drift, dtype=float))
+    params = {name: jnp.asarray(value) for name, value in values.items()}
+    findings = []
+    for effect in model.effects:
+        if effect.signature == "constant":
+            continue
+        size = _span(np.asarray(effect.contribution(params, inputs)))
+        if size > CANCELLING_FACTOR * max(observed, 1e-300):
+            findings.append(f"{effect.name}'s fitted contribution spans {size:.3g} deg/h")
+    if not findings:
+        return Check("effect_sizes", True, "warning", None, CANCELLING_FACTOR,
+                     "no effect's fitted contribution is larger than the drift itself")
+    return Check("effect_sizes", False, "warning", None, CANCELLING_FACTOR,
+                 f"{'; '.join(findings)}, while the drift itself spans {observed:.3g} deg/h: "
+                 "effects cancel one another (their inputs move together), so their sizes "
+                 "are not physical; fit fewer terms, or a log whose inputs vary "
+                 "independently", ("discrepancy",))

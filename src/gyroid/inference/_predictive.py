@@ -149,6 +149,39 @@ def _fold_statistic(fold: HeldOut, group: int) -> tuple[float, int, float, int]:
     return total, z.size, p, outside
 
 
+@dataclass(frozen=True)
+class ScaleResult:
+    """The check at one scale: ``group`` parts per mean; ``ratio`` the pooled ``T / dof``
+    over folds; each fold's own p-value (uncorrected) in ``fold_p``; ``p`` the worst fold's
+    times the family size (Bonferroni), that fold and its ``T / dof``; held-out means
+    outside their 95 % bands, of ``means``."""
+
+    group: int
+    ratio: float
+    fold_p: tuple[float, ...]
+    p: float
+    fold: int
+    fold_ratio: float
+    outside: int
+    means: int
+
+
+def predictive_scales(folds: list[HeldOut]) -> list[ScaleResult]:
+    """The check's statistics at each scale (see the module docstring)."""
+    scales = _scales(min(f.counts.size for f in folds))
+    family = len(scales) * len(folds)
+    results = []
+    for group in scales:
+        per_fold = [_fold_statistic(fold, group) for fold in folds]
+        total, means = sum(r[0] for r in per_fold), sum(r[1] for r in per_fold)
+        worst = min(range(len(folds)), key=lambda k: per_fold[k][2])
+        t_k, m_k, p_k, _ = per_fold[worst]
+        results.append(ScaleResult(group, total / means, tuple(r[2] for r in per_fold),
+                                   min(1.0, p_k * family), worst, t_k / m_k,
+                                   sum(r[3] for r in per_fold), means))
+    return results
+
+
 def predictive_check(folds: list[HeldOut] | None, *, name: str = "predictive",
                      part_s: float | None = None, why_none: str = "",
                      subject: str | None = None) -> Check:
@@ -160,35 +193,25 @@ def predictive_check(folds: list[HeldOut] | None, *, name: str = "predictive",
         return Check(name, True, "error", None, PREDICTIVE_INFLATION,
                      why_none or "the log is too short to hold a stretch out: its bands "
                      "are not tested on data the fit has not seen")
-    scales = _scales(min(f.counts.size for f in folds))
-    family = len(scales) * len(folds)
-    results = []
-    for group in scales:
-        per_fold = [_fold_statistic(fold, group) for fold in folds]
-        total, means = sum(r[0] for r in per_fold), sum(r[1] for r in per_fold)
-        worst_fold = min(range(len(folds)), key=lambda k: per_fold[k][2])
-        t_k, m_k, p_k, _ = per_fold[worst_fold]
-        results.append({"group": group, "ratio": total / means, "p": min(1.0, p_k * family),
-                         "fold": worst_fold, "fold_ratio": t_k / m_k,
-                         "outside": sum(r[3] for r in per_fold), "means": means})
-    failing = [r for r in results if r["p"] < PREDICTIVE_P]
-    worst = max(failing, key=lambda r: r["fold_ratio"]) if failing else max(
-        results, key=lambda r: r["ratio"])
-    length = (f" {_duration(part_s * worst['group'])}" if part_s else
-              f" {worst['group']}-part" if worst["group"] > 1 else "")
-    where = (f"{worst['outside']} of {worst['means']} held-out{length} means fall outside "
-             f"their 95 % bands (by chance about {0.05 * worst['means']:.1f})")
+    results = predictive_scales(folds)
+    failing = [r for r in results if r.p < PREDICTIVE_P]
+    worst = max(failing, key=lambda r: r.fold_ratio) if failing else max(
+        results, key=lambda r: r.ratio)
+    length = (f" {_duration(part_s * worst.group)}" if part_s else
+              f" {worst.group}-part" if worst.group > 1 else "")
+    where = (f"{worst.outside} of {worst.means} held-out{length} means fall outside "
+             f"their 95 % bands (by chance about {0.05 * worst.means:.1f})")
     subject = subject or f"held out in {len(folds)} stretches"
     if not failing:
-        return Check(name, True, "error", worst["ratio"], PREDICTIVE_INFLATION,
+        return Check(name, True, "error", worst.ratio, PREDICTIVE_INFLATION,
                      f"{subject}, the fit predicts the data it did not see within its "
-                     f"stated bands ({where}; variance ratio {worst['ratio']:.2f})")
-    inflation = worst["fold_ratio"]
-    stretch = f"in stretch {worst['fold'] + 1} " if len(folds) > 1 else ""
+                     f"stated bands ({where}; variance ratio {worst.ratio:.2f})")
+    inflation = worst.fold_ratio
+    stretch = f"in stretch {worst.fold + 1} " if len(folds) > 1 else ""
     severity: Severity = "error" if inflation > PREDICTIVE_INFLATION else "warning"
     return Check(name, False, severity, inflation, PREDICTIVE_INFLATION,
                  f"{subject}, {where}; {stretch}they vary {inflation:.1f}x as much as the "
-                 f"fit states (p = {worst['p']:.1g}): the stated uncertainty does not describe "
+                 f"fit states (p = {worst.p:.1g}): the stated uncertainty does not describe "
                  f"data the fit has not seen; its bands would have to be "
                  f"{np.sqrt(inflation):.1f}x wider", ("noise_model", "segment_means",
                                                       "discrepancy"))

@@ -22,6 +22,7 @@ from gyroid.inference._posterior import (
     interval_summary,
 )
 from gyroid.inference._problem import PointEstimate
+from gyroid.inference._roll_predictive import roll_predictive
 from gyroid.inference._roll_problem import RollDensity, RollProblem
 from gyroid.io._roll_log import RollLog
 from gyroid.models._paper_b import DEG
@@ -244,7 +245,8 @@ def roll_result(problem: RollProblem, point: PointEstimate, posterior: Posterior
                                         ("encoder_phase_rad", np.arctan2(b, a)))}
     return RollFit(problem=problem, point=point, posterior=posterior, seed=seed,
                    derived=derived, confounded=confounded_pairs(problem.names, flat),
-                   checks=fit_checks(roll_evidence(problem, point, posterior)))
+                   checks=fit_checks(roll_evidence(problem, point, posterior))
+                   + CheckReport((roll_predictive(problem, point),)))
 
 
 def fit_roll_log(log: RollLog, *, terms="loop", seed: int = 0,

@@ -80,6 +80,9 @@ class RollDensity(eqx.Module):
     positive: jax.Array
     prior_loc: jax.Array
     prior_scale: jax.Array
+    #: Observed rows the likelihood learns from (1) or predicts through (0: a held-out
+    #: stretch of the predictive check).
+    weight: jax.Array
     n_blocks: int = eqx.field(static=True)
     has_d2: bool = eqx.field(static=True)
 
@@ -115,7 +118,13 @@ class RollDensity(eqx.Module):
         residual = self.gs_angle[self.observed] - self._predict_rows(v, self.observed)
         steps = jnp.diff(self.observed, prepend=-1)  # rows since the previous observation
         return random_walk_innovations(residual, steps, p["sigma_sins_deg_s"] * self.sample_s,
-                                       p["sigma_gs_deg"])
+                                       p["sigma_gs_deg"], self.weight)
+
+    def without_rows(self, held_out: np.ndarray) -> RollDensity:
+        """The same density with the observed rows ``held_out`` (a boolean mask over
+        ``observed``) left out of the likelihood: the filter predicts through them."""
+        weight = jnp.asarray(~np.asarray(held_out, dtype=bool), dtype=float)
+        return eqx.tree_at(lambda d: d.weight, self, weight)
 
     def log_likelihood_rows(self, v):
         p = self.parameters(v)
@@ -127,7 +136,7 @@ class RollDensity(eqx.Module):
         squares = self.m_spread + self.m_count * (self.m_mean - p["D0gs"]) ** 2
         m_rows = -0.5 * squares / sigma_m**2 - self.m_count * (0.5 * _LOG_2PI
                                                                 + jnp.log(sigma_m))
-        return rows + self.ideal_gs * m_rows
+        return self.weight * (rows + self.ideal_gs * m_rows)
 
     def log_likelihood_blocks(self, v):
         return jax.ops.segment_sum(self.log_likelihood_rows(v), self.block, self.n_blocks)
@@ -332,6 +341,7 @@ def _density_of(log: RollLog, names, priors, positive, *, sample_s: float, ideal
         positive=jnp.asarray(positive_all),
         prior_loc=jnp.asarray(loc),
         prior_scale=jnp.asarray(scale),
+        weight=jnp.ones(observed.size),
         n_blocks=int(block.max()) + 1,
         has_d2="D2" in names,
     )

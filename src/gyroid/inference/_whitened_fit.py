@@ -48,9 +48,13 @@ class ModelFit:
     rms_ols: float  # RMS of the ordinary least-squares fit of the same model, deg/h
 
 
-@eqx.filter_jit
-def _profile(model: DriftModel, inputs: DriftInputs, y, positive_u, steps_s, noise):
-    """Max log-likelihood over the real parameters with the positive ones fixed."""
+def _whitened_solution(model: DriftModel, inputs: DriftInputs, y, positive_u, steps_s, noise,
+                       weight=None):
+    """Generalised least squares of the real parameters with the positive ones fixed: the
+    design (the model's Jacobian in its real parameters, exact: they enter linearly) and the
+    data whitened by the Kalman filter; rows of ``weight`` 0 are predicted through, not fitted.
+    Returns (coefficients, whitened design, whitened target, innovation variances, parameter
+    vector builder, design)."""
     positive = np.array([p.positive for p in model.parameters])
     real_idx = np.flatnonzero(~positive)
     pos_idx = np.flatnonzero(positive)
@@ -64,15 +68,35 @@ def _profile(model: DriftModel, inputs: DriftInputs, y, positive_u, steps_s, noi
     design = jax.jacfwd(predict)(zero)
     stacked = jnp.concatenate([(y - offset)[:, None], design], axis=1)
     white, gm, tau = noise
-    innovations, variance = gauss_markov_innovations(stacked, steps_s, white, gm, tau)
-    scale = 1.0 / jnp.sqrt(variance)
+    innovations, variance = gauss_markov_innovations(stacked, steps_s, white, gm, tau, weight)
+    scale = 1.0 / jnp.sqrt(variance) if weight is None else weight / jnp.sqrt(variance)
     target = innovations[:, 0] * scale
     columns = innovations[:, 1:] * scale[:, None]
     coef, *_ = jnp.linalg.lstsq(columns, target)
+    return coef, columns, target, variance, lambda c: base.at[real_idx].set(c), design
+
+
+@eqx.filter_jit
+def _profile(model: DriftModel, inputs: DriftInputs, y, positive_u, steps_s, noise):
+    """Max log-likelihood over the real parameters with the positive ones fixed."""
+    coef, columns, target, variance, values_of, _ = _whitened_solution(
+        model, inputs, y, positive_u, steps_s, noise)
     rss = jnp.sum((target - columns @ coef) ** 2)
     log_lik = -0.5 * rss - 0.5 * jnp.sum(jnp.log(variance)) - 0.5 * y.shape[0] * _LOG_2PI
-    values = base.at[real_idx].set(coef)
+    values = values_of(coef)
     return log_lik, values, y - model.predict(values, inputs)
+
+
+@eqx.filter_jit
+def held_out_solution(model: DriftModel, inputs: DriftInputs, y, positive_u, steps_s, noise,
+                      weight):
+    """The whitened least-squares fit on the rows of ``weight`` 1 (time constants and noise
+    levels fixed): the drift it predicts at every row (deg/h), the covariance of its real
+    coefficients and the design in them (deg/h per unit): what a predictive check needs."""
+    coef, columns, _, _, values_of, design = _whitened_solution(
+        model, inputs, y, positive_u, steps_s, noise, weight)
+    covariance = jnp.linalg.pinv(columns.T @ columns)
+    return model.predict(values_of(coef), inputs), covariance, design
 
 
 def fit_whitened(

@@ -25,8 +25,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyroid.errors import GyroidInputError
-from gyroid.inference._bench_predictive import bench_predictive
-from gyroid.inference._bench_problem import BenchProblem
+from gyroid.inference._bench_predictive import whitened_predictive
 from gyroid.inference._checks import Check, CheckReport, fit_checks, point_fit_evidence
 from gyroid.inference._excitation import excitation
 from gyroid.inference._kalman import gauss_markov_innovations
@@ -144,7 +143,7 @@ def find_discrepancies(
     window = _choose_rate_window(log, start, t0_C)
     inputs = log.inputs(t0_C=t0_C, rate_window_s=window)
     start.check_identifiable(inputs, frozenset(log.columns))
-    search = _Search(log, inputs, per_mean, window)
+    search = _Search(log, inputs, per_mean)
     pool = candidates or tuple(
         [name for name in EFFECTS if name not in start.terms]
         + [EXTRA_PREFIX + column for column in log.extra_columns])
@@ -160,10 +159,8 @@ class _Search:
     """The discrepancy search on one log (or its means): its inputs, the fits it compares,
     the step descriptions and the final report."""
 
-    def __init__(self, log: BenchLog, inputs: DriftInputs, per_mean: int,
-                 rate_window_s: float) -> None:
+    def __init__(self, log: BenchLog, inputs: DriftInputs, per_mean: int) -> None:
         self.log, self.inputs, self.per_mean = log, inputs, per_mean
-        self.rate_window_s = rate_window_s
         time_s = np.asarray(log.time_s)
         self.time_s = time_s
         self.steps_s = jnp.asarray(np.concatenate([[np.median(np.diff(time_s))],
@@ -214,13 +211,12 @@ class _Search:
         return Step(best, evidence, before.rms_ols, after.rms_ols, scores[best], scores, rivals,
                     regressor, r, size)
 
-    def _predictive(self, terms: tuple[str, ...]) -> Check:
-        """The final model's predictive check, under the search's white + Gauss-Markov
-        noise model (each held-out stretch refitted by the mode, all in one compilation)."""
-        problem = BenchProblem.from_log(self.log, terms, noise="white+gm",
-                                        t0_C=self.inputs.t0_C,
-                                        rate_window_s=self.rate_window_s)
-        return bench_predictive(problem.density, self.time_s)
+    def _predictive(self, fit: ModelFit, noise: NoiseLevels) -> Check:
+        """The final model's predictive check under the search's noise model (each
+        held-out stretch refitted by whitened least squares, the noise held)."""
+        return whitened_predictive(DriftModel(terms=fit.terms), self.inputs,
+                                   self.y, self.time_s, fit.values,
+                                   noise)
 
     def report(self, found: Search, window: float) -> DiscrepancyReport:
         baseline_fit = found.baseline.fit[0]
@@ -232,7 +228,7 @@ class _Search:
             checks=_final_checks(self.log, fit_now, noise, self.steps_s) + CheckReport((
                 excitation(DriftModel(terms=found.final.terms), self.inputs, self.time_s,
                            tuple(contiguous_segments(self.time_s))),
-                self._predictive(found.final.terms))),
+                self._predictive(fit_now, noise))),
             baseline_terms=found.baseline.terms,
             final_terms=found.final.terms,
             steps=found.steps,
