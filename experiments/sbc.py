@@ -33,7 +33,7 @@ from gyroid.io import (  # noqa: E402
     write_bench_log,
 )
 from gyroid.models import LogNormal  # noqa: E402
-from gyroid.pipeline import run_batch  # noqa: E402
+from gyroid.pipeline import FitOptions, run_batch  # noqa: E402
 from gyroid.simulation import (  # noqa: E402
     MagneticProtocol,
     ThermalProtocol,
@@ -102,8 +102,9 @@ def main() -> None:
                 truths.append(truth)
             # Every dataset fitted as 'gyroid batch' fits a lot (Dask, one fit per log); the
             # truth is drawn from paper A's FOG priors, so the fits use them too.
-            batch = run_batch(paths, terms, folder / "fits", workers=args.workers,
-                              seed=args.seed, prior_set="paper_a_fog", priors=priors,
+            options = FitOptions(terms=terms, seed=args.seed, prior_set="paper_a_fog",
+                                 priors=priors)
+            batch = run_batch(paths, options, folder / "fits", workers=args.workers,
                               progress=lambda m: print(m, flush=True) if m.startswith(
                                   f"[{args.datasets}/") else None)
             failed = [o.log for o in batch.outcomes if o.failed]

@@ -85,3 +85,114 @@ def weak_field_log(seed: int, *, hours: float = 4.0) -> tuple[dict[str, np.ndarr
              for k, a in enumerate("xyz", start=1)}
     drift = 1.0 + gm + 0.3 * rng.standard_normal(time_s.size)
     return {"time_s": time_s, "drift_deg_h": drift, **field}, {"w0": 1.0}
+
+
+# ----- native logs written with each format's published layout or its library's writer -------
+def write_ulog(path: Path, instances: list[dict[str, np.ndarray]]) -> Path:
+    """A PX4 ULog of ``sensor_gyro`` instances (each: timestamp_sample in us, x, y, z in
+    rad/s, temperature in degC), written byte by byte from the published format: the
+    16-byte header, the flag bits, one format, a subscription per instance, data messages."""
+    import struct
+
+    def message(kind: bytes, payload: bytes) -> bytes:
+        return struct.pack("<HB", len(payload), kind[0]) + payload
+
+    fields = ("uint64_t timestamp;uint64_t timestamp_sample;uint32_t device_id;float x;"
+              "float y;float z;float temperature;")
+    out = bytearray(b"ULog\x01\x12\x35" + bytes([1]) + struct.pack("<Q", 0))
+    out += message(b"B", bytes(16) + struct.pack("<3Q", 0, 0, 0))
+    out += message(b"F", ("sensor_gyro:" + fields).encode())
+    for k in range(len(instances)):
+        out += message(b"A", struct.pack("<BH", k, k) + b"sensor_gyro")
+    rows = sorted((int(t), k, i) for k, inst in enumerate(instances)
+                  for i, t in enumerate(inst["timestamp_sample"]))
+    for t, k, i in rows:
+        inst = instances[k]
+        out += message(b"D", struct.pack("<HQQIffff", k, t, t, 1000 + k, inst["x"][i],
+                                         inst["y"][i], inst["z"][i], inst["temperature"][i]))
+    path.write_bytes(bytes(out))
+    return path
+
+
+def write_dataflash(path: Path, instances: list[dict[str, np.ndarray]]) -> Path:
+    """An ArduPilot DataFlash log of IMU messages (TimeUS, I, GyrX..Z in rad/s, T in degC),
+    each message packed by pymavlink's own DFFormat and message builder."""
+    from pymavlink import DFReader
+
+    fmt_fmt = DFReader.DFFormat(0x80, "FMT", 89, "BBnNZ", "Type,Length,Name,Format,Columns")
+    imu = DFReader.DFFormat(0x40, "IMU", 0, "QBffff", "TimeUS,I,GyrX,GyrY,GyrZ,T")
+
+    class Writer:  # what make_format_msgbuf and make_msgbuf read from a reader
+        formats = {0x80: fmt_fmt}
+
+    writer = Writer()
+    out = bytearray(DFReader.DFReader_binary.make_format_msgbuf(writer, fmt_fmt))
+    out += DFReader.DFReader_binary.make_format_msgbuf(writer, imu)
+    rows = sorted((int(t), k, i) for k, inst in enumerate(instances)
+                  for i, t in enumerate(inst["timestamp_sample"]))
+    for t, k, i in rows:
+        inst = instances[k]
+        out += DFReader.DFReader_binary.make_msgbuf(writer, imu, [
+            t, k, inst["x"][i], inst["y"][i], inst["z"][i], inst["temperature"][i]])
+    path.write_bytes(bytes(out))
+    return path
+
+
+def write_rosbag(path: Path, imu: dict[str, np.ndarray], *, ros1: bool = False,
+                 temperature_every: int = 10) -> Path:
+    """A ROS 2 bag (MCAP storage when ``path`` ends .mcap... a folder otherwise) or a ROS 1
+    bag of ``sensor_msgs/Imu`` on /imu and ``sensor_msgs/Temperature`` on /imu/temperature
+    (every ``temperature_every``-th sample), written with rosbags' writers."""
+    from rosbags.typesys import Stores, get_typestore
+
+    store = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+    Imu, Temperature = store.types["sensor_msgs/msg/Imu"], store.types[
+        "sensor_msgs/msg/Temperature"]
+    Header, Time = store.types["std_msgs/msg/Header"], store.types[
+        "builtin_interfaces/msg/Time"]
+    Vector3, Quaternion = store.types["geometry_msgs/msg/Vector3"], store.types[
+        "geometry_msgs/msg/Quaternion"]
+    zeros = np.zeros(9)
+
+    def header(ns: int, k: int):
+        stamp = Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
+        return Header(seq=k, stamp=stamp, frame_id="imu") if ros1 else Header(
+            stamp=stamp, frame_id="imu")
+
+    messages = []
+    for k, t_us in enumerate(imu["timestamp_sample"]):
+        ns = int(t_us) * 1000
+        messages.append(("/imu", "sensor_msgs/msg/Imu", ns, Imu(
+            header=header(ns, k), orientation=Quaternion(x=0.0, y=0.0, z=0.0, w=1.0),
+            orientation_covariance=zeros, angular_velocity=Vector3(
+                x=float(imu["x"][k]), y=float(imu["y"][k]), z=float(imu["z"][k])),
+            angular_velocity_covariance=zeros, linear_acceleration=Vector3(
+                x=0.0, y=0.0, z=9.81), linear_acceleration_covariance=zeros)))
+        if k % temperature_every == 0:
+            messages.append(("/imu/temperature", "sensor_msgs/msg/Temperature", ns,
+                             Temperature(header=header(ns, k), temperature=float(
+                                 imu["temperature"][k]), variance=0.0)))
+    if ros1:
+        from rosbags.rosbag1 import Writer
+
+        with Writer(path) as writer:
+            connections = {topic: writer.add_connection(topic, kind, typestore=store)
+                           for topic, kind in (("/imu", "sensor_msgs/msg/Imu"), (
+                               "/imu/temperature", "sensor_msgs/msg/Temperature"))}
+            for topic, kind, ns, msg in messages:
+                writer.write(connections[topic], ns, store.serialize_ros1(msg, kind))
+        return path
+    from rosbags.rosbag2 import StoragePlugin, Writer
+
+    plugin = StoragePlugin.MCAP if path.suffix == ".mcap" else StoragePlugin.SQLITE3
+    folder = path.with_suffix("") if path.suffix == ".mcap" else path
+    with Writer(folder, version=9, storage_plugin=plugin) as writer:
+        connections = {topic: writer.add_connection(topic, kind, typestore=store)
+                       for topic, kind in (("/imu", "sensor_msgs/msg/Imu"), (
+                           "/imu/temperature", "sensor_msgs/msg/Temperature"))}
+        for topic, kind, ns, msg in messages:
+            writer.write(connections[topic], ns, store.serialize_cdr(msg, kind))
+    if path.suffix == ".mcap":  # the bag's one storage file, on its own
+        stored = next(folder.glob("*.mcap"))
+        stored.rename(path)
+    return path

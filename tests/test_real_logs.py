@@ -196,3 +196,22 @@ def test_a_jittered_clock_does_not_crash_the_discrepancy_search(tmp_path, mpu_fo
     code = main(["discrepancy", str(log), "--terms", "bias,temperature", "--out",
                  str(tmp_path / "d"), "--map", "drift_deg_h=drift_y_deg_h"])
     assert code in (0, 3) and (tmp_path / "d" / "discrepancy.json").exists()
+
+
+def test_the_real_matlab_file_reads_as_the_registry_converts_it(mpu_folder):
+    """The MPU6050 run as MATLAB v7.3 (gyroid once refused .mat): its gyroBuffer's columns
+    read with --map (deg/s) equal the registry's conversion of the same file."""
+    from gyroid.io import bench_log_from_table, read_log_table
+    from gyroid.io._units import parse_column_maps
+
+    run = "set2_unmoved-with-x-pointing-forward-10min"
+    mat = Path(os.environ["GYROID_DATA"]) / "mpu6050_sunsided" / "raw" / run / \
+        "mpu6050_gyroscope.mat"
+    maps = parse_column_maps(["time_s=gyroBuffer_1", *(
+        f"drift_{a}_deg_h=gyroBuffer_{k + 2}:deg/s" for k, a in enumerate("xyz"))])
+    table = read_log_table(mat, maps)
+    assert table.axes() == ("x", "y", "z") and table.picked["format"] == "MATLAB .mat"
+    converted = load_bench_log(mpu_folder / f"mpu6050_{run}.csv", axis="y")
+    from_mat = bench_log_from_table(table, "bias", axis="y")
+    np.testing.assert_allclose(np.asarray(from_mat.drift_deg_h)[: converted.n],
+                               np.asarray(converted.drift_deg_h), rtol=1e-9)

@@ -11,6 +11,7 @@ import click
 
 from gyroid.cli import (  # noqa: F401  (registers the commands)
     bench_commands,
+    export_commands,
     pool_commands,
     roll_commands,
     study_commands,

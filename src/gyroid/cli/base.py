@@ -147,6 +147,46 @@ def prior_options(function):
     return function
 
 
+axes_option = click.option(
+    "--axes", "axes", default=None, metavar="AXIS,...",
+    help="Gyro axes to fit, e.g. x,y,z (default: every axis the log has, its "
+         "drift_AXIS_deg_h columns). With several, OUT holds a folder per axis and "
+         "axes.json (docs/formats.md section 5); exit 3 when any axis must not be used.")
+
+
+instance_option = click.option(
+    "--instance", "instance", default=None, type=click.IntRange(0), metavar="N",
+    help="A flight-controller or ROS log's IMU, 0 for the first (default): PX4's "
+         "sensor_gyro multi_id order, ArduPilot's IMU I, ROS Imu topics in name order.")
+
+
+def parse_axes(text: str | None) -> tuple[str, ...] | None:
+    """``--axes x,y,z`` as a tuple (None: every axis the log has)."""
+    if text is None:
+        return None
+    axes = tuple(dict.fromkeys(item.strip() for item in text.split(",") if item.strip()))
+    if not axes:
+        raise GyroidInputError(f"--axes {text!r}: name the axes, e.g. --axes x,y,z")
+    return axes
+
+
+def report_axes(result) -> None:
+    """Print each axis's failed checks (prefixed by its axis) and a line per axis; exit 3
+    when any axis must not be used (every axis's files are written first)."""
+    context = click.get_current_context(silent=True)
+    command = " ".join(context.command_path.split()[1:]) if context is not None else ""
+    for axis, item in result.results.items():
+        for line in check_lines(item.checks, command):
+            click.echo(f"axis {axis}: {line}", err=True)
+    for axis, item in result.results.items():
+        click.echo(f"axis {axis}: {item.checks.verdict()}", err=True)
+    if not result.trustworthy:
+        bad = [axis for axis, item in result.results.items() if not item.trustworthy]
+        click.echo(f"axes {', '.join(bad)} must not be used (exit 3); the others may",
+                   err=True)
+        raise UntrustworthyResult()
+
+
 def fit_options(function):
     """Every option of a bench fit, for ``gyroid fit`` and ``gyroid batch`` alike; the
     command receives them as one checked ``options`` (:class:`gyroid.pipeline.FitOptions`)."""
@@ -154,7 +194,7 @@ def fit_options(function):
 
     @functools.wraps(function)
     def wrapper(*args, terms, seed, noise, t0_C, prior_choice, prior_items, flat_prior,
-                rate_window, segment_means, mappings, progress, **kwargs):
+                rate_window, segment_means, mappings, progress, axes, instance, **kwargs):
         from gyroid.inference._rate_window import parse_rate_window
         from gyroid.models._prior_scales import resolve_prior_option
         from gyroid.pipeline._fit_file import FitOptions
@@ -164,7 +204,7 @@ def fit_options(function):
                              prior_set="flat" if flat_prior else prior_set, priors=overrides,
                              rate_window_s=parse_rate_window(rate_window),
                              segment_means=segment_means, maps=parse_maps(mappings),
-                             progress=progress)
+                             progress=progress, axes=parse_axes(axes), instance=instance)
         return function(*args, options=options, **kwargs)
 
     for decorate in reversed((
@@ -186,6 +226,8 @@ def fit_options(function):
                           "mean), so the bias's wander between bursts is the estimated "
                           "noise; the samples are still checked for spikes."),
         map_option,
+        axes_option,
+        instance_option,
         click.option("--progress/--no-progress", default=True, show_default=True,
                      help="Show the sampler's progress bar."),
     )):

@@ -11,12 +11,16 @@ from gyroid.cli.base import (
     POSITIVE,
     SEED,
     TEMPERATURE,
+    axes_option,
     cli,
     fit_options,
+    instance_option,
     map_option,
     parse_assignments,
+    parse_axes,
     parse_effects,
     parse_maps,
+    report_axes,
     report_checks,
     terms_help,
     terms_option,
@@ -179,9 +183,17 @@ def fit(data, out, options) -> None:
     from gyroid.pipeline._fit_file import fit_file
 
     result = fit_file(data, options, out, say=lambda m: click.echo(m, err=True))
-    click.echo(result.point.summary())
+    if result.several:
+        for axis, fit in result.results.items():
+            click.echo(f"axis {axis}: " + fit.point.summary())
+        click.echo(f"wrote {', '.join(str(out / a) for a in result.results)} (fit.json, "
+                   f"posterior.nc and figures each) and {out / 'axes.json'}")
+        report_axes(result)
+        return
+    fit = result.only
+    click.echo(fit.point.summary())
     click.echo(f"wrote {out / 'fit.json'}, {out / 'posterior.nc'} and figures")
-    report_checks(result.checks)
+    report_checks(fit.checks)
 
 
 @cli.command()
@@ -193,24 +205,29 @@ def fit(data, out, options) -> None:
 @click.option("--seed", default=0, show_default=True, type=SEED,
               help="Seed for choosing posterior draws.")
 @map_option
-def compensate(data, fit_dir, out, seed, mappings) -> None:
+@axes_option
+@instance_option
+def compensate(data, fit_dir, out, seed, mappings, axes, instance) -> None:
     """Compensate a new bench log DATA with a fitted drift model; Allan deviation before and
-    after. Exit code 3 when a self-check (extrapolation, gain) says not to use it."""
-    from gyroid.io._bench_reader import load_bench_log
-    from gyroid.io._fitted import FittedDrift
-    from gyroid.reports._write import write
-    from gyroid.workflows._compensate import compensate as run
+    after. Every axis a fit of several has (--axes to choose). Exit code 3 when a self-check
+    (extrapolation, gain, the predictive check) says not to use it."""
+    from gyroid.pipeline._compensate_file import compensate_file
 
-    fitted = FittedDrift.from_dir(fit_dir)
-    log = load_bench_log(data, fitted.model, t0_C=fitted.t0_C, column_map=parse_maps(mappings))
-    click.echo(f"compensating {data} ({log.n} rows) with {fit_dir} ...", err=True)
-    result = run(log, fitted, seed=seed)
-    with output_dir(out) as stage:
-        write(stage, result)
-    s = result.summary
-    click.echo(f"RMS {s['rms_before_deg_h']:.3g} -> {s['rms_after_deg_h']:.3g} deg/h "
-               f"({100 * s['fraction_removed']:.0f} % removed); wrote {out / 'compensated.csv'}")
-    report_checks(result.checks)
+    click.echo(f"compensating {data} with {fit_dir} ...", err=True)
+    result = compensate_file(data, fit_dir, out, seed=seed, maps=parse_maps(mappings),
+                             axes=parse_axes(axes), instance=instance)
+    for axis, item in result.results.items():
+        s = item.summary
+        which = f"axis {axis}: " if result.several else ""
+        click.echo(f"{which}RMS {s['rms_before_deg_h']:.3g} -> {s['rms_after_deg_h']:.3g} "
+                   f"deg/h ({100 * s['fraction_removed']:.0f} % removed)")
+    if result.several:
+        click.echo(f"wrote {out}/AXIS/compensated.csv for {', '.join(result.results)} and "
+                   f"{out / 'axes.json'}")
+        report_axes(result)
+        return
+    click.echo(f"wrote {out / 'compensated.csv'}")
+    report_checks(result.only.checks)
 
 
 @cli.command()
@@ -265,16 +282,19 @@ def propagate(fit_dir, out, scenario, seed, draws) -> None:
                    "a second thermometer...) as a candidate cause extra:COLUMN, on the same "
                    "evidence scale as the catalogue.")
 @map_option
-def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings) -> None:
+@axes_option
+@instance_option
+def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings, axes, instance
+                ) -> None:
     """Find what the model TERMS misses in DATA, add it, refit, show the gap shrink.
 
-    DATA is a bench log (docs/formats.md section 1) or a roll log (section 4: roll_rate_deg_s,
-    gs_angle_deg), as .csv, .csv.gz or .parquet. Exit code 3 when a self-check of the
-    final model fails."""
-    from gyroid.io._bench_reader import load_bench_log
+    DATA is a bench log (docs/formats.md section 1; each gyro axis of a log of several) or a
+    roll log (section 4: roll_rate_deg_s, gs_angle_deg), as .csv, .csv.gz or .parquet. Exit
+    code 3 when a self-check of the final model fails."""
+    from gyroid.io._bench_reader import bench_log_from_table
     from gyroid.io._roll_log import load_roll_log
-    from gyroid.io._tables import log_kind
-    from gyroid.reports._write import write
+    from gyroid.io._tables import log_kind, read_log_table, table_source
+    from gyroid.pipeline._axes import PerAxis, chosen_axes, write_per_axis
     from gyroid.workflows._discrepancy import find_discrepancies
     from gyroid.workflows._roll_discrepancy import find_roll_discrepancies
 
@@ -286,19 +306,31 @@ def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings) -> N
     if log_kind(data, maps) == "roll":
         log = load_roll_log(data, column_map=maps)
         say(f"searching what {terms} misses in roll log {data} ({log.n} rows) ...")
-        report = find_roll_discrepancies(log, terms, max_added=max_added, progress=say)
+        result = PerAxis({None: find_roll_discrepancies(log, terms, max_added=max_added,
+                                                        progress=say)}, {"path": str(data)})
     else:
-        log = load_bench_log(data, terms, t0_C=t0_C, column_map=maps,
-                             extra_columns=extra_columns)
-        extra = f"; extra columns {', '.join(log.extra_columns)}" if log.extra_columns else ""
-        say(f"searching what {terms} misses in {data} ({log.n} rows{extra}) ...")
-        report = find_discrepancies(log, terms, max_added=max_added, t0_C=t0_C, progress=say)
-    with output_dir(out) as stage:
-        write(stage, report)
-    for line in report.summary_lines():
-        click.echo(line)
+        table = read_log_table(data, maps, instance)
+        reports = {}
+        for axis in chosen_axes(table, parse_axes(axes)):
+            log = bench_log_from_table(table, terms, extra_columns=extra_columns, axis=axis)
+            extra = (f"; extra columns {', '.join(log.extra_columns)}" if log.extra_columns
+                     else "")
+            which = f" (axis {axis})" if axis is not None else ""
+            say(f"searching what {terms} misses in {data}{which} ({log.n} rows{extra}) ...")
+            reports[axis] = find_discrepancies(log, terms, max_added=max_added, t0_C=t0_C,
+                                               progress=say)
+        result = PerAxis(reports, table_source(table))
+    write_per_axis(out, result)
+    for axis, report in result.results.items():
+        for line in report.summary_lines():
+            click.echo(f"axis {axis}: {line}" if result.several else line)
+    if result.several:
+        click.echo(f"wrote {out}/AXIS/discrepancy.json for {', '.join(result.results)} and "
+                   f"{out / 'axes.json'}")
+        report_axes(result)
+        return
     click.echo(f"wrote {out / 'discrepancy.json'} and {out / 'discrepancy.png'}")
-    report_checks(report.checks)
+    report_checks(result.only.checks)
 
 
 @cli.command()

@@ -100,7 +100,23 @@ class BenchFit:
         return FittedDrift(model=self.problem.model, draws=draws, t0_C=self.t0_C,
                            rate_window_s=float(self.problem.rate_window_s),
                            trustworthy=self.trustworthy, input_ranges=self.input_ranges,
-                           noise=self.noise_levels())
+                           noise=self.noise_levels(),
+                           contributions=self.effect_contributions())
+
+    def effect_contributions(self, max_rows: int = 1000) -> dict:
+        """Each effect's contribution to the drift at the posterior means (else the point
+        estimate), deg/h, at every ``every``-th fitted row (at most ``max_rows``): what an
+        export needs to state the drift a target cannot represent (``fit.json``)."""
+        import jax.numpy as jnp
+
+        names = self.model_names
+        source = (self.posterior.summary if self.posterior is not None else
+                  {n: {"mean": self.point.value[n]} for n in names})
+        params = {n: jnp.asarray(source[n]["mean"]) for n in names}
+        every = max(1, -(-self.problem.n // max_rows))
+        return {"every": every, "rows": self.problem.n, "effects": {
+            e.name: np.asarray(e.contribution(params, self.problem.inputs))[::every]
+            for e in self.problem.model.effects}}
 
     def noise_levels(self) -> dict:
         """The noise model and its levels (posterior means, else the point estimate):
@@ -179,6 +195,7 @@ class BenchFit:
             },
             **self.checks.to_json(),
             "input_ranges": self.input_ranges,
+            "effect_contributions_deg_h": self.effect_contributions(),
         }
         if post is not None:
             out["posterior"] = {k: post.summary[k] for k in names}

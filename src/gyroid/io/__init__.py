@@ -10,7 +10,7 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "_logs": [
         "BENCH_COLUMNS", "BenchLog", "contiguous_segments", "gap_threshold", "run_labels",
     ],
-    "_bench_reader": ["load_bench_log"],
+    "_bench_reader": ["bench_log_from_table", "load_bench_log"],
     "_log_writer": ["bench_log_text", "write_bench_log"],
     "_datasets": ["DATASETS", "data_home", "dataset_logs", "fetch"],
     "_outputs": ["atomic_write_text", "json_text", "output_dir", "output_lock"],

@@ -59,7 +59,21 @@ def load_bench_log(
     names the row or column. (Whether the terms are identifiable on the log is the
     problem's to check: :meth:`gyroid.inference.BenchProblem.from_log`.)
     """
-    table, axis = _for_axis(read_log_table(path, tuple(column_map)), axis)
+    del t0_C  # kept for callers; the reference temperature shapes the inputs, not the log
+    return bench_log_from_table(read_log_table(path, tuple(column_map)), terms,
+                     extra_columns=extra_columns, axis=axis)
+
+
+def bench_log_from_table(
+    table: LogTable,
+    terms: str | Iterable[str] | DriftModel | None = None,
+    *,
+    extra_columns: bool = False,
+    axis: str | None = None,
+) -> BenchLog:
+    """The bench log of a table already read (:func:`load_bench_log`'s checks): one call
+    per gyro axis of a log of several reads the file once."""
+    table, axis = _for_axis(table, axis)
     _check_shape(table)
     if terms is None or isinstance(terms, DriftModel):
         model = terms

@@ -35,6 +35,9 @@ class FittedDrift:
     #: ``white_sd_deg_h`` (a row's white noise), ``sigma_gm_deg_h``, ``tau_gm_s``; what the
     #: predictive check of a compensation needs (empty: unknown).
     noise: dict = field(default_factory=dict)
+    #: Each effect's contribution over the fitted rows (fit.json's
+    #: ``effect_contributions_deg_h``: ``every``, ``rows``, ``effects``); empty: unknown.
+    contributions: dict = field(default_factory=dict)
 
     @classmethod
     def from_dir(cls, folder: str | Path) -> FittedDrift:
@@ -55,7 +58,8 @@ class FittedDrift:
         return cls(model=model, draws=np.column_stack(columns), t0_C=fit.get("t0_C", T0_C),
                    rate_window_s=float(fit.get("rate_window_s", RATE_WINDOW_S)),
                    trustworthy=bool(fit.get("trustworthy", True)),
-                   input_ranges=fit.get("input_ranges", {}), noise=_noise_of(fit))
+                   input_ranges=fit.get("input_ranges", {}), noise=_noise_of(fit),
+                   contributions=fit.get("effect_contributions_deg_h", {}))
 
 
     @classmethod

@@ -30,6 +30,8 @@ class LogTable:
     maps: tuple[ColumnMap, ...] = field(default=())
     decimal_comma: bool = False
     empty: dict = field(default_factory=dict)  # column -> mask of empty cells (numeric cols)
+    #: What a native log's reader chose from the file (stream, instance, units), reported.
+    picked: dict = field(default_factory=dict)
 
     def where(self, row: int) -> str:
         """Human description of data row ``row`` (0-based): 'row 3 (line 7 of log.csv)'."""
@@ -195,9 +197,19 @@ def _is_float(text: str) -> bool:
     return True
 
 
-def read_log_table(path: str | Path, maps: tuple[ColumnMap, ...] = ()) -> LogTable:
-    """Read a log (.csv, .csv.gz, .parquet) with ``#`` comment lines and a header row."""
+def read_log_table(path: str | Path, maps: tuple[ColumnMap, ...] = (),
+                   instance: int | None = None) -> LogTable:
+    """Read a log: .csv, .csv.gz, .parquet with ``#`` comment lines and a header row, or a
+    flight-controller, ROS or MATLAB log (:mod:`gyroid.io._native`; ``instance`` picks its
+    IMU)."""
+    from gyroid.io._native import is_native, read_native
+
     path = Path(path)
+    if is_native(path):
+        return replace(read_native(path, instance), maps=tuple(maps))
+    if instance is not None:
+        raise GyroidInputError(f"--instance is for flight-controller, ROS and MATLAB logs; "
+                               f"{path.name} is a table: choose its columns with --map")
     if path.suffix.lower() in (".parquet", ".pq"):
         return _read_parquet(path, maps)
     parsed = read_csv(path)
@@ -227,10 +239,22 @@ def _read_parquet(path: Path, maps) -> LogTable:
                     maps, False, empty)
 
 
+def table_source(table: LogTable) -> dict[str, object]:
+    """Where a table's columns came from: the file, what a native log's reader picked and
+    the ``--map`` items (``axes.json``'s ``source``)."""
+    return {"path": str(table.path), **table.picked,
+            "maps": [f"{m.target}={m.source}" + (f":{m.unit}" if m.unit else "")
+                     for m in table.maps]}
+
+
 def read_header(path: str | Path) -> tuple[str, ...]:
     """A log's column names, reading no more than the header (a parquet file's schema, or
     the first 64 kB of a CSV, gzip or not); errors as :func:`read_log_table`'s."""
+    from gyroid.io._native import is_native
+
     path = Path(path)
+    if is_native(path):
+        return read_log_table(path).header
     if path.suffix.lower() in (".parquet", ".pq"):
         import pyarrow.parquet as pq
 

@@ -28,6 +28,7 @@ class LogOutcome:
     """What became of one log: its fit's summary, or why it failed."""
 
     log: str
+    axis: str | None = None  # of a log of several gyro axes
     n_samples: int | None = None
     trustworthy: bool | None = None
     posterior: dict[str, dict[str, float]] = field(default_factory=dict)  # P: mean, sd
@@ -47,7 +48,7 @@ class BatchResult:
     def to_json(self) -> dict:
         """``batch.json`` (docs/formats.md section 3)."""
         return {"scheduler": self.scheduler, "workers": self.workers,
-                "logs": [o.log for o in self.outcomes],
+                "logs": list(dict.fromkeys(o.log for o in self.outcomes)),
                 "failed": [{"log": o.log, "message": o.message}
                            for o in self.outcomes if o.failed]}
 
@@ -56,14 +57,17 @@ class BatchResult:
         names = sorted({p for o in self.outcomes for p in o.posterior})
         out = io.StringIO()
         writer = csv.writer(out, lineterminator="\n")
+        axes = any(o.axis is not None for o in self.outcomes)
         writer.writerow(["log", "n_samples", "trustworthy",
-                         *(f"{p}_{stat}" for p in names for stat in ("mean", "sd"))])
+                         *(f"{p}_{stat}" for p in names for stat in ("mean", "sd")),
+                         *(["axis"] if axes else [])])
         for o in self.outcomes:
             if o.failed:
                 continue
             writer.writerow([o.log, o.n_samples, o.trustworthy,
                              *(repr(o.posterior[p][stat]) if p in o.posterior else ""
-                               for p in names for stat in ("mean", "sd"))])
+                               for p in names for stat in ("mean", "sd")),
+                             *([o.axis or ""] if axes else [])])
         return out.getvalue()
 
     @property
@@ -71,9 +75,9 @@ class BatchResult:
         return all(o.trustworthy for o in self.outcomes if not o.failed)
 
 
-def fit_one(path: str, options: FitOptions, folder: str) -> LogOutcome:
+def fit_one(path: str, options: FitOptions, folder: str) -> list[LogOutcome]:
     """Fit one log as ``gyroid fit`` would and write its files into ``folder`` (runs in a
-    worker)."""
+    worker): an outcome per gyro axis."""
     from gyroid._config import configure
     from gyroid.pipeline._fit_file import fit_file
 
@@ -81,15 +85,15 @@ def fit_one(path: str, options: FitOptions, folder: str) -> LogOutcome:
     try:
         result = fit_file(path, replace(options, progress=False), Path(folder))
     except GyroidInputError as error:
-        return LogOutcome(path, message=str(error))
+        return [LogOutcome(path, message=str(error))]
     except Exception as error:  # noqa: BLE001 - one log's fault must not stop the lot
-        return LogOutcome(path, message=f"internal error: {type(error).__name__}: {error} "
-                                        "(a bug in gyroid; fit this log alone with "
-                                        "GYROID_DEBUG=1 for the traceback)")
-    summary = result.to_json()["posterior"]
-    return LogOutcome(path, n_samples=result.problem.n, trustworthy=result.trustworthy,
-                      posterior={p: {"mean": s["mean"], "sd": s["sd"]}
-                                 for p, s in summary.items()})
+        return [LogOutcome(path, message=f"internal error: {type(error).__name__}: {error} "
+                                         "(a bug in gyroid; fit this log alone with "
+                                         "GYROID_DEBUG=1 for the traceback)")]
+    return [LogOutcome(path, axis, n_samples=fit.problem.n, trustworthy=fit.trustworthy,
+                       posterior={p: {"mean": s["mean"], "sd": s["sd"]}
+                                  for p, s in fit.to_json()["posterior"].items()})
+            for axis, fit in result.results.items()]
 
 
 def run_batch(paths: Sequence[str | Path], options: FitOptions, out: Path, *,
@@ -119,15 +123,17 @@ def run_batch(paths: Sequence[str | Path], options: FitOptions, out: Path, *,
         n_workers = len(client.scheduler_info()["workers"])
         futures = {client.submit(fit_one, p, options, str(out / s), pure=False): p
                    for p, s in zip(paths, stems, strict=True)}
-        done: dict[str, LogOutcome] = {}
+        done: dict[str, list[LogOutcome]] = {}
         for future in as_completed(futures):
-            outcome = future.result()
-            done[outcome.log] = outcome
-            state = "failed" if outcome.failed else (
-                "written" if outcome.trustworthy else "written, NOT TRUSTWORTHY")
-            say(f"[{len(done)}/{len(paths)}] {outcome.log}: {state}")
+            outcomes = future.result()
+            done[outcomes[0].log] = outcomes
+            for outcome in outcomes:
+                state = "failed" if outcome.failed else (
+                    "written" if outcome.trustworthy else "written, NOT TRUSTWORTHY")
+                which = f" (axis {outcome.axis})" if outcome.axis is not None else ""
+                say(f"[{len(done)}/{len(paths)}] {outcome.log}{which}: {state}")
     finally:
         client.close()
         if cluster is not None:
             cluster.close()
-    return BatchResult(where, n_workers, [done[p] for p in paths])
+    return BatchResult(where, n_workers, [o for p in paths for o in done[p]])

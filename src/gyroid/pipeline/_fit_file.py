@@ -13,14 +13,14 @@ from gyroid.errors import GyroidInputError
 from gyroid.inference._bench_density import NOISE_MODELS
 from gyroid.inference._bench_fit import BenchFit, fit_log
 from gyroid.inference._emcee import Emcee
-from gyroid.io._bench_reader import load_bench_log
-from gyroid.io._outputs import output_dir
+from gyroid.io._bench_reader import bench_log_from_table
+from gyroid.io._tables import read_log_table, table_source
 from gyroid.io._units import ColumnMap
 from gyroid.models._inputs import T0_C
 from gyroid.models._prior_scales import PRIOR_SETS
 from gyroid.models._priors import Prior
 from gyroid.models._terms import resolve_terms
-from gyroid.reports._write import write
+from gyroid.pipeline._axes import PerAxis, chosen_axes, write_per_axis
 
 
 @dataclass(frozen=True)
@@ -38,6 +38,10 @@ class FitOptions:
     segment_means: bool = False
     maps: tuple[ColumnMap, ...] = ()
     progress: bool = True  # the sampler's progress bar
+    #: Gyro axes to fit (``--axes``); None: every axis the log has.
+    axes: tuple[str, ...] | None = None
+    #: A native log's IMU (``--instance``); None: its first.
+    instance: int | None = None
 
     def __post_init__(self) -> None:
         resolve_terms(self.terms)
@@ -56,16 +60,22 @@ class FitOptions:
 
 
 def fit_file(path: str | Path, options: FitOptions, out: str | Path,
-             say: Callable[[str], None] | None = None) -> BenchFit:
-    """Read, fit and write one log: its files appear in ``out`` whole, or not at all."""
-    log = load_bench_log(path, options.terms, t0_C=options.t0_C, column_map=options.maps)
-    if say is not None:
-        say(f"fitting {options.terms} to {path} ({log.n} rows) ...")
-    result = fit_log(log, options.terms, noise=options.noise, seed=options.seed,
-                     priors=dict(options.priors), prior_set=options.prior_set,
-                     t0_C=options.t0_C, rate_window_s=options.rate_window_s,
-                     sampler=Emcee(progress=options.progress),
-                     segment_means=options.segment_means)
-    with output_dir(out) as stage:
-        write(stage, result)
+             say: Callable[[str], None] | None = None) -> PerAxis[BenchFit]:
+    """Read, fit and write one log, each of its gyro axes (``options.axes``) from one read
+    of the file: with one axis its files go to ``out``, with several to ``out/AXIS/`` with
+    ``out/axes.json``; they appear whole, or not at all."""
+    table = read_log_table(path, options.maps, options.instance)
+    fits = {}
+    for axis in chosen_axes(table, options.axes):
+        log = bench_log_from_table(table, options.terms, axis=axis)
+        if say is not None:
+            which = f" (axis {axis})" if axis is not None else ""
+            say(f"fitting {options.terms} to {path}{which} ({log.n} rows) ...")
+        fits[axis] = fit_log(log, options.terms, noise=options.noise, seed=options.seed,
+                             priors=dict(options.priors), prior_set=options.prior_set,
+                             t0_C=options.t0_C, rate_window_s=options.rate_window_s,
+                             sampler=Emcee(progress=options.progress),
+                             segment_means=options.segment_means)
+    result = PerAxis(fits, table_source(table))
+    write_per_axis(out, result)
     return result

@@ -33,6 +33,7 @@ from gyroid.plotting import (
 from gyroid.plotting._pool import forest_plot
 from gyroid.workflows._compensate import Compensation
 from gyroid.workflows._discrepancy_report import DiscrepancyReport
+from gyroid.workflows._export import FirmwareExport
 from gyroid.workflows._propagate import Propagation
 
 
@@ -135,9 +136,20 @@ def _discrepancy(folder: Path, report: DiscrepancyReport) -> list[Path]:
     return [folder / "discrepancy.json", *save(figure, folder / "discrepancy")]
 
 
+def _export(folder: Path, result: FirmwareExport) -> list[Path]:
+    """The target's parameter file (none for json) and export.json."""
+    written = []
+    if result.file_name:
+        (folder / result.file_name).write_text(result.text())
+        written.append(folder / result.file_name)
+    (folder / "export.json").write_text(json_text(result.record))
+    return [*written, folder / "export.json"]
+
+
 _WRITERS: dict[type, Callable[..., list[Path]]] = {
     BenchFit: _bench_fit, RollFit: _roll_fit, PoolFit: _pool_fit,
     Compensation: _compensation, Propagation: _propagation, DiscrepancyReport: _discrepancy,
+    FirmwareExport: _export,
 }
 
 

@@ -175,6 +175,11 @@ class DiscrepancyReport:
     def added(self) -> list[str]:
         return [s.effect for s in self.steps]
 
+    @property
+    def trustworthy(self) -> bool:
+        """The final model's self-checks passed."""
+        return self.checks.trustworthy
+
     def to_json(self) -> dict:
         out = {
             "log_kind": self.log_kind,

@@ -1,0 +1,76 @@
+"""A log's gyro axes as a dimension: which axes a command runs on, the results per axis, and
+their files (docs/formats.md section 5): with one axis in ``OUT`` as before, with several
+in ``OUT/AXIS/`` each and ``OUT/axes.json``."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Generic, TypeVar
+
+from gyroid.errors import GyroidInputError
+from gyroid.io._outputs import json_text, output_dir
+from gyroid.io._tables import LogTable
+from gyroid.reports._write import write
+
+R = TypeVar("R")
+
+
+@dataclass(frozen=True)
+class PerAxis(Generic[R]):
+    """A command's results on one log, one per gyro axis (keyed None for a log of one drift
+    column), and what the reader picked from the file. Each result has ``checks`` and
+    ``trustworthy``."""
+
+    results: dict[str | None, R]
+    source: dict[str, object]
+
+    @property
+    def trustworthy(self) -> bool:
+        return all(result.trustworthy for result in self.results.values())
+
+    @property
+    def several(self) -> bool:
+        """True when the axes are written to a folder each, with ``axes.json``."""
+        return len(self.results) > 1
+
+    @property
+    def only(self) -> R:
+        """The result of a log read for one axis."""
+        if self.several:
+            raise ValueError(f"{len(self.results)} axes: pick one from results")
+        return next(iter(self.results.values()))
+
+    def to_json(self) -> dict:
+        """``axes.json``."""
+        return {"axes": {axis: {"trustworthy": result.trustworthy,
+                                "exit": 0 if result.trustworthy else 3, "folder": axis}
+                         for axis, result in self.results.items()},
+                "source": self.source}
+
+
+def chosen_axes(table: LogTable, wanted: tuple[str, ...] | None) -> tuple[str | None, ...]:
+    """The axes to run on: ``wanted`` (each checked against the log's), or every axis the
+    log has; ``(None,)`` for a log of one ``drift_deg_h`` column."""
+    have = table.axes()
+    if wanted is None:
+        return (None,) if table.has("drift_deg_h") or not have else have
+    unknown = [axis for axis in wanted if axis not in have]
+    if unknown:
+        listed = (f"its axes are {', '.join(have)}" if have else
+                  "it has one drift column: leave --axes out")
+        raise GyroidInputError(f"--axes {','.join(wanted)}: {table.label} has no gyro axis "
+                               f"{unknown[0]!r} ({listed})")
+    return wanted
+
+
+def write_per_axis(out: str | Path, per_axis: PerAxis, **context) -> None:
+    """Every axis's files, whole or not at all (``context`` as :func:`reports.write`'s)."""
+    with output_dir(out) as stage:
+        if not per_axis.several:
+            write(stage, per_axis.only, **context)
+            return
+        for axis, result in per_axis.results.items():
+            (stage / axis).mkdir()
+            write(stage / axis, result, **context)
+        (stage / "axes.json").write_text(json_text(per_axis.to_json()))
