@@ -92,7 +92,7 @@ def bench_likelihood(problem, design, y, scales, repeats):
     d = len(problem.names)
     u = rng.normal(0, 0.01, (64, d))
     u[:, -1] = np.log(0.3)
-    batch = problem_batcher(problem.density, "log_posterior")
+    batch = problem_batcher(problem.density.log_posterior)
     stats = sufficient_statistics(design, y)
     ours = np.asarray(batch(u))
     theirs = numpy_log_posterior(stats, scales, u)

@@ -105,7 +105,7 @@ def test_sufficient_statistics_equal_the_direct_sum(known_sigma):
 
     u = rng.normal(size=(16, len(fast.names))) * 0.3
     np.testing.assert_allclose(fast.host_log_posterior()(u),
-                               np.asarray(problem_batcher(fast.density, "log_posterior")(
+                               np.asarray(problem_batcher(fast.density.log_posterior)(
                                    jnp.asarray(u))),
                                rtol=1e-11, atol=1e-8)
     assert direct.host_log_posterior() is None

@@ -23,9 +23,11 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "_rate_window": ["choose_rate_window"],
     "_check_report": ["Check", "CheckReport", "FitEvidence"],
     "_checks": [
-        "block_variance_ratios", "fit_checks", "goodness_of_fit", "identifiability",
-        "outliers", "point_vs_posterior", "prior_data_conflict", "residual_whiteness",
-        "segment_variance_ratio",
+        "fit_checks", "goodness_of_fit", "identifiability", "point_vs_posterior",
+        "prior_data_conflict",
+    ],
+    "_residual_checks": [
+        "block_variance_ratios", "outliers", "residual_whiteness", "segment_variance_ratio",
     ],
     "_batching": ["problem_batcher"],
     "_starts": ["START_MULTIPLES", "grid_points", "start_grid"],

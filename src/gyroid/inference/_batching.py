@@ -9,6 +9,7 @@ compilation) and its static part is hashed once.
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 
 import equinox as eqx
 import jax
@@ -46,17 +47,18 @@ def _interned(value) -> _HashedOnce:
 
 
 @functools.partial(jax.jit, static_argnums=(0, 1, 2))
-def _batched_method(static, treedef, method, leaves, u):
-    problem = eqx.combine(jax.tree_util.tree_unflatten(treedef, leaves), static.value)
-    return jax.vmap(getattr(problem, method))(u)
+def _batched_method(static, treedef, function, leaves, u):
+    density = eqx.combine(jax.tree_util.tree_unflatten(treedef, leaves), static.value)
+    return jax.vmap(lambda row: function(density, row))(u)
 
 
-def problem_batcher(density: eqx.Module, method: str = "log_posterior"):
-    """``u (w, d) -> vmap(density.<method>)(u)``, jit-compiled once per density structure
-    and shape (the arrays are arguments, so a new log of the same shape reuses the
-    compilation). ``density`` is a problem's JAX part (``problem.density``); it is split and
-    flattened here, once, not on every call."""
+def problem_batcher(method: Callable[[jax.Array], jax.Array]):
+    """``u (w, d) -> vmap(method)(u)`` for a bound method of a problem's JAX part, e.g.
+    ``problem_batcher(problem.density.log_posterior)``: jit-compiled once per density
+    structure and shape (the arrays are arguments, so a new log of the same shape reuses the
+    compilation). The density is split and flattened here, once, not on every call."""
+    density, function = method.__self__, method.__func__
     dynamic, static = eqx.partition(density, eqx.is_array)
     leaves, treedef = jax.tree_util.tree_flatten(dynamic)
     static = _interned(static)
-    return lambda u: _batched_method(static, treedef, method, leaves, u)
+    return lambda u: _batched_method(static, treedef, function, leaves, u)

@@ -14,12 +14,13 @@ from gyroid.inference._bench_density import NOISE_UNITS
 from gyroid.inference._bench_predictive import bench_predictive
 from gyroid.inference._bench_problem import BenchProblem
 from gyroid.inference._check_report import Check, CheckReport
-from gyroid.inference._checks import fit_checks, outliers
+from gyroid.inference._checks import fit_checks
 from gyroid.inference._excitation import excitation
 from gyroid.inference._fit import fit
 from gyroid.inference._plausibility import effect_sizes, units_sanity
 from gyroid.inference._posterior import AbstractSampler, Posterior, inference_data
 from gyroid.inference._problem import PointEstimate
+from gyroid.inference._residual_checks import outliers
 from gyroid.io._fitted import FittedDrift
 from gyroid.io._logs import BenchLog, contiguous_segments
 from gyroid.models._design import rows_of
@@ -153,7 +154,7 @@ class BenchFit:
             design = np.asarray(model.design(rows_of(problem.inputs, slice(None, None, every))))
             return flat[pick, : problem.n_model] @ design.T
         u = problem.to_sampling_host(flat[pick])
-        predict = problem_batcher(problem.density, "predict")
+        predict = problem_batcher(problem.density.predict)
         chunk = int(np.clip(2e6 // max(problem.n, 1), 1, 64))
         return np.concatenate([np.asarray(predict(u[start:start + chunk]))[:, ::every]
                                for start in range(0, u.shape[0], chunk)])

@@ -93,7 +93,7 @@ def _sample(problem: AbstractProblem, point: PointEstimate, settings: Emcee, see
 
     # A linear-Gaussian problem's log-posterior runs on the host (NumPy on its sufficient
     # statistics): cheaper per emcee step than a call into JAX.
-    batch = problem.host_log_posterior() or problem_batcher(problem.density, "log_posterior")
+    batch = problem.host_log_posterior() or problem_batcher(problem.density.log_posterior)
 
     def log_prob(u: np.ndarray) -> np.ndarray:
         return np.asarray(batch(u))

@@ -142,7 +142,7 @@ def _linear_gaussian(problem: BenchDensity) -> PointEstimate:
         cov = _block_diag(covariance, np.array([[1.0 / (2.0 * max(n - p, 1))]]))
     x, sd = natural_with_sd(u, cov, problem.positive)
     # One compiled call (shared by logs of this shape), not op-by-op JAX on every row.
-    prediction = np.asarray(problem_batcher(problem, "predict")(u[None, :]))[0]
+    prediction = np.asarray(problem_batcher(problem.predict)(u[None, :]))[0]
     return PointEstimate(
         names=problem.names, u=u, covariance_u=cov,
         value={k: float(v) for k, v in zip(problem.names, x, strict=True)},

@@ -35,14 +35,13 @@ from gyroid.inference._checks import (
     convergence,
     goodness_of_fit,
     identifiability,
-    outliers,
     point_vs_posterior,
     prior_data_conflict,
-    residual_whiteness,
 )
 from gyroid.inference._pool_problem import PoolProblem
 from gyroid.inference._posterior import Posterior
 from gyroid.inference._problem import PointEstimate
+from gyroid.inference._residual_checks import outliers, residual_whiteness
 from gyroid.io._logs import contiguous_segments
 from gyroid.models._priors import Normal
 

@@ -106,7 +106,7 @@ def block_log_likelihood(problem: AbstractProblem, posterior: Posterior, chunk: 
     walkers, draws, d = posterior.draws.shape
     flat = np.asarray(problem.to_sampling_host(posterior.draws.reshape(-1, d)))
     padded = np.concatenate([flat, np.repeat(flat[-1:], -flat.shape[0] % chunk, axis=0)])
-    blocks = problem_batcher(problem.density, "log_likelihood_blocks")
+    blocks = problem_batcher(problem.density.log_likelihood_blocks)
     log_lik = np.concatenate([np.asarray(blocks(padded[start:start + chunk]))
                               for start in range(0, padded.shape[0], chunk)])
     return log_lik[: flat.shape[0]].reshape(walkers, draws, -1)
