@@ -71,7 +71,7 @@ def test_white_noise_model_on_correlated_noise_is_refused():
 @pytest.mark.slow
 def test_magnetic_terms_on_a_weak_field_are_not_identified():
     """Case 4: a field that varied by +/-2 uT cannot identify the magnetic coefficients."""
-    columns, _ = weak_field_log(2)
+    columns, _ = weak_field_log(2, hours=1.5)
     result = fit_log(BenchLog(columns), "magnetic", noise="white+gm", sampler=QUICK)
     check = result.checks.to_json()["checks"]["identifiability"]
     assert not check["passed"] and check["severity"] == "error", check

@@ -369,3 +369,40 @@ def batch(logs, out, workers, scheduler, options) -> None:
         click.echo(f"not trustworthy: {outcome.log} (see its fit.json checks)", err=True)
     if failed or doubtful:
         raise UntrustworthyResult()
+
+
+@cli.command()
+@click.argument("data", type=click.Path(path_type=Path))
+@click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="Folder for noise.json and allan.png (a folder per axis for several).")
+@click.option("--seed", default=0, show_default=True, type=SEED, help="Random seed.")
+@map_option
+@axes_option
+@instance_option
+def noise(data, out, seed, mappings, axes, instance) -> None:
+    """Identify a static log's noise: angle random walk N, bias instability B, rate random
+    walk K, quantisation Q and rate ramp R (IEEE Std 952) with 90 % intervals, averaged over
+    the sets of terms the log supports; terms it cannot resolve get an upper bound. Exit
+    code 3 when a self-check says not to use it."""
+    from gyroid.pipeline._noise_file import noise_file
+
+    click.echo(f"fitting the noise of {data} ...", err=True)
+    result = noise_file(data, out, seed=seed, maps=parse_maps(mappings),
+                        axes=parse_axes(axes), instance=instance)
+    for axis, item in result.results.items():
+        which = f"axis {axis}: " if result.several else ""
+        for name, entry in item.summary().items():
+            if entry["resolved"]:
+                lo, hi = entry["ci90"]
+                click.echo(f"{which}{name} = {entry['mean']:.4g} [{lo:.4g}, {hi:.4g}] "
+                           f"{entry['unit']} ({entry['process']})")
+            else:
+                click.echo(f"{which}{name}: not resolved, below {entry['upper_bound_95']:.3g} "
+                           f"{entry['unit']} (95 %; {entry['why']})")
+    if result.several:
+        click.echo(f"wrote {out}/AXIS/noise.json for {', '.join(result.results)} and "
+                   f"{out / 'axes.json'}")
+        report_axes(result)
+        return
+    click.echo(f"wrote {out / 'noise.json'}")
+    report_checks(result.only.checks)

@@ -18,6 +18,8 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "_roll_problem": ["ALL_PARAMETERS", "RollProblem"],
     "_roll_fit": ["RollFit", "fit_roll_log"],
     "_pool_problem": ["PoolProblem"],
+    "_noise_problem": ["NOISE_TERMS", "NoiseProblem"],
+    "_noise_fit": ["NoiseFit", "fit_noise"],
     "_pool_fit": ["fit_pool", "pool_estimates", "pool_problem"],
     "_pool_result": ["PoolFit"],
     "_rate_window": ["choose_rate_window"],

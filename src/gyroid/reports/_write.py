@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from gyroid.inference._bench_fit import BenchFit
+from gyroid.inference._noise_fit import NoiseFit
 from gyroid.inference._pool_result import PoolFit
 from gyroid.inference._roll_fit import RollFit
 from gyroid.io._arviz import write_netcdf
@@ -23,6 +24,7 @@ from gyroid.plotting import (
     discrepancy_figure,
     dk_distribution,
     fit_overview,
+    noise_allan_figure,
     pair_plot,
     plot_step,
     roll_discrepancy_figure,
@@ -146,10 +148,16 @@ def _export(folder: Path, result: FirmwareExport) -> list[Path]:
     return [*written, folder / "export.json"]
 
 
+def _noise(folder: Path, result: NoiseFit) -> list[Path]:
+    """noise.json and allan.png."""
+    (folder / "noise.json").write_text(json_text(result.to_json()))
+    return [folder / "noise.json", *save(noise_allan_figure(result), folder / "allan")]
+
+
 _WRITERS: dict[type, Callable[..., list[Path]]] = {
     BenchFit: _bench_fit, RollFit: _roll_fit, PoolFit: _pool_fit,
     Compensation: _compensation, Propagation: _propagation, DiscrepancyReport: _discrepancy,
-    FirmwareExport: _export,
+    FirmwareExport: _export, NoiseFit: _noise,
 }
 
 
