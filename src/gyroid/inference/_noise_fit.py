@@ -34,6 +34,7 @@ from gyroid.inference._posterior import AbstractSampler, Posterior
 from gyroid.inference._problem import PointEstimate
 
 LEVEL_P = 1e-4
+POSTERIOR_CHECKS = ("convergence", "point_vs_posterior", "prior_data_conflict")
 LEVEL_RATIO = 2.0
 
 
@@ -174,7 +175,11 @@ def noise_model_result(problem: NoiseProblem, point: PointEstimate,
         priors=problem.priors, reference_sd={}, residuals=None, sigma_given=False,
         noise="noise model", draws_u=problem.to_sampling_host(posterior.draws),
         summary=posterior.summary, remedies=frozenset({"discrepancy"}))
-    return NoiseModelFit(problem.terms, point, posterior, fit_checks(evidence))
+    # The checks of residuals and identifiability read a drift fit's residuals and
+    # reference scales, which a noise fit does not have (level_fit and the terms' inclusion
+    # do their work): only the checks of the posterior itself are kept.
+    kept = tuple(c for c in fit_checks(evidence).checks if c.name in POSTERIOR_CHECKS)
+    return NoiseModelFit(problem.terms, point, posterior, CheckReport(kept))
 
 
 #: Model-averaged draws kept.
