@@ -3,6 +3,8 @@ options, printing the self-checks."""
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import click
 
 from gyroid.errors import GyroidInputError, UntrustworthyResult
@@ -185,6 +187,19 @@ def report_axes(result) -> None:
         click.echo(f"axes {', '.join(bad)} must not be used (exit 3); the others may",
                    err=True)
         raise UntrustworthyResult()
+
+
+def report_written(result, out: Path, files: tuple[str, ...]) -> None:
+    """Say which ``files`` a per-axis command wrote (in ``out``, or in ``out/AXIS/`` for
+    every axis with ``axes.json``), then the failed checks, exit 3 when the result (any
+    axis) must not be used."""
+    if result.several:
+        click.echo(f"wrote {', '.join(files)} in {out}/AXIS/ for {', '.join(result.results)}"
+                   f" and {out / 'axes.json'}")
+        report_axes(result)
+        return
+    click.echo(f"wrote {', '.join(str(out / name) for name in files)}")
+    report_checks(result.only.checks)
 
 
 def fit_options(function):

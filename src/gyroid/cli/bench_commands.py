@@ -20,8 +20,8 @@ from gyroid.cli.base import (
     parse_axes,
     parse_effects,
     parse_maps,
-    report_axes,
     report_checks,
+    report_written,
     terms_help,
     terms_option,
 )
@@ -183,17 +183,10 @@ def fit(data, out, options) -> None:
     from gyroid.pipeline._fit_file import fit_file
 
     result = fit_file(data, options, out, say=lambda m: click.echo(m, err=True))
-    if result.several:
-        for axis, fit in result.results.items():
-            click.echo(f"axis {axis}: " + fit.point.summary())
-        click.echo(f"wrote {', '.join(str(out / a) for a in result.results)} (fit.json, "
-                   f"posterior.nc and figures each) and {out / 'axes.json'}")
-        report_axes(result)
-        return
-    fit = result.only
-    click.echo(fit.point.summary())
-    click.echo(f"wrote {out / 'fit.json'}, {out / 'posterior.nc'} and figures")
-    report_checks(fit.checks)
+    for axis, fit in result.results.items():
+        click.echo(f"axis {axis}: " + fit.point.summary() if result.several else
+                   fit.point.summary())
+    report_written(result, out, ("fit.json", "posterior.nc", "fit.png", "pair.png"))
 
 
 @cli.command()
@@ -221,13 +214,8 @@ def compensate(data, fit_dir, out, seed, mappings, axes, instance) -> None:
         which = f"axis {axis}: " if result.several else ""
         click.echo(f"{which}RMS {s['rms_before_deg_h']:.3g} -> {s['rms_after_deg_h']:.3g} "
                    f"deg/h ({100 * s['fraction_removed']:.0f} % removed)")
-    if result.several:
-        click.echo(f"wrote {out}/AXIS/compensated.csv for {', '.join(result.results)} and "
-                   f"{out / 'axes.json'}")
-        report_axes(result)
-        return
-    click.echo(f"wrote {out / 'compensated.csv'}")
-    report_checks(result.only.checks)
+    report_written(result, out, ("compensated.csv", "compensate.json", "compensation.png",
+                                 "allan.png"))
 
 
 @cli.command()
@@ -324,13 +312,7 @@ def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings, axes
     for axis, report in result.results.items():
         for line in report.summary_lines():
             click.echo(f"axis {axis}: {line}" if result.several else line)
-    if result.several:
-        click.echo(f"wrote {out}/AXIS/discrepancy.json for {', '.join(result.results)} and "
-                   f"{out / 'axes.json'}")
-        report_axes(result)
-        return
-    click.echo(f"wrote {out / 'discrepancy.json'} and {out / 'discrepancy.png'}")
-    report_checks(result.only.checks)
+    report_written(result, out, ("discrepancy.json", "discrepancy.png"))
 
 
 @cli.command()
@@ -399,10 +381,4 @@ def noise(data, out, seed, mappings, axes, instance) -> None:
             else:
                 click.echo(f"{which}{name}: not resolved, below {entry['upper_bound_95']:.3g} "
                            f"{entry['unit']} (95 %; {entry['why']})")
-    if result.several:
-        click.echo(f"wrote {out}/AXIS/noise.json for {', '.join(result.results)} and "
-                   f"{out / 'axes.json'}")
-        report_axes(result)
-        return
-    click.echo(f"wrote {out / 'noise.json'}")
-    report_checks(result.only.checks)
+    report_written(result, out, ("noise.json", "allan.png"))
