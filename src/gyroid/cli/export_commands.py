@@ -1,4 +1,5 @@
-"""``gyroid export``: a fit's temperature model as a flight controller's parameters."""
+"""``gyroid export``: a fit's temperature model as a flight controller's parameters, or a
+noise fit as an estimator's IMU noise file."""
 
 from __future__ import annotations
 
@@ -7,45 +8,44 @@ from pathlib import Path
 import click
 
 from gyroid.cli.base import cli
-from gyroid.io._outputs import output_dir
+from gyroid.errors import UntrustworthyResult
 
 
 @cli.command()
 @click.argument("fit_dir", type=click.Path(path_type=Path))
 @click.option("--to", "target", required=True,
-              type=click.Choice(["px4", "ardupilot", "json"]),
-              help="px4: a QGroundControl parameter file of TC_G{i}_*; ardupilot: "
-                   "INS_TCAL{n}_* as NAME,VALUE lines; json: the coefficients about t0 with "
-                   "their posterior (docs/formats.md section 5).")
+              type=click.Choice(["px4", "ardupilot", "json", "kalibr", "openvins"]),
+              help="From a 'gyroid fit' folder: px4 (a QGroundControl parameter file of "
+                   "TC_G{i}_*), ardupilot (INS_TCAL{n}_* as NAME,VALUE lines), json (the "
+                   "coefficients about t0 with their posterior). From a 'gyroid noise' "
+                   "folder: kalibr (imu.yaml), openvins (kalibr_imu_chain.yaml). See "
+                   "docs/formats.md section 5.")
 @click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
-              help="Folder for the parameter file and export.json.")
+              help="Folder for the parameter or noise file and export.json.")
 @click.option("--instance", default=0, show_default=True, type=click.IntRange(0, 3),
               help="The firmware's gyro: PX4's TC_G{N}, ArduPilot's INS_TCAL{N+1}.")
 @click.option("--device-id", "device_id", default=None, type=click.IntRange(0),
               help="PX4's TC_G{i}_ID, the gyro's device_id (default: the one a ULog fit "
                    "records; PX4 applies the parameters only to the gyro with this id).")
-def export(fit_dir, target, out, instance, device_id) -> None:
-    """Export a fit's temperature polynomial (every axis of FIT_DIR) re-centred exactly on
-    the firmware's reference temperature, with the drift the terms it cannot represent
-    leave (dT/dt, lag, magnetic...) stated in the file and in export.json."""
-    import json
+@click.option("--topic", default=None,
+              help="kalibr/openvins: the IMU's ROS topic (default: the bag's, else /imu0).")
+def export(fit_dir, target, out, instance, device_id, topic) -> None:
+    """Export every axis of FIT_DIR: a thermal fit's temperature polynomial re-centred
+    exactly on the firmware's reference temperature, with the drift the terms it cannot
+    represent leave (dT/dt, lag, magnetic...); or a noise fit's white noise and bias random
+    walk, with how much the terms the estimator cannot represent (bias instability...)
+    under-state the Allan deviation. Exit 3 when a fit exported is not trustworthy."""
+    from gyroid.pipeline._export_file import export_dir
 
-    from gyroid.pipeline._compensate_file import fitted_axes
-    from gyroid.reports._write import write
-    from gyroid.workflows._export import axis_polynomial, export_fit
-
-    fits = fitted_axes(fit_dir)
-    if device_id is None and (Path(fit_dir) / "axes.json").exists():
-        source = json.loads((Path(fit_dir) / "axes.json").read_text())["source"]
-        device_id = source.get("device_id")
-    result = export_fit({axis: axis_polynomial(axis, fitted) for axis, fitted in fits.items()},
-                        target, instance=instance, device_id=device_id)
-    with output_dir(out) as stage:
-        write(stage, result)
+    result = export_dir(fit_dir, target, out, instance=instance, device_id=device_id,
+                        topic=topic)
     for line in result.comments:
         click.echo(line)
-    if target == "px4" and not device_id:
+    if target == "px4" and not result.record["device_id"]:
         click.echo(f"TC_G{instance}_ID is 0: PX4 applies the parameters only to the gyro whose "
                    "device_id it names; give --device-id", err=True)
     names = [result.file_name] if result.file_name else []
     click.echo(f"wrote {', '.join(str(out / n) for n in [*names, 'export.json'])}")
+    if not result.trustworthy:
+        click.echo("a fit exported is not trustworthy (exit 3): see the lines above", err=True)
+        raise UntrustworthyResult()

@@ -1,12 +1,15 @@
 """A fit read back: its drift model and posterior draws, from the folder ``gyroid fit`` or
 ``gyroid pool`` wrote (fit.json or pool.json, posterior.nc), or from a fit in memory
-(``BenchFit.fitted_drift()``). What compensation and propagation start from."""
+(``BenchFit.fitted_drift()``), what compensation and propagation start from; a noise fit's
+terms (noise.json), what the noise export starts from; a folder of several axes."""
 
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TypeVar
 
 import numpy as np
 
@@ -85,6 +88,66 @@ class FittedDrift:
                    noise=({"model": "white", "white_sd_deg_h": float(np.median(
                        [s["mean"] for s in pool["noise"].values()]))}
                           if pool.get("noise") else {}))
+
+
+@dataclass(frozen=True)
+class FittedNoise:
+    """A noise fit read back from ``noise.json``: each IEEE term's summary (``mean``, ``sd``,
+    ``ci90``, ``resolved``, ``upper_bound_95``; datasheet units), the Allan deviation and the
+    model's (deg/h at ``tau_s``), the sample interval (s) and the fit's verdict."""
+
+    terms: dict[str, dict]
+    tau_s: np.ndarray
+    model_adev_deg_h: np.ndarray
+    sample_s: float
+    trustworthy: bool
+
+    @classmethod
+    def from_dir(cls, folder: str | Path) -> FittedNoise:
+        """From the folder of 'gyroid noise' (one axis)."""
+        path = Path(folder) / "noise.json"
+        if not path.exists():
+            raise GyroidInputError(f"{folder} has no noise.json: give the --out folder of "
+                                   "'gyroid noise'")
+        record = _record(path, "gyroid noise")
+        try:
+            return cls(terms=record["terms"], tau_s=np.asarray(record["allan"]["tau_s"], float),
+                       model_adev_deg_h=np.asarray(record["allan"]["model_adev_deg_h"], float),
+                       sample_s=float(record["sample_s"]),
+                       trustworthy=bool(record.get("trustworthy", False)))
+        except (KeyError, TypeError, ValueError) as error:
+            raise GyroidInputError(f"{path} lacks {error} ('gyroid noise' writes it): run "
+                                   "'gyroid noise' again") from None
+
+
+Fitted = TypeVar("Fitted")
+
+
+def axes_of(folder: str | Path, read: Callable[[Path], Fitted]) -> dict[str | None, Fitted]:
+    """A result folder per axis, read by ``read``: ``{None: result}`` for one axis, every
+    ``AXIS/`` that ``axes.json`` lists for several."""
+    folder = Path(folder)
+    record = folder / "axes.json"
+    if not record.exists():
+        return {None: read(folder)}
+    try:
+        axes = list(json.loads(record.read_text(encoding="utf-8"))["axes"])
+    except (OSError, ValueError, KeyError, TypeError) as error:
+        raise GyroidInputError(f"{record} is damaged ({error}); run the command again"
+                               ) from None
+    return {axis: read(folder / axis) for axis in axes}
+
+
+def axes_source(folder: str | Path) -> dict:
+    """What the reader picked from a native log (``axes.json``'s ``source``; empty for a
+    folder of one axis)."""
+    record = Path(folder) / "axes.json"
+    if not record.exists():
+        return {}
+    try:
+        return dict(json.loads(record.read_text(encoding="utf-8")).get("source") or {})
+    except (OSError, ValueError, TypeError):
+        return {}
 
 
 def _record(path: Path, command: str) -> dict:

@@ -123,7 +123,11 @@ def identifiability_hints(model: DriftModel, inputs: DriftInputs) -> dict[str, s
         if p.regressor is None and p.hint is None:
             continue
         seen = ""
-        if p.regressor == "temperature_C":
+        if p.name == "wD":  # its regressor is the rate estimated from temperature_C
+            seen = (f" (it spans {np.ptp(np.asarray(inputs.rate_C_h)):.3g} degC/h here, and "
+                    "moves with the temperature itself where the two are collinear, as in an "
+                    "exponential warm-up)")
+        elif p.regressor == "temperature_C":
             seen = f" (it spans {np.ptp(np.asarray(inputs.temperature_C)):.3g} degC here)"
         elif p.regressor in FIELD_COLUMNS:
             k = FIELD_COLUMNS.index(p.regressor)

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from gyroid.errors import GyroidInputError
 from gyroid.io._bench_reader import bench_log_from_table
-from gyroid.io._fitted import FittedDrift
+from gyroid.io._fitted import FittedDrift, axes_of
 from gyroid.io._tables import read_log_table, table_source
 from gyroid.io._units import ColumnMap
 from gyroid.pipeline._axes import PerAxis, chosen_axes, write_per_axis
@@ -18,17 +18,7 @@ from gyroid.workflows._compensate import Compensation, compensate
 def fitted_axes(fit_dir: str | Path) -> dict[str | None, FittedDrift]:
     """A fit folder's fitted drift per axis: ``{None: fit}`` for a fit of one axis, every
     ``AXIS/`` of a fit of several (listed in its ``axes.json``)."""
-    import json
-
-    fit_dir = Path(fit_dir)
-    record = fit_dir / "axes.json"
-    if not record.exists():
-        return {None: FittedDrift.from_dir(fit_dir)}
-    try:
-        axes = list(json.loads(record.read_text(encoding="utf-8"))["axes"])
-    except (OSError, ValueError, KeyError, TypeError) as error:
-        raise GyroidInputError(f"{record} is damaged ({error}); fit the log again") from None
-    return {axis: FittedDrift.from_dir(fit_dir / axis) for axis in axes}
+    return axes_of(fit_dir, FittedDrift.from_dir)
 
 
 def compensate_file(path: str | Path, fit_dir: str | Path, out: str | Path, *, seed: int = 0,

@@ -36,6 +36,7 @@ from gyroid.plotting._pool import forest_plot
 from gyroid.workflows._compensate import Compensation
 from gyroid.workflows._discrepancy_report import DiscrepancyReport
 from gyroid.workflows._export import FirmwareExport
+from gyroid.workflows._noise_export import NoiseExport
 from gyroid.workflows._propagate import Propagation
 
 
@@ -138,8 +139,8 @@ def _discrepancy(folder: Path, report: DiscrepancyReport) -> list[Path]:
     return [folder / "discrepancy.json", *save(figure, folder / "discrepancy")]
 
 
-def _export(folder: Path, result: FirmwareExport) -> list[Path]:
-    """The target's parameter file (none for json) and export.json."""
+def _export(folder: Path, result: FirmwareExport | NoiseExport) -> list[Path]:
+    """The target's parameter or noise file (none for json) and export.json."""
     written = []
     if result.file_name:
         (folder / result.file_name).write_text(result.text())
@@ -157,7 +158,7 @@ def _noise(folder: Path, result: NoiseFit) -> list[Path]:
 _WRITERS: dict[type, Callable[..., list[Path]]] = {
     BenchFit: _bench_fit, RollFit: _roll_fit, PoolFit: _pool_fit,
     Compensation: _compensation, Propagation: _propagation, DiscrepancyReport: _discrepancy,
-    FirmwareExport: _export, NoiseFit: _noise,
+    FirmwareExport: _export, NoiseExport: _export, NoiseFit: _noise,
 }
 
 

@@ -59,6 +59,7 @@ class AxisPolynomial:
     range_C: tuple[float, float]
     left_out: tuple[str, ...]
     truncation_rms_deg_h: float | None
+    trustworthy: bool = True  # the fit's own verdict
 
 
 def axis_polynomial(axis: str | None, fitted: FittedDrift) -> AxisPolynomial:
@@ -78,7 +79,7 @@ def axis_polynomial(axis: str | None, fitted: FittedDrift) -> AxisPolynomial:
             draws[:, power] = fitted.draws[:, names.index(name)]
     left_out = tuple(t for t in terms if t not in POLYNOMIAL)
     return AxisPolynomial(axis, draws, fitted.t0_C, tuple(fitted.input_ranges["temperature_C"]),
-                          left_out, _truncation(fitted, left_out))
+                          left_out, _truncation(fitted, left_out), fitted.trustworthy)
 
 
 def _truncation(fitted: FittedDrift, left_out: tuple[str, ...]) -> float | None:
@@ -101,6 +102,11 @@ class FirmwareExport:
     record: dict
     file_name: str
     comments: tuple[str, ...]
+
+    @property
+    def trustworthy(self) -> bool:
+        """Whether every exported axis's fit passed its own checks."""
+        return all(a["source_trustworthy"] for a in self.record["axes"].values())
 
     def text(self) -> str:
         """The parameter file: QGroundControl's tab-separated rows for PX4, ``NAME,VALUE``
@@ -136,6 +142,8 @@ def export_fit(polynomials: dict[str | None, AxisPolynomial], target: str, *,
     coefficients = {axis: recentre(p.draws, tref - p.t0_C) * scale
                     for axis, p in by_axis.items()}
     record = _record(target, polynomials, coefficients, tref, (low, high), by_axis)
+    if target == "px4":
+        record["device_id"] = int(device_id or 0)
     comments = _comments(target, polynomials, tref, by_axis)
     if target == "px4":
         parameters = _px4(coefficients, instance, device_id, tref, low, high)
@@ -199,6 +207,7 @@ def _record(target, polynomials, coefficients, tref, range_C, by_axis) -> dict:
             "fitted_range_C": list(p.range_C),
             "left_out_terms": list(p.left_out),
             "truncation_rms_deg_h": p.truncation_rms_deg_h,
+            "source_trustworthy": p.trustworthy,
         }
     return {"target": target, "reference_C": tref, "range_C": list(range_C),
             "units": _UNITS[target], "powers": list(powers),
@@ -222,6 +231,9 @@ def _comments(target, polynomials, tref, by_axis) -> tuple[str, ...]:
                    f"{p.truncation_rms_deg_h:.3g} deg/h RMS")
             out.append(f"axis {axis}: left out {', '.join(p.left_out)} (not representable): "
                        f"{rms} of drift stays uncorrected over the fitted range")
+        if not p.trustworthy:
+            out.append(f"axis {axis}: its fit is NOT trustworthy (fit.json checks): refit "
+                       "before flying these parameters")
     missing = [a for a in "xyz" if a not in by_axis]
     if missing:
         out.append(f"axes {', '.join(missing)} not in the fit: their coefficients are zero")
