@@ -308,3 +308,25 @@ def test_effects_that_cancel_each_other_are_named():
     assert not check.passed and check.severity == "warning"
     assert "temperature's fitted contribution" in check.message
     assert "magnetic_x's fitted contribution" in check.message and CANCELLING_FACTOR == 10.0
+
+
+def test_a_white_gm_fit_that_mispredicts_is_not_told_to_use_white_gm():
+    """The predictive check of a white+gm fit advises naming the noise's terms (gyroid
+    noise), not the noise model the fit already has (measured in
+    experiments/mems_thermal_bench.py: flicker and a random walk under white+gm)."""
+    from gyroid.cli.base import check_lines
+    from gyroid.inference import CheckReport
+    from gyroid.inference._bench_predictive import _remedies
+    from gyroid.inference._predictive import HeldOut, predictive_check
+
+    rng = np.random.default_rng(0)
+    folds = [HeldOut(observed=rng.normal(0.0, 5.0, 16), predicted=np.zeros(16),
+                     covariance=np.eye(16), counts=np.full(16, 100)) for _ in range(4)]
+    white, gm = (predictive_check(folds, remedies=_remedies(noise))
+                 for noise in ("white", "white+gm"))
+    assert not white.passed and not gm.passed
+    assert check_lines(CheckReport((white,)), "fit")[0].endswith(
+        "(try: --noise white+gm; --segment-means; gyroid discrepancy)")
+    line = check_lines(CheckReport((gm,)), "fit")[0]
+    assert "white+gm" not in line.split("(try:")[1] and "gyroid noise" in line
+    assert "more than white plus one Gauss-Markov process" in gm.message

@@ -250,7 +250,8 @@ def fit_options(function):
     return wrapper
 
 
-_FIT_FLAGS = {"noise_model": "--noise white+gm", "segment_means": "--segment-means",
+_FIT_FLAGS = {"noise_model": "--noise white+gm", "noise_terms": "gyroid noise",
+              "segment_means": "--segment-means",
               "discrepancy": "gyroid discrepancy", "prior": "--prior NAME=normal(MU,SD)"}
 #: How each command acts on a failed check's remedy codes (a code it cannot act on is only
 #: described, in the check's message).

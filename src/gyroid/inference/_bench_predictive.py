@@ -33,7 +33,13 @@ from gyroid.models._inputs import DriftInputs
 def bench_predictive(density: BenchDensity, time_s: np.ndarray) -> Check:
     """The predictive check of a bench log's density (rows at ``time_s``, s)."""
     folds, part_s = bench_held_out(density, time_s)
-    return predictive_check(folds, part_s=part_s)
+    return predictive_check(folds, part_s=part_s, remedies=_remedies(density.noise))
+
+
+def _remedies(noise: str) -> tuple[str, ...]:
+    """What a failed predictive check advises: a richer noise model than the fit's own."""
+    richer = "noise_terms" if noise == "white+gm" else "noise_model"
+    return (richer, "segment_means", "discrepancy")
 
 
 def bench_held_out(density: BenchDensity, time_s: np.ndarray
@@ -93,7 +99,8 @@ def whitened_predictive(model: DriftModel, inputs: DriftInputs, drift: np.ndarra
             predicted=part_means(np.asarray(predicted), parts.part, parts.n_parts)[held],
             covariance=jacobian @ np.asarray(covariance) @ jacobian.T
             + noise_cov[np.ix_(held, held)], counts=counts[held]))
-    return predictive_check(folds, part_s=_part_seconds(parts, time_s))
+    return predictive_check(folds, part_s=_part_seconds(parts, time_s),
+                            remedies=_remedies("white+gm"))
 
 
 def _part_sums(density: BenchDensity, parts: Stretches) -> dict[str, np.ndarray]:

@@ -19,13 +19,17 @@ Severity = Literal["error", "warning"]
 #: it can act on into its own options (the command line's ``report_checks``).
 REMEDIES = {
     "noise_model": "model the correlated noise (white+gm)",
+    "noise_terms": "the noise is more than white plus one Gauss-Markov process (flicker, a "
+                   "rate random walk): name its terms on a static stretch (gyroid noise); "
+                   "the drift fit's intervals cannot be used until its likelihood carries them",
     "segment_means": "fit the bursts' means, one row per burst",
     "discrepancy": "look for a missing effect (the discrepancy workflow)",
     "prior": "widen a prior, or choose another prior set",
     "single_fits": "pooling assumes white noise: fit such runs one by one",
 }
 #: The remedies a bench fit can take; other kinds of fit give their own.
-BENCH_REMEDIES = frozenset({"noise_model", "segment_means", "discrepancy", "prior"})
+BENCH_REMEDIES = frozenset({"noise_model", "noise_terms", "segment_means", "discrepancy",
+                            "prior"})
 
 
 @dataclass(frozen=True)

@@ -29,7 +29,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from gyroid.inference._check_report import Check, Severity
+from gyroid.inference._check_report import REMEDIES, Check, Severity
 
 #: Stretches left out in turn, and the equal parts each is cut into at the finest scale.
 FOLDS = 5
@@ -184,11 +184,14 @@ def predictive_scales(folds: list[HeldOut]) -> list[ScaleResult]:
 
 def predictive_check(folds: list[HeldOut] | None, *, name: str = "predictive",
                      part_s: float | None = None, why_none: str = "",
-                     subject: str | None = None) -> Check:
+                     subject: str | None = None,
+                     remedies: tuple[str, ...] = ("noise_model", "segment_means", "discrepancy")
+                     ) -> Check:
     """The calibration of held-out means (see the module docstring). Each fold's errors are
     tested on their own (their covariance within the fold is exact; across folds the
     training sets overlap), the family of folds and scales corrected by Bonferroni.
-    ``subject`` says what was held out (default: the log's stretches)."""
+    ``subject`` says what was held out (default: the log's stretches); ``remedies`` what a
+    failure advises (codes of :data:`~gyroid.inference._check_report.REMEDIES`)."""
     if not folds:
         return Check(name, True, "error", None, PREDICTIVE_INFLATION,
                      why_none or "the log is too short to hold a stretch out: its bands "
@@ -213,8 +216,9 @@ def predictive_check(folds: list[HeldOut] | None, *, name: str = "predictive",
                  f"{subject}, {where}; {stretch}they vary {inflation:.1f}x as much as the "
                  f"fit states (p = {worst.p:.1g}): the stated uncertainty does not describe "
                  f"data the fit has not seen; its bands would have to be "
-                 f"{np.sqrt(inflation):.1f}x wider", ("noise_model", "segment_means",
-                                                      "discrepancy"))
+                 f"{np.sqrt(inflation):.1f}x wider"
+                 + ("; " + REMEDIES["noise_terms"] if "noise_terms" in remedies else ""),
+                 remedies)
 
 
 def _duration(seconds: float) -> str:

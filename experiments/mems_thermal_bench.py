@@ -1,0 +1,108 @@
+"""Experiment (issue 30): thermal benches with MEMS-like noise that no noise model of gyroid's
+drift fit contains, fitted with every ``--noise`` choice: each fit must either refuse
+(exit 3, a failed error-level check) or cover the truths with its 95 % intervals.
+
+The drift is paper A's thermal bench (gyroid's temperature profile, MEMS-scale coefficients
+``w0=50, w1=3, w2=0.05, wD=20``) with noise drawn here, independently of gyroid: angle random
+walk 0.3 deg/sqrt(h), flicker noise of bias instability 6 deg/h (a 1/f spectrum synthesised
+by FFT), a rate random walk of 10 deg/h/sqrt(h), rare 300 deg/h spikes (2e-4 of the rows),
+and the rate quantised to 0.01 deg/s.
+
+    python experiments/mems_thermal_bench.py --seed 0 --datasets 5
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+from _common import results_dir, save_run
+
+import gyroid
+from gyroid.inference import Emcee, fit_log
+from gyroid.io import BenchLog
+from gyroid.simulation import GyroNoise, simulate_thermal_bench
+
+TRUTH = {"w0": 50.0, "w1": 3.0, "w2": 0.05, "wD": 20.0}
+ARW, B, K = 0.3, 6.0, 10.0  # deg/sqrt(h), deg/h, deg/h/sqrt(h)
+QUANTUM_DEG_H = 36.0  # 0.01 deg/s
+SPIKE_RATE, SPIKE_DEG_H = 2e-4, 300.0
+
+
+def flicker(rng: np.random.Generator, n: int, dt: float, b: float) -> np.ndarray:
+    """Flicker noise, deg/h: one-sided PSD ``b^2 / (pi f)`` (IEEE Std 952's bias-instability
+    floor ``0.664 b`` on the Allan deviation), by FFT over twice the length."""
+    m = 2 * n
+    f = np.fft.rfftfreq(m, dt)
+    psd = np.zeros_like(f)
+    psd[1:] = b**2 / (np.pi * f[1:])
+    spectrum = (rng.normal(size=f.size) + 1j * rng.normal(size=f.size)) * np.sqrt(
+        psd * m / (4 * dt))
+    return np.fft.irfft(spectrum, m)[:n]
+
+
+def mems_bench(seed: int) -> BenchLog:
+    """The bench log: gyroid's thermal profile and drift without noise, plus the noise above."""
+    sim = simulate_thermal_bench(parameters=TRUTH, seed=seed,
+                                 noise=GyroNoise(arw_deg_rt_h=1e-9))
+    log = sim.log
+    time_s = np.asarray(log.columns["time_s"])
+    dt = float(np.median(np.diff(time_s)))
+    n = time_s.size
+    rng = np.random.default_rng([seed, 30])
+    noise = (rng.normal(0.0, 60.0 * ARW / np.sqrt(dt), n) + flicker(rng, n, dt, B)
+             + np.cumsum(rng.normal(0.0, K / 60.0 * np.sqrt(dt), n)))
+    spikes = rng.random(n) < SPIKE_RATE
+    noise[spikes] += rng.choice([-1.0, 1.0], spikes.sum()) * SPIKE_DEG_H
+    drift = np.round((np.asarray(log.columns["drift_deg_h"]) + noise) / QUANTUM_DEG_H)
+    columns = dict(log.columns, drift_deg_h=drift * QUANTUM_DEG_H)
+    return BenchLog(columns=columns, source=f"mems bench {seed}")
+
+
+def one(seed: int, noise: str) -> dict:
+    started = time.time()
+    fit = fit_log(mems_bench(seed), "thermal", noise=noise, seed=seed,
+                  sampler=Emcee(progress=False))
+    summary = fit.posterior.summary
+    inside = {name: bool(summary[name]["ci95"][0] <= value <= summary[name]["ci95"][1])
+              for name, value in TRUTH.items()}
+    z = {name: (summary[name]["mean"] - value) / summary[name]["sd"]
+         for name, value in TRUTH.items()}
+    return {"seed": seed, "noise": noise, "trustworthy": fit.trustworthy,
+            "failed_errors": [c.name for c in fit.checks.failed if c.severity == "error"],
+            "inside_95": inside, "z": {k: round(v, 2) for k, v in z.items()},
+            "seconds": round(time.time() - started, 1)}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--datasets", type=int, default=5)
+    parser.add_argument("--noise", default="white,white+gm")
+    args = parser.parse_args()
+    gyroid.configure()
+    started = time.time()
+    runs = []
+    for k in range(args.datasets):
+        for noise in args.noise.split(","):
+            runs.append(one(args.seed + k, noise))
+            print(runs[-1], flush=True)
+    silent_wrong = [r for r in runs if r["trustworthy"] and not all(r["inside_95"].values())]
+    results = {"runs": runs,
+               "per_noise": {noise: {"fits": sum(r["noise"] == noise for r in runs),
+                                     "refused": sum(r["noise"] == noise and not r["trustworthy"]
+                                                    for r in runs),
+                                     "passed_and_covered": sum(
+                                         r["noise"] == noise and r["trustworthy"]
+                                         and all(r["inside_95"].values()) for r in runs)}
+                             for noise in args.noise.split(",")},
+               "silent_wrong": len(silent_wrong)}
+    save_run(results_dir("mems_thermal_bench"), seed=args.seed,
+             config={"truth": TRUTH, "arw": ARW, "bias_instability": B, "rate_random_walk": K,
+                     "quantum_deg_h": QUANTUM_DEG_H, "spike_rate": SPIKE_RATE},
+             results=results, started=started)
+
+
+if __name__ == "__main__":
+    main()
