@@ -171,6 +171,11 @@ class BenchProblem(AbstractProblem):
     def host_log_posterior(self):
         return self.density.host_log_posterior()
 
+    def collapsed(self):
+        from gyroid.inference._collapsed import collapse
+
+        return collapse(self.density)
+
     def evidence(self, point: PointEstimate, posterior) -> FitEvidence:
         """What the self-checks read of a fit of this problem."""
         model, inputs, log = self.model, self.inputs, self.log

@@ -8,6 +8,11 @@ time to reach ``tau_factor`` times it, so few checks are needed. The log-posteri
 problem's density, jit-compiled and vmapped over walkers (``vectorize=True``), or its NumPy
 form where that is cheaper (a linear model with white noise: sufficient statistics).
 
+A linear drift model under white + Gauss-Markov noise is sampled collapsed
+(:mod:`gyroid.inference._collapsed`): emcee walks the noise levels' marginal posterior,
+and each kept draw gets its coefficients from their exact Gaussian conditional; the same
+posterior, with a fraction of the steps.
+
 The default move is emcee's differential-evolution move (``DEMove``): on the nearly
 Gaussian, correlated posteriors of drift models its autocorrelation time is about a third
 of the stretch move's (8 parameters, 32 walkers: ~26 steps against ~90), for the same
@@ -69,31 +74,28 @@ class Emcee(AbstractSampler):
         return _sample(problem, point, self, seed)
 
 
-def _initial_walkers(batch, point: PointEstimate, n_walkers: int,
+def _initial_walkers(batch, start: np.ndarray, covariance: np.ndarray, n_walkers: int,
                      rng: np.random.Generator) -> np.ndarray:
-    d = point.u.size
-    factor = covariance_factor(point.covariance_u)
-    walkers = point.u + rng.standard_normal((n_walkers, d)) @ factor.T
+    d = start.size
+    factor = covariance_factor(covariance)
+    walkers = start + rng.standard_normal((n_walkers, d)) @ factor.T
     half = n_walkers // 2  # emcee evaluates half the ensemble at a time: one compilation
     for _ in range(20):
         lp = np.concatenate([np.asarray(batch(walkers[:half])), np.asarray(batch(walkers[half:]))])
         bad = ~np.isfinite(lp)
         if not bad.any():
             break
-        walkers[bad] = point.u + 0.1 * rng.standard_normal((bad.sum(), d)) @ factor.T
+        walkers[bad] = start + 0.1 * rng.standard_normal((bad.sum(), d)) @ factor.T
     return walkers
 
 
 def _sample(problem: AbstractProblem, point: PointEstimate, settings: Emcee, seed: int
             ) -> Posterior:
     rng = np.random.default_rng(seed)
-    d = point.u.size
+    walked = _Walked.of(problem, point, rng)
+    batch, d = walked.batch, walked.start.size
     n_walkers = settings.n_walkers or max(32, 4 * d)
     n_walkers += n_walkers % 2
-
-    # A linear-Gaussian problem's log-posterior runs on the host (NumPy on its sufficient
-    # statistics): cheaper per emcee step than a call into JAX.
-    batch = problem.host_log_posterior() or problem_batcher(problem.density.log_posterior)
 
     def log_prob(u: np.ndarray) -> np.ndarray:
         return np.asarray(batch(u))
@@ -102,7 +104,7 @@ def _sample(problem: AbstractProblem, point: PointEstimate, settings: Emcee, see
                                     moves=settings.emcee_moves())
     # emcee draws its moves from its own RandomState: seed it from ours.
     sampler.random_state = np.random.RandomState(int(rng.integers(2**31))).get_state()
-    state = _initial_walkers(batch, point, n_walkers, rng)
+    state = _initial_walkers(batch, walked.start, walked.covariance, n_walkers, rng)
     # The run's length is found as it goes (50 autocorrelation times), so the bar counts
     # steps without a total (a percentage would jump back when the target grows) and shows
     # the current target beside the count.
@@ -124,6 +126,7 @@ def _sample(problem: AbstractProblem, point: PointEstimate, settings: Emcee, see
         capped = sampler.iteration >= settings.max_steps
         if long_enough or capped:
             draws_u, lp, thin = _thinned(sampler, burn, tau)
+            draws_u = walked.full(draws_u)
             summary = summarise_draws(problem.to_natural_host(draws_u), problem.names)
             good = all(v["r_hat"] <= settings.max_r_hat and v["ess_bulk"] >= settings.min_ess
                        for v in summary.values())
@@ -142,8 +145,8 @@ def _sample(problem: AbstractProblem, point: PointEstimate, settings: Emcee, see
     return Posterior(
         names=problem.names,
         draws=problem.to_natural_host(draws_u),
-        log_posterior=lp,
-        tau_steps=np.asarray(tau),
+        log_posterior=walked.log_posterior(draws_u, lp),
+        tau_steps=walked.tau_steps(np.asarray(tau)),
         n_steps=int(sampler.iteration),
         burn=burn,
         thin=thin,
@@ -152,6 +155,72 @@ def _sample(problem: AbstractProblem, point: PointEstimate, settings: Emcee, see
         move=settings.move,
         summary=summary,  # of these very draws (the last check's)
     )
+
+
+@dataclass(frozen=True)
+class _Walked:
+    """What emcee walks: every parameter (``full`` the identity), or a collapsed problem's
+    noise levels, the coefficients drawn given each kept draw (``full``)."""
+
+    batch: Callable[[np.ndarray], np.ndarray]
+    start: np.ndarray
+    covariance: np.ndarray
+    full: Callable[[np.ndarray], np.ndarray]
+    joint: Callable[[np.ndarray], np.ndarray] | None = None  # the full log-posterior
+    n_coefficients: int = 0  # drawn given the walked noise levels
+
+    @classmethod
+    def of(cls, problem: AbstractProblem, point: PointEstimate, rng: np.random.Generator
+           ) -> _Walked:
+        collapsed = problem.collapsed()
+        if collapsed is None:
+            # A linear-Gaussian problem's log-posterior runs on the host (NumPy on its
+            # sufficient statistics): cheaper per emcee step than a call into JAX.
+            batch = problem.host_log_posterior() or problem_batcher(
+                problem.density.log_posterior)
+            return cls(batch, point.u, point.covariance_u, lambda draws: draws)
+        k = int(collapsed.noise_loc.size)
+        d = point.u.size
+        noise = np.arange(d - k, d)  # a bench density's noise levels come last
+        conditional = problem_batcher(collapsed.conditional)
+
+        def full(draws: np.ndarray) -> np.ndarray:
+            flat = draws.reshape(-1, k)
+            z = rng.standard_normal((flat.shape[0], d - k))
+            beta = _chunked(conditional, np.column_stack([flat, z]))
+            return np.concatenate([beta, flat], axis=1).reshape(*draws.shape[:-1], d)
+
+        return cls(problem_batcher(collapsed.log_posterior), point.u[noise],
+                   point.covariance_u[np.ix_(noise, noise)], full,
+                   problem_batcher(problem.density.log_posterior), d - k)
+
+    def log_posterior(self, draws_u: np.ndarray, walked_lp: np.ndarray) -> np.ndarray:
+        """The joint log-posterior of the kept draws (emcee's own where it walked all)."""
+        if self.joint is None:
+            return walked_lp
+        flat = draws_u.reshape(-1, draws_u.shape[-1])
+        return _chunked(self.joint, flat).reshape(draws_u.shape[:-1])
+
+    def tau_steps(self, tau: np.ndarray) -> np.ndarray:
+        """Autocorrelation times per parameter; a coefficient drawn given the noise levels
+        is given theirs at most (its draws are independent given them)."""
+        if self.joint is None:
+            return tau
+        return np.concatenate([np.full(self.n_coefficients, float(np.max(tau))), tau])
+
+
+_CHUNK = 16  # as many as half an ensemble of 32 walkers: the memory emcee already uses
+
+
+def _chunked(batch, rows: np.ndarray) -> np.ndarray:
+    """``batch`` over ``rows`` in chunks of ``_CHUNK`` (padded: one compiled shape), so
+    that a vmapped Kalman pass never holds more than a chunk's worth of filters."""
+    out = []
+    for start in range(0, rows.shape[0], _CHUNK):
+        chunk = rows[start:start + _CHUNK]
+        padded = np.concatenate([chunk, np.repeat(chunk[-1:], _CHUNK - len(chunk), axis=0)])
+        out.append(np.asarray(batch(padded))[: len(chunk)])
+    return np.concatenate(out)
 
 
 def _advance(sampler: emcee.EnsembleSampler, state, steps: int, bar) -> emcee.State:

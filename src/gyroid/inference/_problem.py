@@ -112,6 +112,11 @@ class AbstractProblem(eqx.Module):
 
         return Emcee()
 
+    def collapsed(self):
+        """The problem with its linear coefficients integrated out, where that is exact and
+        cheaper to sample (:mod:`gyroid.inference._collapsed`); None otherwise."""
+        return None
+
     def host_log_posterior(self) -> Callable[[np.ndarray], np.ndarray] | None:
         """A NumPy log-posterior of many points at once, ``u (w, d) -> (w,)``, where one
         is cheaper than a call into JAX (emcee then calls it every step); None otherwise."""
