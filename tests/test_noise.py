@@ -110,3 +110,34 @@ def test_a_drifting_log_fails_the_level_check(tmp_path):
     result = fit_noise(rate, dt, seed=0)
     assert not result.trustworthy
     assert any(c.name == "level_fit" for c in result.checks.failed)
+
+
+@pytest.mark.slow
+def test_static_keeps_the_still_stretches_of_a_log_that_moves(tmp_path, capsys):
+    """A hand-held IMU still but for two turns (up to 30 deg/s for 20 s and 40 s about x):
+    fitted whole, the turns are not noise (level_fit fails); with --static 0.05 (a 1 s
+    mean's noise is 0.008 deg/s) only the still rows are fitted, in three stretches, and N
+    is recovered on every axis."""
+    rng = np.random.default_rng(8)
+    n, dt, arw = 60_000, 0.01, 0.5
+    t = dt * np.arange(n)
+    turning = ((t >= 150) & (t < 170)) | ((t >= 400) & (t < 440))
+    columns = {"time_s": t}
+    for axis in "xyz":
+        columns[f"drift_{axis}_deg_h"] = _static_rate(rng, n, dt, N=arw) + 36.0
+    columns["drift_x_deg_h"] += np.where(turning, 30.0 * 3600.0, 0.0) * np.sin(
+        np.pi * (t - 150.0) / 20.0) ** 2
+    log = write_log(tmp_path / "handheld.csv", columns)
+    assert main(["noise", str(log), "--axes", "x", "--out", str(tmp_path / "whole")]) == 3
+    capsys.readouterr()
+    out = tmp_path / "still"
+    assert main(["noise", str(log), "--static", "0.05", "--out", str(out)]) == 0
+    assert "in 3 still stretch(es)" in capsys.readouterr().err
+    kept = json.loads((out / "axes.json").read_text())["source"]["static"]
+    # The turns' 6000 rows go, and either side of each half the 1 s window (where the mean
+    # sees the turn) and the 1 s margin: 150 rows per edge, 600 in all, give or take the
+    # turns' gentle starts.
+    assert n - 6900 < kept["rows_kept"] < n - 6500
+    for axis in "xyz":
+        entry = json.loads((out / axis / "noise.json").read_text())["terms"]["N"]
+        assert entry["ci90"][0] < arw < entry["ci90"][1]

@@ -361,7 +361,13 @@ def batch(logs, out, workers, scheduler, options) -> None:
 @map_option
 @axes_option
 @instance_option
-def noise(data, out, seed, mappings, axes, instance) -> None:
+@click.option("--static", "static_deg_s", default=None, type=click.FloatRange(min=0.0,
+                                                                              min_open=True),
+              help="Keep only still stretches (deg/s): rows whose rate, averaged over 1 s, "
+                   "is within this of its median on every axis (a few times the 1 s "
+                   "average's noise), less 1 s either side of motion, in stretches of 10 s "
+                   "or more; what was kept is in axes.json's source.")
+def noise(data, out, seed, mappings, axes, instance, static_deg_s) -> None:
     """Identify a static log's noise: angle random walk N, bias instability B, rate random
     walk K, quantisation Q and rate ramp R (IEEE Std 952) with 90 % intervals, averaged over
     the sets of terms the log supports; terms it cannot resolve get an upper bound. Exit
@@ -370,7 +376,11 @@ def noise(data, out, seed, mappings, axes, instance) -> None:
 
     click.echo(f"fitting the noise of {data} ...", err=True)
     result = noise_file(data, out, seed=seed, maps=parse_maps(mappings),
-                        axes=parse_axes(axes), instance=instance)
+                        axes=parse_axes(axes), instance=instance, static_deg_s=static_deg_s)
+    kept = result.source.get("static")
+    if kept:
+        click.echo(f"--static {kept['threshold_deg_s']:g}: kept {kept['rows_kept']} of "
+                   f"{kept['rows']} rows in {kept['stretches']} still stretch(es)", err=True)
     for axis, item in result.results.items():
         which = f"axis {axis}: " if result.several else ""
         for name, entry in item.summary().items():

@@ -17,18 +17,68 @@ from gyroid.pipeline._axes import PerAxis, chosen_axes, write_per_axis
 
 #: A clock whose steps vary by more than this (relative) is not a sampled rate.
 MAX_STEP_SPREAD = 0.01
+#: ``--static``: the moving average the rate is judged on, and the shortest still stretch
+#: kept, s.
+STILL_WINDOW_S = 1.0
+MIN_STILL_S = 10.0
+
+
+def still_rows(time_s: np.ndarray, rates_deg_h: list[np.ndarray], threshold_deg_s: float
+               ) -> np.ndarray:
+    """The rows of still stretches: every axis's rate, averaged over ``STILL_WINDOW_S``,
+    within ``threshold_deg_s`` of its median (the gyro's bias), less ``STILL_WINDOW_S``
+    either side of any motion (its slow start and end), in stretches of at least
+    ``MIN_STILL_S``."""
+    from scipy.ndimage import binary_erosion, uniform_filter1d
+
+    time_s = np.asarray(time_s, dtype=float)
+    step = float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
+    width = max(1, int(round(STILL_WINDOW_S / step)))
+    still = np.ones(time_s.size, dtype=bool)
+    for rate in rates_deg_h:
+        deviation = uniform_filter1d(np.asarray(rate, float) - np.median(rate), width,
+                                     mode="nearest")
+        still &= np.abs(deviation) <= 3600.0 * threshold_deg_s
+    still = binary_erosion(still, np.ones(2 * width + 1, dtype=bool), border_value=1)
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], still.astype(int), [0]])))
+    for start, stop in zip(edges[::2], edges[1::2], strict=True):
+        if time_s[stop - 1] - time_s[start] < MIN_STILL_S:
+            still[start:stop] = False
+    return still
 
 
 def noise_file(path: str | Path, out: str | Path, *, seed: int = 0,
                maps: tuple[ColumnMap, ...] = (), axes: tuple[str, ...] | None = None,
-               instance: int | None = None) -> PerAxis[NoiseFit]:
+               instance: int | None = None, static_deg_s: float | None = None
+               ) -> PerAxis[NoiseFit]:
     """Fit the noise of a static log's axes (``axes``; default every axis it has) and write
-    ``noise.json`` and ``allan.png`` per axis to ``out``."""
+    ``noise.json`` and ``allan.png`` per axis to ``out``. ``static_deg_s``: keep only the
+    still stretches of a log that moves (:func:`still_rows` over every chosen axis)."""
     table = read_log_table(path, maps, instance)
+    chosen = chosen_axes(table, axes)
+    logs = {axis: bench_log_from_table(table, None, axis=axis) for axis in chosen}
+    source = table_source(table)
+    keep = None
+    if static_deg_s is not None:
+        first = logs[chosen[0]]
+        keep = still_rows(np.asarray(first.time_s),
+                          [np.asarray(log.drift_deg_h) for log in logs.values()], static_deg_s)
+        stretches = len(contiguous_segments(np.asarray(first.time_s)[keep])) if keep.any() else 0
+        source["static"] = {"threshold_deg_s": static_deg_s, "window_s": STILL_WINDOW_S,
+                            "min_stretch_s": MIN_STILL_S, "rows_kept": int(keep.sum()),
+                            "rows": int(keep.size), "stretches": stretches}
+        if not keep.any():
+            raise GyroidInputError(
+                f"{table.label}: no still stretch of {MIN_STILL_S:g} s or more, the rate "
+                f"within {static_deg_s:g} deg/s of its median on every axis; raise --static, "
+                "or give a log recorded with the gyro still")
     results = {}
-    for axis in chosen_axes(table, axes):
-        log = bench_log_from_table(table, None, axis=axis)
+    for axis in chosen:
+        log = logs[axis]
         time_s = np.asarray(log.time_s)
+        drift = np.asarray(log.drift_deg_h)
+        if keep is not None:
+            time_s, drift = time_s[keep], drift[keep]
         segments = contiguous_segments(time_s)
         steps = np.concatenate([np.diff(time_s[a:b]) for a, b in segments])
         step = float(np.median(steps)) if steps.size else float("nan")
@@ -41,8 +91,8 @@ def noise_file(path: str | Path, out: str | Path, *, seed: int = 0,
                 f"{table.label}: the sample steps vary by {100 * spread:.0f} % (99th "
                 f"percentile) about their median {step:.4g} s; a noise fit needs a regular "
                 "clock (resample the log, or give the device's own sample counter as time_s)")
-        results[axis] = fit_noise(np.asarray(log.drift_deg_h), step, segments=segments,
-                                  seed=seed, label=table.label)
-    per_axis = PerAxis(results, table_source(table))
+        results[axis] = fit_noise(drift, step, segments=segments, seed=seed,
+                                  label=table.label)
+    per_axis = PerAxis(results, source)
     write_per_axis(out, per_axis)
     return per_axis
