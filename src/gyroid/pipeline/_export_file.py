@@ -48,7 +48,7 @@ def export_dir(fit_dir: str | Path, target: str, out: str | Path, *, instance: i
 
 
 def _has(folder: str | Path, name: str) -> bool:
-    """Whether ``folder`` (or its first axis folder) holds ``name``."""
+    """Whether ``folder`` (or one of its axis folders) holds ``name``."""
     folder = Path(folder)
     if not folder.is_dir():
         raise GyroidInputError(f"{folder} is not a folder: give the --out folder of "
