@@ -159,6 +159,21 @@ def simulated_magnetic(tmp_path_factory):
     return out / "bench.csv"
 
 
+def test_progress_in_a_log_file_is_plain_lines(tmp_path, simulated_magnetic, capsys,
+                                               monkeypatch):
+    """stderr redirected to a file (not a terminal): the sampler's progress is whole lines,
+    never carriage returns (a bar would write thousands of them into the file)."""
+    import gyroid.inference._emcee as emcee_module
+
+    monkeypatch.setattr(emcee_module, "PLAIN_EVERY_S", 0.0)
+    assert main(["fit", str(simulated_magnetic), "--terms", "magnetic", "--out",
+                 str(tmp_path / "fit")]) == 0
+    err = capsys.readouterr().err
+    assert "\r" not in err
+    lines = [line for line in err.splitlines() if line.startswith("emcee: ")]
+    assert len(lines) > 100 and lines[-1].split()[1].isdigit()
+
+
 def test_fit_writes_the_contract_outputs(tmp_path, simulated_magnetic):
     out = tmp_path / "fit"
     assert main(["fit", str(simulated_magnetic), "--terms", "magnetic", "--out", str(out),

@@ -22,6 +22,8 @@ cost per step. ``Emcee(move="stretch")`` gives emcee's default.
 from __future__ import annotations
 
 import math
+import sys
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -108,7 +110,7 @@ def _sample(problem: AbstractProblem, point: PointEstimate, settings: Emcee, see
     # The run's length is found as it goes (50 autocorrelation times), so the bar counts
     # steps without a total (a percentage would jump back when the target grows) and shows
     # the current target beside the count.
-    bar = tqdm(desc="emcee", unit=" steps", disable=not settings.progress, leave=False)
+    bar = _progress_bar(settings.progress)
     bar.set_postfix_str(f"burn-in {settings.burn_steps}")
     state = _advance(sampler, state, settings.burn_steps, bar)
     burn = settings.burn_steps
@@ -221,6 +223,47 @@ def _chunked(batch, rows: np.ndarray) -> np.ndarray:
         padded = np.concatenate([chunk, np.repeat(chunk[-1:], _CHUNK - len(chunk), axis=0)])
         out.append(np.asarray(batch(padded))[: len(chunk)])
     return np.concatenate(out)
+
+
+def _progress_bar(show: bool):
+    """tqdm's bar on a terminal; elsewhere (a log file, a pipe) plain lines at most every
+    ``PLAIN_EVERY_S``, never a carriage return."""
+    if show and not _terminal(sys.stderr):
+        return _PlainProgress(sys.stderr)
+    return tqdm(desc="emcee", unit=" steps", disable=not show, leave=False)
+
+
+def _terminal(stream) -> bool:
+    try:
+        return bool(stream.isatty())
+    except (AttributeError, ValueError):
+        return False
+
+
+#: Seconds between two plain progress lines.
+PLAIN_EVERY_S = 10.0
+
+
+class _PlainProgress:
+    """The bar's interface (``update``, ``set_postfix_str``, ``close``) as plain lines:
+    ``emcee: 1200 steps (target ~2930 (<= 30000))``, the first after ``PLAIN_EVERY_S``."""
+
+    def __init__(self, stream) -> None:
+        self.stream, self.steps, self.postfix = stream, 0, ""
+        self.last = time.monotonic()
+
+    def update(self, n: int = 1) -> None:
+        self.steps += n
+        now = time.monotonic()
+        if now - self.last >= PLAIN_EVERY_S:
+            self.last = now
+            print(f"emcee: {self.steps} steps ({self.postfix})", file=self.stream, flush=True)
+
+    def set_postfix_str(self, text: str) -> None:
+        self.postfix = text
+
+    def close(self) -> None:
+        pass
 
 
 def _advance(sampler: emcee.EnsembleSampler, state, steps: int, bar) -> emcee.State:
