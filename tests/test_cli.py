@@ -6,6 +6,7 @@ import sys
 
 import numpy as np
 import pytest
+from helpers import write_log
 
 from gyroid import MagneticProtocol, ThermalProtocol, load_bench_log
 from gyroid.cli import main
@@ -262,3 +263,28 @@ def test_a_second_writer_to_one_out_is_refused_and_a_stale_lock_taken_over(
     # The writer is gone: its lock is stale.
     assert main(args) in (0, 3)
     assert (out / "fit.json").exists() and not lock.exists()
+
+
+def test_quiet_prints_only_the_failed_checks_and_verbose_the_time(tmp_path, capsys):
+    """-q: nothing on stdout, and on stderr only the failed self-checks and the verdict;
+    -v: the command's wall time too. The files are the same."""
+    rng = np.random.default_rng(0)
+    time_s = np.arange(2000.0)
+    drift = 1.0 + np.cumsum(rng.normal(0.0, 0.05, 2000)) + rng.normal(0.0, 0.3, 2000)
+    log = write_log(tmp_path / "wander.csv", {"time_s": time_s, "drift_deg_h": drift})
+    assert main(["fit", str(log), "--terms", "bias", "--out", str(tmp_path / "loud"),
+                 "--no-progress"]) == 3
+    loud = capsys.readouterr()
+    assert main(["fit", str(log), "--terms", "bias", "--out", str(tmp_path / "quiet"), "-q"]
+                ) == 3
+    quiet = capsys.readouterr()
+    assert quiet.out == "" and loud.out
+    lines = quiet.err.splitlines()
+    assert lines and all(line.startswith(("error:", "warning:", "NOT TRUSTWORTHY"))
+                         for line in lines), lines
+    assert set(lines) <= set(loud.err.splitlines())
+    assert sorted(p.name for p in (tmp_path / "quiet").iterdir()) == sorted(
+        p.name for p in (tmp_path / "loud").iterdir())
+    assert main(["simulate", "thermal", "--hours", "0.2", "--out", str(tmp_path / "sim"),
+                 "--verbose"]) == 0
+    assert "gyroid simulate: " in capsys.readouterr().err

@@ -46,7 +46,7 @@ def main(argv: list[str] | None = None) -> int:
             traceback.print_exc()
         click.echo(
             f"gyroid: internal error: {type(error).__name__}: {error} (this is a bug in gyroid;"
-            " set GYROID_DEBUG=1 for the traceback)",
+            " run again with -v, or set GYROID_DEBUG=1, for the traceback)",
             err=True,
         )
         return 1

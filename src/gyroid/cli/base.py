@@ -74,16 +74,61 @@ class Command(click.Command):
     ``--out`` folder is held for the whole command (a second command writing there at the
     same time is refused before it reads or fits anything)."""
 
+    def __init__(self, *args, **kwargs) -> None:
+        super().__init__(*args, **kwargs)
+        self.params += [
+            click.Option(["-q", "--quiet"], is_flag=True,
+                         help="Print only errors, failed self-checks and the verdict."),
+            click.Option(["-v", "--verbose"], is_flag=True,
+                         help="Also print the command's wall time, and an internal error's "
+                              "traceback (as GYROID_DEBUG=1 does)."),
+        ]
+
     def invoke(self, ctx: click.Context):
         import contextlib
+        import io
+        import sys
+        import time
+        import traceback
 
         from gyroid._config import configure
         from gyroid.io._outputs import output_lock
 
+        quiet, verbose = ctx.params.pop("quiet", False), ctx.params.pop("verbose", False)
+        ctx.meta[REPORT_STREAM] = sys.stderr  # failed checks and the verdict, even if quiet
         configure()
         out = ctx.params.get("out")
-        with output_lock(out) if out is not None else contextlib.nullcontext():
-            return super().invoke(ctx)
+        started = time.perf_counter()
+        with contextlib.ExitStack() as stack:
+            if quiet:
+                sink = stack.enter_context(io.StringIO())
+                stack.enter_context(contextlib.redirect_stdout(sink))
+                stack.enter_context(contextlib.redirect_stderr(sink))
+            if out is not None:
+                stack.enter_context(output_lock(out))
+            try:
+                return super().invoke(ctx)
+            except Exception as error:
+                if verbose and not isinstance(error, (click.ClickException,
+                                                      GyroidInputError,
+                                                      UntrustworthyResult)):
+                    traceback.print_exc(file=ctx.meta[REPORT_STREAM])
+                raise
+            finally:
+                if verbose:
+                    click.echo(f"{ctx.command_path}: {time.perf_counter() - started:.1f} s",
+                               file=ctx.meta[REPORT_STREAM])
+
+
+#: ``click.Context.meta`` key of the stream the self-checks are reported on.
+REPORT_STREAM = "gyroid.report_stream"
+
+
+def report_line(line: str) -> None:
+    """A line of the self-checks' report: on stderr, also under ``--quiet``."""
+    context = click.get_current_context(silent=True)
+    stream = context.meta.get(REPORT_STREAM) if context is not None else None
+    click.echo(line, file=stream, err=stream is None)
 
 
 class Group(click.Group):
@@ -103,6 +148,11 @@ def cli() -> None:
     flights, fit them (optimistix + emcee), compensate new runs, propagate to the correction
     coefficient's error, find missing effects, reproduce both papers. Start with
     `gyroid demo`.
+
+    Every command takes -q/--quiet (only errors, failed self-checks and the verdict) and
+    -v/--verbose (its wall time, and an internal error's traceback, as GYROID_DEBUG=1
+    does). Exit codes: 0 usable, 2 bad input, 3 a self-check says not to use the result, 1
+    an internal error (docs/formats.md).
     """
 
 
@@ -179,13 +229,12 @@ def report_axes(result) -> None:
     command = " ".join(context.command_path.split()[1:]) if context is not None else ""
     for axis, item in result.results.items():
         for line in check_lines(item.checks, command):
-            click.echo(f"axis {axis}: {line}", err=True)
+            report_line(f"axis {axis}: {line}")
     for axis, item in result.results.items():
-        click.echo(f"axis {axis}: {item.checks.verdict()}", err=True)
+        report_line(f"axis {axis}: {item.checks.verdict()}")
     if not result.trustworthy:
         bad = [axis for axis, item in result.results.items() if not item.trustworthy]
-        click.echo(f"axes {', '.join(bad)} must not be used (exit 3); the others may",
-                   err=True)
+        report_line(f"axes {', '.join(bad)} must not be used (exit 3); the others may")
         raise UntrustworthyResult()
 
 
@@ -282,7 +331,7 @@ def report_checks(checks) -> None:
     context = click.get_current_context(silent=True)
     command = " ".join(context.command_path.split()[1:]) if context is not None else ""
     for line in check_lines(checks, command):
-        click.echo(line, err=True)
+        report_line(line)
     if not checks.trustworthy:
-        click.echo(checks.verdict(), err=True)
+        report_line(checks.verdict())
         raise UntrustworthyResult()

@@ -21,6 +21,7 @@ from gyroid.cli.base import (
     parse_effects,
     parse_maps,
     report_checks,
+    report_line,
     report_written,
     terms_help,
     terms_option,
@@ -346,9 +347,9 @@ def batch(logs, out, workers, scheduler, options) -> None:
     click.echo(f"{len(logs) - len(failed)} fitted, {len(failed)} failed; wrote "
                f"{out / 'batch.csv'} and {out / 'batch.json'}")
     for outcome in failed:
-        click.echo(f"failed: {outcome.log}: {outcome.message}", err=True)
+        report_line(f"failed: {outcome.log}: {outcome.message}")
     for outcome in doubtful:
-        click.echo(f"not trustworthy: {outcome.log} (see its fit.json checks)", err=True)
+        report_line(f"not trustworthy: {outcome.log} (see its fit.json checks)")
     if failed or doubtful:
         raise UntrustworthyResult()
 

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from gyroid.cli.base import cli
+from gyroid.cli.base import cli, report_line
 from gyroid.errors import UntrustworthyResult
 
 
@@ -42,10 +42,10 @@ def export(fit_dir, target, out, instance, device_id, topic) -> None:
     for line in result.comments:
         click.echo(line)
     if target == "px4" and not result.record["device_id"]:
-        click.echo(f"TC_G{instance}_ID is 0: PX4 applies the parameters only to the gyro whose "
-                   "device_id it names; give --device-id", err=True)
+        report_line(f"TC_G{instance}_ID is 0: PX4 applies the parameters only to the gyro "
+                    "whose device_id it names; give --device-id")
     names = [result.file_name] if result.file_name else []
     click.echo(f"wrote {', '.join(str(out / n) for n in [*names, 'export.json'])}")
     if not result.trustworthy:
-        click.echo("a fit exported is not trustworthy (exit 3): see the lines above", err=True)
+        report_line("a fit exported is not trustworthy (exit 3): see the lines above")
         raise UntrustworthyResult()

@@ -13,6 +13,7 @@ from gyroid.cli.base import (
     parse_assignments,
     parse_maps,
     report_checks,
+    report_line,
 )
 from gyroid.errors import GyroidInputError
 from gyroid.io._outputs import output_dir
@@ -94,9 +95,9 @@ def roll_fit(data, out, seed, mappings, progress) -> None:
         if item.follows_from:
             derived.append(f"{pair} (r = {item.correlation:.3f})")
             continue
-        click.echo(f"warning: {pair} are confounded (r = {item.correlation:.3f}): "
-                   f"{item.suggestion}", err=True)
+        report_line(f"warning: {pair} are confounded (r = {item.correlation:.3f}): "
+                    f"{item.suggestion}")
     if derived:
-        click.echo(f"warning: as a consequence, also confounded: {', '.join(derived)}", err=True)
+        report_line(f"warning: as a consequence, also confounded: {', '.join(derived)}")
     click.echo(f"wrote {out / 'roll_fit.json'} and {out / 'posterior.nc'}")
     report_checks(result.checks)
