@@ -148,3 +148,25 @@ def test_a_damaged_native_log_gets_one_clear_message(tmp_path, capsys, name, con
     assert main(["fit", str(path), "--terms", "bias", "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
+
+
+def test_the_imus_of_one_log_pool_as_runs(tmp_path, capsys):
+    """Three gyros of one type in one ULog, each with its own bias and the type's 2 deg/h
+    per degC: pooled as runs STEM#N of one axis, the type's temperature coefficient is
+    recovered and the three biases differ."""
+    biases = (40.0, 65.0, 15.0)
+    instances = [_imu(10 + k, n=600, bias_deg_h=(b, 0.0, 0.0)) for k, b in enumerate(biases)]
+    path = write_ulog(tmp_path / "three.ulg", instances)
+    out = tmp_path / "pool"
+    assert main(["pool", str(path), "--instances", "all", "--axis", "x", "--terms",
+                 "bias,temperature", "--out", str(out)]) == 0
+    record = json.loads((out / "pool.json").read_text())
+    assert record["runs"] == ["three#0", "three#1", "three#2"]
+    lo, hi = record["population"]["w1"]["ci95"]
+    assert lo < 2.0 < hi
+    w0 = [record["per_run"][f"three#{k}"]["w0"]["mean"] for k in range(3)]
+    assert w0[1] > w0[0] > w0[2]
+    capsys.readouterr()
+    assert main(["pool", str(path), "--instances", "0,3", "--axis", "x", "--terms", "bias",
+                 "--out", str(tmp_path / "bad")]) == 2
+    assert "there is no instance 3" in capsys.readouterr().err

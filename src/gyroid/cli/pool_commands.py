@@ -33,25 +33,28 @@ from gyroid.io._outputs import output_dir
                    "the bias's wander between bursts is each run's noise; the samples are "
                    "still checked for spikes.")
 @map_option
+@click.option("--axis", "axis", default=None,
+              help="The gyro axis to pool, for logs of several (x, y or z).")
+@click.option("--instances", default=None,
+              help="Pool the IMUs of flight-controller, ROS or MATLAB logs as runs: 'all' "
+                   "or instance numbers such as 0,1,2 (runs named STEM#N).")
 def pool(logs, terms, out, seed, t0_C, prior_choice, prior_items, segment_means,
-         mappings) -> None:
+         mappings, axis, instances) -> None:
     """Pool repeated runs (or units) LOGS of one gyro type: the type's coefficients, the
     run-to-run spread (repeatability), each run's shrunk coefficients and the predictive
     for a new run, which 'gyroid compensate --fit OUT' uses. Each log is a bench log of one
     run (docs/formats.md section 1); runs are named by file stem, or by folder when stems repeat.
     Exit code 3 when a self-check says the result must not be used."""
     from gyroid.inference._pool_fit import fit_pool
-    from gyroid.io._bench_reader import load_bench_log
-    from gyroid.io._logs import run_labels
     from gyroid.models._prior_scales import resolve_prior_option
+    from gyroid.pipeline._pool_runs import pool_runs
     from gyroid.reports._write import write
 
     prior_set, overrides = resolve_prior_option(prior_choice, prior_items)
-    labels = run_labels(logs)
-    maps = parse_maps(mappings)
-    loaded = [load_bench_log(path, terms, t0_C=t0_C, column_map=maps) for path in logs]
+    loaded, labels = pool_runs(logs, terms, maps=parse_maps(mappings), axis=axis,
+                               instances=instances)
     rows = sum(log.n for log in loaded)
-    click.echo(f"pooling {terms} over {len(logs)} runs ({rows} rows) ...", err=True)
+    click.echo(f"pooling {terms} over {len(loaded)} runs ({rows} rows) ...", err=True)
     result = fit_pool(loaded, labels, terms, seed=seed, prior_set=prior_set, priors=overrides,
                       t0_C=t0_C, segment_means=segment_means)
     with output_dir(out) as stage:

@@ -1,0 +1,59 @@
+"""What ``gyroid pool`` reads: each log a run, or (``--instances``) each IMU of one
+flight-controller, ROS or MATLAB log a run: several gyros of one type in one log pool
+naturally, one gyro axis at a time (``--axis``)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from gyroid.errors import GyroidInputError
+from gyroid.io._bench_reader import bench_log_from_table
+from gyroid.io._logs import BenchLog, run_labels
+from gyroid.io._tables import read_log_table
+from gyroid.io._units import ColumnMap
+
+
+def pool_runs(paths: tuple[Path, ...], terms: str, *, maps: tuple[ColumnMap, ...] = (),
+              axis: str | None = None, instances: str | None = None
+              ) -> tuple[list[BenchLog], tuple[str, ...]]:
+    """The runs to pool and their labels: one per log (named by :func:`run_labels`), or with
+    ``instances`` (``all`` or ``0,2,...``) one per IMU instance of each native log, named
+    ``STEM#N``. ``axis``: the gyro axis of logs of several."""
+    if instances is None:
+        tables = [read_log_table(path, maps) for path in paths]
+        return ([bench_log_from_table(t, terms, axis=axis) for t in tables],
+                run_labels(paths))
+    logs, labels = [], []
+    for path, stem in zip(paths, run_labels(paths), strict=True):
+        first = read_log_table(path, maps, 0) if _native(path) else None
+        if first is None:
+            raise GyroidInputError(f"--instances: {Path(path).name} is a table, not a "
+                                   "flight-controller, ROS or MATLAB log with several IMUs")
+        count = int(first.picked.get("instances", 1))
+        for instance in _chosen(instances, count, Path(path).name):
+            table = first if instance == 0 else read_log_table(path, maps, instance)
+            logs.append(bench_log_from_table(table, terms, axis=axis))
+            labels.append(f"{stem}#{instance}")
+    return logs, tuple(labels)
+
+
+def _native(path) -> bool:
+    from gyroid.io._native import is_native
+
+    return is_native(Path(path))
+
+
+def _chosen(text: str, count: int, name: str) -> list[int]:
+    """The instances ``--instances`` names (``all``, or comma-separated numbers)."""
+    if text.strip() == "all":
+        return list(range(count))
+    try:
+        chosen = [int(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        raise GyroidInputError(f"--instances {text!r}: give 'all' or numbers such as 0,1,2"
+                               ) from None
+    beyond = [i for i in chosen if not 0 <= i < count]
+    if beyond:
+        raise GyroidInputError(f"--instances: {name} has {count} IMU instance(s) (0 to "
+                               f"{count - 1}); there is no instance {beyond[0]}")
+    return chosen
