@@ -22,3 +22,13 @@ jax.config.update("jax_numpy_dtype_promotion", "strict")
 @pytest.fixture(autouse=True, scope="session")
 def _float64():
     assert jax.config.jax_enable_x64, "gyroid must run JAX in float64"
+
+
+def pytest_sessionfinish(session, exitstatus):
+    """Collect garbage while the session can, then stop the collector: a pytest-xdist
+    worker being shut down was otherwise interrupted inside JAX's garbage-collection
+    callback (a KeyboardInterrupt reported as an unraisable-exception warning)."""
+    import gc
+
+    gc.collect()
+    gc.disable()

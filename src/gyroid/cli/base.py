@@ -72,7 +72,8 @@ class Command(click.Command):
     """A gyroid command: JAX is configured (float64, the compilation cache) when the command
     runs, not when the command line starts, so that --help and --version stay quick; its
     ``--out`` folder is held for the whole command (a second command writing there at the
-    same time is refused before it reads or fits anything)."""
+    same time is refused before it reads or fits anything); every command takes ``-q`` and
+    ``-v`` (what they print: :func:`report_line` and the help of :func:`cli`)."""
 
     def __init__(self, *args, **kwargs) -> None:
         super().__init__(*args, **kwargs)
