@@ -332,3 +332,18 @@ def test_every_mode_finder_starts_on_one_grid():
     np.testing.assert_allclose(np.exp(times), step.start_values(inputs))
     assert [p.size for p in grid_points(start_grid(DriftModel.from_terms("thermal").parameters,
                                                    inputs))] == [0]
+
+
+def test_fit_log_progress_can_be_switched_off(capsys, monkeypatch):
+    """The Python API's fit_log shows the sampler's progress unless progress=False (here
+    as plain lines: stderr is captured, not a terminal)."""
+    import gyroid.inference._emcee as emcee_module
+
+    monkeypatch.setattr(emcee_module, "PLAIN_EVERY_S", 0.0)
+    rng = np.random.default_rng(3)
+    log = BenchLog(columns={"time_s": np.arange(500.0),
+                            "drift_deg_h": 1.0 + rng.normal(0.0, 0.3, 500)})
+    fit_log(log, "bias", progress=False)
+    assert "emcee" not in capsys.readouterr().err
+    fit_log(log, "bias")
+    assert "emcee" in capsys.readouterr().err

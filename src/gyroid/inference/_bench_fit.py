@@ -274,12 +274,15 @@ def fit_log(
     sample: bool = True,
     sampler: AbstractSampler | None = None,
     segment_means: bool = False,
+    progress: bool = True,
 ) -> BenchFit:
     """Fit ``terms`` to a bench log: :meth:`BenchProblem.from_log` (``rate_window_s=None``
     chooses the dT/dt window from the data), then :func:`~gyroid.inference.fit` (the mode,
-    with ``sample=True`` the posterior by ``sampler``, default emcee, then the
-    self-checks)."""
+    with ``sample=True`` the posterior by ``sampler``, default emcee with a progress bar
+    unless ``progress=False``, then the self-checks)."""
+    from gyroid.inference._emcee import Emcee
+
     problem = BenchProblem.from_log(log, terms, noise=noise, priors=priors, prior_set=prior_set,
                                     flat_prior=flat_prior, t0_C=t0_C,
                                     rate_window_s=rate_window_s, segment_means=segment_means)
-    return fit(problem, sampler=sampler, seed=seed, sample=sample)
+    return fit(problem, sampler=sampler or Emcee(progress=progress), seed=seed, sample=sample)
