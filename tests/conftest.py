@@ -25,10 +25,11 @@ def _float64():
 
 
 def pytest_sessionfinish(session, exitstatus):
-    """Collect garbage while the session can, then stop the collector: a pytest-xdist
-    worker being shut down was otherwise interrupted inside JAX's garbage-collection
-    callback (a KeyboardInterrupt reported as an unraisable-exception warning)."""
+    """Take JAX's garbage-collection callback off at the session's end: pytest collects
+    garbage as it shuts down while pytest-xdist's channels interrupt the main thread, and an
+    interrupt landing inside that callback was reported as an unraisable-exception warning
+    (2 of 3 full runs). The callback only frees XLA's buffers early; nothing runs after."""
     import gc
 
-    gc.collect()
-    gc.disable()
+    gc.callbacks[:] = [c for c in gc.callbacks
+                       if getattr(c, "__name__", "") != "_xla_gc_callback"]
