@@ -13,6 +13,7 @@ from collections.abc import Callable
 
 import equinox as eqx
 import jax
+import numpy as np
 
 
 class _HashedOnce:
@@ -62,3 +63,14 @@ def problem_batcher(method: Callable[[jax.Array], jax.Array]):
     leaves, treedef = jax.tree_util.tree_flatten(dynamic)
     static = _interned(static)
     return lambda u: _batched_method(static, treedef, function, leaves, u)
+
+
+def in_chunks(batch: Callable[[np.ndarray], jax.Array], rows: np.ndarray, chunk: int
+              ) -> np.ndarray:
+    """``batch`` (e.g. a :func:`problem_batcher`) over ``rows`` ``chunk`` at a time, the
+    last chunk padded with copies of the last row (one compiled shape): the memory of one
+    chunk's evaluations, whatever the number of rows."""
+    padded = np.concatenate([rows, np.repeat(rows[-1:], -rows.shape[0] % chunk, axis=0)])
+    out = np.concatenate([np.asarray(batch(padded[start:start + chunk]))
+                          for start in range(0, padded.shape[0], chunk)])
+    return out[: rows.shape[0]]

@@ -35,8 +35,7 @@ class CollapsedCoefficients(eqx.Module):
     """The marginal posterior of a bench density's noise levels and the conditional
     posterior of its coefficients (module docstring); built by :func:`collapse`."""
 
-    drift: Float[Array, " n"]
-    design: Float[Array, "n p"]
+    columns: Float[Array, "n 1+p"]  # the drift, then the design's columns
     steps_s: Float[Array, " n"]
     weight: Float[Array, " n"]
     white_known: Float[Array, ""] | None  # the median of a known per-row sd, deg/h
@@ -51,9 +50,8 @@ class CollapsedCoefficients(eqx.Module):
         x = jnp.exp(v)
         white = x[0] if self.white_known is None else self.white_known
         gm, tau = x[-2], x[-1]
-        stacked = jnp.column_stack([self.drift, self.design])
-        innovation, variance = gauss_markov_innovations(stacked, self.steps_s, white, gm, tau,
-                                                        self.weight)
+        innovation, variance = gauss_markov_innovations(self.columns, self.steps_s, white, gm,
+                                                        tau, self.weight)
         scale = jnp.sqrt(self.weight / variance)
         a, design = innovation[:, 0] * scale, innovation[:, 1:] * scale[:, None]
         precision = design.T @ design + jnp.diag(self.beta_precision)
@@ -100,7 +98,8 @@ def collapse(density) -> CollapsedCoefficients | None:
     weight = (jnp.ones_like(density.drift) if density.weight is None
               else jnp.asarray(density.weight))
     return CollapsedCoefficients(
-        drift=density.drift, design=model.design(density.inputs), steps_s=density.steps_s,
+        columns=jnp.column_stack([density.drift, model.design(density.inputs)]),
+        steps_s=density.steps_s,
         weight=weight,
         white_known=None if density.sigma is None else jnp.median(density.sigma),
         beta_loc=jnp.asarray(loc[:p]), beta_precision=jnp.asarray(precision),

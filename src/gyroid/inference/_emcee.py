@@ -31,7 +31,7 @@ import emcee
 import numpy as np
 from tqdm.auto import tqdm
 
-from gyroid.inference._batching import problem_batcher
+from gyroid.inference._batching import in_chunks, problem_batcher
 from gyroid.inference._checks import MAX_R_HAT, MIN_ESS
 from gyroid.inference._posterior import (
     AbstractSampler,
@@ -189,7 +189,7 @@ class _Walked:
         def full(draws: np.ndarray) -> np.ndarray:
             flat = draws.reshape(-1, k)
             z = rng.standard_normal((flat.shape[0], d - k))
-            beta = _chunked(conditional, np.column_stack([flat, z]))
+            beta = in_chunks(conditional, np.column_stack([flat, z]), _CHUNK)
             return np.concatenate([beta, flat], axis=1).reshape(*draws.shape[:-1], d)
 
         return cls(problem_batcher(collapsed.log_posterior), point.u[noise],
@@ -201,7 +201,7 @@ class _Walked:
         if self.joint is None:
             return walked_lp
         flat = draws_u.reshape(-1, draws_u.shape[-1])
-        return _chunked(self.joint, flat).reshape(draws_u.shape[:-1])
+        return in_chunks(self.joint, flat, _CHUNK).reshape(draws_u.shape[:-1])
 
     def tau_steps(self, tau: np.ndarray) -> np.ndarray:
         """Autocorrelation times per parameter; a coefficient drawn given the noise levels
@@ -211,18 +211,9 @@ class _Walked:
         return np.concatenate([np.full(self.n_coefficients, float(np.max(tau))), tau])
 
 
-_CHUNK = 16  # as many as half an ensemble of 32 walkers: the memory emcee already uses
-
-
-def _chunked(batch, rows: np.ndarray) -> np.ndarray:
-    """``batch`` over ``rows`` in chunks of ``_CHUNK`` (padded: one compiled shape), so
-    that a vmapped Kalman pass never holds more than a chunk's worth of filters."""
-    out = []
-    for start in range(0, rows.shape[0], _CHUNK):
-        chunk = rows[start:start + _CHUNK]
-        padded = np.concatenate([chunk, np.repeat(chunk[-1:], _CHUNK - len(chunk), axis=0)])
-        out.append(np.asarray(batch(padded))[: len(chunk)])
-    return np.concatenate(out)
+#: Conditional draws and joint log-posteriors evaluated this many at a time: as many as
+#: half an ensemble of 32 walkers, the memory emcee's own batches already use.
+_CHUNK = 16
 
 
 def _progress_bar(show: bool):

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from gyroid.inference._batching import problem_batcher
+from gyroid.inference._batching import in_chunks, problem_batcher
 from gyroid.inference._checks import MAX_R_HAT, MIN_ESS
 from gyroid.io._arviz import arviz
 
@@ -105,11 +105,8 @@ def block_log_likelihood(problem: AbstractProblem, posterior: Posterior, chunk: 
     """The problem's block log-likelihoods at every draw: (chains, draws, blocks)."""
     walkers, draws, d = posterior.draws.shape
     flat = np.asarray(problem.to_sampling_host(posterior.draws.reshape(-1, d)))
-    padded = np.concatenate([flat, np.repeat(flat[-1:], -flat.shape[0] % chunk, axis=0)])
     blocks = problem_batcher(problem.density.log_likelihood_blocks)
-    log_lik = np.concatenate([np.asarray(blocks(padded[start:start + chunk]))
-                              for start in range(0, padded.shape[0], chunk)])
-    return log_lik[: flat.shape[0]].reshape(walkers, draws, -1)
+    return in_chunks(blocks, flat, chunk).reshape(walkers, draws, -1)
 
 
 def interval_summary(values: np.ndarray) -> dict:

@@ -58,12 +58,12 @@ def noise_file(path: str | Path, out: str | Path, *, seed: int = 0,
     chosen = chosen_axes(table, axes)
     logs = {axis: bench_log_from_table(table, None, axis=axis) for axis in chosen}
     source = table_source(table)
-    keep = None
+    time_s = np.asarray(logs[chosen[0]].time_s)  # every axis's: the table's one clock
+    keep = np.ones(time_s.size, dtype=bool)
     if static_deg_s is not None:
-        first = logs[chosen[0]]
-        keep = still_rows(np.asarray(first.time_s),
-                          [np.asarray(log.drift_deg_h) for log in logs.values()], static_deg_s)
-        stretches = len(contiguous_segments(np.asarray(first.time_s)[keep])) if keep.any() else 0
+        keep = still_rows(time_s, [np.asarray(log.drift_deg_h) for log in logs.values()],
+                          static_deg_s)
+        stretches = len(contiguous_segments(time_s[keep])) if keep.any() else 0
         source["static"] = {"threshold_deg_s": static_deg_s, "window_s": STILL_WINDOW_S,
                             "min_stretch_s": MIN_STILL_S, "rows_kept": int(keep.sum()),
                             "rows": int(keep.size), "stretches": stretches}
@@ -72,27 +72,27 @@ def noise_file(path: str | Path, out: str | Path, *, seed: int = 0,
                 f"{table.label}: no still stretch of {MIN_STILL_S:g} s or more, the rate "
                 f"within {static_deg_s:g} deg/s of its median on every axis; raise --static, "
                 "or give a log recorded with the gyro still")
-    results = {}
-    for axis in chosen:
-        log = logs[axis]
-        time_s = np.asarray(log.time_s)
-        drift = np.asarray(log.drift_deg_h)
-        if keep is not None:
-            time_s, drift = time_s[keep], drift[keep]
-        segments = contiguous_segments(time_s)
-        steps = np.concatenate([np.diff(time_s[a:b]) for a, b in segments])
-        step = float(np.median(steps)) if steps.size else float("nan")
-        if not step > 0:
-            raise GyroidInputError(f"{table.label}: the clock does not advance; a noise fit "
-                                   "needs a sampled rate")
-        spread = float(np.quantile(np.abs(steps / step - 1.0), 0.99))
-        if spread > MAX_STEP_SPREAD:
-            raise GyroidInputError(
-                f"{table.label}: the sample steps vary by {100 * spread:.0f} % (99th "
-                f"percentile) about their median {step:.4g} s; a noise fit needs a regular "
-                "clock (resample the log, or give the device's own sample counter as time_s)")
-        results[axis] = fit_noise(drift, step, segments=segments, seed=seed,
-                                  label=table.label)
+    segments, step = _regular_clock(time_s[keep], table.label)
+    results = {axis: fit_noise(np.asarray(log.drift_deg_h)[keep], step, segments=segments,
+                               seed=seed, label=table.label) for axis, log in logs.items()}
     per_axis = PerAxis(results, source)
     write_per_axis(out, per_axis)
     return per_axis
+
+
+def _regular_clock(time_s: np.ndarray, label: str) -> tuple[list[tuple[int, int]], float]:
+    """The clock's contiguous segments and its median step (s), or one message when the
+    steps within the segments are not a sampled rate's."""
+    segments = contiguous_segments(time_s)
+    steps = np.concatenate([np.diff(time_s[a:b]) for a, b in segments])
+    step = float(np.median(steps)) if steps.size else float("nan")
+    if not step > 0:
+        raise GyroidInputError(f"{label}: the clock does not advance; a noise fit needs a "
+                               "sampled rate")
+    spread = float(np.quantile(np.abs(steps / step - 1.0), 0.99))
+    if spread > MAX_STEP_SPREAD:
+        raise GyroidInputError(
+            f"{label}: the sample steps vary by {100 * spread:.0f} % (99th percentile) about "
+            f"their median {step:.4g} s; a noise fit needs a regular clock (resample the "
+            "log, or give the device's own sample counter as time_s)")
+    return segments, step

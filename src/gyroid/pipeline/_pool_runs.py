@@ -25,10 +25,10 @@ def pool_runs(paths: tuple[Path, ...], terms: str, *, maps: tuple[ColumnMap, ...
                 run_labels(paths))
     logs, labels = [], []
     for path, stem in zip(paths, run_labels(paths), strict=True):
-        first = read_log_table(path, maps, 0) if _native(path) else None
-        if first is None:
+        if not _native(path):
             raise GyroidInputError(f"--instances: {Path(path).name} is a table, not a "
                                    "flight-controller, ROS or MATLAB log with several IMUs")
+        first = read_log_table(path, maps, 0)
         count = int(first.picked.get("instances", 1))
         for instance in _chosen(instances, count, Path(path).name):
             table = first if instance == 0 else read_log_table(path, maps, instance)
