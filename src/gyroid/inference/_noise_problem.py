@@ -92,10 +92,9 @@ def envelope(stats: HaarStatistics) -> dict[str, float]:
     return {n: float(np.sqrt(np.min(stats.avar / g[:, k]))) for k, n in enumerate(TERM_NAMES)}
 
 
-def level_log_likelihood(a2: np.ndarray, g: np.ndarray, stats: HaarStatistics) -> np.ndarray:
-    """Per level, the log-likelihood of its coefficients given squared amplitudes ``a2``
-    (..., terms); (..., levels)."""
-    variance = 2.0 * (a2 @ g.T)
+def level_log_likelihood(variance: np.ndarray, stats: HaarStatistics) -> np.ndarray:
+    """Per level, the log-likelihood of its Haar coefficients given their model variance
+    ``2 AVAR`` (..., levels), in NumPy (:class:`NoiseDensity` is the same in JAX)."""
     return -0.5 * stats.count * np.log(2.0 * np.pi * variance) - 0.5 * stats.sum_sq / variance
 
 
@@ -184,7 +183,8 @@ class NoiseProblem(AbstractProblem):
         def log_posterior(u: np.ndarray) -> np.ndarray:
             u = np.atleast_2d(u)
             with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
-                ll = level_log_likelihood(np.exp(2.0 * u), g, self.stats).sum(axis=-1)
+                ll = level_log_likelihood(2.0 * (np.exp(2.0 * u) @ g.T), self.stats
+                                          ).sum(axis=-1)
             prior = np.sum(-0.5 * ((u - loc) / scale) ** 2 - np.log(scale), axis=-1)
             out = ll + prior
             return np.where(np.isfinite(out), out, -np.inf)
@@ -237,8 +237,7 @@ def _log_likelihood_and_gradient(u: np.ndarray, g: np.ndarray, held: np.ndarray 
     with np.errstate(over="ignore", under="ignore", invalid="ignore", divide="ignore"):
         a2 = np.exp(2.0 * np.clip(u, -350.0, 350.0))
         variance = 2.0 * (g @ a2 + held)
-        ll = float(np.sum(-0.5 * stats.count * np.log(2.0 * np.pi * variance)
-                          - 0.5 * stats.sum_sq / variance))
+        ll = float(np.sum(level_log_likelihood(variance, stats)))
         d_variance = -0.5 * stats.count / variance + 0.5 * stats.sum_sq / variance**2
         gradient = (d_variance @ g) * 4.0 * a2
     if not (np.isfinite(ll) and np.all(np.isfinite(gradient))):
