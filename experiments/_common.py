@@ -3,10 +3,13 @@
 from __future__ import annotations
 
 import json
+import math
 import shlex
 import sys
 import time
 from pathlib import Path
+
+import numpy as np
 
 import gyroid
 from gyroid.io import atomic_write_text, json_text
@@ -42,3 +45,14 @@ def fitted_thermal(seed: int):
     sim = simulate_thermal_bench(seed=seed)
     fit = fit_log(sim.log, "thermal", seed=seed, sampler=Emcee(progress=False))
     return fit.fitted_drift()
+
+
+def flicker_noise(rng: np.random.Generator, n: int, dt: float, b: float) -> np.ndarray:
+    """Flicker (1/f) noise of bias instability ``b``: one-sided PSD ``b^2 / (pi f)`` (IEEE
+    Std 952's floor ``0.664 b`` on the Allan deviation), by shaping white noise's spectrum by
+    ``f^-1/2`` over twice the length (unit white noise has one-sided PSD ``2 dt``)."""
+    spectrum = np.fft.rfft(rng.normal(size=2 * n))
+    f = np.fft.rfftfreq(2 * n, dt)
+    spectrum[1:] /= np.sqrt(f[1:])
+    spectrum[0] = 0.0
+    return b / math.sqrt(2.0 * math.pi * dt) * np.fft.irfft(spectrum)[:n]

@@ -4,9 +4,9 @@ drift fit contains, fitted with every ``--noise`` choice: each fit must either r
 
 The drift is paper A's thermal bench (gyroid's temperature profile, MEMS-scale coefficients
 ``w0=50, w1=3, w2=0.05, wD=20``) with noise drawn here, independently of gyroid: angle random
-walk 0.3 deg/sqrt(h), flicker noise of bias instability 6 deg/h (a 1/f spectrum synthesised
-by FFT), a rate random walk of 10 deg/h/sqrt(h), rare 300 deg/h spikes (2e-4 of the rows),
-and the rate quantised to 0.01 deg/s.
+walk 0.3 deg/sqrt(h), flicker noise of bias instability 6 deg/h (``flicker_noise``), a rate
+random walk of 10 deg/h/sqrt(h), rare 300 deg/h spikes (2e-4 of the rows), and the rate
+quantised to 0.01 deg/s.
 
     python experiments/mems_thermal_bench.py --seed 0 --datasets 5
 """
@@ -17,7 +17,7 @@ import argparse
 import time
 
 import numpy as np
-from _common import results_dir, save_run
+from _common import flicker_noise, results_dir, save_run
 
 import gyroid
 from gyroid.inference import Emcee, fit_log
@@ -30,18 +30,6 @@ QUANTUM_DEG_H = 36.0  # 0.01 deg/s
 SPIKE_RATE, SPIKE_DEG_H = 2e-4, 300.0
 
 
-def flicker(rng: np.random.Generator, n: int, dt: float, b: float) -> np.ndarray:
-    """Flicker noise, deg/h: one-sided PSD ``b^2 / (pi f)`` (IEEE Std 952's bias-instability
-    floor ``0.664 b`` on the Allan deviation), by FFT over twice the length."""
-    m = 2 * n
-    f = np.fft.rfftfreq(m, dt)
-    psd = np.zeros_like(f)
-    psd[1:] = b**2 / (np.pi * f[1:])
-    spectrum = (rng.normal(size=f.size) + 1j * rng.normal(size=f.size)) * np.sqrt(
-        psd * m / (4 * dt))
-    return np.fft.irfft(spectrum, m)[:n]
-
-
 def mems_bench(seed: int) -> BenchLog:
     """The bench log: gyroid's thermal profile and drift without noise, plus the noise above."""
     sim = simulate_thermal_bench(parameters=TRUTH, seed=seed,
@@ -51,7 +39,7 @@ def mems_bench(seed: int) -> BenchLog:
     dt = float(np.median(np.diff(time_s)))
     n = time_s.size
     rng = np.random.default_rng([seed, 30])
-    noise = (rng.normal(0.0, 60.0 * ARW / np.sqrt(dt), n) + flicker(rng, n, dt, B)
+    noise = (rng.normal(0.0, 60.0 * ARW / np.sqrt(dt), n) + flicker_noise(rng, n, dt, B)
              + np.cumsum(rng.normal(0.0, K / 60.0 * np.sqrt(dt), n)))
     spikes = rng.random(n) < SPIKE_RATE
     noise[spikes] += rng.choice([-1.0, 1.0], spikes.sum()) * SPIKE_DEG_H

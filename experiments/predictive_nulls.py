@@ -27,7 +27,7 @@ import argparse
 import time
 
 import numpy as np
-from _common import results_dir, save_run
+from _common import flicker_noise, results_dir, save_run
 from scipy import stats
 
 import gyroid
@@ -61,12 +61,8 @@ def _gauss_markov(rng, n, sd, tau_s):
 
 
 def _flicker(rng, n, sd):
-    """1/f noise by shaping white noise's spectrum (amplitude ~ f^-1/2), scaled to ``sd``."""
-    spectrum = np.fft.rfft(rng.normal(size=2 * n))
-    f = np.fft.rfftfreq(2 * n)
-    spectrum[1:] /= np.sqrt(f[1:])
-    spectrum[0] = 0.0
-    series = np.fft.irfft(spectrum)[:n]
+    """1/f noise scaled to ``sd``."""
+    series = flicker_noise(rng, n, SAMPLE_S, 1.0)
     return sd * series / series.std()
 
 
