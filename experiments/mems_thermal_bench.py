@@ -9,6 +9,8 @@ random walk of 10 deg/h/sqrt(h), rare 300 deg/h spikes (2e-4 of the rows), and t
 quantised to 0.01 deg/s.
 
     python experiments/mems_thermal_bench.py --seed 0 --datasets 5
+    python experiments/mems_thermal_bench.py --seed 100 --datasets 20 \
+        --noise white+flicker+rw --results mems_thermal_bench_ieee
 """
 
 from __future__ import annotations
@@ -68,6 +70,8 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--datasets", type=int, default=5)
     parser.add_argument("--noise", default="white,white+gm")
+    parser.add_argument("--results", default="mems_thermal_bench",
+                        help="results folder under experiments/results")
     args = parser.parse_args()
     gyroid.configure()
     started = time.time()
@@ -83,10 +87,17 @@ def main() -> None:
                                                     for r in runs),
                                      "passed_and_covered": sum(
                                          r["noise"] == noise and r["trustworthy"]
-                                         and all(r["inside_95"].values()) for r in runs)}
+                                         and all(r["inside_95"].values()) for r in runs),
+                                     # coefficients of the trustworthy fits inside their 95 %
+                                     # intervals, of how many
+                                     "coefficients_inside_95": [
+                                         sum(sum(r["inside_95"].values()) for r in runs
+                                             if r["noise"] == noise and r["trustworthy"]),
+                                         sum(len(r["inside_95"]) for r in runs
+                                             if r["noise"] == noise and r["trustworthy"])]}
                              for noise in args.noise.split(",")},
                "silent_wrong": len(silent_wrong)}
-    save_run(results_dir("mems_thermal_bench"), seed=args.seed,
+    save_run(results_dir(args.results), seed=args.seed,
              config={"truth": TRUTH, "arw": ARW, "bias_instability": B, "rate_random_walk": K,
                      "quantum_deg_h": QUANTUM_DEG_H, "spike_rate": SPIKE_RATE},
              results=results, started=started)

@@ -64,9 +64,9 @@ def test_correlated_residuals_fail_as_an_error_under_white_noise_and_warn_under_
     z = _ar1(rng, 20_000, 0.9)
     check = residual_whiteness(z)
     assert not check.passed and check.severity == "error"
-    # The advice names the remedy (white+gm) by a code the command line turns into its own
-    # option (gyroid fit: --noise white+gm).
-    assert "white+gm" in check.message and check.remedies[0] == "noise_model"
+    # The advice names the remedy (white+flicker+rw) by a code the command line turns into
+    # its own option (gyroid fit: --noise auto).
+    assert "white+flicker+rw" in check.message and check.remedies[0] == "noise_model"
     assert residual_whiteness(z, correlated_noise_modelled=True).severity == "warning"
 
 
@@ -92,7 +92,7 @@ def test_bias_wander_between_bursts_fails_the_whiteness_test_and_white_bursts_pa
     assert k == 25 and ratio > 2.0
     check = residual_whiteness(z, segments=segments)
     assert not check.passed and check.severity == "error"
-    assert "25 contiguous segments" in check.message and "white+gm" in check.message
+    assert "25 contiguous segments" in check.message and "white+flicker+rw" in check.message
     assert check.remedies[:2] == ("segment_means", "noise_model")
     assert residual_whiteness(z, segments=segments, correlated_noise_modelled=True
                               ).severity == "warning"
@@ -219,10 +219,10 @@ def test_advice_names_only_what_the_kind_of_fit_can_do():
 
     z = _ar1(np.random.default_rng(4), 20_000, 0.9)
     roll = residual_whiteness(z, remedies=frozenset({"discrepancy"}))
-    assert roll.remedies == ("discrepancy",) and "white+gm" not in roll.message
+    assert roll.remedies == ("discrepancy",) and "white+flicker+rw" not in roll.message
     bench = residual_whiteness(z)
     assert check_lines(CheckReport((bench,)), "fit")[0].endswith(
-        "(try: --noise white+gm; gyroid discrepancy)")
+        "(try: --noise auto; gyroid discrepancy)")
     assert "--noise" not in check_lines(CheckReport((bench,)), "roll fit")[0]
     assert "--noise" not in check_lines(CheckReport((roll,)), "roll fit")[0]
 
@@ -311,8 +311,8 @@ def test_effects_that_cancel_each_other_are_named():
 
 
 def test_a_white_gm_fit_that_mispredicts_is_not_told_to_use_white_gm():
-    """The predictive check of a white+gm fit advises naming the noise's terms (gyroid
-    noise), not the noise model the fit already has (measured in
+    """The predictive check of a white+gm fit advises IEEE 952's terms (white + flicker +
+    rate random walk), not the noise model the fit already has (measured in
     experiments/mems_thermal_bench.py: flicker and a random walk under white+gm)."""
     from gyroid.cli.base import check_lines
     from gyroid.inference import CheckReport
@@ -326,7 +326,7 @@ def test_a_white_gm_fit_that_mispredicts_is_not_told_to_use_white_gm():
                  for noise in ("white", "white+gm"))
     assert not white.passed and not gm.passed
     assert check_lines(CheckReport((white,)), "fit")[0].endswith(
-        "(try: --noise white+gm; --segment-means; gyroid discrepancy)")
+        "(try: --noise auto; --segment-means; gyroid discrepancy)")
     line = check_lines(CheckReport((gm,)), "fit")[0]
-    assert "white+gm" not in line.split("(try:")[1] and "gyroid noise" in line
+    assert "white+gm" not in line.split("(try:")[1] and "white+flicker+rw" in line
     assert "more than white plus one Gauss-Markov process" in gm.message

@@ -272,11 +272,12 @@ def test_quiet_prints_only_the_failed_checks_and_verbose_the_time(tmp_path, caps
     time_s = np.arange(2000.0)
     drift = 1.0 + np.cumsum(rng.normal(0.0, 0.05, 2000)) + rng.normal(0.0, 0.3, 2000)
     log = write_log(tmp_path / "wander.csv", {"time_s": time_s, "drift_deg_h": drift})
+    white = ["--noise", "white"]  # which refuses this wander
     assert main(["fit", str(log), "--terms", "bias", "--out", str(tmp_path / "loud"),
-                 "--no-progress"]) == 3
+                 "--no-progress", *white]) == 3
     loud = capsys.readouterr()
-    assert main(["fit", str(log), "--terms", "bias", "--out", str(tmp_path / "quiet"), "-q"]
-                ) == 3
+    assert main(["fit", str(log), "--terms", "bias", "--out", str(tmp_path / "quiet"), "-q",
+                 *white]) == 3
     quiet = capsys.readouterr()
     assert quiet.out == "" and loud.out
     lines = quiet.err.splitlines()

@@ -126,7 +126,8 @@ def test_correlated_noise_likelihood_is_the_exact_gaussian():
     assert float(problem.density.log_likelihood(u)) == pytest.approx(exact, rel=1e-10)
 
 
-def test_collapsed_coefficients_are_the_exact_marginal_and_conditional():
+@pytest.mark.parametrize("noise_model", ["white+gm", "white+flicker+rw"])
+def test_collapsed_coefficients_are_the_exact_marginal_and_conditional(noise_model):
     """With the noise levels fixed the joint log-posterior is Gaussian in the coefficients,
     so its integral over them is exactly log p(v, beta_hat) + p/2 log(2 pi) - 1/2 log|H|
     (H its negative Hessian), its mode beta_hat and its covariance H^-1: the collapsed form
@@ -141,10 +142,13 @@ def test_collapsed_coefficients_are_the_exact_marginal_and_conditional():
     sim = simulate_magnetic_bench(noise=noise, protocol=protocol, seed=2)
     for priors in (None, {"w0": Flat()}):
         problem = BenchProblem.from_log(sim.log, "bias,magnetic_x,magnetic_z",
-                                        noise="white+gm", priors=priors)
+                                        noise=noise_model, priors=priors)
         collapsed = collapse(problem.density)
         p = problem.n_model
-        v = jnp.log(jnp.array([0.3, 0.16, 60.0]))
+        step = problem.density.step_s
+        levels = ([0.3, 0.16, 60.0] if noise_model == "white+gm"
+                  else [0.3 * np.sqrt(step) / 60.0, 0.1, 0.05])  # N, B, K
+        v = jnp.log(jnp.array(levels))
 
         def joint(beta, v=v, problem=problem):
             return problem.density.log_posterior(jnp.concatenate([beta, v]))

@@ -34,7 +34,8 @@ def test_mems_gyro_under_fog_priors_is_refused(tmp_path, capsys):
     columns, _ = mems_burst_log(0)
     path = write_log(tmp_path / "mems.csv", columns)
     code = main(["fit", str(path), "--terms", "bias,temperature,temperature_sq", "--out",
-                 str(tmp_path / "fit"), "--priors", "paper_a_fog", "--no-progress"])
+                 str(tmp_path / "fit"), "--priors", "paper_a_fog", "--no-progress",
+                 "--noise", "white"])
     assert code == 3
     err = capsys.readouterr().err
     assert "prior_data_conflict" in err and "NOT TRUSTWORTHY" in err

@@ -276,9 +276,13 @@ def fit_options(function):
         terms_option(),
         click.option("--seed", default=0, show_default=True, type=SEED,
                      help="Random seed of emcee."),
-        click.option("--noise", type=click.Choice(["white", "white+gm"]), default="white",
-                     show_default=True, help="Noise model: white, or white plus a "
-                     "Gauss-Markov (bias-instability) part."),
+        click.option("--noise", type=click.Choice(["auto", "white", "white+gm",
+                                                   "white+flicker+rw"]),
+                     default="auto", show_default=True,
+                     help="Noise model: white; white plus a Gauss-Markov part; IEEE 952's "
+                     "white + flicker (bias instability) + rate random walk; or auto: white "
+                     "unless its residuals are not white or it fails to predict held-out "
+                     "stretches, then white+flicker+rw."),
         click.option("--t0", "t0_C", default=21.0, show_default=True, type=TEMPERATURE,
                      help="Reference temperature t0, degC (t = T - t0)."),
         prior_options,
@@ -300,14 +304,14 @@ def fit_options(function):
     return wrapper
 
 
-_FIT_FLAGS = {"noise_model": "--noise white+gm", "noise_terms": "gyroid noise",
+_FIT_FLAGS = {"noise_model": "--noise auto", "noise_terms": "--noise white+flicker+rw",
               "segment_means": "--segment-means",
               "discrepancy": "gyroid discrepancy", "prior": "--prior NAME=normal(MU,SD)"}
 #: How each command acts on a failed check's remedy codes (a code it cannot act on is only
 #: described, in the check's message).
 REMEDY_FLAGS = {
     "fit": _FIT_FLAGS, "batch": _FIT_FLAGS, "discrepancy": _FIT_FLAGS,
-    "pool": {"segment_means": "--segment-means", "single_fits": "gyroid fit --noise white+gm",
+    "pool": {"segment_means": "--segment-means", "single_fits": "gyroid fit --noise auto",
              "discrepancy": "gyroid discrepancy", "prior": "--prior NAME=normal(MU,SD)"},
     "roll fit": {"discrepancy": "gyroid discrepancy"},
 }

@@ -9,7 +9,12 @@ Sampling coordinates ``u``: model parameters in their own units, except positive
 * ``white+gm``: white noise plus a first-order Gauss-Markov (AR(1)) part of sd
   ``sigma_gm_deg_h`` and correlation time ``tau_gm_s`` (the usual model of a FOG's bias
   instability). The exact Gaussian likelihood comes from the innovations of a Kalman
-  filter (a JAX scan), for regular or irregular sampling.
+  filter (a JAX scan), for regular or irregular sampling;
+* ``white+flicker+rw``: IEEE Std 952's angle random walk ``N_deg_sqrt_h``, bias
+  instability (flicker) ``B_deg_h`` and rate random walk ``K_deg_h_sqrt_h``, each row read
+  as the mean of the samples over one sampling step (a long log's rows are block means,
+  :class:`~gyroid.inference.BenchProblem`), by the exact filter of
+  :mod:`gyroid.inference._ieee_noise`.
 
 For a model linear in its parameters with white noise, the log-likelihood is computed
 from sufficient statistics (cost independent of the log's length).
@@ -26,6 +31,13 @@ import numpy as np
 from jaxtyping import Array, Float, Int
 
 from gyroid.errors import GyroidInputError
+from gyroid.inference._ieee_noise import (
+    IEEE_NOISE,
+    IEEE_NOISE_NAMES,
+    IEEE_NOISE_UNITS,
+    flicker_times,
+    ieee_innovations,
+)
 from gyroid.inference._kalman import gauss_markov_innovations
 from gyroid.io._logs import BenchLog
 from gyroid.models._derived import RATE_WINDOW_S
@@ -35,11 +47,12 @@ from gyroid.models._inputs import DriftInputs
 from gyroid.models._prior_scales import FOG_NOISE_PRIORS
 from gyroid.models._priors import Flat, LogNormal, Normal, Prior, prior_arrays
 
-NOISE_MODELS = ("white", "white+gm")
+NOISE_MODELS = ("white", "white+gm", IEEE_NOISE)
 #: Paper A's FOG noise priors (densities on log x); the default priors are scaled to the log
 #: (:mod:`gyroid.models._prior_scales`).
 NOISE_PRIORS: dict[str, Prior] = FOG_NOISE_PRIORS
-NOISE_UNITS = {"sigma_deg_h": "deg/h", "sigma_gm_deg_h": "deg/h", "tau_gm_s": "s"}
+NOISE_UNITS = {"sigma_deg_h": "deg/h", "sigma_gm_deg_h": "deg/h", "tau_gm_s": "s",
+               **IEEE_NOISE_UNITS}
 #: Length of the blocks whose summed log-likelihood ArviZ's LOO treats as one observation, s.
 LOO_BLOCK_S = 60.0
 #: At most this many LOO blocks (longer blocks on long logs).
@@ -82,6 +95,11 @@ class BenchDensity(eqx.Module):
     #: Rows the likelihood reads (1) or leaves out (0): held-out stretches of a predictive
     #: check, kept in place so that every fold shares one compilation. None: every row.
     weight: Float[Array, " n"] | None = None
+    # white+flicker+rw: the gap before each row (s; its span is ``step_s``) and the
+    # flicker's correlation times (s) and variance per unit B^2.
+    gap_s: Float[Array, " n"] | None = None
+    flicker_tau_s: Float[Array, " j"] | None = None
+    flicker_unit_var: float = eqx.field(static=True, default=0.0)
 
     @classmethod
     def from_log(
@@ -110,6 +128,12 @@ class BenchDensity(eqx.Module):
         block_s = max(LOO_BLOCK_S, step, duration / MAX_LOO_BLOCKS * 1.0001)
         block = np.floor((time_s - time_s[0]) / block_s).astype(int)
         _, block = np.unique(block, return_inverse=True)
+        ieee = {}
+        if noise == IEEE_NOISE:
+            taus, unit = flicker_times(step, duration + step)
+            ieee = {"gap_s": jnp.asarray(np.maximum(np.concatenate([[0.0], steps]) - step,
+                                                    0.0)),
+                    "flicker_tau_s": jnp.asarray(taus), "flicker_unit_var": unit}
         problem = cls(
             model=model,
             inputs=inputs,
@@ -124,6 +148,7 @@ class BenchDensity(eqx.Module):
             n_blocks=int(block.max()) + 1,
             step_s=step,
             rate_window_s=float(rate_window_s),
+            **ieee,
         )
         if fast and model.is_linear and noise == "white":
             problem = problem._with_sufficient_statistics()
@@ -247,7 +272,10 @@ class BenchDensity(eqx.Module):
         x = self.to_natural(u)[self.n_model :]
         values = dict(zip(self.noise_names, x, strict=True))
         if self.sigma is not None:
-            white = self.sigma if self.noise == "white" else jnp.median(self.sigma)
+            white = self.sigma if self.noise in ("white", IEEE_NOISE) else jnp.median(
+                self.sigma)
+        elif self.noise == IEEE_NOISE:  # a row's mean over one step, deg/h
+            white = 60.0 * values["N_deg_sqrt_h"] / math.sqrt(self.step_s)
         else:
             white = values["sigma_deg_h"]
         return white, values
@@ -260,8 +288,7 @@ class BenchDensity(eqx.Module):
         if self.noise == "white":
             rows = -0.5 * (residual / white) ** 2 - jnp.log(white) - 0.5 * _LOG_2PI
         else:
-            innovation, variance = self._innovations(
-                residual, white, values["sigma_gm_deg_h"], values["tau_gm_s"])
+            innovation, variance = self._innovations(residual, white, values)
             rows = -0.5 * innovation**2 / variance - 0.5 * jnp.log(variance) - 0.5 * _LOG_2PI
         return rows if self.weight is None else rows * self.weight
 
@@ -272,14 +299,20 @@ class BenchDensity(eqx.Module):
         white, values = self._noise_levels(u)
         if self.noise == "white":
             return residual / white
-        innovation, variance = self._innovations(
-            residual, white, values["sigma_gm_deg_h"], values["tau_gm_s"]
-        )
+        innovation, variance = self._innovations(residual, white, values)
         return innovation / jnp.sqrt(variance)
 
-    def _innovations(self, residual, white, sd_gm, tau_s):
-        # a row left out (weight 0) is predicted through, not learnt from
-        return gauss_markov_innovations(residual, self.steps_s, white, sd_gm, tau_s,
+    def _innovations(self, residual, white, values):
+        """Innovations of the residual (or of columns) under the correlated noise models; a
+        row left out (weight 0) is predicted through, not learnt from."""
+        if self.noise == IEEE_NOISE:
+            span = jnp.full_like(self.steps_s, self.step_s)
+            return ieee_innovations(residual, span, self.gap_s,
+                                    jnp.broadcast_to(white**2, span.shape), values["B_deg_h"],
+                                    values["K_deg_h_sqrt_h"], self.flicker_tau_s,
+                                    self.flicker_unit_var, self.weight)
+        return gauss_markov_innovations(residual, self.steps_s, white,
+                                        values["sigma_gm_deg_h"], values["tau_gm_s"],
                                         self.weight)
 
     def log_likelihood(self, u: Float[Array, " d"]) -> Float[Array, ""]:
@@ -354,6 +387,8 @@ class BenchDensity(eqx.Module):
 
 
 def _noise_names(noise: str, sigma_known: bool) -> tuple[str, ...]:
+    if noise == IEEE_NOISE:
+        return IEEE_NOISE_NAMES[1:] if sigma_known else IEEE_NOISE_NAMES
     white = () if sigma_known else ("sigma_deg_h",)
     if noise == "white":
         return white

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -17,6 +17,7 @@ from gyroid.inference._check_report import Check, CheckReport
 from gyroid.inference._checks import fit_checks
 from gyroid.inference._excitation import excitation
 from gyroid.inference._fit import fit
+from gyroid.inference._ieee_noise import IEEE_NOISE
 from gyroid.inference._plausibility import effect_sizes, units_sanity
 from gyroid.inference._posterior import AbstractSampler, Posterior, inference_data
 from gyroid.inference._problem import PointEstimate
@@ -40,6 +41,8 @@ class BenchFit:
     posterior: Posterior | None = field(repr=False)
     seed: int
     checks: CheckReport = field(repr=False)
+    #: How the noise model was chosen: asked for by name, or by ``--noise auto`` and why.
+    noise_choice: str = ""
 
     def __repr__(self) -> str:
         verdict = "trustworthy" if self.trustworthy else "NOT trustworthy"
@@ -67,8 +70,17 @@ class BenchFit:
     def segment_means(self) -> dict[str, int] | None:
         """For a fit of a burst log's segment means: how many means, of how many rows."""
         segments = self.problem.segments
-        return None if segments is None else {"segments": self.problem.n,
-                                              "rows": segments.log.n}
+        return None if segments is None or self.problem.block_rows > 1 else {
+            "segments": self.problem.n, "rows": segments.log.n}
+
+    @property
+    def block_means(self) -> dict[str, int] | None:
+        """For a fit of a long log's block means (white+flicker+rw): how many means, of how
+        many samples each, of how many rows."""
+        problem = self.problem
+        return None if problem.block_rows == 1 else {
+            "means": problem.n, "rows_per_mean": problem.block_rows,
+            "rows": problem.segments.log.n}
 
     @property
     def input_ranges(self) -> dict[str, list[float]]:
@@ -121,15 +133,22 @@ class BenchFit:
 
     def noise_levels(self) -> dict:
         """The noise model and its levels (posterior means, else the point estimate):
-        ``model``, ``white_sd_deg_h`` (a row's white sd; the median of a log's
-        ``sigma_deg_h``), and for white+gm ``sigma_gm_deg_h`` and ``tau_gm_s``."""
+        ``model``, ``white_sd_deg_h`` (a sample's white sd; the median of a log's
+        ``sigma_deg_h``), and for white+gm ``sigma_gm_deg_h`` and ``tau_gm_s``, for
+        white+flicker+rw ``N_deg_sqrt_h``, ``B_deg_h`` and ``K_deg_h_sqrt_h``."""
         names = self.problem.noise_names
         source = (self.posterior.summary if self.posterior is not None else
                   {n: {"mean": self.point.value[n]} for n in names})
         levels = {n: source[n]["mean"] for n in names}
-        sigma = self.problem.density.sigma
-        white = (levels["sigma_deg_h"] if sigma is None else
-                 float(np.median(np.asarray(sigma))))
+        density = self.problem.density
+        sigma = density.sigma
+        if "N_deg_sqrt_h" in levels:  # a sample's white sd at the log's own rate
+            white = 60.0 * levels["N_deg_sqrt_h"] / np.sqrt(
+                density.step_s / self.problem.block_rows)
+        elif sigma is None:
+            white = levels["sigma_deg_h"]
+        else:
+            white = float(np.median(np.asarray(sigma)))
         return {"model": self.problem.noise, "white_sd_deg_h": white, **levels}
 
     def inference_data(self):
@@ -189,6 +208,8 @@ class BenchFit:
             "rate_window_s": problem.rate_window_s,
             "rate_window_choice": problem.rate_window_choice,
             "segment_means": self.segment_means,
+            "block_means": self.block_means,
+            "noise_choice": self.noise_choice or f"asked for: {problem.noise}",
             "convergence": {
                 "point_estimate": point.message,
                 "point_converged": point.converged,
@@ -243,7 +264,10 @@ def bench_checks(problem: BenchProblem, point: PointEstimate, posterior: Posteri
     segments = problem.segments
     if segments is None:
         return checks
-    sigma = point.value.get("sigma_deg_h", segments.within_sd)
+    # the means' own scatter: their white sd, or, for block means whose noise is
+    # correlated, the RMS of their residuals
+    sigma = (point.rms_residual if problem.block_rows > 1
+             else point.value.get("sigma_deg_h", segments.within_sd))
     return checks + CheckReport((spikes_within_segments(
         segments.log, segments.deviations, segments.within_sd, sigma_of_means=sigma,
         n_means=problem.n),))
@@ -258,6 +282,10 @@ def spikes_within_segments(samples: BenchLog, deviations: np.ndarray, within_sd:
     ratio = (sigma_of_means / math.sqrt(n_means)) / (within_sd / math.sqrt(samples.n))
     return outliers(deviations, where=samples.where, name="outliers_within_segments",
                     bias_sd_ratio=max(ratio, 1e-12), sets_noise_level=False)
+
+
+#: The self-checks whose failure in a white-noise fit says its noise model is wrong.
+NOISE_CHECKS = ("residual_whiteness", "predictive")
 
 
 def fit_log(
@@ -279,10 +307,32 @@ def fit_log(
     """Fit ``terms`` to a bench log: :meth:`BenchProblem.from_log` (``rate_window_s=None``
     chooses the dT/dt window from the data), then :func:`~gyroid.inference.fit` (the mode,
     with ``sample=True`` the posterior by ``sampler``, default emcee with a progress bar
-    unless ``progress=False``, then the self-checks)."""
+    unless ``progress=False``, then the self-checks).
+
+    ``noise="auto"`` (the command line's default) fits white noise's mode and checks it;
+    if its residuals are not white or it fails to predict its held-out stretches
+    (:data:`NOISE_CHECKS`), the fit is IEEE 952's white + flicker + rate random walk instead
+    (:mod:`gyroid.inference._ieee_noise`); ``noise_choice`` says which and why."""
     from gyroid.inference._emcee import Emcee
 
-    problem = BenchProblem.from_log(log, terms, noise=noise, priors=priors, prior_set=prior_set,
-                                    flat_prior=flat_prior, t0_C=t0_C,
-                                    rate_window_s=rate_window_s, segment_means=segment_means)
-    return fit(problem, sampler=sampler or Emcee(progress=progress), seed=seed, sample=sample)
+    def problem_with(noise_model: str) -> BenchProblem:
+        return BenchProblem.from_log(log, terms, noise=noise_model, priors=priors,
+                                     prior_set=prior_set, flat_prior=flat_prior, t0_C=t0_C,
+                                     rate_window_s=rate_window_s,
+                                     segment_means=segment_means)
+
+    chosen = sampler or Emcee(progress=progress)
+    if noise != "auto":
+        return fit(problem_with(noise), sampler=chosen, seed=seed, sample=sample)
+    white = problem_with("white")
+    trial = fit(white, seed=seed, sample=False)
+    wrong = [c.name for c in trial.checks.failed
+             if c.severity == "error" and c.name in NOISE_CHECKS]
+    if not wrong:
+        why = ("auto: white noise (its residuals are white and it predicts its held-out "
+               "stretches)")
+        result = trial if not sample else fit(white, sampler=chosen, seed=seed)
+    else:
+        why = (f"auto: {IEEE_NOISE}, since a white-noise fit failed {' and '.join(wrong)}")
+        result = fit(problem_with(IEEE_NOISE), sampler=chosen, seed=seed, sample=sample)
+    return replace(result, noise_choice=why)

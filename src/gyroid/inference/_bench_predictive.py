@@ -14,6 +14,7 @@ import numpy as np
 
 from gyroid.inference._bench_density import BenchDensity
 from gyroid.inference._check_report import Check
+from gyroid.inference._ieee_noise import IEEE_NOISE, ieee_part_covariance
 from gyroid.inference._point import point_estimate
 from gyroid.inference._predictive import (
     HeldOut,
@@ -38,6 +39,8 @@ def bench_predictive(density: BenchDensity, time_s: np.ndarray) -> Check:
 
 def _remedies(noise: str) -> tuple[str, ...]:
     """What a failed predictive check advises: a richer noise model than the fit's own."""
+    if noise == IEEE_NOISE:
+        return ("segment_means", "discrepancy")
     richer = "noise_terms" if noise == "white+gm" else "noise_model"
     return (richer, "segment_means", "discrepancy")
 
@@ -192,12 +195,18 @@ def _noise_covariance(density: BenchDensity, point, parts: Stretches, time_s: np
     if density.sigma is not None:
         sigma = np.asarray(density.sigma)
         white = (np.bincount(parts.part, sigma**2, parts.n_parts) / counts**2
-                 if density.noise == "white" else np.median(sigma) ** 2 / counts)
+                 if density.noise != "white+gm" else np.median(sigma) ** 2 / counts)
+    elif density.noise == IEEE_NOISE:
+        white = (60.0 * point.value["N_deg_sqrt_h"]) ** 2 / (counts * density.step_s)
     else:
         white = point.value["sigma_deg_h"] ** 2 / counts
+    if density.noise == IEEE_NOISE:
+        return ieee_part_covariance(time_s, parts.part, parts.n_parts, density.step_s, white,
+                                    point.value["B_deg_h"], point.value["K_deg_h_sqrt_h"])
     covariance = np.diag(white)
     if density.noise == "white+gm":
         covariance = covariance + gauss_markov_mean_covariance(
             time_s, parts.part, parts.n_parts, point.value["sigma_gm_deg_h"],
             point.value["tau_gm_s"])
     return covariance
+

@@ -13,10 +13,11 @@ import numpy as np
 
 from gyroid.inference._bench_density import BenchDensity, _noise_names
 from gyroid.inference._check_report import FitEvidence
+from gyroid.inference._ieee_noise import IEEE_NOISE
 from gyroid.inference._point import point_estimate
 from gyroid.inference._problem import AbstractProblem, PointEstimate
 from gyroid.inference._rate_window import choose_rate_window, reads_rate
-from gyroid.io._logs import BenchLog, contiguous_segments
+from gyroid.io._logs import BenchLog, block_deviations, block_means, contiguous_segments
 from gyroid.io._logs import segment_means as means_of_segments
 from gyroid.models._derived import RATE_WINDOW_S, temperature_rate_deg_c_per_h
 from gyroid.models._drift import DriftModel
@@ -28,6 +29,9 @@ from gyroid.models._prior_scales import (
     reference_sd,
 )
 from gyroid.models._priors import Prior
+
+#: The most rows a white+flicker+rw fit filters (longer logs: block means).
+IEEE_MAX_ROWS = 1000
 
 
 @dataclass(frozen=True, eq=False)
@@ -51,6 +55,8 @@ class BenchProblem(AbstractProblem):
     prior_basis: PriorBasis
     rate_window_choice: str  # "auto", "given", or why the default was kept
     segments: SegmentSamples | None = None
+    #: Samples per row of a fit of block means (white+flicker+rw on a long log), else 1.
+    block_rows: int = 1
 
     @classmethod
     def from_log(
@@ -66,6 +72,7 @@ class BenchProblem(AbstractProblem):
         rate_window_s: float | None = RATE_WINDOW_S,
         segment_means: bool = False,
         fast: bool = True,
+        max_rows: int | None = None,
     ) -> BenchProblem:
         """The problem of fitting ``terms`` to ``log``.
 
@@ -77,8 +84,20 @@ class BenchProblem(AbstractProblem):
         (its mean), so that the bias's wander between bursts is the noise the model
         estimates rather than a correlation it ignores; the samples are still checked for
         spikes, which the means would hide. ``fast=False`` keeps the likelihood on the rows
-        (no sufficient statistics), for tests of the fast path."""
+        (no sufficient statistics), for tests of the fast path. Under ``white+flicker+rw`` a
+        log of more than ``max_rows`` rows (default :data:`IEEE_MAX_ROWS`) is fitted as the
+        means of blocks of consecutive samples, at most that many: the likelihood of the
+        means is exact, a filter pass costs the same whatever the log's length, and a
+        linear model's coefficients lose little (their regressors barely change within a
+        block); the samples are still checked for spikes."""
         samples = None
+        block_rows = 1
+        cap = IEEE_MAX_ROWS if max_rows is None else max_rows
+        if noise == IEEE_NOISE and not segment_means and log.n > cap:
+            block_rows = -(-log.n // cap)
+            samples = log
+            deviations, within_sd = block_deviations(log, block_rows)
+            log = block_means(log, block_rows)
         if segment_means:
             samples = log
             log, deviations, within_sd = means_of_segments(
@@ -103,7 +122,7 @@ class BenchProblem(AbstractProblem):
         density = BenchDensity.from_log(log, model, chosen, inputs, noise=noise,
                                         rate_window_s=rate_window_s, fast=fast)
         return cls(density=density, log=log, prior_set=chosen_set, prior_basis=basis,
-                   rate_window_choice=choice,
+                   rate_window_choice=choice, block_rows=block_rows,
                    segments=None if samples is None else SegmentSamples(
                        samples, deviations, within_sd))
 

@@ -18,10 +18,10 @@ Severity = Literal["error", "warning"]
 #: What a failed check may advise, as codes (``Check.remedies``); a command turns the codes
 #: it can act on into its own options (the command line's ``report_checks``).
 REMEDIES = {
-    "noise_model": "model the correlated noise (white+gm)",
+    "noise_model": "model the correlated noise (white+flicker+rw)",
     "noise_terms": "the noise is more than white plus one Gauss-Markov process (flicker, a "
-                   "rate random walk): name its terms on a static stretch (gyroid noise); "
-                   "the drift fit's intervals cannot be used until its likelihood carries them",
+                   "rate random walk): fit with IEEE 952's terms (--noise white+flicker+rw), "
+                   "and name them on a static stretch (gyroid noise)",
     "segment_means": "fit the bursts' means, one row per burst",
     "discrepancy": "look for a missing effect (the discrepancy workflow)",
     "prior": "widen a prior, or choose another prior set",

@@ -1,7 +1,8 @@
-"""A linear drift model under white + Gauss-Markov noise with its coefficients integrated out.
+"""A linear drift model under correlated noise with its coefficients integrated out.
 
 Given the noise levels ``v`` (sampling coordinates: logs of the white sd, the Gauss-Markov
-sd and its correlation time), the likelihood is Gaussian in the coefficients ``beta``: one
+sd and its correlation time under ``white+gm``; of N, B and K under ``white+flicker+rw``),
+the likelihood is Gaussian in the coefficients ``beta``: one
 Kalman pass over the data and every column of the design gives the whitened data ``a`` and
 design ``A`` (``-0.5 |a - A beta|^2`` plus the innovations' log-variances), and with the
 coefficients' normal (or flat) priors, precision ``L0`` about ``m0``,
@@ -26,6 +27,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from gyroid.inference._ieee_noise import IEEE_NOISE, ieee_innovations
 from gyroid.inference._kalman import gauss_markov_innovations
 
 _LOG_2PI = math.log(2.0 * math.pi)
@@ -45,13 +47,30 @@ class CollapsedCoefficients(eqx.Module):
     noise_loc: Float[Array, " k"]
     noise_scale: Float[Array, " k"]
     noise_on: Float[Array, " k"]
+    noise: str = eqx.field(static=True, default="white+gm")
+    # white+flicker+rw: a row's span (s), the gaps before rows (s), the flicker's times (s)
+    step_s: float = eqx.field(static=True, default=1.0)
+    gap_s: Float[Array, " n"] | None = None
+    flicker_tau_s: Float[Array, " j"] | None = None
+    flicker_unit_var: float = eqx.field(static=True, default=0.0)
+    sigma: Float[Array, " n"] | None = None  # known per-row sd (white+flicker+rw)
+
+    def _innovations(self, v: Float[Array, " k"]):
+        x = jnp.exp(v)
+        if self.noise == IEEE_NOISE:
+            if self.sigma is None:
+                white_var = jnp.full_like(self.steps_s, (60.0 * x[0]) ** 2 / self.step_s)
+            else:
+                white_var = self.sigma**2
+            span = jnp.full_like(self.steps_s, self.step_s)
+            return ieee_innovations(self.columns, span, self.gap_s, white_var, x[-2], x[-1],
+                                    self.flicker_tau_s, self.flicker_unit_var, self.weight)
+        white = x[0] if self.white_known is None else self.white_known
+        return gauss_markov_innovations(self.columns, self.steps_s, white, x[-2], x[-1],
+                                        self.weight)
 
     def _solve(self, v: Float[Array, " k"]):
-        x = jnp.exp(v)
-        white = x[0] if self.white_known is None else self.white_known
-        gm, tau = x[-2], x[-1]
-        innovation, variance = gauss_markov_innovations(self.columns, self.steps_s, white, gm,
-                                                        tau, self.weight)
+        innovation, variance = self._innovations(v)
         scale = jnp.sqrt(self.weight / variance)
         a, design = innovation[:, 0] * scale, innovation[:, 1:] * scale[:, None]
         precision = design.T @ design + jnp.diag(self.beta_precision)
@@ -83,10 +102,11 @@ class CollapsedCoefficients(eqx.Module):
 
 def collapse(density) -> CollapsedCoefficients | None:
     """The collapsed form of a :class:`~gyroid.inference._bench_density.BenchDensity`: a
-    linear model (every coefficient real) under white + Gauss-Markov noise; None otherwise."""
+    linear model (every coefficient real) under white + Gauss-Markov or white + flicker +
+    random-walk noise; None otherwise."""
     model = density.model
     p = density.n_model
-    if density.noise != "white+gm" or not model.is_linear or any(
+    if density.noise not in ("white+gm", IEEE_NOISE) or not model.is_linear or any(
             q.positive for q in model.parameters):
         return None
     loc, scale, on = (np.asarray(a, dtype=float) for a in (
@@ -104,4 +124,7 @@ def collapse(density) -> CollapsedCoefficients | None:
         white_known=None if density.sigma is None else jnp.median(density.sigma),
         beta_loc=jnp.asarray(loc[:p]), beta_precision=jnp.asarray(precision),
         beta_log_norm=jnp.asarray(log_norm), noise_loc=jnp.asarray(loc[p:]),
-        noise_scale=jnp.asarray(scale[p:]), noise_on=jnp.asarray(on[p:]))
+        noise_scale=jnp.asarray(scale[p:]), noise_on=jnp.asarray(on[p:]),
+        noise=density.noise, step_s=density.step_s, gap_s=density.gap_s,
+        flicker_tau_s=density.flicker_tau_s, flicker_unit_var=density.flicker_unit_var,
+        sigma=density.sigma if density.noise == IEEE_NOISE else None)

@@ -202,7 +202,7 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3) -> PointEstima
         noise_u, noise_cov = _noise_start(problem, residual, scale)
         u = np.concatenate([u_model, noise_u])
         covariance = _block_diag(covariance_model, noise_cov)
-    if problem.noise == "white+gm":
+    if problem.noise != "white":
         value, result, hessian = _bfgs(problem, jnp.asarray(u))
         u = np.asarray(value)
         converged, message = _message(result)
@@ -239,6 +239,13 @@ def _noise_start(problem: BenchDensity, residual: np.ndarray, white: float):
             variances.append(1.0 / (2.0 * dof))
         elif name == "sigma_gm_deg_h":
             values.append(math.log(max(0.3 * np.std(residual), 1e-6)))
+            variances.append(0.1)
+        elif name == "N_deg_sqrt_h":  # the first differences' level as a white density
+            level = np.std(np.diff(residual)) / math.sqrt(2) * math.sqrt(problem.step_s) / 60
+            values.append(math.log(max(level, 1e-12)))
+            variances.append(1.0 / (2.0 * dof))
+        elif name in ("B_deg_h", "K_deg_h_sqrt_h"):  # a tenth of the residual's sd
+            values.append(math.log(max(0.1 * np.std(residual), 1e-9)))
             variances.append(0.1)
         else:
             values.append(math.log(300.0))

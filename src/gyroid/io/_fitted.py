@@ -34,8 +34,9 @@ class FittedDrift:
     #: The range of every input the fit saw ([min, max] by name; see
     #: ``DriftModel.input_ranges``): compensation flags rows beyond them.
     input_ranges: dict[str, list[float]] = field(default_factory=dict)
-    #: The fit's noise model: ``model`` ("white" or "white+gm") and its levels,
-    #: ``white_sd_deg_h`` (a row's white noise), ``sigma_gm_deg_h``, ``tau_gm_s``; what the
+    #: The fit's noise model: ``model`` ("white", "white+gm" or "white+flicker+rw") and its
+    #: levels, ``white_sd_deg_h`` (a sample's white noise), ``sigma_gm_deg_h``,
+    #: ``tau_gm_s``, or ``N_deg_sqrt_h``, ``B_deg_h``, ``K_deg_h_sqrt_h``; what the
     #: predictive check of a compensation needs (empty: unknown).
     noise: dict = field(default_factory=dict)
     #: Each effect's contribution over the fitted rows (fit.json's

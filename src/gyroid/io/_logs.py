@@ -127,15 +127,22 @@ def segment_means(log: BenchLog, segments: list[tuple[int, int]]
                     comments=comments), within, scale
 
 
+def _block_rows(log: BenchLog, rows: int) -> np.ndarray:
+    """(blocks, rows) indices of the samples in each block of ``rows`` consecutive samples
+    inside each contiguous segment (a segment's last incomplete block dropped)."""
+    starts = np.concatenate([np.arange(a, b - rows + 1, rows, dtype=int)
+                             for a, b in contiguous_segments(np.asarray(log.time_s))])
+    return starts[:, None] + np.arange(rows)[None, :]
+
+
 def block_means(log: BenchLog, rows: int) -> BenchLog:
     """``log`` with every column averaged over blocks of ``rows`` consecutive samples inside
     each contiguous segment (a segment's last incomplete block is dropped, so that every
     block is a mean of exactly ``rows`` samples and its white noise is ``1/sqrt(rows)`` of
     a sample's). ``sigma_deg_h`` becomes the mean's sd. Rows are named by their first
     sample."""
-    starts = np.concatenate([np.arange(a, b - rows + 1, rows)
-                             for a, b in contiguous_segments(np.asarray(log.time_s))])
-    index = starts[:, None] + np.arange(rows)[None, :]
+    index = _block_rows(log, rows)
+    starts = index[:, 0]
     columns = {name: np.asarray(values, dtype=float)[index].mean(axis=1)
                for name, values in log.columns.items()}
     if "sigma_deg_h" in columns:
@@ -147,7 +154,23 @@ def block_means(log: BenchLog, rows: int) -> BenchLog:
         return f"the mean of {rows} samples from {log.where(int(starts[k]))}"
 
     return BenchLog(columns=columns, source=f"{log.source} ({rows}-sample means)",
-                    comments=comments, row_name=row_name, extra_columns=log.extra_columns)
+                    comments=comments, row_name=row_name, extra_columns=log.extra_columns,
+                    axis=log.axis)
+
+
+def block_deviations(log: BenchLog, rows: int) -> tuple[np.ndarray, float]:
+    """Each sample's drift minus its block's mean (the blocks of :func:`block_means`) over
+    the pooled within-block sd, 0 for a sample in no block; and that sd, deg/h (what the
+    spike check of a fit of block means reads, since the means hide spikes)."""
+    index = _block_rows(log, rows)
+    drift = np.asarray(log.drift_deg_h, dtype=float)
+    deviation = drift[index] - drift[index].mean(axis=1, keepdims=True)
+    dof = index.size - index.shape[0]
+    scale = float(np.sqrt(np.sum(deviation**2) / dof)) if dof > 0 else 0.0
+    out = np.zeros(log.n)
+    if scale > 0:
+        out[index.ravel()] = deviation.ravel() / scale
+    return out, scale
 
 
 def run_labels(paths) -> tuple[str, ...]:

@@ -12,7 +12,11 @@
 * time constants keep the registry's log-normal priors (physical, not scaled);
 * the white-noise level gets ``LogNormal(h, 3)`` with ``h`` the log's high-frequency level
   (sd of first differences over sqrt 2), the Gauss-Markov level ``LogNormal(h / 3, 3)``,
-  its correlation time the registry's ``LogNormal(300 s, 2)``.
+  its correlation time the registry's ``LogNormal(300 s, 2)``; under IEEE 952 noise, with
+  ``d = h sqrt(step)`` the white density (deg/h sqrt(s)): ``N ~ LogNormal(d / 60, 3)``
+  (deg/sqrt(h)), ``B ~ LogNormal(d / 10, 3)`` (the white's Allan deviation at 100 s, deg/h)
+  and ``K ~ LogNormal(0.1 d, 3)`` (the walk that matches the white at about 1000 s,
+  deg/h/sqrt(h)).
 
 The same scales, taken as sds in sampling coordinates, are the yardstick of the
 identifiability check (:mod:`gyroid.inference._checks`), whatever prior set the fit uses.
@@ -46,6 +50,9 @@ FOG_NOISE_PRIORS: dict[str, Prior] = {
     "sigma_deg_h": LogNormal(1.0, 3.0),
     "sigma_gm_deg_h": LogNormal(0.05, 3.0),
     "tau_gm_s": LogNormal(300.0, 2.0),
+    "N_deg_sqrt_h": LogNormal(0.01, 3.0),
+    "B_deg_h": LogNormal(0.05, 3.0),
+    "K_deg_h_sqrt_h": LogNormal(0.05, 3.0),
 }
 @dataclass(frozen=True)
 class PriorBasis:
@@ -91,6 +98,12 @@ def default_priors(model: DriftModel, inputs: DriftInputs, drift_deg_h: np.ndarr
     priors["sigma_deg_h"] = LogNormal(h, 3.0)
     priors["sigma_gm_deg_h"] = LogNormal(h / 3.0, 3.0)
     priors["tau_gm_s"] = FOG_NOISE_PRIORS["tau_gm_s"]
+    time_s = 3600.0 * np.asarray(inputs.time_h)
+    step = float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
+    density = h * math.sqrt(max(step, 1e-9))
+    priors["N_deg_sqrt_h"] = LogNormal(density / 60.0, 3.0)
+    priors["B_deg_h"] = LogNormal(density / 10.0, 3.0)
+    priors["K_deg_h_sqrt_h"] = LogNormal(0.1 * density, 3.0)
     return priors, PriorBasis(d, h, spans)
 
 

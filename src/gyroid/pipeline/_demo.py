@@ -85,7 +85,7 @@ class _Study:
         self.echo("[2/6] fitting both benches (optimistix + emcee) ...")
         for name, terms in (("thermal", "thermal"), ("magnetic", "magnetic")):
             sim = self.benches[name]
-            self.fits[name] = fit_log(sim.log, terms, seed=self.seed,
+            self.fits[name] = fit_log(sim.log, terms, seed=self.seed, noise="auto",
                                       sampler=Emcee(progress=False))
             write(self.folder(f"{name}/fit"), self.fits[name], truth=sim.truth["parameters"])
         magnetic, fit = self.benches["magnetic"], self.fits["magnetic"]

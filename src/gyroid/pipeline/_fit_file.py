@@ -29,7 +29,7 @@ class FitOptions:
     a wrong option is one message before any log is read."""
 
     terms: str
-    noise: str = "white"
+    noise: str = "auto"
     seed: int = 0
     t0_C: float = T0_C
     prior_set: str = "default"
@@ -45,9 +45,9 @@ class FitOptions:
 
     def __post_init__(self) -> None:
         resolve_terms(self.terms)
-        if self.noise not in NOISE_MODELS:
+        if self.noise not in (*NOISE_MODELS, "auto"):
             raise GyroidInputError(f"--noise {self.noise!r}: use one of "
-                                   f"{', '.join(NOISE_MODELS)}")
+                                   f"{', '.join(NOISE_MODELS)} or auto")
         if not 0 <= self.seed < 2**32:
             raise GyroidInputError(f"--seed {self.seed}: give a whole number from 0 to "
                                    f"{2**32 - 1}")

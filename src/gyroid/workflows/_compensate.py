@@ -18,6 +18,7 @@ import numpy as np
 
 from gyroid.errors import GyroidInputError
 from gyroid.inference._checks import Check, CheckReport, fit_verdict
+from gyroid.inference._ieee_noise import IEEE_NOISE, ieee_part_covariance
 from gyroid.inference._plausibility import units_sanity
 from gyroid.inference._predictive import (
     HeldOut,
@@ -188,6 +189,13 @@ def compensation_predictive(log: BenchLog, fitted: FittedDrift, predictions: np.
     white = (np.bincount(parts.part, np.asarray(sigma) ** 2, parts.n_parts) / counts**2
              if sigma is not None else noise["white_sd_deg_h"] ** 2 / counts)
     covariance = np.atleast_2d(model_cov) + np.diag(white)
+    if noise.get("model") == IEEE_NOISE:
+        step = float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
+        if sigma is None:  # the white density at this log's own rate
+            white = (60.0 * noise["N_deg_sqrt_h"]) ** 2 / (counts * step)
+        covariance = np.atleast_2d(model_cov) + ieee_part_covariance(
+            time_s, parts.part, parts.n_parts, step, white, noise["B_deg_h"],
+            noise["K_deg_h_sqrt_h"])
     if noise.get("model") == "white+gm":
         covariance = covariance + gauss_markov_mean_covariance(
             time_s, parts.part, parts.n_parts, noise["sigma_gm_deg_h"], noise["tau_gm_s"])

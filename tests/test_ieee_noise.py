@@ -1,0 +1,141 @@
+"""The IEEE 952 drift likelihood (white + flicker + rate random walk on block means): the
+filter against the dense Gaussian written out pair by pair, the pair-by-pair covariance
+against numerical integrals of the kernels, the flicker construction against IEEE's Allan
+floor, the block-mean reduction, and ``--noise auto``'s choice."""
+
+from __future__ import annotations
+
+import math
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+from scipy import integrate, stats
+
+from gyroid.inference import BenchProblem, fit_log
+from gyroid.inference._ieee_noise import (
+    flicker_times,
+    ieee_innovations,
+    ieee_mean_covariance,
+)
+from gyroid.io import BenchLog
+
+
+def _blocks(rng, n):
+    span = rng.uniform(0.5, 30.0, n)
+    gap = np.where(rng.random(n) < 0.2, rng.uniform(0.0, 100.0, n), 0.0)
+    gap[0] = 0.0
+    start = np.cumsum(np.concatenate([[0.0], span[:-1]]) + gap)
+    return span, gap, start, start + span
+
+
+def test_the_filter_is_the_exact_likelihood_of_block_means_of_any_lengths_and_gaps():
+    rng = np.random.default_rng(0)
+    span, gap, start, end = _blocks(rng, 80)
+    n_arw, b, k = 0.3, 6.0, 10.0
+    white = (60.0 * n_arw) ** 2 / span
+    taus, unit = flicker_times(span.min(), end[-1])
+    cov = ieee_mean_covariance(start, end, white, b, k, taus, unit, 0.0)
+    y = rng.multivariate_normal(np.zeros(span.size), cov)
+    exact = stats.multivariate_normal(np.zeros(span.size), cov).logpdf(y)
+    args = (jnp.asarray(span), jnp.asarray(gap), jnp.asarray(white), b, k, jnp.asarray(taus),
+            unit)
+    innovation, variance = ieee_innovations(jnp.asarray(y), *args)
+    filtered = -0.5 * float(jnp.sum(innovation**2 / variance + jnp.log(2 * np.pi * variance)))
+    assert filtered == pytest.approx(exact, rel=1e-9)
+    # the filter is linear in the data: columns are filtered alike
+    both, _ = ieee_innovations(jnp.column_stack([y, -2.0 * y]), *args)
+    np.testing.assert_allclose(both[:, 1], -2.0 * np.asarray(innovation), rtol=1e-12,
+                               atol=1e-12)
+
+
+@pytest.mark.parametrize("tau", [0.3, 7.0, 400.0])
+def test_the_pairwise_covariance_integrates_the_kernels(tau):
+    """Two intervals' means: the exponential kernel (one Gauss-Markov process) and the
+    random walk's ``D min(s, t)``, integrated numerically over both intervals."""
+    a, b = np.array([2.0, 9.0]), np.array([5.0, 13.0])  # [2, 5] then [9, 13], origin 0
+    exp_cov = ieee_mean_covariance(a, b, np.zeros(2), 1.0, 0.0, np.array([tau]), 1.0, 0.0)
+    walk_cov = ieee_mean_covariance(a, b, np.zeros(2), 0.0, 60.0, np.array([tau]), 1.0, 0.0)
+    def both(f, i, j):
+        """The integral of f(s, t) over interval i x interval j (on the diagonal, twice
+        the triangle t < s, where the kernels are smooth)."""
+        if i == j:
+            return 2.0 * integrate.dblquad(lambda t, s: f(s, t), a[i], b[i], a[i],
+                                           lambda s: s, epsabs=1e-13, epsrel=1e-11)[0]
+        return integrate.dblquad(lambda t, s: f(s, t), a[i], b[i], a[j], b[j],
+                                 epsabs=1e-13, epsrel=1e-11)[0]
+
+    for i in range(2):
+        for j in range(2):
+            area = (b[i] - a[i]) * (b[j] - a[j])
+            kernel = both(lambda s, t: math.exp(-abs(t - s) / tau), i, j)
+            walk = both(min, i, j)
+            assert exp_cov[i, j] == pytest.approx(kernel / area, rel=1e-8)
+            assert walk_cov[i, j] == pytest.approx(walk / area, rel=1e-8)
+
+
+def test_the_flicker_sum_has_ieee_allan_floor_across_its_band():
+    """IEEE 952: flicker of bias instability B has the Allan deviation 0.664 B (sqrt(2 ln 2
+    / pi) B); the summed Gauss-Markov processes give it within 2 % from 8 shortest blocks
+    to half the log (within 7 % down to the shortest block, where white noise rules)."""
+    shortest, duration = 1.0, 20_000.0
+    taus, unit = flicker_times(shortest, duration)
+    floor = math.sqrt(2.0 * math.log(2.0) / math.pi)
+    for tau, tolerance in [(1.0, 0.07), (8.0, 0.02), (100.0, 0.02), (1000.0, 0.02),
+                           (10_000.0, 0.02)]:
+        cov = ieee_mean_covariance(np.array([0.0, tau]), np.array([tau, 2.0 * tau]),
+                                   np.zeros(2), 1.0, 0.0, taus, unit, 0.0)
+        adev = math.sqrt(0.5 * (cov[0, 0] + cov[1, 1] - 2.0 * cov[0, 1]))
+        assert adev == pytest.approx(floor, rel=tolerance), tau
+
+
+def _flicker(rng, n, dt, b):
+    """Flicker of bias instability ``b`` by shaping white noise's spectrum by f^-1/2 (a
+    construction independent of the fitted one)."""
+    spectrum = np.fft.rfft(rng.normal(size=2 * n))
+    f = np.fft.rfftfreq(2 * n, dt)
+    spectrum[1:] /= np.sqrt(f[1:])
+    spectrum[0] = 0.0
+    return b / math.sqrt(2.0 * math.pi * dt) * np.fft.irfft(spectrum)[:n]
+
+
+def _ramp_log(rng, n, *, b=0.0, k=0.0, arw=0.3, dt=1.0):
+    """A temperature ramp with drift 2 + 0.5 t (t = T - 21 degC) and the given noise."""
+    time_s = np.arange(n) * dt
+    temperature = 21.0 + 20.0 * np.sin(np.pi * time_s / time_s[-1])
+    noise = rng.normal(0.0, 60.0 * arw / math.sqrt(dt), n)
+    if b:
+        noise += _flicker(rng, n, dt, b)
+    if k:
+        noise += np.cumsum(rng.normal(0.0, k / 60.0 * math.sqrt(dt), n))
+    drift = 2.0 + 0.5 * (temperature - 21.0) + noise
+    return BenchLog({"time_s": time_s, "drift_deg_h": drift, "temperature_C": temperature})
+
+
+def test_a_long_log_is_fitted_as_block_means_and_its_samples_checked_for_spikes():
+    rng = np.random.default_rng(1)
+    log = _ramp_log(rng, 5000, b=3.0)
+    columns = dict(log.columns)
+    columns["drift_deg_h"] = columns["drift_deg_h"].copy()
+    columns["drift_deg_h"][1234] += 5000.0
+    problem = BenchProblem.from_log(BenchLog(columns), "bias,temperature",
+                                    noise="white+flicker+rw", max_rows=1000)
+    assert problem.block_rows == 5 and problem.n == 1000
+    assert problem.density.step_s == pytest.approx(5.0)
+    fit = fit_log(BenchLog(columns), "bias,temperature", noise="white+flicker+rw",
+                  sample=False)
+    spikes = {c.name: c for c in fit.checks.failed}["outliers_within_segments"]
+    assert "row 1235" in spikes.message
+    assert fit.to_json()["block_means"] == {"means": 1000, "rows_per_mean": 5, "rows": 5000}
+
+
+def test_auto_keeps_white_noise_when_it_is_white_and_changes_when_it_is_not():
+    rng = np.random.default_rng(2)
+    white = fit_log(_ramp_log(rng, 4000), "bias,temperature", noise="auto", sample=False)
+    assert white.problem.noise == "white" and white.noise_choice.startswith("auto: white")
+    flicker = fit_log(_ramp_log(rng, 4000, b=30.0, k=20.0), "bias,temperature", noise="auto",
+                      sample=False)
+    assert flicker.problem.noise == "white+flicker+rw"
+    assert "failed residual_whiteness" in flicker.noise_choice
+    assert fit_log(_ramp_log(rng, 500), "bias", noise="white",
+                   sample=False).to_json()["noise_choice"] == "asked for: white"
