@@ -11,8 +11,11 @@ and peak memory (the process and its children):
   imports included) against ``pyarrow.parquet.read_table`` and a NumPy array per column
   (what a script fits from); building the model's inputs (dT/dt, the identifiability
   check) is part of ``fit``;
-* ``fit``: ``gyroid fit LOG --terms thermal`` end to end (reading, rate window choice,
-  point fit, emcee to convergence, checks, fit.json, posterior.nc, figures);
+* ``fit``: ``gyroid fit LOG --terms thermal --noise white`` end to end (reading, rate
+  window choice, point fit, emcee to convergence, checks, fit.json, posterior.nc, figures);
+* ``fit_ieee``: the same with ``--noise white+flicker+rw`` (IEEE 952's noise, the model
+  ``--noise auto`` turns to; the log's block means, at most 1000, are filtered), up to
+  ``--ieee-rows``;
 * ``bare``: the bare script (read, Savitzky-Golay dT/dt, normal equations, emcee on
   sufficient statistics with DE moves for 3000 steps; no checks, no files);
 * ``discrepancy``: ``gyroid discrepancy LOG --terms thermal`` (up to ``--discrepancy-rows``).
@@ -73,7 +76,7 @@ def make_log(rows: int, folder: Path) -> Path:
     return path
 
 
-def one_length(rows: int, folder: Path, discrepancy_rows: int) -> dict:
+def one_length(rows: int, folder: Path, discrepancy_rows: int, ieee_rows: int) -> dict:
     log = make_log(rows, folder)
     row: dict = {"rows": rows}
     for reader in ("gyroid", "pyarrow"):
@@ -84,8 +87,18 @@ def one_length(rows: int, folder: Path, discrepancy_rows: int) -> dict:
                                  "peak_mb": load["peak_mb"]}
     fit_dir = folder / f"fit_{rows:.0e}"
     fit = measure(sys.executable, "-m", "gyroid", "fit", str(log), "--terms", "thermal",
-                  "--out", str(fit_dir), "--no-progress")
+                  "--out", str(fit_dir), "--no-progress", "--noise", "white")
     row["fit"] = {k: fit[k] for k in ("seconds", "peak_mb", "code")}
+    if rows <= ieee_rows:
+        ieee_dir = folder / f"fit_ieee_{rows:.0e}"
+        ieee = measure(sys.executable, "-m", "gyroid", "fit", str(log), "--terms", "thermal",
+                       "--out", str(ieee_dir), "--no-progress", "--noise", "white+flicker+rw")
+        row["fit_ieee"] = {k: ieee[k] for k in ("seconds", "peak_mb", "code")}
+        if ieee["code"] in (0, 3):
+            record = json.loads((ieee_dir / "fit.json").read_text())
+            row["fit_ieee"]["block_means"] = record["block_means"]
+            row["fit_ieee"]["sd"] = {k: record["posterior"][k]["sd"]
+                                     for k in ("w0", "w1", "w2", "wD")}
     bare = measure(sys.executable, str(HERE / "bare_thermal_fit.py"), str(log))
     row["bare"] = {k: bare[k] for k in ("seconds", "peak_mb", "code")}
     if bare["code"] == 0:
@@ -111,13 +124,15 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rows", nargs="+", type=float, default=[1e4, 1e5, 1e6])
     parser.add_argument("--discrepancy-rows", type=float, default=1e6)
+    parser.add_argument("--ieee-rows", type=float, default=1e6)
     parser.add_argument("--json", type=Path, default=None)
     args = parser.parse_args()
     results = []
     with tempfile.TemporaryDirectory() as tmp:
         for rows in args.rows:
             started = time.perf_counter()
-            row = one_length(int(rows), Path(tmp), int(args.discrepancy_rows))
+            row = one_length(int(rows), Path(tmp), int(args.discrepancy_rows),
+                             int(args.ieee_rows))
             results.append(row)
             print(json.dumps(row), f"({time.perf_counter() - started:.0f} s)", flush=True)
     if args.json:

@@ -24,7 +24,8 @@ def test_a_lot_is_fitted_on_dask_and_a_bad_log_fails_alone(tmp_path, capsys):
     out = tmp_path / "lot"
     code = main(["batch", str(logs[0]), str(bad), str(logs[1]), "--terms", "thermal",
                  "--out", str(out), "--workers", "2", "--priors", "paper_a_fog",
-                 "--prior", "w0=normal(0,5)", "--t0", "20", "--rate-window", "900"])
+                 "--prior", "w0=normal(0,5)", "--t0", "20", "--rate-window", "900",
+                 "--noise", "white"])
     assert code == 3  # a log failed: the lot's summary is incomplete
     summary = json.loads((out / "batch.json").read_text())
     assert summary["workers"] == 2 and summary["scheduler"] == "LocalCluster"

@@ -9,6 +9,7 @@ import re
 from pathlib import Path
 
 import pytest
+from scipy import stats
 
 ROOT = Path(__file__).parent.parent
 README = re.sub(r"\s+", " ", (ROOT / "README.md").read_text())
@@ -68,6 +69,18 @@ def test_the_discrepancy_study_beyond_the_catalogue():
     trend = sum(set(r["added"]) == {"warmup", "time_trend"} for r in daily)
     _quoted(f"`warmup` + `temperature_cubic` ({cubic}) or `time_trend` ({trend})")
     assert cubic + trend == len(daily) and all(r["called_stand_in"] for r in daily)
+
+
+def test_the_mems_thermal_benches_under_ieee_noise():
+    """IEEE 952's noise: the trusted fits' 95 % intervals cover the truths at the nominal
+    rate (inside the binomial 99 % band), the refusals quoted as they are."""
+    counts = _results("mems_thermal_bench_ieee")["per_noise"]["white+flicker+rw"]
+    trusted = counts["fits"] - counts["refused"]
+    inside, total = counts["coefficients_inside_95"]
+    _quoted(f"`--noise white+flicker+rw` trusted {trusted} of {counts['fits']} fits and "
+            f"refused {counts['refused']}",
+            f"{inside} of the {total} trusted coefficients lie inside their 95 % intervals")
+    assert stats.binom(total, 0.95).ppf(0.005) <= inside <= stats.binom(total, 0.95).ppf(0.995)
 
 
 @pytest.mark.parametrize("noise", ["white", "white+gm"])

@@ -76,10 +76,10 @@ def _fits_section(report: Report, study: _Study) -> None:
     magnetic = study.benches["magnetic"]
     report.add(
         "## 2. Posteriors (optimistix point estimate, emcee, ArviZ diagnostics)", "",
-        f"Thermal model `{','.join(tf.problem.model.terms)}`, noise level sampled "
-        f"(posterior sigma {tf.posterior.summary['sigma_deg_h']['mean']:.3f} deg/h); "
-        f"{tf.posterior.n_steps} emcee steps x {tf.posterior.draws.shape[0]} walkers; files "
-        "`thermal/fit/`.", "",
+        f"Thermal model `{','.join(tf.problem.model.terms)}`; noise model "
+        f"`{tf.problem.noise}` ({tf.noise_choice or 'asked for'}), its levels sampled "
+        f"({_noise_levels(tf)}); {tf.posterior.n_steps} emcee steps x "
+        f"{tf.posterior.draws.shape[0]} walkers; files `thermal/fit/`.", "",
         *_fit_table(tf, study.benches["thermal"].truth["parameters"]), "",
         *_check_lines("thermal", tf.checks))
     report.figure("thermal/fit/pair", "Posterior of the thermal coefficients (truth dashed). "
@@ -248,6 +248,15 @@ def _pool_section(report: Report, study: _Study) -> None:
                   "tests and their pooled coefficients.")
 
 
+def _noise_levels(fit) -> str:
+    """The posterior means of a fit's noise levels, with units."""
+    from gyroid.inference._bench_density import NOISE_UNITS
+
+    summary = fit.posterior.summary
+    return ", ".join(f"{name} {summary[name]['mean']:.3g} {NOISE_UNITS[name]}"
+                     for name in fit.problem.noise_names)
+
+
 def _check_lines(name: str, checks) -> list[str]:
     """The self-checks' verdict on a fit, with every failed check, for the report."""
     verdict = ("trustworthy: every error-level self-check passed" if checks.trustworthy else
@@ -258,8 +267,8 @@ def _check_lines(name: str, checks) -> list[str]:
         lines.append("- Why: the drift is simulated with the true dT/dt, the fit sees the "
                      "estimated one; the estimator's smoothing at the setpoint transitions "
                      "leaves structure in the residuals that a white-noise model cannot "
-                     "explain (errors in variables). `--noise white+gm` passes every check "
-                     "on this log but takes about 2 minutes.")
+                     "explain (errors in variables). `--noise auto` turns to IEEE 952's "
+                     "white + flicker + random-walk noise for it.")
     return [*lines, ""]
 
 
