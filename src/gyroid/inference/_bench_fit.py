@@ -258,7 +258,8 @@ def bench_checks(problem: BenchProblem, point: PointEstimate, posterior: Posteri
     samples = problem.log if problem.segments is None else problem.segments.log
     checks = fit_checks(problem.evidence(point, posterior)) + CheckReport((
         excitation(problem.model, problem.inputs, time_s, tuple(contiguous_segments(time_s))),
-        bench_predictive(problem.density, time_s), units_sanity(samples),
+        bench_predictive(problem.density, time_s, np.asarray(point.u)[problem.n_model:]),
+        units_sanity(samples),
         effect_sizes(problem.model, point.value, problem.inputs,
                      np.asarray(problem.log.drift_deg_h))))
     segments = problem.segments

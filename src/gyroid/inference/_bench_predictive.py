@@ -10,10 +10,14 @@ the fold (:func:`whitened_predictive`)."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
+import jax.numpy as jnp
 import numpy as np
 
 from gyroid.inference._bench_density import BenchDensity
 from gyroid.inference._check_report import Check
+from gyroid.inference._collapsed import collapse
 from gyroid.inference._ieee_noise import IEEE_NOISE, ieee_part_covariance
 from gyroid.inference._point import point_estimate
 from gyroid.inference._predictive import (
@@ -31,9 +35,12 @@ from gyroid.models._drift import DriftModel
 from gyroid.models._inputs import DriftInputs
 
 
-def bench_predictive(density: BenchDensity, time_s: np.ndarray) -> Check:
-    """The predictive check of a bench log's density (rows at ``time_s``, s)."""
-    folds, part_s = bench_held_out(density, time_s)
+def bench_predictive(density: BenchDensity, time_s: np.ndarray,
+                     noise_u: np.ndarray | None = None) -> Check:
+    """The predictive check of a bench log's density (rows at ``time_s``, s); ``noise_u``:
+    the full fit's noise levels (sampling coordinates), held in each fold's refit of a
+    linear model under correlated noise (a generalised least-squares fit, one filter pass)."""
+    folds, part_s = bench_held_out(density, time_s, noise_u)
     return predictive_check(folds, part_s=part_s, remedies=_remedies(density.noise))
 
 
@@ -45,7 +52,8 @@ def _remedies(noise: str) -> tuple[str, ...]:
     return (richer, "segment_means", "discrepancy")
 
 
-def bench_held_out(density: BenchDensity, time_s: np.ndarray
+def bench_held_out(density: BenchDensity, time_s: np.ndarray,
+                   noise_u: np.ndarray | None = None
                    ) -> tuple[list[HeldOut] | None, float | None]:
     """The held-out folds of a bench log's density and the median part's duration (s);
     None when the log is too short to hold a stretch out."""
@@ -54,8 +62,12 @@ def bench_held_out(density: BenchDensity, time_s: np.ndarray
     parts = stretches(density.n, segments if len(segments) > 1 else None)
     if parts is None:
         return None, None
-    folds = (_linear_folds(density, parts) if density.gram is not None else
-             _refit_folds(density, parts, time_s))
+    if density.gram is not None:
+        folds = _linear_folds(density, parts)
+    elif noise_u is not None and collapse(density) is not None:
+        folds = _collapsed_folds(density, parts, time_s, np.asarray(noise_u))
+    else:
+        folds = _refit_folds(density, parts, time_s)
     return folds, _part_seconds(parts, time_s)
 
 
@@ -161,6 +173,44 @@ def _linear_folds(density: BenchDensity, parts: Stretches) -> list[HeldOut]:
                              counts=counts,
                              noise_dof=np.inf if known else float(train["count"] - p)))
     return folds
+
+
+def _collapsed_folds(density: BenchDensity, parts: Stretches, time_s: np.ndarray,
+                     noise_u: np.ndarray) -> list[HeldOut]:
+    """Refits of a linear model under correlated noise with its noise levels held at the
+    full fit's: each fold's coefficients are their exact Gaussian posterior given those
+    levels (:mod:`gyroid.inference._collapsed`, the filter predicting through the fold).
+    Holding the levels leaves their uncertainty out of the bands, which can only make the
+    check stricter."""
+    p = density.n_model
+    observed = part_means(np.asarray(density.drift), parts.part, parts.n_parts)
+    counts = np.bincount(parts.part, minlength=parts.n_parts).astype(float)
+    design = np.asarray(density.model.design(density.inputs))
+    design_means = np.column_stack([part_means(design[:, i], parts.part, parts.n_parts)
+                                    for i in range(p)])
+    v = jnp.asarray(noise_u)
+    values = dict(zip(density.noise_names, np.exp(noise_u), strict=True))
+    point = _Levels(values)
+    noise_cov = _noise_covariance(density, point, parts, time_s)
+    folds = []
+    for k in range(int(parts.fold_of.max()) + 1):
+        held = parts.fold_of == k
+        collapsed = collapse(density.without_rows(parts.rows_of_fold(k)))
+        mean, factor, _ = collapsed._solve(v)
+        factor = np.asarray(factor)
+        covariance = np.linalg.inv(factor @ factor.T)
+        x = design_means[held]
+        folds.append(HeldOut(observed=observed[held], predicted=x @ np.asarray(mean),
+                             covariance=x @ covariance @ x.T + noise_cov[np.ix_(held, held)],
+                             counts=counts[held]))
+    return folds
+
+
+@dataclass(frozen=True)
+class _Levels:
+    """Noise levels by name, as a point estimate's ``value`` gives them."""
+
+    value: dict
 
 
 def _refit_folds(density: BenchDensity, parts: Stretches, time_s: np.ndarray
