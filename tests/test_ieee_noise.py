@@ -139,3 +139,27 @@ def test_auto_keeps_white_noise_when_it_is_white_and_changes_when_it_is_not():
     assert "failed residual_whiteness" in flicker.noise_choice
     assert fit_log(_ramp_log(rng, 500), "bias", noise="white",
                    sample=False).to_json()["noise_choice"] == "asked for: white"
+
+
+def test_a_burst_log_is_read_as_it_is():
+    """IEEE noise carries the wander between bursts as flicker and walk, over the gaps: asked
+    with --segment-means it says to fit the samples; auto with --segment-means does so."""
+    from gyroid.errors import GyroidInputError
+
+    rng = np.random.default_rng(3)
+    log = _ramp_log(rng, 12_000, k=200.0)
+    bursts = (np.arange(12_000) // 20) % 2 == 0  # 20 s on, 20 s off: 300 bursts
+    columns = {name: values[bursts] for name, values in log.columns.items()}
+    with pytest.raises(GyroidInputError, match="without --segment-means"):
+        BenchProblem.from_log(BenchLog(columns), "bias,temperature",
+                              noise="white+flicker+rw", segment_means=True)
+    fit = fit_log(BenchLog(columns), "bias,temperature", noise="auto", segment_means=True,
+                  sample=False)
+    # the means of a walk's bursts are a walk: not white
+    assert fit.problem.noise == "white+flicker+rw"
+    assert "on the samples" in fit.noise_choice
+    # 6000 samples: means of 6 (3 per burst, its last 2 samples left out), 22 s apart
+    # across a gap
+    assert fit.problem.block_rows == 6 and fit.problem.n == 900
+    gaps = np.asarray(fit.problem.density.gap_s)
+    assert np.sum(gaps > 0) == 299 and np.allclose(gaps[gaps > 0], 22.0)

@@ -317,10 +317,11 @@ def fit_log(
     from gyroid.inference._emcee import Emcee
 
     def problem_with(noise_model: str) -> BenchProblem:
+        # IEEE noise reads a log of bursts as it is: its flicker and walk are the wander
         return BenchProblem.from_log(log, terms, noise=noise_model, priors=priors,
                                      prior_set=prior_set, flat_prior=flat_prior, t0_C=t0_C,
                                      rate_window_s=rate_window_s,
-                                     segment_means=segment_means)
+                                     segment_means=segment_means and noise_model != IEEE_NOISE)
 
     chosen = sampler or Emcee(progress=progress)
     if noise != "auto":
@@ -334,6 +335,8 @@ def fit_log(
                "stretches)")
         result = trial if not sample else fit(white, sampler=chosen, seed=seed)
     else:
-        why = (f"auto: {IEEE_NOISE}, since a white-noise fit failed {' and '.join(wrong)}")
+        why = (f"auto: {IEEE_NOISE}, since a white-noise fit failed {' and '.join(wrong)}"
+               + (" (on the samples: the noise model carries the wander between bursts)"
+                  if segment_means else ""))
         result = fit(problem_with(IEEE_NOISE), sampler=chosen, seed=seed, sample=sample)
     return replace(result, noise_choice=why)

@@ -11,6 +11,7 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
+from gyroid.errors import GyroidInputError
 from gyroid.inference._bench_density import BenchDensity, _noise_names
 from gyroid.inference._check_report import FitEvidence
 from gyroid.inference._ieee_noise import IEEE_NOISE
@@ -93,7 +94,12 @@ class BenchProblem(AbstractProblem):
         samples = None
         block_rows = 1
         cap = IEEE_MAX_ROWS if max_rows is None else max_rows
-        if noise == IEEE_NOISE and not segment_means and log.n > cap:
+        if noise == IEEE_NOISE and segment_means:
+            raise GyroidInputError(
+                "--segment-means with --noise white+flicker+rw: the IEEE noise model reads "
+                "a log of bursts as it is (the wander between bursts is its flicker and "
+                "random walk); fit the samples, without --segment-means")
+        if noise == IEEE_NOISE and log.n > cap:
             block_rows = -(-log.n // cap)
             samples = log
             deviations, within_sd = block_deviations(log, block_rows)
