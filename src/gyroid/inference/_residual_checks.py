@@ -152,9 +152,9 @@ def outliers(residuals: np.ndarray | None, *,
     shift = float(abs(z[rows].sum()) / math.sqrt(n) / bias_sd_ratio)
     share = float(np.sum(z[rows] ** 2) / np.sum(z**2)) if sets_noise_level else 0.0
     worst = rows[np.argsort(-np.abs(z[rows]))][:3]
-    first = where(int(worst[0])) if where else f"row {int(worst[0]) + 1}"
-    named = ", ".join([f"{first} at {z[worst[0]]:+.0f} sd"]
-                      + [f"row {int(i) + 1} at {z[i]:+.0f} sd" for i in worst[1:]])
+    # every one named as the log names it (a block mean's index is not a sample's row)
+    named = ", ".join(f"{where(int(i)) if where else f'row {int(i) + 1}'} at {z[i]:+.0f} sd"
+                      for i in worst)
     more = f" and {rows.size - worst.size} more" if rows.size > worst.size else ""
     severity: Severity = ("error" if shift > OUTLIER_SHIFT_SD or share > OUTLIER_VARIANCE_SHARE
                           else "warning")
