@@ -215,3 +215,30 @@ def test_the_real_matlab_file_reads_as_the_registry_converts_it(mpu_folder):
     from_mat = bench_log_from_table(table, "bias", axis="y")
     np.testing.assert_allclose(np.asarray(from_mat.drift_deg_h)[: converted.n],
                                np.asarray(converted.drift_deg_h), rtol=1e-9)
+
+
+def test_under_ieee_noise_the_point_is_the_marginal_mode_the_posterior_centres_on(pan_log):
+    """The real log broke this: the joint mode put the rate random walk's K 1.9 posterior sd
+    below its posterior (the coefficients absorb a walk), and point_vs_posterior refused the
+    fit for it. The point's noise levels are now the marginal posterior's mode (coefficients
+    integrated out), its coefficients their conditional mean there."""
+    import jax
+    import jax.numpy as jnp
+
+    from gyroid.inference import BenchProblem
+    from gyroid.inference._collapsed import collapse
+
+    keep = np.ones(pan_log.n, dtype=bool)
+    keep[list(SPIKES)] = False
+    problem = BenchProblem.from_log(_subset(pan_log, keep), THERMAL, noise="white+flicker+rw")
+    point = problem.mode()
+    assert point.converged
+    collapsed = collapse(problem.density)
+    v = jnp.asarray(point.u[problem.n_model:])
+    gradient = np.asarray(jax.grad(collapsed.log_posterior)(v))
+    curvature = np.sqrt(np.diag(np.linalg.inv(point.covariance_u[problem.n_model:,
+                                                                 problem.n_model:])))
+    assert np.all(np.abs(gradient) / curvature < 1e-3)  # a stationary point, in sd units
+    mean, _, _ = collapsed._solve(v)
+    np.testing.assert_allclose(point.u[:problem.n_model], np.asarray(mean), rtol=1e-10)
+    assert point.value["K_deg_h_sqrt_h"] > 10.0  # the walk is there (posterior 29 +/- 12)
