@@ -78,7 +78,7 @@ def test_the_mems_thermal_benches_under_ieee_noise():
     trusted = counts["fits"] - counts["refused"]
     inside, total = counts["coefficients_inside_95"]
     _quoted(f"`--noise white+flicker+rw` trusted {trusted} of {counts['fits']} fits and "
-            f"refused {counts['refused']}",
+            f"refused {counts['refused']} ",
             f"{inside} of the {total} trusted coefficients lie inside their 95 % intervals")
     assert stats.binom(total, 0.95).ppf(0.005) <= inside <= stats.binom(total, 0.95).ppf(0.995)
 
