@@ -269,8 +269,12 @@ class BenchDensity(eqx.Module):
         return self.model.predict(theta, self.inputs)
 
     def _noise_levels(self, u: Float[Array, " d"]):
-        x = self.to_natural(u)[self.n_model :]
-        values = dict(zip(self.noise_names, x, strict=True))
+        return self.levels_of(u[self.n_model :])
+
+    def levels_of(self, noise_u: Float[Array, " k"]):
+        """The white sd a row's likelihood uses (deg/h; per row or one) and every noise
+        level by name (natural units), from the noise levels' sampling coordinates (logs)."""
+        values = dict(zip(self.noise_names, jnp.exp(noise_u), strict=True))
         if self.sigma is not None:
             white = self.sigma if self.noise in ("white", IEEE_NOISE) else jnp.median(
                 self.sigma)
@@ -288,7 +292,7 @@ class BenchDensity(eqx.Module):
         if self.noise == "white":
             rows = -0.5 * (residual / white) ** 2 - jnp.log(white) - 0.5 * _LOG_2PI
         else:
-            innovation, variance = self._innovations(residual, white, values)
+            innovation, variance = self.innovations(residual, white, values)
             rows = -0.5 * innovation**2 / variance - 0.5 * jnp.log(variance) - 0.5 * _LOG_2PI
         return rows if self.weight is None else rows * self.weight
 
@@ -299,10 +303,10 @@ class BenchDensity(eqx.Module):
         white, values = self._noise_levels(u)
         if self.noise == "white":
             return residual / white
-        innovation, variance = self._innovations(residual, white, values)
+        innovation, variance = self.innovations(residual, white, values)
         return innovation / jnp.sqrt(variance)
 
-    def _innovations(self, residual, white, values):
+    def innovations(self, residual, white, values):
         """Innovations of the residual (or of columns) under the correlated noise models; a
         row left out (weight 0) is predicted through, not learnt from."""
         if self.noise == IEEE_NOISE:

@@ -10,8 +10,6 @@ the fold (:func:`whitened_predictive`)."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import jax.numpy as jnp
 import numpy as np
 
@@ -190,8 +188,7 @@ def _collapsed_folds(density: BenchDensity, parts: Stretches, time_s: np.ndarray
                                     for i in range(p)])
     v = jnp.asarray(noise_u)
     values = dict(zip(density.noise_names, np.exp(noise_u), strict=True))
-    point = _Levels(values)
-    noise_cov = _noise_covariance(density, point, parts, time_s)
+    noise_cov = _noise_covariance(density, values, parts, time_s)
     folds = []
     for k in range(int(parts.fold_of.max()) + 1):
         held = parts.fold_of == k
@@ -204,13 +201,6 @@ def _collapsed_folds(density: BenchDensity, parts: Stretches, time_s: np.ndarray
                              covariance=x @ covariance @ x.T + noise_cov[np.ix_(held, held)],
                              counts=counts[held]))
     return folds
-
-
-@dataclass(frozen=True)
-class _Levels:
-    """Noise levels by name, as a point estimate's ``value`` gives them."""
-
-    value: dict
 
 
 def _refit_folds(density: BenchDensity, parts: Stretches, time_s: np.ndarray
@@ -231,32 +221,32 @@ def _refit_folds(density: BenchDensity, parts: Stretches, time_s: np.ndarray
                                  parts.n_parts)[held]
         model = jacobian @ point.covariance_u[:p, :p] @ jacobian.T
         folds.append(HeldOut(observed=observed[held], predicted=predicted[held],
-                             covariance=model + _noise_covariance(density, point, parts,
+                             covariance=model + _noise_covariance(density, point.value, parts,
                                                                   time_s)[np.ix_(held, held)],
                              counts=counts[held]))
     return folds
 
 
-def _noise_covariance(density: BenchDensity, point, parts: Stretches, time_s: np.ndarray
-                      ) -> np.ndarray:
-    """The noise model's covariance of the parts' means, at the training fit's noise
-    levels."""
+def _noise_covariance(density: BenchDensity, values: dict, parts: Stretches,
+                      time_s: np.ndarray) -> np.ndarray:
+    """The noise model's covariance of the parts' means, at the training fit's noise levels
+    (``values``: by name, natural units)."""
     counts = np.bincount(parts.part, minlength=parts.n_parts).astype(float)
     if density.sigma is not None:
         sigma = np.asarray(density.sigma)
         white = (np.bincount(parts.part, sigma**2, parts.n_parts) / counts**2
                  if density.noise != "white+gm" else np.median(sigma) ** 2 / counts)
     elif density.noise == IEEE_NOISE:
-        white = (60.0 * point.value["N_deg_sqrt_h"]) ** 2 / (counts * density.step_s)
+        white = (60.0 * values["N_deg_sqrt_h"]) ** 2 / (counts * density.step_s)
     else:
-        white = point.value["sigma_deg_h"] ** 2 / counts
+        white = values["sigma_deg_h"] ** 2 / counts
     if density.noise == IEEE_NOISE:
         return ieee_part_covariance(time_s, parts.part, parts.n_parts, density.step_s, white,
-                                    point.value["B_deg_h"], point.value["K_deg_h_sqrt_h"])
+                                    values["B_deg_h"], values["K_deg_h_sqrt_h"])
     covariance = np.diag(white)
     if density.noise == "white+gm":
         covariance = covariance + gauss_markov_mean_covariance(
-            time_s, parts.part, parts.n_parts, point.value["sigma_gm_deg_h"],
-            point.value["tau_gm_s"])
+            time_s, parts.part, parts.n_parts, values["sigma_gm_deg_h"],
+            values["tau_gm_s"])
     return covariance
 

@@ -27,8 +27,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from gyroid.inference._ieee_noise import IEEE_NOISE, ieee_innovations
-from gyroid.inference._kalman import gauss_markov_innovations
+from gyroid.inference._ieee_noise import IEEE_NOISE
 
 _LOG_2PI = math.log(2.0 * math.pi)
 
@@ -38,36 +37,18 @@ class CollapsedCoefficients(eqx.Module):
     posterior of its coefficients (module docstring); built by :func:`collapse`."""
 
     columns: Float[Array, "n 1+p"]  # the drift, then the design's columns
-    steps_s: Float[Array, " n"]
+    density: eqx.Module  # the BenchDensity: its noise model and filter
     weight: Float[Array, " n"]
-    white_known: Float[Array, ""] | None  # the median of a known per-row sd, deg/h
     beta_loc: Float[Array, " p"]
     beta_precision: Float[Array, " p"]  # 1/scale^2 of a normal prior, 0 for a flat one
     beta_log_norm: Float[Array, ""]  # the normal priors' log normalising constant
     noise_loc: Float[Array, " k"]
     noise_scale: Float[Array, " k"]
     noise_on: Float[Array, " k"]
-    noise: str = eqx.field(static=True, default="white+gm")
-    # white+flicker+rw: a row's span (s), the gaps before rows (s), the flicker's times (s)
-    step_s: float = eqx.field(static=True, default=1.0)
-    gap_s: Float[Array, " n"] | None = None
-    flicker_tau_s: Float[Array, " j"] | None = None
-    flicker_unit_var: float = eqx.field(static=True, default=0.0)
-    sigma: Float[Array, " n"] | None = None  # known per-row sd (white+flicker+rw)
 
     def _innovations(self, v: Float[Array, " k"]):
-        x = jnp.exp(v)
-        if self.noise == IEEE_NOISE:
-            if self.sigma is None:
-                white_var = jnp.full_like(self.steps_s, (60.0 * x[0]) ** 2 / self.step_s)
-            else:
-                white_var = self.sigma**2
-            span = jnp.full_like(self.steps_s, self.step_s)
-            return ieee_innovations(self.columns, span, self.gap_s, white_var, x[-2], x[-1],
-                                    self.flicker_tau_s, self.flicker_unit_var, self.weight)
-        white = x[0] if self.white_known is None else self.white_known
-        return gauss_markov_innovations(self.columns, self.steps_s, white, x[-2], x[-1],
-                                        self.weight)
+        """Every column filtered by the density's own noise model at the levels ``v``."""
+        return self.density.innovations(self.columns, *self.density.levels_of(v))
 
     def _solve(self, v: Float[Array, " k"]):
         innovation, variance = self._innovations(v)
@@ -119,12 +100,8 @@ def collapse(density) -> CollapsedCoefficients | None:
               else jnp.asarray(density.weight))
     return CollapsedCoefficients(
         columns=jnp.column_stack([density.drift, model.design(density.inputs)]),
-        steps_s=density.steps_s,
+        density=density,
         weight=weight,
-        white_known=None if density.sigma is None else jnp.median(density.sigma),
         beta_loc=jnp.asarray(loc[:p]), beta_precision=jnp.asarray(precision),
         beta_log_norm=jnp.asarray(log_norm), noise_loc=jnp.asarray(loc[p:]),
-        noise_scale=jnp.asarray(scale[p:]), noise_on=jnp.asarray(on[p:]),
-        noise=density.noise, step_s=density.step_s, gap_s=density.gap_s,
-        flicker_tau_s=density.flicker_tau_s, flicker_unit_var=density.flicker_unit_var,
-        sigma=density.sigma if density.noise == IEEE_NOISE else None)
+        noise_scale=jnp.asarray(scale[p:]), noise_on=jnp.asarray(on[p:]))
