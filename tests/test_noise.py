@@ -3,6 +3,7 @@ posterior intervals, against logs simulated here (independently of gyroid) with 
 terms; the Haar statistics it rests on; the command's files and refusals."""
 
 import json
+import math
 
 import numpy as np
 import pytest
@@ -141,3 +142,104 @@ def test_static_keeps_the_still_stretches_of_a_log_that_moves(tmp_path, capsys):
     for axis in "xyz":
         entry = json.loads((out / axis / "noise.json").read_text())["terms"]["N"]
         assert entry["ci90"][0] < arw < entry["ci90"][1]
+
+
+def test_a_noise_fit_becomes_the_drift_fits_noise_prior_with_the_same_intervals():
+    """--noise DIR: a resolved term's 90 % interval is its prior's 90 % interval, an
+    unresolved term's bound its prior's 95 % quantile (datasheet units, any sample rate)."""
+    from gyroid.models._prior_scales import priors_from_noise
+
+    terms = {"N": {"resolved": True, "ci90": [0.29, 0.31]},
+             "B": {"resolved": True, "ci90": [0.0, 7.0]},  # reaches 0: read as a bound
+             "K": {"resolved": False, "ci90": None, "upper_bound_95": 25.0}}
+    priors = priors_from_noise(terms)
+    z = stats.norm.ppf(0.95)
+    n = priors["N_deg_sqrt_h"]
+    np.testing.assert_allclose(np.exp(np.log(n.median) + np.array([-z, z]) * n.log_sd),
+                               [0.29, 0.31], rtol=1e-12)
+    for name, bound in (("B_deg_h", 7.0), ("K_deg_h_sqrt_h", 25.0)):
+        assert math.exp(math.log(priors[name].median) + z * priors[name].log_sd) == \
+            pytest.approx(bound, rel=1e-12)
+
+
+def _gyro_noise(rng, n: int, dt: float) -> np.ndarray:
+    """N 0.3 deg/sqrt(h), flicker of B 6 deg/h, K 20 deg/h/sqrt(h), deg/h."""
+    return (_static_rate(rng, n, dt, N=0.3, K=20.0)
+            + 6.0 / math.sqrt(2.0 * math.pi * dt) * _unit_flicker(rng, n, dt))
+
+
+def _unit_flicker(rng, n: int, dt: float) -> np.ndarray:
+    spectrum = np.fft.rfft(rng.normal(size=2 * n))
+    f = np.fft.rfftfreq(2 * n, dt)
+    spectrum[1:] /= np.sqrt(f[1:])
+    spectrum[0] = 0.0
+    return np.fft.irfft(spectrum)[:n]
+
+
+@pytest.mark.slow
+def test_fit_takes_its_noise_priors_from_a_static_noise_fit(tmp_path):
+    """gyroid noise on the gyro at rest (2 h at 2 Hz), then gyroid fit --noise DIR on a
+    temperature ramp (1 Hz) of the same gyro: IEEE noise with the static posteriors as
+    priors, said in fit.json; the ramp's own B interval is then narrower than it is under
+    the default priors (the static log knows more about B), and still holds the truth."""
+    rng = np.random.default_rng(5)
+    n, dt = 14_400, 0.5
+    static = write_log(tmp_path / "static.csv", {"time_s": dt * np.arange(n),
+                                                 "drift_x_deg_h": 40.0 + _gyro_noise(rng, n, dt)})
+    noise_dir = tmp_path / "noise"
+    assert main(["noise", str(static), "--out", str(noise_dir)]) == 0
+    static_b = json.loads((noise_dir / "noise.json").read_text())["terms"]["B"]
+    assert static_b["resolved"] and static_b["ci90"][0] < 6.0 < static_b["ci90"][1]
+    t = np.arange(1500.0)
+    temperature = 21.0 + 20.0 * np.sin(np.pi * t / t[-1])
+    ramp = write_log(tmp_path / "ramp.csv", {
+        "time_s": t, "temperature_C": temperature,
+        "drift_x_deg_h": 2.0 + 0.5 * (temperature - 21.0) + _gyro_noise(rng, t.size, 1.0)})
+    out = tmp_path / "fit"
+    code = main(["fit", str(ramp), "--terms", "bias,temperature", "--noise", str(noise_dir),
+                 "--out", str(out), "--no-progress"])
+    record = json.loads((out / "fit.json").read_text())
+    assert code == 0 and record["noise"]["model"] == "white+flicker+rw"
+    assert f"from the noise fit in {noise_dir}" in record["noise_choice"]
+    low, high = static_b["ci90"]
+    assert record["priors"]["B_deg_h"].startswith(f"LogNormal(median {math.sqrt(low * high):g}")
+    b = record["noise"]["posterior"]["B_deg_h"]
+    assert b["ci95"][0] < 6.0 < b["ci95"][1]
+    # the same ramp, default priors: its B is what the 1500 s ramp alone can say
+    from gyroid.inference import fit_log
+    from gyroid.io import load_bench_log
+
+    alone = fit_log(load_bench_log(ramp, "bias,temperature", axis="x"), "bias,temperature",
+                    noise="white+flicker+rw", sample=False).point.sd["B_deg_h"]
+    assert record["noise"]["point_sd"]["B_deg_h"] < 0.7 * alone
+
+
+def _noise_record(trustworthy: bool) -> str:
+    """A noise.json as 'gyroid noise' writes it (the fields --noise DIR reads)."""
+    terms = {"N": {"resolved": True, "ci90": [0.29, 0.31]},
+             "B": {"resolved": True, "ci90": [5.5, 6.5]},
+             "K": {"resolved": False, "ci90": None, "upper_bound_95": 25.0}}
+    return json.dumps({"terms": terms, "allan": {"tau_s": [1.0, 2.0],
+                                                 "model_adev_deg_h": [20.0, 14.0]},
+                       "sample_s": 0.5, "trustworthy": trustworthy})
+
+
+def test_fit_refuses_noise_folders_that_cannot_serve_as_priors(tmp_path, capsys):
+    """Refused with one message before any fit: a noise fit that failed its own checks,
+    one of other axes, a folder that is not there (the message names the choices)."""
+    t = np.arange(200.0)
+    log = write_log(tmp_path / "two.csv", {"time_s": t, "drift_x_deg_h": t * 0 + 1.0,
+                                           "drift_y_deg_h": t * 0 + 2.0})
+    bad = tmp_path / "bad"
+    bad.mkdir()
+    (bad / "noise.json").write_text(_noise_record(False))
+    x_only = tmp_path / "x_only"
+    (x_only / "x").mkdir(parents=True)
+    (x_only / "x" / "noise.json").write_text(_noise_record(True))
+    (x_only / "axes.json").write_text(json.dumps({"axes": ["x"]}))
+    for noise, axes, said in ((bad, "x", "not trustworthy"), (x_only, "x,y", "not of axis y"),
+                              ("whit", "x", "auto, white, white+gm, white+flicker+rw")):
+        assert main(["fit", str(log), "--terms", "bias", "--noise", str(noise), "--axes",
+                     axes, "--out", str(tmp_path / "no")]) == 2
+        assert said in capsys.readouterr().err
+    assert not (tmp_path / "no").exists()

@@ -252,6 +252,9 @@ def report_written(result, out: Path, files: tuple[str, ...]) -> None:
     report_checks(result.only.checks)
 
 
+NOISE_CHOICES = ("auto", "white", "white+gm", "white+flicker+rw")
+
+
 def fit_options(function):
     """Every option of a bench fit, for ``gyroid fit`` and ``gyroid batch`` alike; the
     command receives them as one checked ``options`` (:class:`gyroid.pipeline.FitOptions`)."""
@@ -262,10 +265,17 @@ def fit_options(function):
                 rate_window, segment_means, mappings, progress, axes, instance, **kwargs):
         from gyroid.inference._rate_window import parse_rate_window
         from gyroid.models._prior_scales import resolve_prior_option
-        from gyroid.pipeline._fit_file import FitOptions
+        from gyroid.pipeline._fit_file import FitOptions, noise_file_options
 
         prior_set, overrides = resolve_prior_option(prior_choice, prior_items)
-        options = FitOptions(terms=terms, noise=noise, seed=seed, t0_C=t0_C,
+        noise_options = {"noise": noise}
+        if noise not in NOISE_CHOICES:
+            if not Path(noise).is_dir():
+                raise GyroidInputError(f"--noise {noise!r}: use one of "
+                                       f"{', '.join(NOISE_CHOICES)}, or give the --out folder "
+                                       "of 'gyroid noise' (no such folder here)")
+            noise_options = noise_file_options(noise)
+        options = FitOptions(terms=terms, seed=seed, t0_C=t0_C, **noise_options,
                              prior_set="flat" if flat_prior else prior_set, priors=overrides,
                              rate_window_s=parse_rate_window(rate_window),
                              segment_means=segment_means, maps=parse_maps(mappings),
@@ -276,13 +286,14 @@ def fit_options(function):
         terms_option(),
         click.option("--seed", default=0, show_default=True, type=SEED,
                      help="Random seed of emcee."),
-        click.option("--noise", type=click.Choice(["auto", "white", "white+gm",
-                                                   "white+flicker+rw"]),
-                     default="auto", show_default=True,
+        click.option("--noise", default="auto", show_default=True,
+                     metavar="|".join(NOISE_CHOICES) + "|DIR",
                      help="Noise model: white; white plus a Gauss-Markov part; IEEE 952's "
-                     "white + flicker (bias instability) + rate random walk; or auto: white "
+                     "white + flicker (bias instability) + rate random walk; auto: white "
                      "unless its residuals are not white or it fails to predict held-out "
-                     "stretches, then white+flicker+rw."),
+                     "stretches, then white+flicker+rw; or DIR, the --out folder of 'gyroid "
+                     "noise' on the same gyro at rest: white+flicker+rw with its N, B and K "
+                     "posteriors as priors."),
         click.option("--t0", "t0_C", default=21.0, show_default=True, type=TEMPERATURE,
                      help="Reference temperature t0, degC (t = T - t0)."),
         prior_options,

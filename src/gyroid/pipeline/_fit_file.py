@@ -6,18 +6,20 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from gyroid.errors import GyroidInputError
 from gyroid.inference._bench_density import NOISE_MODELS
 from gyroid.inference._bench_fit import BenchFit, fit_log
 from gyroid.inference._emcee import Emcee
+from gyroid.inference._ieee_noise import IEEE_NOISE
 from gyroid.io._bench_reader import bench_log_from_table
+from gyroid.io._fitted import FittedNoise, axes_of
 from gyroid.io._tables import read_log_table, table_source
 from gyroid.io._units import ColumnMap
 from gyroid.models._inputs import T0_C
-from gyroid.models._prior_scales import PRIOR_SETS
+from gyroid.models._prior_scales import PRIOR_SETS, priors_from_noise
 from gyroid.models._priors import Prior
 from gyroid.models._terms import resolve_terms
 from gyroid.pipeline._axes import PerAxis, chosen_axes, write_per_axis
@@ -42,12 +44,20 @@ class FitOptions:
     axes: tuple[str, ...] | None = None
     #: A native log's IMU (``--instance``); None: its first.
     instance: int | None = None
+    #: ``--noise DIR``: the IEEE 952 noise priors per axis from 'gyroid noise' (None: one
+    #: axis, unnamed), and that folder.
+    noise_priors: Mapping[str | None, Mapping[str, Prior]] = field(default_factory=dict)
+    noise_source: str = ""
 
     def __post_init__(self) -> None:
         resolve_terms(self.terms)
         if self.noise not in (*NOISE_MODELS, "auto"):
             raise GyroidInputError(f"--noise {self.noise!r}: use one of "
-                                   f"{', '.join(NOISE_MODELS)} or auto")
+                                   f"{', '.join(NOISE_MODELS)}, auto or the --out folder of "
+                                   "'gyroid noise'")
+        if self.noise_priors and self.noise != IEEE_NOISE:
+            raise GyroidInputError(f"noise priors from {self.noise_source} are priors of "
+                                   f"the {IEEE_NOISE} noise model, not of {self.noise}")
         if not 0 <= self.seed < 2**32:
             raise GyroidInputError(f"--seed {self.seed}: give a whole number from 0 to "
                                    f"{2**32 - 1}")
@@ -59,23 +69,65 @@ class FitOptions:
                                    f"{', '.join(PRIOR_SETS)} or a .toml file")
 
 
+def noise_file_options(folder: str | Path) -> dict:
+    """``--noise DIR``: the :class:`FitOptions` fields that fit IEEE 952 noise with priors
+    from the folder of 'gyroid noise' (one axis, or ``axes.json`` and a folder per axis).
+    A noise fit that failed its own checks is refused: its posterior is no prior."""
+    fitted = axes_of(folder, FittedNoise.from_dir)
+    for axis, noise in fitted.items():
+        if not noise.trustworthy:
+            where = f"{folder}/{axis}" if axis is not None else str(folder)
+            raise GyroidInputError(
+                f"--noise {where}: that noise fit is not trustworthy (it failed its own "
+                "checks), so its posterior cannot serve as a prior: fix what its noise.json "
+                "names, or use --noise auto")
+    return {"noise": IEEE_NOISE, "noise_source": str(folder),
+            "noise_priors": {axis: priors_from_noise(noise.terms)
+                             for axis, noise in fitted.items()}}
+
+
+def _axis_noise_priors(options: FitOptions, axis: str | None, n_axes: int
+                       ) -> dict[str, Prior]:
+    """The noise priors ``--noise DIR`` gives ``axis``: its own, or a folder's one axis
+    when one axis is fitted."""
+    if not options.noise_priors:
+        return {}
+    if axis in options.noise_priors:
+        return dict(options.noise_priors[axis])
+    if len(options.noise_priors) == 1 and n_axes == 1:
+        return dict(next(iter(options.noise_priors.values())))
+    have = [a for a in options.noise_priors if a is not None]
+    raise GyroidInputError(
+        f"--noise {options.noise_source} holds the noise of "
+        + (f"axes {', '.join(have)}" if have else "one unnamed axis")
+        + f", not of axis {axis}: choose the axes with --axes, or run 'gyroid noise' on "
+        "the same axes")
+
+
 def fit_file(path: str | Path, options: FitOptions, out: str | Path,
              say: Callable[[str], None] | None = None) -> PerAxis[BenchFit]:
     """Read, fit and write one log, each of its gyro axes (``options.axes``) from one read
     of the file: with one axis its files go to ``out``, with several to ``out/AXIS/`` with
     ``out/axes.json``; they appear whole, or not at all."""
     table = read_log_table(path, options.maps, options.instance)
+    axes = chosen_axes(table, options.axes)
+    noise_priors = {axis: _axis_noise_priors(options, axis, len(axes)) for axis in axes}
     fits = {}
-    for axis in chosen_axes(table, options.axes):
+    for axis in axes:
         log = bench_log_from_table(table, options.terms, axis=axis)
         if say is not None:
             which = f" (axis {axis})" if axis is not None else ""
             say(f"fitting {options.terms} to {path}{which} ({log.n} rows) ...")
-        fits[axis] = fit_log(log, options.terms, noise=options.noise, seed=options.seed,
-                             priors=dict(options.priors), prior_set=options.prior_set,
-                             t0_C=options.t0_C, rate_window_s=options.rate_window_s,
-                             sampler=Emcee(progress=options.progress),
-                             segment_means=options.segment_means)
+        fit = fit_log(log, options.terms, noise=options.noise, seed=options.seed,
+                      priors={**noise_priors[axis], **options.priors},
+                      prior_set=options.prior_set, t0_C=options.t0_C,
+                      rate_window_s=options.rate_window_s,
+                      sampler=Emcee(progress=options.progress),
+                      segment_means=options.segment_means)
+        if noise_priors[axis]:
+            fit = replace(fit, noise_choice=f"asked for: {IEEE_NOISE}, its N, B and K priors "
+                                            f"from the noise fit in {options.noise_source}")
+        fits[axis] = fit
     result = PerAxis(fits, table_source(table))
     write_per_axis(out, result)
     return result
