@@ -93,3 +93,48 @@ def test_the_mems_thermal_benches(noise):
         worst = max(abs(z) for r in results["runs"] if r["noise"] == noise
                     for z in r["z"].values())
         _quoted(f"its coefficients were up to {worst:.0f} sd from the truths")
+
+
+def test_the_noise_fits_against_the_allan_readings():
+    """gyroid noise on three grades: every interval and bound covers at its nominal rate (in
+    its binomial band), and each error comparison the README states holds in the file."""
+    grades = _results("noise_coverage")["summary"]
+    terms = {g: v["terms"] for g, v in grades.items()}
+    for per_term in terms.values():
+        for entry in per_term.values():
+            for key in ("ci90", "upper_bound"):
+                low, high = entry[f"{key}_band_99"]
+                assert low <= entry[f"{key}_inside"] <= high
+    order = ("fog", "tactical", "mems")
+    b = [terms[g]["B"] for g in order]
+    n = [terms[g]["N"] for g in order]
+    _quoted(f"On {sum(v['datasets'] for v in grades.values())} static logs of three grades",
+            "B: " + ", ".join(f"{e['ci90_inside']} of {e['resolved']}" for e in b)
+            + " resolved intervals; N: " + ", ".join(str(e["ci90_inside"]) for e in n)
+            + f" of {grades['fog']['datasets']})")
+
+    def error(grade, name, method, where="resolved"):
+        entry = terms[grade][name][f"error_where_{where}"][method]
+        return None if entry is None else entry["median"]
+
+    for grade in order:
+        for name in terms[grade]:
+            if terms[grade][name]["resolved"]:
+                assert error(grade, name, "gyroid") < error(grade, name, "slope")
+                if name != "K":
+                    assert error(grade, name, "gyroid") < error(grade, name, "allan_variance")
+    percent = lambda values: f"{min(values):.0f}-{max(values):.0f} %"  # noqa: E731
+    slope_b = sorted(round(100 * error(g, "B", "slope")) for g in order)
+    assert slope_b[0] == slope_b[-1]  # quoted as one number
+    package_b = percent([100 * error(g, "B", "allan_variance") for g in order])
+    _quoted(f"(B: {percent([100 * error(g, 'B', 'gyroid') for g in order])} against "
+            f"{slope_b[0]} % and {package_b})",
+            f"not for K in the {terms['fog']['K']['resolved']} and "
+            f"{terms['tactical']['K']['resolved']} logs that resolved it (FOG "
+            f"{100 * error('fog', 'K', 'gyroid'):.0f} % against that package's "
+            f"{100 * error('fog', 'K', 'allan_variance'):.0f} %, tactical "
+            f"{100 * error('tactical', 'K', 'gyroid'):.0f} % against "
+            f"{100 * error('tactical', 'K', 'allan_variance'):.0f} %)",
+            "for K, a median error of "
+            + percent([100 * error(g, "K", "slope", "unresolved") for g in order])
+            + " by grade")
