@@ -21,9 +21,9 @@ from gyroid.inference._ieee_noise import IEEE_NOISE
 from gyroid.inference._plausibility import effect_sizes, units_sanity
 from gyroid.inference._posterior import AbstractSampler, Posterior, inference_data
 from gyroid.inference._problem import PointEstimate
-from gyroid.inference._residual_checks import outliers
+from gyroid.inference._residual_checks import outliers_among
 from gyroid.io._fitted import FittedDrift
-from gyroid.io._logs import BenchLog, contiguous_segments
+from gyroid.io._logs import BenchLog, SampleDeviations, contiguous_segments
 from gyroid.models._design import rows_of
 from gyroid.models._drift import DriftModel
 from gyroid.models._effects import parameter
@@ -71,7 +71,7 @@ class BenchFit:
         """For a fit of a burst log's segment means: how many means, of how many rows."""
         segments = self.problem.segments
         return None if segments is None or self.problem.block_rows > 1 else {
-            "segments": self.problem.n, "rows": segments.log.n}
+            "segments": self.problem.n, "rows": segments.n}
 
     @property
     def block_means(self) -> dict[str, int] | None:
@@ -80,7 +80,7 @@ class BenchFit:
         problem = self.problem
         return None if problem.block_rows == 1 else {
             "means": problem.n, "rows_per_mean": problem.block_rows,
-            "rows": problem.segments.log.n}
+            "rows": problem.segments.n}
 
     @property
     def input_ranges(self) -> dict[str, list[float]]:
@@ -255,7 +255,7 @@ def bench_checks(problem: BenchProblem, point: PointEstimate, posterior: Posteri
     (held-out stretches), and for a fit of segment means the spike check on the samples
     behind them."""
     time_s = np.asarray(problem.log.time_s)
-    samples = problem.log if problem.segments is None else problem.segments.log
+    samples = problem.log if problem.segments is None else problem.segments.head
     checks = fit_checks(problem.evidence(point, posterior)) + CheckReport((
         excitation(problem.model, problem.inputs, time_s, tuple(contiguous_segments(time_s))),
         bench_predictive(problem.density, time_s, np.asarray(point.u)[problem.n_model:]),
@@ -270,19 +270,19 @@ def bench_checks(problem: BenchProblem, point: PointEstimate, posterior: Posteri
     sigma = (point.rms_residual if problem.block_rows > 1
              else point.value.get("sigma_deg_h", segments.within_sd))
     return checks + CheckReport((spikes_within_segments(
-        segments.log, segments.deviations, segments.within_sd, sigma_of_means=sigma,
-        n_means=problem.n),))
+        segments, sigma_of_means=sigma, n_means=problem.n),))
 
 
-def spikes_within_segments(samples: BenchLog, deviations: np.ndarray, within_sd: float, *,
-                           sigma_of_means: float, n_means: int) -> Check:
-    """The spike check of a fit of segment means, on the samples about their segment's
-    mean (``deviations``, over ``within_sd``). A spike shifts the bias by its deviation / n;
-    that is judged against the fit's sd of the bias (about ``sigma_of_means / sqrt(K)`` of
-    the K means), not the samples' ``s / sqrt(n)``."""
-    ratio = (sigma_of_means / math.sqrt(n_means)) / (within_sd / math.sqrt(samples.n))
-    return outliers(deviations, where=samples.where, name="outliers_within_segments",
-                    bias_sd_ratio=max(ratio, 1e-12), sets_noise_level=False)
+def spikes_within_segments(samples: SampleDeviations, *, sigma_of_means: float,
+                           n_means: int) -> Check:
+    """The spike check of a fit of means (of segments or blocks), on the samples about
+    their mean. A spike shifts the bias by its deviation / n; that is judged against the
+    fit's sd of the bias (about ``sigma_of_means / sqrt(K)`` of the K means), not the
+    samples' ``s / sqrt(n)``."""
+    ratio = (sigma_of_means / math.sqrt(n_means)) / (samples.within_sd / math.sqrt(samples.n))
+    return outliers_among(samples.n, samples.rows, samples.z, samples.z_sum_sq,
+                          where=samples.where, name="outliers_within_segments",
+                          bias_sd_ratio=max(ratio, 1e-12), sets_noise_level=False)
 
 
 #: The self-checks whose failure in a white-noise fit says its noise model is wrong.

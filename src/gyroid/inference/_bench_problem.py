@@ -5,7 +5,6 @@ and what the self-checks read."""
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -18,7 +17,13 @@ from gyroid.inference._ieee_noise import IEEE_NOISE
 from gyroid.inference._point import point_estimate
 from gyroid.inference._problem import AbstractProblem, PointEstimate
 from gyroid.inference._rate_window import choose_rate_window, reads_rate
-from gyroid.io._logs import BenchLog, block_deviations, block_means, contiguous_segments
+from gyroid.io._logs import (
+    BenchLog,
+    SampleDeviations,
+    block_deviations,
+    block_means,
+    contiguous_segments,
+)
 from gyroid.io._logs import segment_means as means_of_segments
 from gyroid.models._derived import RATE_WINDOW_S, temperature_rate_deg_c_per_h
 from gyroid.models._drift import DriftModel
@@ -35,18 +40,6 @@ from gyroid.models._priors import Prior
 IEEE_MAX_ROWS = 1000
 
 
-@dataclass(frozen=True, eq=False)
-class SegmentSamples:
-    """The samples behind a fit of segment means (``--segment-means``): each sample's drift
-    about its segment's mean over the pooled within-segment sd (``deviations``), that sd
-    (deg/h), and the samples' log (for naming rows): what the spike check reads, since
-    the means hide spikes."""
-
-    log: BenchLog = field(repr=False)
-    deviations: np.ndarray = field(repr=False)
-    within_sd: float
-
-
 class BenchProblem(AbstractProblem):
     """The posterior of a drift model given a bench log. Build it with :meth:`from_log`."""
 
@@ -55,7 +48,7 @@ class BenchProblem(AbstractProblem):
     prior_set: str
     prior_basis: PriorBasis
     rate_window_choice: str  # "auto", "given", or why the default was kept
-    segments: SegmentSamples | None = None
+    segments: SampleDeviations | None = None
     #: Samples per row of a fit of block means (white+flicker+rw on a long log), else 1.
     block_rows: int = 1
 
@@ -101,13 +94,10 @@ class BenchProblem(AbstractProblem):
                 "random walk); fit the samples, without --segment-means")
         if noise == IEEE_NOISE and log.n > cap:
             block_rows = -(-log.n // cap)
-            samples = log
-            deviations, within_sd = block_deviations(log, block_rows)
+            samples = block_deviations(log, block_rows)
             log = block_means(log, block_rows)
         if segment_means:
-            samples = log
-            log, deviations, within_sd = means_of_segments(
-                log, contiguous_segments(np.asarray(log.time_s)))
+            log, samples = means_of_segments(log, contiguous_segments(np.asarray(log.time_s)))
         model = terms if isinstance(terms, DriftModel) else DriftModel.from_terms(terms)
         inputs = log.inputs(t0_C=t0_C)  # the one set built (10^7 rows: 0.8 GB)
         if rate_window_s is None:
@@ -128,9 +118,7 @@ class BenchProblem(AbstractProblem):
         density = BenchDensity.from_log(log, model, chosen, inputs, noise=noise,
                                         rate_window_s=rate_window_s, fast=fast)
         return cls(density=density, log=log, prior_set=chosen_set, prior_basis=basis,
-                   rate_window_choice=choice, block_rows=block_rows,
-                   segments=None if samples is None else SegmentSamples(
-                       samples, deviations, within_sd))
+                   rate_window_choice=choice, block_rows=block_rows, segments=samples)
 
     # ----- description (the density's) -------------------------------------------------------
     @property

@@ -256,8 +256,7 @@ def run_checks(problem: PoolProblem, u_mean: np.ndarray, pooled_mean: np.ndarray
                   bench_predictive(q.density, np.asarray(q.log.time_s))]
         if q.segments is not None:
             sigma = float(np.sqrt(float(q.density.rss_min) / max(q.n - q.n_model, 1)))
-            checks.append(spikes_within_segments(q.segments.log, q.segments.deviations,
-                                                 q.segments.within_sd, n_means=q.n,
+            checks.append(spikes_within_segments(q.segments, n_means=q.n,
                                                  sigma_of_means=sigma))
         per_run[problem.run_labels[r]] = CheckReport(tuple(checks))
     return combine_runs(per_run) if per_run else CheckReport(())

@@ -143,18 +143,32 @@ def outliers(residuals: np.ndarray | None, *,
         return Check(name, True, "error", None, OUTLIER_SHIFT_SD,
                      "too few residuals to look for outliers")
     z = np.asarray(residuals, dtype=float)
-    n = z.size
+    rows = np.flatnonzero(np.abs(z) > spike_threshold(z.size))
+    return outliers_among(z.size, rows, z[rows], float(z @ z), where=where, name=name,
+                          bias_sd_ratio=bias_sd_ratio, sets_noise_level=sets_noise_level)
+
+
+def outliers_among(n: int, rows: np.ndarray, z: np.ndarray, z_sum_sq: float, *,
+                   where: Callable[[int], str] | None = None, name: str = "outliers",
+                   bias_sd_ratio: float = 1.0, sets_noise_level: bool = True) -> Check:
+    """:func:`outliers` of ``n`` standardised residuals given only those that may be beyond
+    the threshold (``rows``, 0-based, and their ``z``; any superset of those beyond it) and
+    the sum of all ``n`` squares: what a log read as a stream keeps of its samples."""
+    if n < 16:
+        return Check(name, True, "error", None, OUTLIER_SHIFT_SD,
+                     "too few residuals to look for outliers")
     z_max = spike_threshold(n)
-    rows = np.flatnonzero(np.abs(z) > z_max)
+    beyond = np.abs(z) > z_max
+    rows, z = np.asarray(rows)[beyond], np.asarray(z, dtype=float)[beyond]
     if rows.size == 0:
         return Check(name, True, "error", 0.0, OUTLIER_SHIFT_SD,
                      f"no residual beyond {z_max:.1f} sd")
-    shift = float(abs(z[rows].sum()) / math.sqrt(n) / bias_sd_ratio)
-    share = float(np.sum(z[rows] ** 2) / np.sum(z**2)) if sets_noise_level else 0.0
-    worst = rows[np.argsort(-np.abs(z[rows]))][:3]
+    shift = float(abs(z.sum()) / math.sqrt(n) / bias_sd_ratio)
+    share = float(np.sum(z**2) / z_sum_sq) if sets_noise_level else 0.0
+    worst = np.argsort(-np.abs(z))[:3]
     # every one named as the log names it (a block mean's index is not a sample's row)
-    named = ", ".join(f"{where(int(i)) if where else f'row {int(i) + 1}'} at {z[i]:+.0f} sd"
-                      for i in worst)
+    named = ", ".join(f"{where(int(rows[i])) if where else f'row {int(rows[i]) + 1}'} at "
+                      f"{z[i]:+.0f} sd" for i in worst)
     more = f" and {rows.size - worst.size} more" if rows.size > worst.size else ""
     severity: Severity = ("error" if shift > OUTLIER_SHIFT_SD or share > OUTLIER_VARIANCE_SHARE
                           else "warning")

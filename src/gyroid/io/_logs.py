@@ -104,12 +104,42 @@ def contiguous_segments(time_s: np.ndarray) -> list[tuple[int, int]]:
 MIN_SEGMENTS = 8
 
 
+#: A sample's deviation from its mean, over the pooled sd, below which the spike check
+#: never calls it a spike (its threshold is 3.4 sd for 16 samples, and grows with more).
+SPIKE_CANDIDATE_Z = 3.0
+
+
+@dataclass(frozen=True, eq=False)
+class SampleDeviations:
+    """The samples behind a fit of means (of blocks or of a burst log's segments), as the
+    spike check reads them, since the means hide spikes: ``n`` samples, each one's drift
+    about its mean over the pooled within-mean sd ``within_sd`` (deg/h), kept only beyond
+    :data:`SPIKE_CANDIDATE_Z` (``rows``, 0-based, and their ``z``), the sum of every
+    sample's ``z**2``, and the samples' row names. ``head``: the samples themselves, or for
+    a log read as a stream its first stretch (what the units check reads)."""
+
+    n: int
+    rows: np.ndarray = field(repr=False)
+    z: np.ndarray = field(repr=False)
+    z_sum_sq: float
+    within_sd: float
+    head: BenchLog = field(repr=False)
+    where: Callable[[int], str] = field(repr=False)
+
+    @classmethod
+    def of(cls, log: BenchLog, z: np.ndarray, within_sd: float) -> SampleDeviations:
+        """From every sample's ``z`` (over ``within_sd``, deg/h)."""
+        z = np.asarray(z, dtype=float)
+        rows = np.flatnonzero(np.abs(z) > SPIKE_CANDIDATE_Z)
+        return cls(log.n, rows, z[rows], float(z @ z), within_sd, log, log.where)
+
+
 def segment_means(log: BenchLog, segments: list[tuple[int, int]]
-                  ) -> tuple[BenchLog, np.ndarray, float]:
+                  ) -> tuple[BenchLog, SampleDeviations]:
     """One row per contiguous segment (burst) of ``log``: every column's mean over it
-    (``sigma_deg_h`` dropped: it describes a sample, not the wander between bursts); each
-    sample's drift minus its segment's mean over the pooled within-segment sd (for the spike
-    check the averaging would hide); and that sd, deg/h."""
+    (``sigma_deg_h`` dropped: it describes a sample, not the wander between bursts); and
+    each sample's drift about its segment's mean (for the spike check the averaging would
+    hide)."""
     if len(segments) < MIN_SEGMENTS:
         raise GyroidInputError(
             f"a fit of segment means needs a log of bursts with at least {MIN_SEGMENTS} "
@@ -123,8 +153,8 @@ def segment_means(log: BenchLog, segments: list[tuple[int, int]]
     within = deviation / scale if scale > 0 else np.zeros_like(deviation)
     comments = (*log.comments, f"means of the {len(segments)} contiguous segments of "
                 f"{log.source} ({log.n} rows)")
-    return BenchLog(columns=columns, source=f"{log.source} (segment means)",
-                    comments=comments), within, scale
+    return (BenchLog(columns=columns, source=f"{log.source} (segment means)",
+                     comments=comments), SampleDeviations.of(log, within, scale))
 
 
 def _block_rows(log: BenchLog, rows: int) -> np.ndarray:
@@ -158,10 +188,9 @@ def block_means(log: BenchLog, rows: int) -> BenchLog:
                     axis=log.axis)
 
 
-def block_deviations(log: BenchLog, rows: int) -> tuple[np.ndarray, float]:
-    """Each sample's drift minus its block's mean (the blocks of :func:`block_means`) over
-    the pooled within-block sd, 0 for a sample in no block; and that sd, deg/h (what the
-    spike check of a fit of block means reads, since the means hide spikes)."""
+def block_deviations(log: BenchLog, rows: int) -> SampleDeviations:
+    """Each sample's drift about its block's mean (the blocks of :func:`block_means`), 0
+    for a sample in no block."""
     index = _block_rows(log, rows)
     drift = np.asarray(log.drift_deg_h, dtype=float)
     deviation = drift[index] - drift[index].mean(axis=1, keepdims=True)
@@ -170,7 +199,7 @@ def block_deviations(log: BenchLog, rows: int) -> tuple[np.ndarray, float]:
     out = np.zeros(log.n)
     if scale > 0:
         out[index.ravel()] = deviation.ravel() / scale
-    return out, scale
+    return SampleDeviations.of(log, out, scale)
 
 
 def run_labels(paths) -> tuple[str, ...]:
