@@ -23,7 +23,7 @@ from gyroid.inference._posterior import AbstractSampler, Posterior, inference_da
 from gyroid.inference._problem import PointEstimate
 from gyroid.inference._residual_checks import outliers_among
 from gyroid.io._fitted import FittedDrift
-from gyroid.io._logs import BenchLog, SampleDeviations, contiguous_segments
+from gyroid.io._logs import BenchLog, MeansOfBlocks, SampleDeviations, contiguous_segments
 from gyroid.models._design import rows_of
 from gyroid.models._drift import DriftModel
 from gyroid.models._effects import parameter
@@ -290,7 +290,7 @@ NOISE_CHECKS = ("residual_whiteness", "predictive")
 
 
 def fit_log(
-    log: BenchLog,
+    log: BenchLog | MeansOfBlocks,
     terms: str | tuple[str, ...] | DriftModel,
     *,
     noise: str = "white",
@@ -313,7 +313,10 @@ def fit_log(
     ``noise="auto"`` (the command line's default) fits white noise's mode and checks it;
     if its residuals are not white or it fails to predict its held-out stretches
     (:data:`NOISE_CHECKS`), the fit is IEEE 952's white + flicker + rate random walk instead
-    (:mod:`gyroid.inference._ieee_noise`); ``noise_choice`` says which and why."""
+    (:mod:`gyroid.inference._ieee_noise`); ``noise_choice`` says which and why.
+
+    ``log`` may be a log already reduced to block means (:class:`MeansOfBlocks`, as a log
+    too long to hold is read: :func:`gyroid.io.stream_block_means`)."""
     from gyroid.inference._emcee import Emcee
 
     def problem_with(noise_model: str) -> BenchProblem:

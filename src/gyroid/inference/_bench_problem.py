@@ -17,13 +17,7 @@ from gyroid.inference._ieee_noise import IEEE_NOISE
 from gyroid.inference._point import point_estimate
 from gyroid.inference._problem import AbstractProblem, PointEstimate
 from gyroid.inference._rate_window import choose_rate_window, reads_rate
-from gyroid.io._logs import (
-    BenchLog,
-    SampleDeviations,
-    block_deviations,
-    block_means,
-    contiguous_segments,
-)
+from gyroid.io._logs import BenchLog, MeansOfBlocks, SampleDeviations, contiguous_segments
 from gyroid.io._logs import segment_means as means_of_segments
 from gyroid.models._derived import RATE_WINDOW_S, temperature_rate_deg_c_per_h
 from gyroid.models._drift import DriftModel
@@ -55,7 +49,7 @@ class BenchProblem(AbstractProblem):
     @classmethod
     def from_log(
         cls,
-        log: BenchLog,
+        log: BenchLog | MeansOfBlocks,
         terms: str | tuple[str, ...] | DriftModel,
         *,
         noise: str = "white",
@@ -83,19 +77,27 @@ class BenchProblem(AbstractProblem):
         means of blocks of consecutive samples, at most that many: the likelihood of the
         means is exact, a filter pass costs the same whatever the log's length, and a
         linear model's coefficients lose little (their regressors barely change within a
-        block); the samples are still checked for spikes."""
+        block); the samples are still checked for spikes. A log given as
+        :class:`~gyroid.io._logs.MeansOfBlocks` (one read as a stream) is fitted as those
+        means under any noise model."""
         samples = None
         block_rows = 1
         cap = IEEE_MAX_ROWS if max_rows is None else max_rows
+        if isinstance(log, MeansOfBlocks):
+            if segment_means:
+                raise GyroidInputError(
+                    f"--segment-means: {log.log.source} is fitted as the means of blocks of "
+                    f"{log.rows_per_mean} samples (it was read as a stream); leave "
+                    "--segment-means out")
+            log, block_rows, samples = log.log, log.rows_per_mean, log.samples
         if noise == IEEE_NOISE and segment_means:
             raise GyroidInputError(
                 "--segment-means with --noise white+flicker+rw: the IEEE noise model reads "
                 "a log of bursts as it is (the wander between bursts is its flicker and "
                 "random walk); fit the samples, without --segment-means")
         if noise == IEEE_NOISE and log.n > cap:
-            block_rows = -(-log.n // cap)
-            samples = block_deviations(log, block_rows)
-            log = block_means(log, block_rows)
+            reduced = MeansOfBlocks.of(log, -(-log.n // cap))
+            log, block_rows, samples = reduced.log, reduced.rows_per_mean, reduced.samples
         if segment_means:
             log, samples = means_of_segments(log, contiguous_segments(np.asarray(log.time_s)))
         model = terms if isinstance(terms, DriftModel) else DriftModel.from_terms(terms)

@@ -8,8 +8,10 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "_arviz": ["arviz as load_arviz", "read_posterior", "write_netcdf"],
     "_fitted": ["FittedDrift"],
     "_logs": [
-        "BENCH_COLUMNS", "BenchLog", "contiguous_segments", "gap_threshold", "run_labels",
+        "BENCH_COLUMNS", "BenchLog", "MeansOfBlocks", "contiguous_segments", "gap_threshold",
+        "run_labels",
     ],
+    "_stream": ["STREAM_ROWS", "parquet_rows", "stream_block_means"],
     "_bench_reader": ["bench_log_from_table", "load_bench_log"],
     "_log_writer": ["bench_log_text", "write_bench_log"],
     "_datasets": ["DATASETS", "data_home", "dataset_logs", "fetch"],

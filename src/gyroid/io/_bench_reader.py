@@ -70,9 +70,11 @@ def bench_log_from_table(
     *,
     extra_columns: bool = False,
     axis: str | None = None,
+    check_rows: bool = True,
 ) -> BenchLog:
     """The bench log of a table already read (:func:`load_bench_log`'s checks): one call
-    per gyro axis of a log of several reads the file once."""
+    per gyro axis of a log of several reads the file once. ``check_rows=False``: the table
+    is a batch of a longer log, so its length says nothing of the log's."""
     table, axis = _for_axis(table, axis)
     _check_shape(table)
     if terms is None or isinstance(terms, DriftModel):
@@ -88,7 +90,7 @@ def bench_log_from_table(
     extras = _extra_columns(table, columns, wanted) if extra_columns or wanted else ()
     log = BenchLog(columns=columns, source=str(table.path), comments=table.comments,
                    row_name=table.where, extra_columns=extras, axis=axis)
-    if model is not None and log.n <= len(model.parameter_names):
+    if check_rows and model is not None and log.n <= len(model.parameter_names):
         raise GyroidInputError(f"{table.label}: {log.n} rows cannot identify "
                                f"{len(model.parameter_names)} coefficients; use a longer log")
     return log

@@ -217,3 +217,18 @@ def run_labels(paths) -> tuple[str, ...]:
     repeated = sorted({s for s in stems if stems.count(s) > 1})
     raise GyroidInputError(f"two logs have the same name {repeated[0]!r} and folder; give "
                            "each run its own file or folder name")
+
+
+@dataclass(frozen=True, eq=False)
+class MeansOfBlocks:
+    """A log reduced to the means of blocks of ``rows_per_mean`` consecutive samples
+    (:func:`block_means`, or read as a stream: :mod:`gyroid.io._stream`) and what the
+    spike check needs of the samples behind them."""
+
+    log: BenchLog
+    rows_per_mean: int
+    samples: SampleDeviations
+
+    @classmethod
+    def of(cls, log: BenchLog, rows: int) -> MeansOfBlocks:
+        return cls(block_means(log, rows), rows, block_deviations(log, rows))

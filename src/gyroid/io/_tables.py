@@ -32,9 +32,12 @@ class LogTable:
     empty: dict = field(default_factory=dict)  # column -> mask of empty cells (numeric cols)
     #: What a native log's reader chose from the file (stream, instance, units), reported.
     picked: dict = field(default_factory=dict)
+    #: The file's row of data row 0 (a batch of a log read as a stream), 0-based.
+    row_offset: int = 0
 
     def where(self, row: int) -> str:
         """Human description of data row ``row`` (0-based): 'row 3 (line 7 of log.csv)'."""
+        row += self.row_offset
         if self.lines is not None:
             return f"row {row + 1} (line {self.lines[row]} of {self.path.name})"
         if self.first_line is not None:

@@ -12,11 +12,14 @@ from pathlib import Path
 from gyroid.errors import GyroidInputError
 from gyroid.inference._bench_density import NOISE_MODELS
 from gyroid.inference._bench_fit import BenchFit, fit_log
+from gyroid.inference._bench_problem import IEEE_MAX_ROWS
 from gyroid.inference._emcee import Emcee
 from gyroid.inference._ieee_noise import IEEE_NOISE
 from gyroid.io._bench_reader import bench_log_from_table
 from gyroid.io._fitted import FittedNoise, axes_of
-from gyroid.io._tables import read_log_table, table_source
+from gyroid.io._logs import MeansOfBlocks
+from gyroid.io._stream import STREAM_ROWS, parquet_rows, stream_block_means
+from gyroid.io._tables import LogTable, read_header, read_log_table, table_source
 from gyroid.io._units import ColumnMap
 from gyroid.models._inputs import T0_C
 from gyroid.models._prior_scales import PRIOR_SETS, priors_from_noise
@@ -109,15 +112,30 @@ def fit_file(path: str | Path, options: FitOptions, out: str | Path,
     """Read, fit and write one log, each of its gyro axes (``options.axes``) from one read
     of the file: with one axis its files go to ``out``, with several to ``out/AXIS/`` with
     ``out/axes.json``; they appear whole, or not at all."""
-    table = read_log_table(path, options.maps, options.instance)
-    axes = chosen_axes(table, options.axes)
+    rows = parquet_rows(path)
+    if rows is not None and rows > STREAM_ROWS:
+        table = LogTable(Path(path), read_header(path), {}, 0, None, maps=options.maps)
+        axes = chosen_axes(table, options.axes)
+        per_mean = -(-rows // IEEE_MAX_ROWS)
+        if say is not None:
+            say(f"reading {path} ({rows} rows) as a stream, as means of {per_mean} samples "
+                "...")
+        streamed = stream_block_means(path, options.terms, axes, options.maps, per_mean)
+    else:
+        table = read_log_table(path, options.maps, options.instance)
+        axes = chosen_axes(table, options.axes)
+        streamed = {}
     noise_priors = {axis: _axis_noise_priors(options, axis, len(axes)) for axis in axes}
     fits = {}
     for axis in axes:
-        log = bench_log_from_table(table, options.terms, axis=axis)
+        # one axis's samples at a time
+        log = (streamed[axis] if streamed
+               else bench_log_from_table(table, options.terms, axis=axis))
         if say is not None:
             which = f" (axis {axis})" if axis is not None else ""
-            say(f"fitting {options.terms} to {path}{which} ({log.n} rows) ...")
+            rows = (f"{log.log.n} means of {log.rows_per_mean} samples"
+                    if isinstance(log, MeansOfBlocks) else f"{log.n} rows")
+            say(f"fitting {options.terms} to {path}{which} ({rows}) ...")
         fit = fit_log(log, options.terms, noise=options.noise, seed=options.seed,
                       priors={**noise_priors[axis], **options.priors},
                       prior_set=options.prior_set, t0_C=options.t0_C,

@@ -1,0 +1,116 @@
+"""A Parquet log too long to hold, read as a stream (docs/formats.md section 1): the same block
+means, spikes and errors as the log held whole, batch boundaries and pauses anywhere."""
+
+import json
+import math
+
+import numpy as np
+import pyarrow as pa
+import pyarrow.parquet as pq
+import pytest
+
+from gyroid.cli import main
+from gyroid.errors import GyroidInputError
+from gyroid.inference import fit_log
+from gyroid.inference._residual_checks import outliers_among
+from gyroid.io import MeansOfBlocks, load_bench_log, stream_block_means
+
+
+def _write(path, columns, row_group_rows=5000):
+    pq.write_table(pa.table(columns), path, row_group_size=row_group_rows)
+    return path
+
+
+def _ramp(rng, n=60_000, dt=0.1):
+    """Two axes of a temperature ramp (drift 2 + 0.5 t), a pause of 30 s after row 25 001,
+    white noise and four spikes on x."""
+    time_s = dt * np.arange(n) + np.where(np.arange(n) > 25_000, 30.0, 0.0)
+    temperature = 21.0 + 20.0 * np.sin(np.pi * time_s / time_s[-1])
+    columns = {"time_s": time_s, "temperature_C": temperature}
+    for axis, sd in (("x", 3.0), ("y", 5.0)):
+        columns[f"drift_{axis}_deg_h"] = 2.0 + 0.5 * (temperature - 21.0) + rng.normal(
+            0.0, sd, n)
+    columns["drift_x_deg_h"][[k for k in (7, 9_998, 25_003, 41_234) if k < n]] += 200.0
+    return columns
+
+
+@pytest.mark.parametrize("batch_rows", [7_777, 20_000])
+def test_the_stream_gives_the_means_and_spikes_of_the_whole_log(tmp_path, batch_rows):
+    columns = _ramp(np.random.default_rng(0))
+    path = _write(tmp_path / "long.parquet", columns)
+    streamed = stream_block_means(path, "bias,temperature", ("x", "y"), (), 60,
+                                  batch_rows=batch_rows)
+    for axis in ("x", "y"):
+        whole = MeansOfBlocks.of(load_bench_log(path, "bias,temperature", axis=axis), 60)
+        got = streamed[axis]
+        assert got.rows_per_mean == 60 and got.log.n == whole.log.n
+        for name, values in whole.log.columns.items():
+            np.testing.assert_allclose(got.log.columns[name], values, rtol=1e-13, atol=1e-12)
+        # the first block after the pause starts at its first row (25 002), named as the file
+        assert any("row 25002 of long.parquet" in got.log.where(k) for k in range(got.log.n))
+        for k in (0, 400, got.log.n - 1):
+            assert got.log.where(k) == whole.log.where(k)
+        a, b = got.samples, whole.samples
+        assert a.n == b.n == 60_000
+        assert a.within_sd == pytest.approx(b.within_sd, rel=1e-12)
+        assert a.z_sum_sq == pytest.approx(b.z_sum_sq, rel=1e-9)
+        # the spike check reads the same
+        ca = outliers_among(a.n, a.rows, a.z, a.z_sum_sq, where=a.where)
+        cb = outliers_among(b.n, b.rows, b.z, b.z_sum_sq, where=b.where)
+        assert ca.message == cb.message and ca.passed == cb.passed
+    spikes = outliers_among(streamed["x"].samples.n, streamed["x"].samples.rows,
+                            streamed["x"].samples.z, streamed["x"].samples.z_sum_sq,
+                            where=streamed["x"].samples.where)
+    assert not spikes.passed and spikes.message.startswith("4 sample(s)")
+    # the three worst named by the file's row, the fourth as "1 more"
+    named = [row for row in (8, 9_999, 25_004, 41_235)
+             if f"row {row} of long.parquet" in spikes.message]
+    assert len(named) == 3 and "and 1 more" in spikes.message
+
+
+def test_a_fit_of_the_stream_is_the_fit_of_the_whole_log(tmp_path):
+    columns = _ramp(np.random.default_rng(1))
+    for name in ("drift_x_deg_h", "drift_y_deg_h"):
+        columns[name][[7, 9_998, 25_003, 41_234]] = columns[name][[6, 9_997, 25_002, 41_233]]
+    path = _write(tmp_path / "long.parquet", columns)
+    streamed = stream_block_means(path, "bias,temperature", ("x",), (), 60, batch_rows=9_000)
+    whole = MeansOfBlocks.of(load_bench_log(path, "bias,temperature", axis="x"), 60)
+    a = fit_log(streamed["x"], "bias,temperature", noise="white+flicker+rw", sample=False)
+    b = fit_log(whole, "bias,temperature", noise="white+flicker+rw", sample=False)
+    for name in a.point.names:
+        assert a.point.value[name] == pytest.approx(b.point.value[name], rel=1e-6, abs=1e-9)
+    assert a.to_json()["block_means"] == {"means": 999, "rows_per_mean": 60, "rows": 60_000}
+    assert 1.9 - 3 * a.point.sd["w0"] < 2.0 < 2.0 + 3 * a.point.sd["w0"]
+
+
+def test_fit_streams_a_parquet_log_longer_than_the_threshold(tmp_path, monkeypatch, capsys):
+    """The command reads a log over STREAM_ROWS as a stream and says so; its fit.json
+    records the block means; errors name the file's row wherever the batch boundary is."""
+    import gyroid.pipeline._fit_file as fit_file
+
+    monkeypatch.setattr(fit_file, "STREAM_ROWS", 10_000)
+    columns = _ramp(np.random.default_rng(2), n=30_000)
+    path = _write(tmp_path / "long.parquet", columns)
+    out = tmp_path / "fit"
+    code = main(["fit", str(path), "--terms", "bias,temperature", "--axes", "y",
+                 "--noise", "white", "--out", str(out), "--no-progress"])
+    said = capsys.readouterr().err
+    assert "as a stream, as means of 30 samples" in said
+    record = json.loads((out / "fit.json").read_text())
+    assert record["block_means"] == {"means": 999, "rows_per_mean": 30, "rows": 30_000}
+    assert code in (0, 3) and math.isfinite(record["posterior"]["w1"]["mean"])
+
+    bad = dict(columns)
+    bad["temperature_C"] = bad["temperature_C"].copy()
+    bad["temperature_C"][23_456] = np.nan
+    _write(tmp_path / "bad.parquet", bad)
+    assert main(["fit", str(tmp_path / "bad.parquet"), "--terms", "bias,temperature",
+                 "--axes", "y", "--out", str(tmp_path / "no")]) == 2
+    assert "row 23457 of bad.parquet" in capsys.readouterr().err
+    unsorted = dict(columns)
+    unsorted["time_s"] = unsorted["time_s"].copy()
+    unsorted["time_s"][5_000] = 0.0  # the first row of the second row group
+    with pytest.raises(GyroidInputError, match="row 5001 of unsorted.parquet"):
+        stream_block_means(_write(tmp_path / "unsorted.parquet", unsorted), "bias",
+                           ("x",), (), 30, batch_rows=5_000)
+    assert not (tmp_path / "no").exists()
