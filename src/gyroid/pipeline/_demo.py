@@ -131,7 +131,8 @@ class _Study:
         self.echo("[6/6] pooling a lot of six magnetic runs; writing report.md ...")
         lot = simulate_lot("magnetic", 6, seed=self.seed + 4, hours=0.5)
         pooled = fit_pool([r.log for r in lot.runs], lot.labels, "magnetic", seed=self.seed)
-        write(self.folder("pool"), pooled, title="Six simulated magnetic runs pooled")
+        write(self.folder("pool"), pooled, title="Six simulated magnetic runs pooled",
+              truth=lot.truth())
         (self.stage / "pool" / "lot.json").write_text(json_text(lot.truth()))
         self.results["lot"], self.results["pooled"] = lot, pooled
 

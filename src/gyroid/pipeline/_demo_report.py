@@ -153,9 +153,10 @@ def _discrepancy_section(report: Report, study: _Study) -> None:
         *(["- nothing added"] if not found.steps else []),
         f"- RMS {before} -> {after} deg/h", "")
     report.figure("discrepancy/discrepancy", "Residuals before and after adding the named "
-                  "effect (top), the baseline residual against the regressor that explains "
-                  "it, and the RMS of the 60 s means before and after (per-sample RMS in the "
-                  "labels: there the white noise dominates).")
+                  "effect (top), the baseline residual against what the added effect "
+                  "explains (on all three axes; the dashed line is 1:1), and the RMS of the "
+                  "60 s means before and after (per-sample RMS in the labels: there the "
+                  "white noise dominates).")
 
 
 def _compensation_section(report: Report, study: _Study) -> None:
@@ -232,7 +233,8 @@ def _pool_section(report: Report, study: _Study) -> None:
                *(f"- {line}" for line in pooled.checks.lines()), "")
     report.figure("pool/forest", "Forest plot: each run's own estimate (open circle, 95 %) "
                   "and its pooled coefficient (filled square), the population mean and a new "
-                  "run's predictive (dashed).")
+                  "run's predictive (dashed bar); the simulated truths as crosses (each run) "
+                  "and a dashed line (the population mean).")
     rep = study.results["reproduction"]["paper_a"]["magnetic_repeatability"]
     report.add("Paper A's magnetic table has two tests per device and no uncertainties. "
                f"Assumed: {rep['assumption']} = {rep['assumed_within_test_sd']:.4f} deg/h per "

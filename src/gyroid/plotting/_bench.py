@@ -86,10 +86,11 @@ def magnetic_sweep(log: BenchLog, model_deg_h: np.ndarray | None = None) -> Figu
 
 
 def fit_overview(time_s: np.ndarray, drift: np.ndarray, predictions: np.ndarray,
-                 point_prediction: np.ndarray) -> Figure:
+                 point_prediction: np.ndarray, data_label: str = "logged drift") -> Figure:
     """Data with the modelled drift; the posterior 95 % band of the model about its point
     estimate (at the data's scale it is thinner than a line, so it has its own panel); and
-    the residuals against time. ``predictions`` are draws of the model at every
+    the residuals against time; ``data_label`` says what the fitted rows are (block
+    means...). ``predictions`` are draws of the model at every
     :func:`plot_step`-th sample (what
     :meth:`~gyroid.inference.BenchFit.predict_draws` gives with that ``every``); long
     logs are drawn thinned the same way."""
@@ -101,23 +102,23 @@ def fit_overview(time_s: np.ndarray, drift: np.ndarray, predictions: np.ndarray,
         point = np.asarray(point_prediction)[shown]
         lo, hi = np.percentile(predictions, [2.5, 97.5], axis=0)
         axes[0].plot(hours, np.asarray(drift)[shown], color="0.65", lw=0.4, ls="-",
-                     label="logged drift" + thinned)
+                     label=data_label + thinned)
         axes[0].plot(hours, point, color="0.0", lw=0.9, ls="-",
                      label="model at the point estimate")
         axes[0].set_ylabel("drift, deg/h")
         axes[0].legend(loc="best", frameon=False)
-        axes[1].fill_between(hours, lo - point, hi - point, color="0.6",
-                             lw=0, label="model's 95 % posterior band")
+        axes[1].fill_between(hours, lo - point, hi - point, color="0.6", lw=0)
         axes[1].axhline(0.0, color="0.0", lw=0.6, ls=":")
         axes[1].set_ylabel("model - point\nestimate, deg/h")
-        axes[1].legend(loc="upper right", frameon=False)
+        axes[1].set_title("the model's 95 % posterior band about its point estimate",
+                          fontsize=8, loc="left")
         residual = np.asarray(drift) - np.asarray(point_prediction)
         axes[2].plot(hours, residual[shown], color="0.55", lw=0.4, ls="-")
         window = max(1, int(round(60.0 / max(np.median(np.diff(time_s)), 1e-9))))
         if window > 1 and residual.size > window:
             smooth = moving_mean(residual, window)[shown]
             axes[2].plot(hours, smooth, color="0.0", lw=1.0, ls="-", label="60 s mean")
-            axes[2].legend(loc="upper right", frameon=False)
+            axes[2].legend(loc="lower right", bbox_to_anchor=(1.0, 1.0), frameon=False)
         axes[2].axhline(0.0, color="0.0", lw=0.6, ls=":")
         axes[2].set_ylabel("residual, deg/h")
         axes[2].set_xlabel("time since start, h")
@@ -190,12 +191,27 @@ def discrepancy_figure(report, regressor_values: np.ndarray | None, regressor_na
         ax.set_ylabel(f"residual ({window:.0f} s means), deg/h")
         ax.legend(frameon=False, loc="best")
         ax2 = fig.add_subplot(grid[1, 0])
-        if regressor_values is not None:
-            ax2.plot(means(regressor_values), before, ".", color="0.2", ms=2.5)
-        from gyroid.workflows._residual_structure import REGRESSOR_UNITS
+        if report.added:
+            # what the added effects explain, whatever axes and regressors they read
+            explained = means(np.asarray(report.residual_before)
+                              - np.asarray(report.residual_after))
+            ax2.plot(explained, before, ".", color="0.2", ms=2.5)
+            span = [float(min(explained.min(), before.min())),
+                    float(max(explained.max(), before.max()))]
+            ax2.plot(span, span, color="0.0", lw=0.8, ls="--", label="1:1")
+            ax2.legend(frameon=False, loc="upper left")
+            ax2.set_xlabel(f"explained by {', '.join(report.added)}, deg/h")
+        else:
+            from gyroid.workflows._residual_structure import REGRESSOR_UNITS
 
-        ax2.set_xlabel(f"{regressor_name}, {REGRESSOR_UNITS.get(regressor_name, '-')}")
-        ax2.set_ylabel("baseline residual, deg/h")
+            if regressor_values is not None:
+                x = means(regressor_values)
+                ax2.plot(x, before, ".", color="0.2", ms=2.5)
+                levels = np.unique(np.round(x, 9))
+                if levels.size <= 5:  # a sign or a step: its values, not a continuum
+                    ax2.set_xticks(levels)
+            ax2.set_xlabel(f"{regressor_name}, {REGRESSOR_UNITS.get(regressor_name, '-')}")
+        ax2.set_ylabel(f"baseline residual ({window:.0f} s means), deg/h")
         # The structure an effect explains shows in the block means; per sample the white
         # noise dominates (quoted in the labels). Bars from zero: the gap is not inflated.
         ax3 = fig.add_subplot(grid[1, 1])
@@ -203,9 +219,9 @@ def discrepancy_figure(report, regressor_values: np.ndarray | None, regressor_na
         # A fast log was searched on means of several samples: say what the RMS is of.
         unit = report.rms_unit.partition("(of ")[2].rstrip(")") or "sample"
         per = f"per {unit.removesuffix('s')}" if unit != "sample" else "per sample"
-        labels = [f"baseline\n({report.rms_baseline:.3g} {per})",
+        labels = [f"baseline\n({report.rms_baseline:#.3g} {per})",
                   ("+ " + ", ".join(report.added) if report.added else "nothing added")
-                  + f"\n({report.rms_final:.3g} {per})"]
+                  + f"\n({report.rms_final:#.3g} {per})"]
         ax3.bar([0, 1], rms_means, width=0.5, color=["0.6", "0.0"])
         ax3.set_xticks([0, 1], labels, fontsize=7)
         ax3.set_ylim(0.0, 1.15 * max(rms_means))
@@ -216,15 +232,31 @@ def discrepancy_figure(report, regressor_values: np.ndarray | None, regressor_na
 
 def compensation_figure(time_s: np.ndarray, before: np.ndarray, after: np.ndarray
                         ) -> Figure:
-    """Drift before and after compensation against time."""
+    """The logged drift, and below it on its own scale the compensated drift (samples and
+    their 60 s means): at the logged drift's scale what compensation leaves is a line at
+    zero."""
+    time_s = np.asarray(time_s, dtype=float)
+    shown, thinned = _every(time_s.size)
+    hours = ((time_s - time_s[0]) / 3600.0)[shown]
     with figure_style():
-        fig, ax = subplots(figsize=(6.5, 3.6))
-        hours = (time_s - time_s[0]) / 3600.0
-        ax.plot(hours, before, color="0.6", lw=0.5, ls="-", label="logged drift")
-        ax.plot(hours, after, color="0.0", lw=0.5, ls="-", label="compensated")
-        ax.set_xlabel("time since start, h")
-        ax.set_ylabel("drift, deg/h")
-        ax.legend(frameon=False, loc="upper right")
+        fig, axes = subplots(2, 1, figsize=(6.5, 5.0), sharex=True,
+                             gridspec_kw={"height_ratios": [1, 1]})
+        axes[0].plot(hours, np.asarray(before)[shown], color="0.4", lw=0.5, ls="-")
+        axes[0].set_ylabel("logged drift, deg/h")
+        axes[0].set_title("logged drift" + thinned, fontsize=9, loc="left")
+        after = np.asarray(after, dtype=float)
+        axes[1].plot(hours, after[shown], color="0.65", lw=0.4, ls="-", label="samples")
+        window = max(1, int(round(60.0 / max(np.median(np.diff(time_s)), 1e-9))))
+        if window > 1 and after.size > window:
+            axes[1].plot(hours, moving_mean(after, window)[shown], color="0.0", lw=1.0,
+                         ls="-", label="60 s mean")
+        axes[1].axhline(0.0, color="0.0", lw=0.6, ls=":")
+        axes[1].set_ylabel("compensated drift, deg/h")
+        axes[1].set_xlabel("time since start, h")
+        axes[1].set_title("after compensation (own scale)", fontsize=9, loc="left")
+        axes[1].legend(frameon=False, loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=2)
+        fig.align_ylabels(axes)
+        fig.tight_layout()
         return fig
 
 

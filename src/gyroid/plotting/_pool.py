@@ -13,13 +13,16 @@ from gyroid.plotting._style import figure_style, subplots
 _Z95 = 1.959964
 
 
-def forest_plot(result, *, units: dict[str, str] | None = None, title: str | None = None):
+def forest_plot(result, *, units: dict[str, str] | None = None, title: str | None = None,
+                truth: dict | None = None):
     """Runs against the population (a :class:`~gyroid.inference.PoolFit`).
 
     Per run: its own least-squares estimate (open circle, thin line, +/- 1.96 sd) and its
     pooled coefficient (filled square, thick line, central 95 % of the posterior). Below:
     the population mean (filled diamond) and a new run's predictive (open diamond, dashed),
-    which is what compensating an untested unit must assume."""
+    which is what compensating an untested unit must assume. ``truth`` (a simulated lot's:
+    ``per_run`` and ``population_mean`` coefficients): each run's true value (cross) and
+    the population's true mean (dashed line)."""
     names = result.coefficient_names
     labels = result.run_labels
     units = units or {}
@@ -45,7 +48,13 @@ def forest_plot(result, *, units: dict[str, str] | None = None, title: str | Non
             lo, mid, hi = np.percentile(population, [2.5, 50, 97.5])
             ax.errorbar([mid], [1.0], xerr=[[mid - lo], [hi - mid]], fmt="D", color="0.0",
                         ms=5, lw=1.8, capsize=0, label="population mean")
-            ax.axvline(mid, color="0.5", lw=0.8, ls=":")
+            if truth is not None:
+                runs = [truth["per_run"].get(label, {}).get(name, np.nan) for label in labels]
+                ax.plot(runs, y_runs, "x", color="0.0", ms=6, mew=1.2, ls="none",
+                        label="true value")
+                if name in truth.get("population_mean", {}):
+                    ax.axvline(truth["population_mean"][name], color="0.0", lw=0.8, ls="--",
+                               label="true population mean")
             new = result.new_run_draws[:, k]
             lo, mid, hi = np.percentile(new, [2.5, 50, 97.5])
             bar = ax.errorbar([mid], [0.0], xerr=[[mid - lo], [hi - mid]], fmt="D",
@@ -62,9 +71,14 @@ def forest_plot(result, *, units: dict[str, str] | None = None, title: str | Non
             row[0].set_yticks(ticks, list(labels) + ["population", "new run"])
             row[0].set_ylim(-0.8, y_runs[0] + 0.8)
         handles, texts = axes[0][0].get_legend_handles_labels()
+        # the estimates first, the truths (drawn first, under them) last
+        order = sorted(range(len(texts)), key=lambda i: texts[i].startswith("true"))
+        handles, texts = [handles[i] for i in order], [texts[i] for i in order]
         fig.legend(handles, texts, loc="lower center", ncol=4, frameon=False,
                    bbox_to_anchor=(0.5, 1.0))
         fig.tight_layout()
-        if title:  # above the legend (about 0.3 inch tall)
-            fig.suptitle(title, y=1.0 + 0.4 / fig.get_figheight(), va="bottom")
+        legend_rows = math.ceil(len(texts) / 4)
+        if title:  # above the legend (about 0.3 inch a row)
+            fig.suptitle(title, y=1.0 + (0.1 + 0.3 * legend_rows) / fig.get_figheight(),
+                         va="bottom")
     return fig

@@ -46,7 +46,8 @@ def write(folder: str | Path, result, **context) -> list[Path]:
     :class:`~gyroid.inference.PoolFit`, :class:`~gyroid.workflows.Compensation`,
     :class:`~gyroid.workflows.Propagation` or :class:`~gyroid.workflows.DiscrepancyReport`;
     ``context`` is what only some figures take (``truth``: known values drawn in a fit's
-    pair plot; ``title``: a forest plot's)."""
+    pair plot, or a simulated lot's ``truth()`` in its forest plot; ``title``: a forest
+    plot's)."""
     for kind, writer in _WRITERS.items():
         if isinstance(result, kind):
             return writer(Path(folder), result, **context)
@@ -65,8 +66,14 @@ def _bench_fit(folder: Path, result: BenchFit, truth: dict[str, float] | None = 
     step = plot_step(log.n)
     point_prediction = result.problem.predict(result.point.u)
     draws = result.predict_draws(every=step)
-    written += save(fit_overview(log.time_s, log.drift_deg_h, draws, point_prediction),
-                    folder / "fit")
+    if result.block_means:
+        label = f"means of {result.block_means['rows_per_mean']} logged samples"
+    elif result.segment_means:
+        label = "means of the logged segments"
+    else:
+        label = "logged drift"
+    written += save(fit_overview(log.time_s, log.drift_deg_h, draws, point_prediction,
+                                 data_label=label), folder / "fit")
     if result.posterior is not None:
         names = list(result.model_names)
         flat = result.posterior.draws.reshape(-1, len(result.problem.names))[:, : len(names)]
@@ -91,13 +98,14 @@ def _roll_fit(folder: Path, result: RollFit) -> list[Path]:
     return written
 
 
-def _pool_fit(folder: Path, result: PoolFit, title: str | None = None) -> list[Path]:
-    """pool.json, posterior.nc and forest.png."""
+def _pool_fit(folder: Path, result: PoolFit, title: str | None = None,
+              truth: dict | None = None) -> list[Path]:
+    """pool.json, posterior.nc and forest.png (``truth``: a simulated lot's, drawn in it)."""
     record = result.to_json()
     (folder / "pool.json").write_text(json_text(record))
     write_netcdf(result.inference_data(), folder / "posterior.nc")
     written = [folder / "pool.json", folder / "posterior.nc"]
-    written += save(forest_plot(result, units=record["units"], title=title),
+    written += save(forest_plot(result, units=record["units"], title=title, truth=truth),
                     folder / "forest.png")
     return written
 

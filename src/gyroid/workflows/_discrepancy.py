@@ -202,7 +202,7 @@ class _Search:
                            for name, value in size.items())
         evidence = (
             f"{follows}; adding {best} ({fitted}) cuts the RMS{self.of_means} from "
-            f"{before.rms_ols:.3g} to {after.rms_ols:.3g} deg/h; dBIC = {scores[best]:.1f} "
+            f"{before.rms_ols:#.3g} to {after.rms_ols:#.3g} deg/h; dBIC = {scores[best]:.1f} "
             f"(threshold {ADD_THRESHOLD:g})"
             + (f"; nearly interchangeable here with {', '.join(rivals)}" if rivals else "")
             + ("; it is a function of time alone, so it says when, not why: on a longer log "

@@ -98,7 +98,7 @@ def find_roll_discrepancies(log: RollLog, terms="ideal", *, max_added: int = 3,
         fitted = ", ".join(f"{k} = {v:.4g} {roll_parameter(k).unit}" for k, v in size.items())
         evidence = (f"the stabiliser-angle residuals follow {name} (r = {r:.2f}); adding "
                     f"{best} ({ROLL_EFFECTS[best].what}; {fitted}) cuts the RMS from "
-                    f"{before.rms:.3g} to {after.rms:.3g} deg; dBIC = {scores[best]:.1f} "
+                    f"{before.rms:#.3g} to {after.rms:#.3g} deg; dBIC = {scores[best]:.1f} "
                     f"(threshold {ROLL_ADD_THRESHOLD:g})"
                     + (f"; nearly interchangeable here with {', '.join(rivals)}"
                        if rivals else ""))
