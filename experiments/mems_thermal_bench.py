@@ -11,6 +11,10 @@ quantised to 0.01 deg/s.
     python experiments/mems_thermal_bench.py --seed 0 --datasets 5
     python experiments/mems_thermal_bench.py --seed 100 --datasets 20 \
         --noise white+flicker+rw --results mems_thermal_bench_ieee
+    python experiments/mems_thermal_bench.py --seed 100 --datasets 20 \
+        --noise auto --results mems_thermal_bench_auto
+
+``auto`` is the command line's default: the same seeds, the noise model chosen by gyroid.
 """
 
 from __future__ import annotations
@@ -59,7 +63,8 @@ def one(seed: int, noise: str) -> dict:
               for name, value in TRUTH.items()}
     z = {name: (summary[name]["mean"] - value) / summary[name]["sd"]
          for name, value in TRUTH.items()}
-    return {"seed": seed, "noise": noise, "trustworthy": fit.trustworthy,
+    return {"seed": seed, "noise": noise, "noise_used": fit.problem.noise,
+            "trustworthy": fit.trustworthy,
             "failed_errors": [c.name for c in fit.checks.failed if c.severity == "error"],
             "inside_95": inside, "z": {k: round(v, 2) for k, v in z.items()},
             "seconds": round(time.time() - started, 1)}

@@ -138,3 +138,19 @@ def test_the_noise_fits_against_the_allan_readings():
             "for K, a median error of "
             + percent([100 * error(g, "K", "slope", "unresolved") for g in order])
             + " by grade")
+
+
+def test_the_mems_thermal_benches_under_the_default_noise_choice():
+    """--noise auto, the default: what it chose and how the trusted fits cover."""
+    results = _results("mems_thermal_bench_auto")
+    counts = results["per_noise"]["auto"]
+    runs = results["runs"]
+    chosen = sum(r["noise_used"] == "white+flicker+rw" for r in runs)
+    trusted = counts["fits"] - counts["refused"]
+    inside, total = counts["coefficients_inside_95"]
+    _quoted(f"auto chose white+flicker+rw {chosen} of {len(runs)}",
+            f"{trusted} of {counts['fits']} fits trusted, {inside} of the {total} coefficients "
+            "inside their 95 % intervals",
+            "(binomial 99 % band {:.0f}-{:.0f})".format(*stats.binom(total, 0.95).ppf(
+                [0.005, 0.995])))
+    assert stats.binom(total, 0.95).ppf(0.005) <= inside <= stats.binom(total, 0.95).ppf(0.995)
