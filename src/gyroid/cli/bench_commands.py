@@ -130,6 +130,8 @@ def simulate(
     simulator = simulate_thermal_bench if bench == "thermal" else simulate_magnetic_bench
     protocol = (ThermalProtocol() if bench == "thermal" else MagneticProtocol()).stretched(
         hours, rate_hz)
+    click.echo(f"simulating the {bench} bench ({protocol.duration_s / 3600.0:.3g} h, about "
+               f"{protocol.duration_s / protocol.sample_s:.3g} rows) ...", err=True)
     sim = simulator(
         parameters=parameters,
         effects=parse_effects(effects),

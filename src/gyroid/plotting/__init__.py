@@ -9,7 +9,7 @@ __getattr__, __dir__, __all__ = attach(__name__, {
         "allan_figure", "compensation_figure", "discrepancy_figure", "fit_overview",
         "magnetic_sweep", "pair_plot", "thermal_run",
     ],
-    "_flight": ["dk_distribution", "roll_discrepancy_figure", "roll_residual_figure", "sobol_bars"],
+    "_flight": ["dk_distribution", "roll_discrepancy_figure", "roll_fit_figure", "sobol_bars"],
     "_noise": ["noise_allan_figure"],
     "_papers": ["paper_a_table", "paper_b_lateral", "paper_b_stabiliser"],
     "_style": ["MAX_PLOTTED_POINTS", "STYLE", "moving_mean", "plot_step", "save"],

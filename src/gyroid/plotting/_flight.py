@@ -52,14 +52,25 @@ def sobol_bars(first: dict[str, float], total: dict[str, float],
         return fig
 
 
-def roll_residual_figure(time_s: np.ndarray, residual_deg: np.ndarray) -> Figure:
-    """Stabiliser angle minus the fitted loop's prediction against time."""
+def roll_fit_figure(time_s: np.ndarray, measured_deg: np.ndarray, predicted_deg: np.ndarray
+                    ) -> Figure:
+    """The stabiliser angle with the fitted loop's prediction against time, and below it on
+    its own scale their difference."""
+    t = np.asarray(time_s) - time_s[0]
+    measured, predicted = np.asarray(measured_deg), np.asarray(predicted_deg)
     with figure_style():
-        fig, ax = subplots(figsize=(6.5, 3.2))
-        ax.plot(time_s - time_s[0], residual_deg, color="0.3", lw=0.5, ls="-")
-        ax.axhline(0.0, color="0.0", lw=0.6, ls=":")
-        ax.set_xlabel("time since start, s")
-        ax.set_ylabel("stabiliser angle - model, deg")
+        fig, axes = subplots(2, 1, figsize=(6.5, 5.0), sharex=True)
+        axes[0].plot(t, measured, color="0.6", lw=1.6, ls="-", label="stabiliser angle")
+        axes[0].plot(t, predicted, color="0.0", lw=0.7, ls="--",
+                     label="fitted loop's prediction")
+        axes[0].set_ylabel("angle, deg")
+        axes[0].legend(frameon=False, loc="lower right", bbox_to_anchor=(1.0, 1.0), ncol=2)
+        axes[1].plot(t, measured - predicted, color="0.3", lw=0.5, ls="-")
+        axes[1].axhline(0.0, color="0.0", lw=0.6, ls=":")
+        axes[1].set_xlabel("time since start, s")
+        axes[1].set_ylabel("stabiliser angle - model, deg")
+        fig.align_ylabels(axes)
+        fig.tight_layout()
         return fig
 
 

@@ -28,7 +28,7 @@ from gyroid.plotting import (
     pair_plot,
     plot_step,
     roll_discrepancy_figure,
-    roll_residual_figure,
+    roll_fit_figure,
     save,
     sobol_bars,
 )
@@ -89,8 +89,9 @@ def _roll_fit(folder: Path, result: RollFit) -> list[Path]:
     (folder / "roll_fit.json").write_text(json_text(summary))
     write_netcdf(result.inference_data(), folder / "posterior.nc")
     written = [folder / "roll_fit.json", folder / "posterior.nc"]
-    residual = np.asarray(problem.gs_angle) - np.asarray(problem.predict(result.point.u))
-    written += save(roll_residual_figure(problem.log.time_s, residual), folder / "roll_fit")
+    written += save(roll_fit_figure(problem.log.time_s, np.asarray(problem.gs_angle),
+                                    np.asarray(problem.predict(result.point.u))),
+                    folder / "roll_fit")
     loop = [n for n in ("D0", "D1", "D0gs", "D1gs", "enc_a", "enc_b") if n in problem.names]
     flat = result.posterior.draws.reshape(-1, len(problem.names))
     draws = flat[:, [problem.names.index(n) for n in loop]]
