@@ -130,8 +130,6 @@ def simulate(
     simulator = simulate_thermal_bench if bench == "thermal" else simulate_magnetic_bench
     protocol = (ThermalProtocol() if bench == "thermal" else MagneticProtocol()).stretched(
         hours, rate_hz)
-    click.echo(f"simulating the {bench} bench ({protocol.duration_s / 3600.0:.3g} h, about "
-               f"{protocol.duration_s / protocol.sample_s:.3g} rows) ...", err=True)
     sim = simulator(
         parameters=parameters,
         effects=parse_effects(effects),
@@ -139,6 +137,7 @@ def simulate(
         seed=seed,
         average_s=average_s,
         protocol=protocol,
+        say=lambda m: click.echo(m, err=True),
     )
     with output_dir(out) as stage:
         write_bench_log(stage / "bench.csv", sim.log.columns, sim.log.comments)

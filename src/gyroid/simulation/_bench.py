@@ -15,7 +15,7 @@ and its analytic rate, true field) plus gyro noise; the log holds the *measured*
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, field, replace
 
 import jax.numpy as jnp
@@ -292,8 +292,10 @@ def simulate_thermal_bench(
     seed: int = 0,
     average_s: float | None = None,
     t0_C: float = T0_C,
+    say: Callable[[str], None] | None = None,
 ) -> SimulatedBench:
-    """Simulate paper A's thermal bench.
+    """Simulate paper A's thermal bench (``say``: told what is simulated, once the truth is
+    checked).
 
     ``parameters`` replaces the paper's thermal coefficients (the effects of the ``thermal``
     preset); ``effects`` switches on further effects, candidates included, e.g.
@@ -304,6 +306,8 @@ def simulate_thermal_bench(
     base = dict(PAPER_A_THERMAL if parameters is None else parameters)
     terms, values = _resolve_truth(base, effects)
     time_s = np.arange(0.0, protocol.duration_s, protocol.sample_s)
+    if say is not None:
+        say(f"simulating the thermal bench ({time_s.size} rows) ...")
     temperature, rate = protocol.temperature(time_s)
     field_uT = np.tile(np.asarray(protocol.lab_field_uT, dtype=float), (time_s.size, 1))
     return _simulate(
@@ -332,14 +336,18 @@ def simulate_magnetic_bench(
     seed: int = 0,
     average_s: float | None = None,
     t0_C: float = T0_C,
+    say: Callable[[str], None] | None = None,
 ) -> SimulatedBench:
-    """Simulate paper A's Helmholtz-coil bench (default: device 2, test 1, and w0 = 1.197)."""
+    """Simulate paper A's Helmholtz-coil bench (default: device 2, test 1, and w0 = 1.197;
+    ``say`` as for :func:`simulate_thermal_bench`)."""
     protocol = protocol or MagneticProtocol()
     noise = noise or GyroNoise()
     default = {"w0": PAPER_A_THERMAL["w0"], **PAPER_A_DEVICE_2}
     base = dict(default if parameters is None else parameters)
     terms, values = _resolve_truth(base, effects)
     time_s, field_uT = protocol.schedule()
+    if say is not None:
+        say(f"simulating the magnetic bench ({time_s.size} rows) ...")
     phase = 2.0 * np.pi * time_s / (3600.0 * protocol.wander_period_h)
     temperature = protocol.lab_C + protocol.temperature_wander_C * np.sin(phase)
     rate = protocol.temperature_wander_C * np.cos(phase) * 2.0 * np.pi / protocol.wander_period_h
