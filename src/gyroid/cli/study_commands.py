@@ -21,6 +21,7 @@ def reproduce(out) -> None:
     """Recompute both papers' tables and audit them against their own formulas."""
     from gyroid.reports._reproduction import write_reproduction
 
+    click.echo("recomputing paper A's and paper B's tables and their figures ...", err=True)
     with output_dir(out) as stage:
         result = write_reproduction(stage)
     click.echo(f"{len(result['audit'])} disagreements found; wrote {out / 'reproduce.json'}")
