@@ -252,6 +252,8 @@ def report_written(result, out: Path, files: tuple[str, ...]) -> None:
     report_checks(result.only.checks)
 
 
+#: ``--noise``'s model names: gyroid.inference's NOISE_MODELS and auto, written out here
+#: because importing them imports JAX (``--help`` must stay fast); FitOptions checks them.
 NOISE_CHOICES = ("auto", "white", "white+gm", "white+flicker+rw")
 
 
