@@ -154,3 +154,19 @@ def test_the_mems_thermal_benches_under_the_default_noise_choice():
             "(binomial 99 % band {:.0f}-{:.0f})".format(*stats.binom(total, 0.95).ppf(
                 [0.005, 0.995])))
     assert stats.binom(total, 0.95).ppf(0.005) <= inside <= stats.binom(total, 0.95).ppf(0.995)
+
+
+def test_the_noise_fits_of_the_real_mpu6050_runs():
+    results = _results("noise_real_logs")
+    agreement, runs = results["agreement"], results["runs"]
+    refused = [r["dispersion"] for r in runs if not r["trustworthy"]]
+    spread_y = agreement["y"]["spread_max_over_min"]
+    _quoted(f"gyroid trusts {agreement['trusted']} of the {agreement['series']} axis-runs",
+            "lies within {:.2f}-{:.2f}x of the Allan-slope reading".format(
+                *agreement["N_over_slope"]),
+            "{:.2f}-{:.2f}x of the `allan-variance` package's".format(
+                *agreement["N_over_allan_variance"]),
+            f"It refuses {len(refused)}:",
+            f"a dispersion of {min(refused):.0f}-{max(refused):.0f} times",
+            f"(axis y: {min(spread_y.values()):.2f}-{max(spread_y.values()):.2f}x")
+    assert all(r["failed"].count("dispersion") for r in runs if not r["trustworthy"])

@@ -14,7 +14,7 @@ the log's length.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -44,6 +44,12 @@ class HaarStatistics:
     def avar(self) -> np.ndarray:
         """The empirical Allan variance per level, (deg/h)^2: ``sum_sq / (2 count)``."""
         return self.sum_sq / (2.0 * self.count)
+
+    def deflated(self, dispersion: float) -> HaarStatistics:
+        """The same Allan variances worth ``1 / dispersion`` of the coefficients: a
+        quasi-likelihood for Haar coefficients that scatter ``dispersion`` times more than
+        independent ones would (every interval widens by ``sqrt(dispersion)``)."""
+        return replace(self, count=self.count / dispersion, sum_sq=self.sum_sq / dispersion)
 
 
 def haar_statistics(rate_deg_h: np.ndarray, tau0_s: float,

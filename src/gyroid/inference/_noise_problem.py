@@ -286,6 +286,16 @@ def _max_likelihood(stats: HaarStatistics, names: tuple[str, ...],
     return -float(found.fun), found.x
 
 
+def deviance(stats: HaarStatistics, names: tuple[str, ...]) -> tuple[float, int]:
+    """The deviance of the maximum-likelihood fit of ``names`` (``sum count (r - 1 - ln r)``
+    over levels, ``r`` the empirical over the model Allan variance: about ``chi2(dof)`` when
+    the model is right and the coefficients independent) and its degrees of freedom."""
+    _, u = _max_likelihood(stats, names)
+    ratio = stats.avar / (shapes(stats, names) @ np.exp(2.0 * u))
+    return (float(np.sum(stats.count * (ratio - 1.0 - np.log(ratio)))),
+            int(stats.m.size - len(names)))
+
+
 #: Sets of terms whose weight is below this fraction of the best set's are not sampled.
 MIN_WEIGHT = 0.01
 
