@@ -224,6 +224,8 @@ def fit_noise(rate_deg_h: np.ndarray, sample_s: float, *,
     if dispersion > 1.0:
         fitted = stats.deflated(dispersion)
         choice = choose_terms(fitted)
+        if dispersion > DISPERSION_MAX:  # refused: its best set alone is sampled, to show
+            choice = replace(choice, weights={choice.best: 1.0})
     rng = np.random.default_rng(seed)
     sampler = sampler if sampler is not None else Emcee(progress=False)
     models, blocks = [], []
