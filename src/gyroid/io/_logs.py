@@ -165,33 +165,45 @@ def _block_rows(log: BenchLog, rows: int) -> np.ndarray:
     return starts[:, None] + np.arange(rows)[None, :]
 
 
-def block_means(log: BenchLog, rows: int) -> BenchLog:
+def block_means(log: BenchLog, rows: int, index: np.ndarray | None = None) -> BenchLog:
     """``log`` with every column averaged over blocks of ``rows`` consecutive samples inside
     each contiguous segment (a segment's last incomplete block is dropped, so that every
     block is a mean of exactly ``rows`` samples and its white noise is ``1/sqrt(rows)`` of
     a sample's). ``sigma_deg_h`` becomes the mean's sd. Rows are named by their first
-    sample."""
-    index = _block_rows(log, rows)
-    starts = index[:, 0]
-    columns = {name: np.asarray(values, dtype=float)[index].mean(axis=1)
-               for name, values in log.columns.items()}
-    if "sigma_deg_h" in columns:
-        sigma = np.asarray(log.columns["sigma_deg_h"], dtype=float)[index]
-        columns["sigma_deg_h"] = np.sqrt(np.sum(sigma**2, axis=1)) / rows
-    comments = (*log.comments, f"means of {rows} consecutive samples of {log.source}")
+    sample. ``index``: the blocks' rows (:func:`_block_rows`), if already found."""
+    index = _block_rows(log, rows) if index is None else index
+    columns = means_of_blocks({name: np.asarray(values, dtype=float)[index]
+                               for name, values in log.columns.items()})
+    return log_of_means(columns, rows, index[:, 0], log, log.where,
+                        f"means of {rows} consecutive samples of {log.source}")
 
+
+def means_of_blocks(blocks: Mapping[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """Every column's mean over each block (a row of its ``(blocks, samples)`` array);
+    ``sigma_deg_h`` becomes the mean's sd."""
+    return {name: (np.sqrt(np.sum(values**2, axis=1)) / values.shape[1]
+                   if name == "sigma_deg_h" else values.mean(axis=1))
+            for name, values in blocks.items()}
+
+
+def log_of_means(columns: Mapping[str, np.ndarray], rows: int, starts: np.ndarray,
+                 samples: BenchLog, where: Callable[[int], str], comment: str) -> BenchLog:
+    """The log of block means ``columns`` (``rows`` samples each), its row ``k`` named by
+    the sample ``starts[k]`` it begins at (``where``: the samples' row names), with the
+    samples' comments, extra columns and axis, and ``comment`` saying what it is."""
     def row_name(k: int) -> str:
-        return f"the mean of {rows} samples from {log.where(int(starts[k]))}"
+        return f"the mean of {rows} samples from {where(int(starts[k]))}"
 
-    return BenchLog(columns=columns, source=f"{log.source} ({rows}-sample means)",
-                    comments=comments, row_name=row_name, extra_columns=log.extra_columns,
-                    axis=log.axis)
+    return BenchLog(columns=dict(columns), source=f"{samples.source} ({rows}-sample means)",
+                    comments=(*samples.comments, comment), row_name=row_name,
+                    extra_columns=samples.extra_columns, axis=samples.axis)
 
 
-def block_deviations(log: BenchLog, rows: int) -> SampleDeviations:
+def block_deviations(log: BenchLog, rows: int, index: np.ndarray | None = None
+                     ) -> SampleDeviations:
     """Each sample's drift about its block's mean (the blocks of :func:`block_means`), 0
     for a sample in no block."""
-    index = _block_rows(log, rows)
+    index = _block_rows(log, rows) if index is None else index
     drift = np.asarray(log.drift_deg_h, dtype=float)
     deviation = drift[index] - drift[index].mean(axis=1, keepdims=True)
     dof = index.size - index.shape[0]
@@ -231,4 +243,6 @@ class MeansOfBlocks:
 
     @classmethod
     def of(cls, log: BenchLog, rows: int) -> MeansOfBlocks:
-        return cls(block_means(log, rows), rows, block_deviations(log, rows))
+        """``log`` held whole, its blocks found once for the means and the deviations."""
+        index = _block_rows(log, rows)
+        return cls(block_means(log, rows, index), rows, block_deviations(log, rows, index))

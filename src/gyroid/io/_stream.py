@@ -24,8 +24,15 @@ import numpy as np
 
 from gyroid.errors import GyroidInputError
 from gyroid.io._bench_reader import bench_log_from_table
-from gyroid.io._logs import BenchLog, MeansOfBlocks, SampleDeviations, gap_threshold
-from gyroid.io._tables import LogTable
+from gyroid.io._logs import (
+    BenchLog,
+    MeansOfBlocks,
+    SampleDeviations,
+    gap_threshold,
+    log_of_means,
+    means_of_blocks,
+)
+from gyroid.io._tables import LogTable, parquet_comments
 from gyroid.io._units import ColumnMap
 
 #: Logs longer than this (rows) are read as a stream (Parquet).
@@ -58,7 +65,6 @@ class _Blocks:
 
     rows: int
     means: dict[str, list[np.ndarray]] = field(default_factory=dict)
-    sigma: list[np.ndarray] = field(default_factory=list)
     starts: list[np.ndarray] = field(default_factory=list)
     carried: dict[str, np.ndarray] | None = None
     carried_start: int = 0
@@ -91,11 +97,8 @@ class _Blocks:
     def _blocks(self, columns: dict[str, np.ndarray], first_row: int) -> None:
         m = self.rows
         shaped = {c: v.reshape(-1, m) for c, v in columns.items()}
-        for c, v in shaped.items():
-            if c == "sigma_deg_h":
-                self.sigma.append(np.sqrt(np.sum(v**2, axis=1)) / m)
-            else:
-                self.means.setdefault(c, []).append(v.mean(axis=1))
+        for c, v in means_of_blocks(shaped).items():
+            self.means.setdefault(c, []).append(v)
         k = shaped["drift_deg_h"].shape[0]
         self.starts.append(first_row + m * np.arange(k))
         drift = shaped["drift_deg_h"]
@@ -114,14 +117,15 @@ class _Blocks:
             self.candidate_rows.append(first_row + m * j + beyond)
             self.candidate_dev.append(row[beyond])
 
-    def result(self, head: BenchLog, n: int, where, source: str) -> MeansOfBlocks:
+    def result(self, head: BenchLog, n: int, where) -> MeansOfBlocks:
+        """The means of the blocks, of the ``n`` samples whose first batch is ``head``
+        (``where``: the file's row names)."""
+        source = head.source
         if not self.starts:
             raise GyroidInputError(
                 f"{source}: no stretch of the clock without a pause holds {self.rows} "
                 "samples, so it has no blocks to average; fit a shorter excerpt")
         columns = {c: np.concatenate(v) for c, v in self.means.items()}
-        if self.sigma:
-            columns["sigma_deg_h"] = np.concatenate(self.sigma)
         starts = np.concatenate(self.starts)
         within = math.sqrt(self.sum_sq / self.dof) if self.dof else 0.0
         rows = (np.concatenate(self.candidate_rows) if self.candidate_rows
@@ -131,16 +135,10 @@ class _Blocks:
         samples = SampleDeviations(n=n, rows=rows, z=dev / scale,
                                    z_sum_sq=self.sum_sq / scale**2, within_sd=within,
                                    head=head, where=where)
-        m = self.rows
-
-        def row_name(k: int) -> str:
-            return f"the mean of {m} samples from {where(int(starts[k]))}"
-
-        means = BenchLog(columns=columns, source=f"{source} ({m}-sample means)",
-                         comments=(*head.comments, f"means of {m} consecutive samples of "
-                                   f"{source}, read as a stream"),
-                         row_name=row_name, extra_columns=head.extra_columns, axis=head.axis)
-        return MeansOfBlocks(means, m, samples)
+        means = log_of_means(columns, self.rows, starts, head, where,
+                             f"means of {self.rows} consecutive samples of {source}, read "
+                             "as a stream")
+        return MeansOfBlocks(means, self.rows, samples)
 
 
 def stream_block_means(path: str | Path, terms, axes: tuple[str | None, ...],
@@ -158,9 +156,7 @@ def stream_block_means(path: str | Path, terms, axes: tuple[str | None, ...],
     # pre-buffering reads the whole file ahead (arrow's peak grew with the log's length:
     # 0.95 GB for 4e7 rows, 0.1 GB without)
     file = pq.ParquetFile(path, pre_buffer=False)
-    metadata = file.schema_arrow.metadata or {}
-    comments = tuple(v.decode(errors="replace") for k, v in metadata.items()
-                     if k.startswith(b"comment"))
+    comments = parquet_comments(file.schema_arrow.metadata)
     blocks = {axis: _Blocks(rows_per_mean) for axis in axes}
     heads: dict[str | None, BenchLog] = {}
     offset, threshold, last_time = 0, math.inf, -math.inf
@@ -188,6 +184,5 @@ def stream_block_means(path: str | Path, terms, axes: tuple[str | None, ...],
                              offset, breaks)
         last_time = float(time_s[-1])
         offset += batch.num_rows
-    source = str(path)
-    return {axis: blocks[axis].result(heads[axis], offset, base.where, source)
+    return {axis: blocks[axis].result(heads[axis], offset, base.where)
             for axis in axes}

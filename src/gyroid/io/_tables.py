@@ -236,10 +236,15 @@ def _read_parquet(path: Path, maps) -> LogTable:
     raw, empty = arrow_columns(holder)
     if n_rows == 0:
         raise GyroidInputError(f"{path.name}: the file has no data rows")
-    comments = tuple(v.decode(errors="replace") for k, v in metadata.items()
-                     if k.startswith(b"comment"))
+    comments = parquet_comments(metadata)
     return LogTable(path, names, raw, n_rows, None, None, comments,
                     maps, False, empty)
+
+
+def parquet_comments(metadata: dict | None) -> tuple[str, ...]:
+    """A parquet file's comment lines (its schema metadata's ``comment*`` keys)."""
+    return tuple(v.decode(errors="replace") for k, v in (metadata or {}).items()
+                 if k.startswith(b"comment"))
 
 
 def table_source(table: LogTable) -> dict[str, object]:

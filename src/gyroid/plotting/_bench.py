@@ -85,6 +85,13 @@ def magnetic_sweep(log: BenchLog, model_deg_h: np.ndarray | None = None) -> Figu
         return fig
 
 
+def _minute_mean(time_s: np.ndarray, values: np.ndarray) -> np.ndarray | None:
+    """``values``' moving mean over 60 s of samples, or None when a sample already spans
+    that long (or the log is shorter)."""
+    window = max(1, int(round(60.0 / max(np.median(np.diff(time_s)), 1e-9))))
+    return moving_mean(values, window) if 1 < window < np.asarray(values).size else None
+
+
 def fit_overview(time_s: np.ndarray, drift: np.ndarray, predictions: np.ndarray,
                  point_prediction: np.ndarray, data_label: str = "logged drift") -> Figure:
     """Data with the modelled drift; the posterior 95 % band of the model about its point
@@ -114,10 +121,9 @@ def fit_overview(time_s: np.ndarray, drift: np.ndarray, predictions: np.ndarray,
                           fontsize=8, loc="left")
         residual = np.asarray(drift) - np.asarray(point_prediction)
         axes[2].plot(hours, residual[shown], color="0.55", lw=0.4, ls="-")
-        window = max(1, int(round(60.0 / max(np.median(np.diff(time_s)), 1e-9))))
-        if window > 1 and residual.size > window:
-            smooth = moving_mean(residual, window)[shown]
-            axes[2].plot(hours, smooth, color="0.0", lw=1.0, ls="-", label="60 s mean")
+        smooth = _minute_mean(time_s, residual)
+        if smooth is not None:
+            axes[2].plot(hours, smooth[shown], color="0.0", lw=1.0, ls="-", label="60 s mean")
             axes[2].legend(loc="lower right", bbox_to_anchor=(1.0, 1.0), frameon=False)
         axes[2].axhline(0.0, color="0.0", lw=0.6, ls=":")
         axes[2].set_ylabel("residual, deg/h")
@@ -246,10 +252,10 @@ def compensation_figure(time_s: np.ndarray, before: np.ndarray, after: np.ndarra
         axes[0].set_title("logged drift" + thinned, fontsize=9, loc="left")
         after = np.asarray(after, dtype=float)
         axes[1].plot(hours, after[shown], color="0.65", lw=0.4, ls="-", label="samples")
-        window = max(1, int(round(60.0 / max(np.median(np.diff(time_s)), 1e-9))))
-        if window > 1 and after.size > window:
-            axes[1].plot(hours, moving_mean(after, window)[shown], color="0.0", lw=1.0,
-                         ls="-", label="60 s mean")
+        smooth = _minute_mean(time_s, after)
+        if smooth is not None:
+            axes[1].plot(hours, smooth[shown], color="0.0", lw=1.0, ls="-",
+                         label="60 s mean")
         axes[1].axhline(0.0, color="0.0", lw=0.6, ls=":")
         axes[1].set_ylabel("compensated drift, deg/h")
         axes[1].set_xlabel("time since start, h")
