@@ -5,6 +5,7 @@ of the README that drifts from the file, fails here. Times are excepted (they ar
 with their machine and load, and change from run to run)."""
 
 import json
+import math
 import re
 from pathlib import Path
 
@@ -170,3 +171,22 @@ def test_the_noise_fits_of_the_real_mpu6050_runs():
             f"a dispersion of {min(refused):.0f}-{max(refused):.0f} times",
             f"(axis y: {min(spread_y.values()):.2f}-{max(spread_y.values()):.2f}x")
     assert all(r["failed"].count("dispersion") for r in runs if not r["trustworthy"])
+
+
+def test_the_streamed_fit_of_a_log_too_long_to_hold():
+    """benchmarks/results_streaming.json: the fits of the streamed logs exited 0 as block
+    means, and their coefficients lie as close to paper A's truths as the README says."""
+    from gyroid.simulation import PAPER_A_THERMAL
+
+    rows = json.loads((ROOT / "benchmarks" / "results_streaming.json").read_text())["results"]
+    worst = 0.0
+    for row in rows:
+        fit = row["fit_streamed"]
+        assert fit["code"] == 0 and fit["block_means"]["rows"] == row["rows"]
+        assert fit["block_means"]["means"] <= 1000
+        worst = max(worst, *(abs(fit["mean"][k] - v) / fit["sd"][k]
+                             for k, v in PAPER_A_THERMAL.items()))
+    assert [row["rows"] for row in rows] == [21_000_000, 100_000_000]
+    _quoted("White noise on the means passed its checks, and the four coefficients lie "
+            f"within {math.ceil(10 * worst) / 10:.1f} posterior sd of the truths")
+    assert all(not row["fit_streamed"]["failed"] for row in rows)
