@@ -100,6 +100,24 @@ class BenchDensity(eqx.Module):
     gap_s: Float[Array, " n"] | None = None
     flicker_tau_s: Float[Array, " j"] | None = None
     flicker_unit_var: float = eqx.field(static=True, default=0.0)
+    #: A row's white sd per sample's (1/sqrt(m) for a row that is the mean of m samples):
+    #: ``sigma_deg_h`` is always a sample's.
+    row_scale: float = eqx.field(static=True, default=1.0)
+    # Errors in variables (white noise, a model reading dT/dt; :mod:`gyroid.models._rate_error`):
+    # the covariance is  s^2 D0 + wD^2 M  with M the rate error's covariance ((degC/h)^2) and
+    # D0 the white part per unit s^2 (a row's known variance, s = 1; else row_scale^2). With
+    # A = D0^-1/2 M D0^-1/2 = V diag(lam) V', ``eiv_basis`` is W = V' D0^-1/2 (rows of
+    # held-out coordinates zero, ``eiv_on`` 0), so that r' C^-1 r = sum (W r)^2 / (s^2 +
+    # wD^2 lam) and log det C = sum log D0 + sum log(s^2 + wD^2 lam).
+    rate_error_cov: Float[Array, "n n"] | None = None
+    eiv_basis: Float[Array, "n n"] | None = None
+    eiv_lambda: Float[Array, " n"] | None = None
+    eiv_on: Float[Array, " n"] | None = None
+    eiv_log_d0: Float[Array, ""] | None = None
+    eiv_y: Float[Array, " n"] | None = None  # W drift
+    eiv_x: Float[Array, "n p"] | None = None  # W design (a linear model)
+    eiv_index: int = eqx.field(static=True, default=-1)  # wD among the parameters
+    thermometer_sd_C: float = eqx.field(static=True, default=0.0)  # a sample's, degC
 
     @classmethod
     def from_log(
@@ -112,9 +130,16 @@ class BenchDensity(eqx.Module):
         noise: str = "white",
         rate_window_s: float = RATE_WINDOW_S,
         fast: bool = True,
+        rows_per_mean: int = 1,
+        rate_error_cov: np.ndarray | None = None,
+        thermometer_sd_C: float = 0.0,
     ) -> BenchDensity:
         """The density of ``model`` on ``log`` (whose model inputs are ``inputs``) with
-        ``priors`` (model parameters, then the noise model's, in sampling order)."""
+        ``priors`` (model parameters, then the noise model's, in sampling order).
+        ``rows_per_mean``: samples behind each row (a log of block means);
+        ``rate_error_cov``: under white noise, the covariance of the dT/dt error that the
+        thermometer's noise (``thermometer_sd_C``, a sample's) causes at the rows, carried
+        into the likelihood (errors in variables)."""
         if noise not in NOISE_MODELS:
             raise GyroidInputError(f"--noise must be one of {', '.join(NOISE_MODELS)}")
         time_s = np.asarray(log.time_s)
@@ -128,7 +153,14 @@ class BenchDensity(eqx.Module):
         block_s = max(LOO_BLOCK_S, step, duration / MAX_LOO_BLOCKS * 1.0001)
         block = np.floor((time_s - time_s[0]) / block_s).astype(int)
         _, block = np.unique(block, return_inverse=True)
-        ieee = {}
+        ieee: dict = {}  # the noise model's own fields
+        if rate_error_cov is not None:
+            if noise != "white" or "temperature_rate" not in model.terms:
+                raise ValueError("errors in variables: white noise and a model reading dT/dt")
+            rate = next(e for e in model.effects if e.name == "temperature_rate")
+            ieee = {"rate_error_cov": jnp.asarray(rate_error_cov),
+                    "eiv_index": model.parameter_names.index(rate.parameters[0].name),
+                    "thermometer_sd_C": float(thermometer_sd_C)}
         if noise == IEEE_NOISE:
             taus, unit = flicker_times(step, duration + step)
             ieee = {"gap_s": jnp.asarray(np.maximum(np.concatenate([[0.0], steps]) - step,
@@ -148,11 +180,51 @@ class BenchDensity(eqx.Module):
             n_blocks=int(block.max()) + 1,
             step_s=step,
             rate_window_s=float(rate_window_s),
+            row_scale=1.0 / math.sqrt(rows_per_mean),
             **ieee,
         )
+        if rate_error_cov is not None:
+            return problem._with_errors_in_variables()
         if fast and model.is_linear and noise == "white":
             problem = problem._with_sufficient_statistics()
         return problem
+
+    @property
+    def errors_in_variables(self) -> bool:
+        """Whether the thermometer's noise in dT/dt is carried in the likelihood."""
+        return self.rate_error_cov is not None
+
+    def _white_d0(self) -> np.ndarray:
+        """The white covariance's diagonal per unit of the sampled level (the known
+        variances when the log gives them)."""
+        if self.sigma is not None:
+            return np.asarray(self.sigma) ** 2
+        return np.full(self.n, self.row_scale**2)
+
+    def _with_errors_in_variables(self) -> BenchDensity:
+        """The eigenbasis of the rate error's covariance over the white part, on the rows
+        the likelihood reads (one eigendecomposition; each evaluation is then O(n))."""
+        keep = (np.ones(self.n, dtype=bool) if self.weight is None
+                else np.asarray(self.weight) > 0)
+        d0 = self._white_d0()
+        root = 1.0 / np.sqrt(d0[keep])
+        cov = np.asarray(self.rate_error_cov)[np.ix_(keep, keep)]
+        lam, vectors = np.linalg.eigh(root[:, None] * cov * root[None, :])
+        k = int(keep.sum())
+        basis = np.zeros((self.n, self.n))
+        basis[:k][:, keep] = vectors.T * root[None, :]
+        lam_full, on = np.zeros(self.n), np.zeros(self.n)
+        lam_full[:k], on[:k] = np.maximum(lam, 0.0), 1.0
+        y = basis @ np.asarray(self.drift)
+        x = (basis @ np.asarray(self.model.design(self.inputs))
+             if self.model.is_linear else None)
+        return eqx.tree_at(
+            lambda q: (q.eiv_basis, q.eiv_lambda, q.eiv_on, q.eiv_log_d0, q.eiv_y, q.eiv_x),
+            self,
+            (jnp.asarray(basis), jnp.asarray(lam_full), jnp.asarray(on),
+             jnp.asarray(float(np.sum(np.log(d0[keep])))), jnp.asarray(y),
+             None if x is None else jnp.asarray(x)),
+            is_leaf=lambda q: q is None)
 
     def _with_sufficient_statistics(self) -> BenchDensity:
         """The linear-Gaussian fast path: the Gram matrix and least-squares solution of the
@@ -205,10 +277,12 @@ class BenchDensity(eqx.Module):
         kept). The sufficient statistics, which sum every row, are dropped too."""
         weight = jnp.asarray(~np.asarray(held_out, dtype=bool), dtype=float)
         none = (None,) * 9
-        return eqx.tree_at(
+        out = eqx.tree_at(
             lambda q: (q.weight, q.gram, q.solution, q.rss_min, q.log_sigma_sum, q.block_gram,
                        q.block_xr, q.block_rr, q.block_count, q.block_log_sigma),
             self, (weight, *none), is_leaf=lambda x: x is None)
+        # errors in variables: the marginal of the rows kept, in their own eigenbasis
+        return out._with_errors_in_variables() if self.errors_in_variables else out
 
     # ----- parameter bookkeeping -------------------------------------------------------
     @property
@@ -281,7 +355,7 @@ class BenchDensity(eqx.Module):
         elif self.noise == IEEE_NOISE:  # a row's mean over one step, deg/h
             white = 60.0 * values["N_deg_sqrt_h"] / math.sqrt(self.step_s)
         else:
-            white = values["sigma_deg_h"]
+            white = values["sigma_deg_h"] * self.row_scale
         return white, values
 
     def log_likelihood_rows(self, u: Float[Array, " d"]) -> Float[Array, " n"]:
@@ -289,7 +363,9 @@ class BenchDensity(eqx.Module):
         out (:meth:`without_rows`)."""
         residual = self.drift - self.predict(u)
         white, values = self._noise_levels(u)
-        if self.noise == "white":
+        if self.errors_in_variables:
+            rows = self._leave_one_out_rows(u, residual)
+        elif self.noise == "white":
             rows = -0.5 * (residual / white) ** 2 - jnp.log(white) - 0.5 * _LOG_2PI
         else:
             innovation, variance = self.innovations(residual, white, values)
@@ -301,10 +377,53 @@ class BenchDensity(eqx.Module):
         (white+gm): independent N(0, 1) when the model and its noise model are right."""
         residual = self.drift - self.predict(u)
         white, values = self._noise_levels(u)
+        if self.errors_in_variables:  # sequential innovations: time-ordered, white if right
+            chol = jnp.linalg.cholesky(self._covariance(u))
+            return jax.scipy.linalg.solve_triangular(chol, residual, lower=True)
         if self.noise == "white":
             return residual / white
         innovation, variance = self.innovations(residual, white, values)
         return innovation / jnp.sqrt(variance)
+
+    # ----- errors in variables ------------------------------------------------------------
+    def _eiv_levels(self, u: Float[Array, " d"]):
+        """(s^2, wD^2) of the errors-in-variables covariance at ``u``."""
+        s2 = (jnp.ones(()) if self.sigma is not None
+              else jnp.exp(2.0 * u[self.n_model]))
+        return s2, self.to_natural(u)[self.eiv_index] ** 2
+
+    def _covariance(self, u: Float[Array, " d"]) -> Float[Array, "n n"]:
+        """The rows' noise covariance under errors in variables, (deg/h)^2."""
+        s2, a2 = self._eiv_levels(u)
+        return jnp.diag(s2 * jnp.asarray(self._white_d0())) + a2 * self.rate_error_cov
+
+    def _eiv_projection(self, u: Float[Array, " d"]):
+        """The residual in the eigenbasis and each coordinate's variance."""
+        s2, a2 = self._eiv_levels(u)
+        if self.eiv_x is not None:
+            projected = self.eiv_y - self.eiv_x @ self.to_natural(u)[: self.n_model]
+        else:
+            projected = self.eiv_basis @ (self.drift - self.predict(u))
+        return projected, s2 + a2 * self.eiv_lambda
+
+    def _eiv_log_likelihood(self, u: Float[Array, " d"]) -> Float[Array, ""]:
+        projected, variance = self._eiv_projection(u)
+        terms = self.eiv_on * (projected**2 / variance + jnp.log(variance) + _LOG_2PI)
+        return -0.5 * (jnp.sum(terms) + self.eiv_log_d0)
+
+    def _leave_one_out_rows(self, u: Float[Array, " d"], residual) -> Float[Array, " n"]:
+        """Each row's density given every other row (Burkner, Gabry & Vehtari 2021, for
+        non-factorised normal models): with ``g = C^-1 r`` and ``c = diag(C^-1)``, row i's
+        log density is ``-0.5 log 2pi + 0.5 log c_i - 0.5 g_i^2 / c_i``. ``residual`` is
+        unused (the eigenbasis holds it); 0 for a row left out."""
+        del residual
+        projected, variance = self._eiv_projection(u)
+        inverse = self.eiv_on / variance
+        g = self.eiv_basis.T @ (projected * inverse)
+        c = (self.eiv_basis**2).T @ inverse
+        safe = jnp.where(c > 0, c, 1.0)
+        rows = -0.5 * _LOG_2PI + 0.5 * jnp.log(safe) - 0.5 * g**2 / safe
+        return jnp.where(c > 0, rows, 0.0)
 
     def innovations(self, residual, white, values):
         """Innovations of the residual (or of columns) under the correlated noise models; a
@@ -327,8 +446,10 @@ class BenchDensity(eqx.Module):
             rss = self.rss_min + delta @ self.gram @ delta
             if self.sigma is not None:
                 return -0.5 * rss - self.log_sigma_sum - 0.5 * self.n * _LOG_2PI
-            sd = jnp.exp(u[self.n_model])
+            sd = jnp.exp(u[self.n_model]) * self.row_scale
             return -0.5 * rss / sd**2 - self.n * jnp.log(sd) - 0.5 * self.n * _LOG_2PI
+        if self.errors_in_variables:
+            return self._eiv_log_likelihood(u)
         return jnp.sum(self.log_likelihood_rows(u))
 
     def host_log_posterior(self):
@@ -337,6 +458,8 @@ class BenchDensity(eqx.Module):
         noise a step then costs a (w, p) x (p, p) product and no JAX dispatch, whose
         overhead had made gyroid's steps 1.7x dearer than a NumPy script's
         (benchmarks/run.py); None for other models."""
+        if self.eiv_x is not None:
+            return self._eiv_host_log_posterior()
         if self.gram is None:
             return None
         gram, solution = np.asarray(self.gram), np.asarray(self.solution)
@@ -353,10 +476,35 @@ class BenchDensity(eqx.Module):
             if known is not None:
                 log_lik = -0.5 * rss - known
             else:
-                log_sd = u[:, p]
+                log_sd = u[:, p] + math.log(self.row_scale)
                 log_lik = -0.5 * rss * np.exp(-2.0 * log_sd) - n * log_sd
             z = on * (u - loc) / scale
             with np.errstate(over="ignore", invalid="ignore"):
+                value = log_lik - 0.5 * np.sum(z**2, axis=1) + constant
+            return np.where(np.isfinite(value), value, -np.inf)
+
+        return log_posterior
+
+    def _eiv_host_log_posterior(self):
+        """:meth:`host_log_posterior` under errors in variables (a linear model): a step
+        costs a (w, p) x (p, n) product."""
+        y, x = np.asarray(self.eiv_y), np.asarray(self.eiv_x)
+        lam, on = np.asarray(self.eiv_lambda), np.asarray(self.eiv_on)
+        p, index, known = self.n_model, self.eiv_index, self.sigma is not None
+        loc, scale = np.asarray(self.prior_loc), np.asarray(self.prior_scale)
+        prior_on = np.asarray(self.prior_on)
+        constant = (-float(np.sum(prior_on * (np.log(scale) + 0.5 * _LOG_2PI)))
+                    - 0.5 * float(self.eiv_log_d0) - 0.5 * float(on.sum()) * _LOG_2PI)
+
+        def log_posterior(u: np.ndarray) -> np.ndarray:
+            u = np.atleast_2d(np.asarray(u, dtype=float))
+            projected = y[None, :] - u[:, :p] @ x.T
+            with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+                s2 = np.ones(u.shape[0]) if known else np.exp(2.0 * u[:, p])
+                variance = s2[:, None] + (u[:, index] ** 2)[:, None] * lam[None, :]
+                log_lik = -0.5 * np.sum(on * (projected**2 / variance + np.log(variance)),
+                                        axis=1)
+                z = prior_on * (u - loc) / scale
                 value = log_lik - 0.5 * np.sum(z**2, axis=1) + constant
             return np.where(np.isfinite(value), value, -np.inf)
 
@@ -373,7 +521,7 @@ class BenchDensity(eqx.Module):
         constant = 0.5 * self.block_count * _LOG_2PI
         if self.sigma is not None:
             return -0.5 * rss - self.block_log_sigma - constant
-        sd = jnp.exp(u[self.n_model])
+        sd = jnp.exp(u[self.n_model]) * self.row_scale
         return -0.5 * rss / sd**2 - self.block_count * jnp.log(sd) - constant
 
     def prior_residuals(self, u: Float[Array, " d"]) -> Float[Array, " d"]:

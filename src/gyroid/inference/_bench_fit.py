@@ -75,12 +75,24 @@ class BenchFit:
 
     @property
     def block_means(self) -> dict[str, int] | None:
-        """For a fit of a long log's block means (white+flicker+rw): how many means, of how
-        many samples each, of how many rows."""
+        """For a fit of a long log's block means (white+flicker+rw, or white noise carrying
+        the thermometer's): how many means, of how many samples each, of how many rows."""
         problem = self.problem
         return None if problem.block_rows == 1 else {
             "means": problem.n, "rows_per_mean": problem.block_rows,
             "rows": problem.segments.n}
+
+    @property
+    def errors_in_variables(self) -> dict | None:
+        """For a white-noise fit that carries the thermometer's noise through the dT/dt
+        estimator: that noise (a sample's sd, degC, measured on the log) and how."""
+        problem = self.problem
+        if not problem.density.errors_in_variables:
+            return None
+        return {"thermometer_sd_C": problem.thermometer_sd_C,
+                "how": "the thermometer's white noise, measured by the logged temperature's "
+                       "third differences, passed through the dT/dt estimator: a "
+                       "covariance wD^2 v L L' added to the white noise's"}
 
     @property
     def input_ranges(self) -> dict[str, list[float]]:
@@ -93,8 +105,11 @@ class BenchFit:
         source = (self.posterior.summary if self.posterior is not None else
                   {n: {"mean": self.point.value[n], "sd": self.point.sd[n]} for n in names})
         kind = "posterior mean +/- sd" if self.posterior is not None else "point estimate"
+        carried = ("" if not self.errors_in_variables else
+                   f", the thermometer's {self.problem.thermometer_sd_C:.3g} degC noise "
+                   "carried through dT/dt")
         lines = [f"{','.join(self.problem.model.terms)} on {self.problem.n} rows "
-                 f"({self.problem.noise} noise); {kind}:"]
+                 f"({self.problem.noise} noise{carried}); {kind}:"]
         for name in names:
             unit = NOISE_UNITS.get(name) or parameter(name).unit
             lines.append(f"  {name:>16s} = {source[name]['mean']: .6g} +/- "
@@ -200,6 +215,7 @@ class BenchFit:
                 "posterior": {},
                 "units": {k: NOISE_UNITS[k] for k in noise_names},
                 "white_sd_deg_h": self.noise_levels()["white_sd_deg_h"],
+                "errors_in_variables": self.errors_in_variables,
             },
             "priors": {k: _describe(p) for k, p in zip(problem.names, problem.priors,
                                                          strict=True)},
@@ -304,6 +320,7 @@ def fit_log(
     sampler: AbstractSampler | None = None,
     segment_means: bool = False,
     progress: bool = True,
+    errors_in_variables: bool = True,
 ) -> BenchFit:
     """Fit ``terms`` to a bench log: :meth:`BenchProblem.from_log` (``rate_window_s=None``
     chooses the dT/dt window from the data), then :func:`~gyroid.inference.fit` (the mode,
@@ -316,7 +333,9 @@ def fit_log(
     (:mod:`gyroid.inference._ieee_noise`); ``noise_choice`` says which and why.
 
     ``log`` may be a log already reduced to block means (:class:`MeansOfBlocks`, as a log
-    too long to hold is read: :func:`gyroid.io.stream_block_means`)."""
+    too long to hold is read: :func:`gyroid.io.stream_block_means`).
+    ``errors_in_variables=False`` leaves the thermometer's noise in dT/dt out of the white
+    likelihood (:meth:`BenchProblem.from_log`)."""
     from gyroid.inference._emcee import Emcee
 
     def problem_with(noise_model: str) -> BenchProblem:
@@ -324,7 +343,8 @@ def fit_log(
         return BenchProblem.from_log(log, terms, noise=noise_model, priors=priors,
                                      prior_set=prior_set, flat_prior=flat_prior, t0_C=t0_C,
                                      rate_window_s=rate_window_s,
-                                     segment_means=segment_means and noise_model != IEEE_NOISE)
+                                     segment_means=segment_means and noise_model != IEEE_NOISE,
+                                     errors_in_variables=errors_in_variables)
 
     chosen = sampler or Emcee(progress=progress)
     if noise != "auto":

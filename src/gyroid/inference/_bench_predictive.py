@@ -238,12 +238,18 @@ def _noise_covariance(density: BenchDensity, values: dict, parts: Stretches,
                  if density.noise != "white+gm" else np.median(sigma) ** 2 / counts)
     elif density.noise == IEEE_NOISE:
         white = (60.0 * values["N_deg_sqrt_h"]) ** 2 / (counts * density.step_s)
-    else:
-        white = values["sigma_deg_h"] ** 2 / counts
+    else:  # sigma_deg_h is a sample's
+        white = (values["sigma_deg_h"] * density.row_scale) ** 2 / counts
     if density.noise == IEEE_NOISE:
         return ieee_part_covariance(time_s, parts.part, parts.n_parts, density.step_s, white,
                                     values["B_deg_h"], values["K_deg_h_sqrt_h"])
     covariance = np.diag(white)
+    if density.errors_in_variables:  # wD^2 times the parts' means of the rate error
+        average = np.zeros((parts.n_parts, density.n))
+        average[parts.part, np.arange(density.n)] = 1.0 / counts[parts.part]
+        wd = values[density.names[density.eiv_index]]
+        covariance = covariance + wd**2 * (average @ np.asarray(density.rate_error_cov)
+                                           @ average.T)
     if density.noise == "white+gm":
         covariance = covariance + gauss_markov_mean_covariance(
             time_s, parts.part, parts.n_parts, values["sigma_gm_deg_h"],

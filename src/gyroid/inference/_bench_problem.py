@@ -4,6 +4,7 @@ and what the self-checks read."""
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 
 import equinox as eqx
@@ -16,12 +17,18 @@ from gyroid.inference._check_report import FitEvidence
 from gyroid.inference._ieee_noise import IEEE_NOISE
 from gyroid.inference._point import point_estimate
 from gyroid.inference._problem import AbstractProblem, PointEstimate
-from gyroid.inference._rate_window import choose_rate_window, reads_rate
+from gyroid.inference._rate_window import choose_rate_window, reads_rate, window_grid
 from gyroid.io._logs import BenchLog, MeansOfBlocks, SampleDeviations, contiguous_segments
 from gyroid.io._logs import segment_means as means_of_segments
-from gyroid.models._derived import RATE_WINDOW_S, temperature_rate_deg_c_per_h
+from gyroid.models._derived import (
+    MAX_OPERATOR_ROWS,
+    RATE_POLY_DEGREE,
+    RATE_WINDOW_S,
+    estimator_grid_size,
+    temperature_rate_deg_c_per_h,
+)
 from gyroid.models._drift import DriftModel
-from gyroid.models._inputs import T0_C
+from gyroid.models._inputs import FIELD_COLUMNS, T0_C
 from gyroid.models._prior_scales import (
     PriorBasis,
     choose_priors,
@@ -29,8 +36,10 @@ from gyroid.models._prior_scales import (
     reference_sd,
 )
 from gyroid.models._priors import Prior
+from gyroid.models._rate_error import rate_error_covariance, thermometer_noise_var
 
-#: The most rows a white+flicker+rw fit filters (longer logs: block means).
+#: The most rows a white+flicker+rw fit filters, and the most a white fit carrying the
+#: thermometer's noise holds a covariance over (longer logs: block means).
 IEEE_MAX_ROWS = 1000
 
 
@@ -45,6 +54,9 @@ class BenchProblem(AbstractProblem):
     segments: SampleDeviations | None = None
     #: Samples per row of a fit of block means (white+flicker+rw on a long log), else 1.
     block_rows: int = 1
+    #: The thermometer's white noise, a sample's sd in degC, when it is carried into the
+    #: likelihood through dT/dt (errors in variables); 0 otherwise.
+    thermometer_sd_C: float = 0.0
 
     @classmethod
     def from_log(
@@ -61,6 +73,7 @@ class BenchProblem(AbstractProblem):
         segment_means: bool = False,
         fast: bool = True,
         max_rows: int | None = None,
+        errors_in_variables: bool = True,
     ) -> BenchProblem:
         """The problem of fitting ``terms`` to ``log``.
 
@@ -79,10 +92,29 @@ class BenchProblem(AbstractProblem):
         linear model's coefficients lose little (their regressors barely change within a
         block); the samples are still checked for spikes. A log given as
         :class:`~gyroid.io._logs.MeansOfBlocks` (one read as a stream) is fitted as those
-        means under any noise model."""
+        means under any noise model.
+
+        Errors in variables: under white noise, a model that reads dT/dt on a log whose
+        thermometer is noisy (:func:`~gyroid.models._rate_error.thermometer_noise_var`)
+        carries that noise through the rate estimator into the likelihood, as a covariance
+        over the rows (:mod:`gyroid.models._rate_error`); a log of more than ``max_rows``
+        rows is then fitted as block means, as under white+flicker+rw. Not for segment
+        means, nor for a log of bursts, whose rate estimator works on a grid across the
+        gaps too long to write as a matrix, nor where it is negligible
+        (:data:`NEGLIGIBLE_EIV`); ``errors_in_variables=False`` leaves it out (the plain
+        white likelihood)."""
         samples = None
         block_rows = 1
         cap = IEEE_MAX_ROWS if max_rows is None else max_rows
+        model = terms if isinstance(terms, DriftModel) else DriftModel.from_terms(terms)
+        thermometer_var = 0.0  # a sample's, degC^2
+        if (errors_in_variables and noise == "white" and not segment_means
+                and reads_rate(model)):
+            thermometer_var = _thermometer_var(log)
+            if thermometer_var > 0 and (not _operator_fits(log, rate_window_s, cap)
+                                        or _negligible(log, model, thermometer_var,
+                                                       rate_window_s, t0_C)):
+                thermometer_var = 0.0
         if isinstance(log, MeansOfBlocks):
             if segment_means:
                 raise GyroidInputError(
@@ -95,15 +127,16 @@ class BenchProblem(AbstractProblem):
                 "--segment-means with --noise white+flicker+rw: the IEEE noise model reads "
                 "a log of bursts as it is (the wander between bursts is its flicker and "
                 "random walk); fit the samples, without --segment-means")
-        if noise == IEEE_NOISE and log.n > cap:
+        if (noise == IEEE_NOISE or thermometer_var > 0) and log.n > cap:
             reduced = MeansOfBlocks.of(log, -(-log.n // cap))
             log, block_rows, samples = reduced.log, reduced.rows_per_mean, reduced.samples
         if segment_means:
             log, samples = means_of_segments(log, contiguous_segments(np.asarray(log.time_s)))
-        model = terms if isinstance(terms, DriftModel) else DriftModel.from_terms(terms)
         inputs = log.inputs(t0_C=t0_C)  # the one set built (10^7 rows: 0.8 GB)
         if rate_window_s is None:
-            rate_window_s, _ = choose_rate_window(log, model, t0_C=t0_C, inputs=inputs)
+            rate_window_s, _ = choose_rate_window(log, model, t0_C=t0_C, inputs=inputs,
+                                                  thermometer_var_C2=thermometer_var
+                                                  / block_rows)
             choice = "auto" if reads_rate(model) else "default (the model reads no dT/dt)"
         else:
             choice = "given"
@@ -116,11 +149,20 @@ class BenchProblem(AbstractProblem):
         chosen_set = "flat" if flat_prior else prior_set
         noise_names = _noise_names(noise, log.sigma_deg_h is not None)
         chosen, basis = choose_priors(model, inputs, np.asarray(log.drift_deg_h), noise_names,
-                                      prior_set=chosen_set, overrides=priors)
+                                      prior_set=chosen_set, overrides=priors,
+                                      rows_per_mean=block_rows)
+        rate_error = None
+        if thermometer_var > 0:
+            rate_error = rate_error_covariance(np.asarray(log.time_s),
+                                               np.asarray(log.columns["temperature_C"]),
+                                               rate_window_s, thermometer_var / block_rows)
         density = BenchDensity.from_log(log, model, chosen, inputs, noise=noise,
-                                        rate_window_s=rate_window_s, fast=fast)
+                                        rate_window_s=rate_window_s, fast=fast,
+                                        rows_per_mean=block_rows, rate_error_cov=rate_error,
+                                        thermometer_sd_C=math.sqrt(thermometer_var))
         return cls(density=density, log=log, prior_set=chosen_set, prior_basis=basis,
-                   rate_window_choice=choice, block_rows=block_rows, segments=samples)
+                   rate_window_choice=choice, block_rows=block_rows, segments=samples,
+                   thermometer_sd_C=math.sqrt(thermometer_var))
 
     # ----- description (the density's) -------------------------------------------------------
     @property
@@ -233,3 +275,74 @@ class BenchProblem(AbstractProblem):
             "log_likelihood_note": "log_likelihood holds sums over blocks of rows "
                                    "(constant_data.loo_block): LOO leaves out whole blocks",
         }
+
+
+def _thermometer_var(log: BenchLog | MeansOfBlocks) -> float:
+    """The variance of a sample's thermometer noise, degC^2 (0 without a temperature): on
+    the samples, or on a streamed log's block means (not aggregated further: a
+    temperature's curvature dominates over tens of seconds), times the samples per mean."""
+    rows = log.log if isinstance(log, MeansOfBlocks) else log
+    if "temperature_C" not in rows.columns:
+        return 0.0
+    time_s, temperature = np.asarray(rows.time_s), np.asarray(rows.columns["temperature_C"])
+    if isinstance(log, MeansOfBlocks):
+        return log.rows_per_mean * thermometer_noise_var(time_s, temperature, (1,))
+    return thermometer_noise_var(time_s, temperature)
+
+
+#: The thermometer's noise is left out of the likelihood when, at the shortest window the
+#: rate estimator may use, the rate error it causes (times wD) adds less than this fraction
+#: to the variance of the drift's mean over one window.
+NEGLIGIBLE_EIV = 0.01
+#: Rows a log is thinned to for the least-squares wD of that test.
+_THIN_ROWS = 20_000
+
+
+def _negligible(log: BenchLog | MeansOfBlocks, model: DriftModel, thermometer_var: float,
+                rate_window_s: float | None, t0_C: float) -> bool:
+    """Whether the thermometer's noise (``thermometer_var``, a sample's, degC^2) hardly
+    changes the likelihood (:data:`NEGLIGIBLE_EIV`). Over a window of ``N`` samples ``d``
+    seconds apart, white thermometer noise gives the estimated rate an error of variance
+    ``(3600 sT)^2 229.7 / (d^2 N^3)`` (:func:`~gyroid.models.temperature_rate_deg_c_per_h`),
+    common to the window, against the white drift noise ``sigma^2 / N`` of its mean; wD is
+    the least-squares value on the log (thinned), sigma the drift's first differences'
+    robust level. A nonlinear model always carries it."""
+    if not model.is_linear:
+        return False
+    rows = log.log if isinstance(log, MeansOfBlocks) else log
+    per_row = 1 if not isinstance(log, MeansOfBlocks) else log.rows_per_mean
+    every = max(1, rows.n // _THIN_ROWS)
+    time_s = np.asarray(rows.time_s)
+    thin = BenchLog(columns={k: np.asarray(v)[::every] for k, v in rows.columns.items()
+                             if k in ("time_s", "drift_deg_h", "temperature_C", *FIELD_COLUMNS)
+                             or k in rows.extra_columns},
+                    extra_columns=rows.extra_columns)
+    try:
+        design = np.asarray(model.design(thin.inputs(t0_C=t0_C)))
+    except (KeyError, ValueError):
+        return False
+    y = np.asarray(thin.drift_deg_h)
+    index = model.parameter_names.index(
+        next(e for e in model.effects if e.name == "temperature_rate").parameters[0].name)
+    wd = float(np.linalg.lstsq(design, y, rcond=None)[0][index])
+    steps = np.diff(np.asarray(rows.drift_deg_h))
+    sample_var = per_row * float((1.4826 * np.median(np.abs(steps - np.median(steps)))) ** 2
+                                 / 2.0)
+    step = float(np.median(np.diff(time_s))) / per_row  # a sample's
+    window = rate_window_s if rate_window_s is not None else float(window_grid(time_s)[0])
+    samples = max(window / step, 2.0 * RATE_POLY_DEGREE + 1)
+    rate_var = (3600.0**2 * thermometer_var * 229.7 / (step**2 * samples**3))
+    return wd**2 * rate_var * samples < NEGLIGIBLE_EIV * max(sample_var, 1e-300)
+
+
+def _operator_fits(log: BenchLog | MeansOfBlocks, rate_window_s: float | None,
+                   cap: int) -> bool:
+    """Whether the rate estimator on the rows fitted (at most ``cap`` block means of
+    ``log``; at the shortest window it may use) can be written as a matrix
+    (:func:`~gyroid.models._derived.temperature_rate_operator`): a log of bursts spreads
+    its grid over the gaps."""
+    rows = log.log if isinstance(log, MeansOfBlocks) else log
+    time_s = np.asarray(rows.time_s)
+    window = rate_window_s if rate_window_s is not None else float(window_grid(time_s)[0])
+    per_row = estimator_grid_size(time_s, window) / max(rows.n, 1)
+    return max(1.0, per_row) * min(rows.n, cap) <= MAX_OPERATOR_ROWS

@@ -7,7 +7,8 @@
 2. Levenberg-Marquardt (optimistix) on the noise-weighted residuals plus standardised prior
    residuals, from the best starts; the white-noise level, when unknown, is the residual
    RMS with ``n - p`` degrees of freedom.
-3. With the correlated (``white+gm``) noise model, BFGS on the full log-posterior.
+3. With a correlated noise model (``white+gm``, or white noise with the thermometer's
+   noise carried through dT/dt), BFGS on the full log-posterior.
 
 A model linear in its parameters with white noise needs none of this: its mode and
 covariance follow in closed form from the sufficient statistics (``_linear_gaussian``).
@@ -172,7 +173,7 @@ def _linear_gaussian(problem: BenchDensity) -> PointEstimate:
     covariance = np.linalg.inv(gram / scale**2 + np.diag(precision))
     u, cov = theta, covariance
     if problem.noise_names:
-        noise_u = np.array([math.log(scale)])
+        noise_u = np.array([math.log(scale / problem.row_scale)])  # a sample's sd
         u = np.concatenate([theta, noise_u])
         cov = _block_diag(covariance, np.array([[1.0 / (2.0 * max(n - p, 1))]]))
     x, sd = natural_with_sd(u, cov, problem.positive)
@@ -240,7 +241,7 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3) -> PointEstima
     collapsed = collapse(problem) if problem.noise != "white" else None
     if collapsed is not None:
         u, covariance, converged, message = _collapsed_mode(collapsed, u[:p], u[p:])
-    elif problem.noise != "white":
+    elif problem.noise != "white" or problem.errors_in_variables:
         value, result, hessian = _bfgs(problem, jnp.asarray(u))
         u = np.asarray(value)
         converged, message = _message(result)
@@ -273,7 +274,7 @@ def _noise_start(problem: BenchDensity, residual: np.ndarray, white: float):
         if name == "sigma_deg_h":
             # High-frequency level: first differences remove slow correlated parts.
             level = white if problem.noise == "white" else np.std(np.diff(residual)) / math.sqrt(2)
-            values.append(math.log(max(level, 1e-12)))
+            values.append(math.log(max(level / problem.row_scale, 1e-12)))  # a sample's
             variances.append(1.0 / (2.0 * dof))
         elif name == "sigma_gm_deg_h":
             values.append(math.log(max(0.3 * np.std(residual), 1e-6)))

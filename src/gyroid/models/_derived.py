@@ -48,42 +48,49 @@ EDGE_DEGREE_LEVEL = 1e-3
 
 
 def _edge_slopes(window: np.ndarray, x: np.ndarray, half: int, degree: int,
-                 reference: float) -> np.ndarray:
-    """Slopes at the first ``half`` positions of ``window`` (one end of the log).
+                 reference: float, floor: int | None = None) -> tuple[np.ndarray, int]:
+    """Slopes at the first ``half`` positions of ``window`` (one end of the log), and the
+    lowest degree used there.
 
     The lowest degree the window supports (an F test against ``degree``) is the floor, so
     the slope is unbiased as far as the data can tell; above it, each position takes the
     highest degree whose slope is no noisier than the interior's (``reference``): a degree-5
     slope at the window's very end is 8 times noisier than at its centre, and that error,
-    correlated over the half window, would masquerade as a start-up transient."""
-    from scipy.stats import f as f_dist
-
+    correlated over the half window, would masquerade as a start-up transient. A given
+    ``floor`` skips the test: the slopes are then linear in ``window`` (which may then be
+    ``(width, k)``: k columns at once)."""
     fits = {p: _edge_fit(window, x[:half], x, p) for p in range(1, degree + 1)}
-    dof = window.size - degree - 1
-    noise_var = max(fits[degree][2] / dof, 1e-12 * max(float(np.var(window)), 1.0))
-    floor = degree
-    for p in range(1, degree):
-        statistic = (fits[p][2] - fits[degree][2]) / (degree - p) / noise_var
-        if statistic < f_dist.ppf(1.0 - EDGE_DEGREE_LEVEL, degree - p, dof):
-            floor = p
-            break
-    out = np.zeros(half)
+    if floor is None:
+        from scipy.stats import f as f_dist
+
+        dof = window.size - degree - 1
+        noise_var = max(fits[degree][2] / dof, 1e-12 * max(float(np.var(window)), 1.0))
+        floor = degree
+        for p in range(1, degree):
+            statistic = (fits[p][2] - fits[degree][2]) / (degree - p) / noise_var
+            if statistic < f_dist.ppf(1.0 - EDGE_DEGREE_LEVEL, degree - p, dof):
+                floor = p
+                break
+    out = np.zeros((half, *window.shape[1:]))
     chosen = np.zeros(half, dtype=bool)
     for p in range(degree, floor - 1, -1):
         slope, variance, _ = fits[p]
         use = ~chosen if p == floor else ~chosen & (variance <= reference * (1.0 + 1e-9))
         out[use] = slope[use]
         chosen |= use
-    return out
+    return out, floor
 
 
-def _local_polynomial_slope(values: np.ndarray, half: int, degree: int, step: float) -> np.ndarray:
-    """Slope of a local least-squares polynomial over ``2 half + 1`` uniform samples.
+def _local_polynomial_slope(values: np.ndarray, half: int, degree: int, step: float,
+                            floors: tuple[int, int] | None = None
+                            ) -> tuple[np.ndarray, tuple[int, int]]:
+    """Slope of a local least-squares polynomial over ``2 half + 1`` uniform samples, and
+    the degree floors chosen at the two ends.
 
     Positions are scaled to [-1, 1] so the fit stays well conditioned for long windows; the
     interior is one FFT convolution. The first and last ``half`` samples take the slope of a
     polynomial fitted to the first or last full window (:func:`_edge_slopes` chooses its
-    degree).
+    degree, unless ``floors`` gives them).
     """
     from scipy.signal import oaconvolve  # here: importing scipy.signal costs 0.7 s at start-up
 
@@ -93,13 +100,16 @@ def _local_polynomial_slope(values: np.ndarray, half: int, degree: int, step: fl
     centre = np.linalg.pinv(vander)[1]  # values -> the slope at the window's centre
     reference = float(centre @ centre)
     scale = 1.0 / (half * step)
-    out = np.empty(values.size)
-    out[half : values.size - half] = oaconvolve(values, centre[::-1] * scale, mode="valid")
-    out[:half] = _edge_slopes(values[:width], x, half, degree, reference) * scale
+    first, last = (None, None) if floors is None else floors
+    out = np.empty(values.shape)
+    kernel = (centre[::-1] * scale).reshape(-1, *([1] * (values.ndim - 1)))
+    out[half : values.shape[0] - half] = oaconvolve(values, kernel, mode="valid", axes=0)
+    head, first = _edge_slopes(values[:width], x, half, degree, reference, first)
+    out[:half] = head * scale
     # The last window read backwards is a first window with the slope's sign flipped.
-    last = _edge_slopes(values[-width:][::-1], x, half, degree, reference)
-    out[values.size - half :] = -last[::-1] * scale
-    return out
+    tail, last = _edge_slopes(values[-width:][::-1], x, half, degree, reference, last)
+    out[values.shape[0] - half :] = -tail[::-1] * scale
+    return out, (first, last)
 
 
 def temperature_rate_deg_c_per_h(
@@ -131,11 +141,19 @@ def temperature_rate_deg_c_per_h(
     smoothing far inside the window) and interpolated back: the cost stays that of the
     binning, whatever the rate.
     """
+    return _rate_and_floors(time_s, temperature_C, window_s)[0]
+
+
+def _rate_and_floors(time_s: np.ndarray, temperature_C: np.ndarray, window_s: float,
+                     floors: tuple[int, int] | None = None
+                     ) -> tuple[np.ndarray, tuple[int, int] | None]:
+    """:func:`temperature_rate_deg_c_per_h` and the end windows' degree floors it chose
+    (given ``floors``: used, and the estimate is linear in ``temperature_C``)."""
     time_s = np.asarray(time_s, dtype=float)
     temperature_C = np.asarray(temperature_C, dtype=float)
     n = time_s.size
     if n < 2:
-        return np.zeros(n)
+        return np.zeros(n), None
     steps = np.diff(time_s)
     step = float(np.median(steps))
     uniform = bool(steps.min() >= step * (1 - 1e-6) and steps.max() <= step * (1 + 1e-6))
@@ -149,16 +167,17 @@ def temperature_rate_deg_c_per_h(
         counts = np.bincount(bins)
         full = counts > 0
         centres = (np.bincount(bins, weights=time_s)[full] / counts[full])
-        means = np.bincount(bins, weights=temperature_C)[full] / counts[full]
+        means = _bin_sums(bins, temperature_C, counts.size)[full] / _column(counts[full],
+                                                                          temperature_C)
         grid_t = time_s[0] + step * (np.arange(counts.size) + 0.5)
-        grid_T = np.interp(grid_t, centres, means)
+        grid_T = _interp(grid_t, centres, means)
         uniform = False
     elif uniform:
         grid_t, grid_T = time_s, temperature_C
     else:
         m = int(np.floor((time_s[-1] - time_s[0]) / step)) + 1
         grid_t = time_s[0] + step * np.arange(m)
-        grid_T = np.interp(grid_t, time_s, temperature_C)
+        grid_T = _interp(grid_t, time_s, temperature_C)
     half = max(int(round(window_s / step / 2.0)), RATE_POLY_DEGREE)
     degree = RATE_POLY_DEGREE
     if 2 * half + 1 > grid_t.size:
@@ -166,11 +185,77 @@ def temperature_rate_deg_c_per_h(
         degree = min(RATE_POLY_DEGREE, 2 * half - 1)
     if degree < 1:
         slope = (grid_T[-1] - grid_T[0]) / (grid_t[-1] - grid_t[0])
-        return np.full(n, slope * 3600.0)
-    rate = _local_polynomial_slope(grid_T, half, degree, step / 3600.0)
+        return np.broadcast_to(slope * 3600.0, temperature_C.shape).copy(), None
+    rate, floors = _local_polynomial_slope(grid_T, half, degree, step / 3600.0, floors)
     if uniform:
-        return rate
-    return np.interp(time_s, grid_t, rate)
+        return rate, floors
+    return _interp(time_s, grid_t, rate), floors
+
+
+def _column(values: np.ndarray, like: np.ndarray) -> np.ndarray:
+    """``values`` shaped to divide the rows of ``like`` (1-D or (n, k))."""
+    return values if like.ndim == 1 else values[:, None]
+
+
+def _bin_sums(bins: np.ndarray, values: np.ndarray, size: int) -> np.ndarray:
+    """Sums of ``values`` (1-D or (n, k)) per bin."""
+    if values.ndim == 1:
+        return np.bincount(bins, weights=values, minlength=size)
+    out = np.zeros((size, values.shape[1]))
+    np.add.at(out, bins, values)
+    return out
+
+
+def _interp(x: np.ndarray, xp: np.ndarray, fp: np.ndarray) -> np.ndarray:
+    """``np.interp`` of each column of ``fp`` (1-D or (n, k))."""
+    if fp.ndim == 1:
+        return np.interp(x, xp, fp)
+    upper = np.clip(np.searchsorted(xp, x, side="right"), 1, xp.size - 1)
+    lower = upper - 1
+    fraction = np.clip((x - xp[lower]) / (xp[upper] - xp[lower]), 0.0, 1.0)[:, None]
+    return fp[lower] * (1.0 - fraction) + fp[upper] * fraction
+
+
+#: The most rows, and grid points, whose rate estimator :func:`temperature_rate_operator`
+#: writes as a matrix.
+MAX_OPERATOR_ROWS = 4000
+
+
+def estimator_grid_size(time_s: np.ndarray, window_s: float) -> int:
+    """How many points the rate estimator differentiates on for this clock: the rows of a
+    uniform log, else its uniform grid (a log of bursts: the whole span at the bursts'
+    step, or bins of ``window_s / MAX_WINDOW_SAMPLES``)."""
+    time_s = np.asarray(time_s, dtype=float)
+    if time_s.size < 2:
+        return time_s.size
+    steps = np.diff(time_s)
+    step = float(np.median(steps))
+    if window_s / step > MAX_WINDOW_SAMPLES:
+        return int((time_s[-1] - time_s[0]) / (window_s / MAX_WINDOW_SAMPLES)) + 1
+    if steps.min() >= step * (1 - 1e-6) and steps.max() <= step * (1 + 1e-6):
+        return time_s.size
+    return int(np.floor((time_s[-1] - time_s[0]) / step)) + 1
+
+
+def temperature_rate_operator(
+    time_s: Float[np.ndarray, " n"],
+    temperature_C: Float[np.ndarray, " n"],
+    window_s: float = RATE_WINDOW_S,
+) -> Float[np.ndarray, "n n"]:
+    """The rate estimator on this log as a matrix ``L`` (degC/h per degC): ``L @
+    temperature_C`` is :func:`temperature_rate_deg_c_per_h`'s estimate, and ``L @ e`` the
+    rate error a thermometer error ``e`` causes. The estimator is linear in the temperature
+    once its one data-dependent choice is made (the degree floor of each end window), and
+    that choice is the data's. At most :data:`MAX_OPERATOR_ROWS` rows and grid points
+    (:func:`estimator_grid_size`; a log of block means)."""
+    time_s = np.asarray(time_s, dtype=float)
+    n = time_s.size
+    grid = estimator_grid_size(time_s, window_s)
+    if max(n, grid) > MAX_OPERATOR_ROWS:
+        raise ValueError(f"the rate operator of {n} rows on a grid of {grid} (at most "
+                         f"{MAX_OPERATOR_ROWS})")
+    _, floors = _rate_and_floors(time_s, temperature_C, window_s)
+    return _rate_and_floors(time_s, np.eye(n), window_s, floors)[0]
 
 
 def field_change_sign(

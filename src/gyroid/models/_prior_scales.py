@@ -84,9 +84,11 @@ def log_scales(drift_deg_h: np.ndarray) -> tuple[float, float]:
     return d, max(h, 1e-6 * d, tiny)
 
 
-def default_priors(model: DriftModel, inputs: DriftInputs, drift_deg_h: np.ndarray
-                   ) -> tuple[dict[str, Prior], PriorBasis]:
-    """The default log-scaled priors of the model's and the noise's parameters."""
+def default_priors(model: DriftModel, inputs: DriftInputs, drift_deg_h: np.ndarray,
+                   rows_per_mean: int = 1) -> tuple[dict[str, Prior], PriorBasis]:
+    """The default log-scaled priors of the model's and the noise's parameters
+    (``rows_per_mean``: samples behind each row of a log of block means; ``sigma_deg_h`` is
+    a sample's)."""
     d, h = log_scales(drift_deg_h)
     priors: dict[str, Prior] = {}
     spans: dict[str, float] = {}
@@ -100,7 +102,7 @@ def default_priors(model: DriftModel, inputs: DriftInputs, drift_deg_h: np.ndarr
             span = max(float(seen), p.span)
             spans[p.name] = span
             priors[p.name] = Normal(0.0, SCALE_FACTOR * d / span)
-    priors["sigma_deg_h"] = LogNormal(h, 3.0)
+    priors["sigma_deg_h"] = LogNormal(h * math.sqrt(rows_per_mean), 3.0)
     priors["sigma_gm_deg_h"] = LogNormal(h / 3.0, 3.0)
     priors["tau_gm_s"] = FOG_NOISE_PRIORS["tau_gm_s"]
     time_s = 3600.0 * np.asarray(inputs.time_h)
@@ -194,14 +196,14 @@ def identifiability_hints(model: DriftModel, inputs: DriftInputs) -> dict[str, s
 
 def choose_priors(model: DriftModel, inputs: DriftInputs, drift_deg_h: np.ndarray,
                   noise_names: tuple[str, ...], *, prior_set: str = "default",
-                  overrides: Mapping[str, Prior] | None = None
+                  overrides: Mapping[str, Prior] | None = None, rows_per_mean: int = 1
                   ) -> tuple[tuple[Prior, ...], PriorBasis]:
     """Priors in sampling order (model parameters, then noise) for a prior set and
     per-parameter overrides. Noise parameters keep proper priors under ``flat``."""
     if prior_set not in PRIOR_SETS:
         raise GyroidInputError(f"--priors {prior_set!r}: use one of {', '.join(PRIOR_SETS)} "
                                "or a .toml file")
-    scaled, basis = default_priors(model, inputs, drift_deg_h)
+    scaled, basis = default_priors(model, inputs, drift_deg_h, rows_per_mean)
     overrides = dict(overrides or {})
     unknown = set(overrides) - set(model.parameter_names) - set(noise_names)
     if unknown:

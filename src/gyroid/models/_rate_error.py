@@ -1,0 +1,89 @@
+"""The thermometer's noise carried into the estimated dT/dt (errors in variables).
+
+The drift model reads dT/dt estimated from a logged temperature ``T + e``. The estimator is
+linear in the temperature (:func:`~gyroid.models._derived.temperature_rate_operator`, ``L``),
+so the rate it gives is the true rate's estimate plus ``L e``: a thermometer noise that is
+white at the sample scale becomes a rate error correlated over the estimator's window, and
+``wD L e`` enters the drift residuals. With white thermometer noise of variance ``v`` per row
+the rate error's covariance is ``v L L'`` ((degC/h)^2); the drift likelihood adds ``wD^2``
+times it (:class:`~gyroid.inference._bench_density.BenchDensity`).
+
+What is left out, and why: the temperature error's direct effect on ``w1 t + w2 t^2`` is
+``(w1 + 2 w2 t) e``, white, and about ``w1 sT`` (1e-3 deg/h for paper A's gyro and a
+0.01 degC thermometer): it is absorbed into the white level. The error's effect on the
+rate coefficient's *estimate* (attenuation by var(rate) / (var(rate) + var(L e))) is below
+1e-4 on a bench whose rate spans a few degC/h; it is not corrected.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from gyroid.models._derived import temperature_rate_operator
+
+#: Rows are aggregated by these factors when the thermometer's noise is measured on the
+#: samples; the largest estimate is kept (see :func:`thermometer_noise_var`).
+AGGREGATIONS = (1, 2, 4, 8, 16, 32)
+#: ... but means over no more than this many seconds: over longer ones a temperature's
+#: own curvature shows (a 15 degC cycle of 100 min, read over 320 s, looks like 0.5 degC of
+#: noise).
+MAX_AGGREGATION_S = 20.0
+#: Fewest third differences an aggregation's estimate uses.
+MIN_DIFFERENCES = 100
+#: Binomial weight of a third difference of white noise: 1 + 9 + 9 + 1.
+_THIRD_DIFFERENCE_GAIN = 20.0
+
+
+def _third_difference_var(time_s: np.ndarray, temperature_C: np.ndarray) -> float | None:
+    """The white-noise variance behind the third differences of ``temperature_C`` over
+    steps of the median length (differences across a gap are left out); None when there
+    are too few."""
+    steps = np.diff(time_s)
+    if steps.size < 3:
+        return None
+    step = float(np.median(steps))
+    regular = np.abs(steps - step) <= 0.01 * step
+    usable = regular[:-2] & regular[1:-1] & regular[2:]
+    if np.count_nonzero(usable) < MIN_DIFFERENCES:
+        return None
+    third = np.diff(temperature_C, n=3)[usable]
+    return float(np.mean(third**2) / _THIRD_DIFFERENCE_GAIN)
+
+
+def thermometer_noise_var(time_s: np.ndarray, temperature_C: np.ndarray,
+                          aggregations: tuple[int, ...] = AGGREGATIONS) -> float:
+    """The variance of the thermometer's white noise in one row, degC^2 (0 for a temperature
+    with no high-frequency content).
+
+    Third differences remove a temperature that is locally quadratic or smoother, and a
+    white noise of variance ``v`` gives them variance ``20 v``. A thermometer that updates
+    more slowly than the log (each value held, or interpolated, over ``u`` rows) looks
+    quieter at the row scale than it is over a window: the estimate is repeated on means of
+    ``k`` rows (``aggregations``, spanning at most :data:`MAX_AGGREGATION_S`; times ``k``)
+    and the largest kept; on paper A's bench at 1 Hz, a value held for 10 rows is read at
+    0.8 of its low-frequency level, a white one at 1.02. Longer holds are underestimated
+    (the whiteness check then still sees the rest). On rows that are already means over
+    tens of seconds, aggregate no further (``aggregations=(1,)``): a temperature's
+    curvature dominates there."""
+    time_s = np.asarray(time_s, dtype=float)
+    temperature_C = np.asarray(temperature_C, dtype=float)
+    estimates = [0.0]
+    step = float(np.median(np.diff(time_s))) if time_s.size > 1 else 0.0
+    for k in aggregations:
+        rows = (time_s.size // k) * k
+        if rows < 4 * k or (k > 1 and k * step > MAX_AGGREGATION_S):
+            break
+        estimate = _third_difference_var(time_s[:rows].reshape(-1, k).mean(axis=1),
+                                         temperature_C[:rows].reshape(-1, k).mean(axis=1))
+        if estimate is not None:
+            estimates.append(k * estimate)
+    return max(estimates)
+
+
+def rate_error_covariance(time_s: np.ndarray, temperature_C: np.ndarray, window_s: float,
+                          noise_var_C2: float) -> np.ndarray:
+    """Covariance of the estimated dT/dt's error at every row, (degC/h)^2: ``v L L'`` for a
+    white thermometer noise of variance ``noise_var_C2`` per row (at most
+    :data:`~gyroid.models._derived.MAX_OPERATOR_ROWS` rows)."""
+    operator = temperature_rate_operator(time_s, temperature_C, window_s)
+    return noise_var_C2 * (operator @ operator.T)
