@@ -1,6 +1,7 @@
 """Simulation-based calibration of gyroid's posterior on paper A's benches.
 
-Truth drawn from the priors; a short bench simulated per draw and written as a log; the
+Truth drawn from the priors; a short bench simulated per draw and written as a log (the
+thermal case with a noisy thermometer, whose error reaches dT/dt: errors in variables); the
 logs fitted by ``gyroid batch``'s runner (Dask, one full fit per log: point estimate, emcee,
 checks, posterior.nc); rank of the truth among each posterior's draws and coverage of the
 50 / 90 / 95 % intervals recorded. Two cases: magnetic sweep with known sigma (linear-
@@ -32,7 +33,7 @@ from gyroid.io import (  # noqa: E402
     run_labels,
     write_bench_log,
 )
-from gyroid.models import LogNormal  # noqa: E402
+from gyroid.models import RATE_WINDOW_S, LogNormal  # noqa: E402
 from gyroid.pipeline import FitOptions, run_batch  # noqa: E402
 from gyroid.simulation import (  # noqa: E402
     MagneticProtocol,
@@ -47,6 +48,7 @@ LEVELS = (0.5, 0.9, 0.95)
 THERMAL = ThermalProtocol(setpoints_C=(31.0, 40.0, 55.0), soak_min=30.0, sample_s=10.0)
 MAGNETIC = MagneticProtocol(dwell_s=60.0, sample_s=5.0, turn_gap_s=100.0)
 SIGMA_PRIOR = LogNormal(0.2, 0.3)  # deg/h, for the unknown-noise case
+THERMOMETER_C = 0.01  # the thermal case's thermometer noise, degC
 #: Grey level and line style per parameter: the histograms read in black and white.
 STYLES = (("0.0", "-"), ("0.45", "--"), ("0.0", ":"), ("0.6", "-"), ("0.3", "-."))
 
@@ -63,17 +65,22 @@ def draw_case(case: str, rng: np.random.Generator, seed: int):
     sigma = float(np.exp(rng.normal(np.log(SIGMA_PRIOR.median), SIGMA_PRIOR.log_sd)))
     truth = {"w0": rng.normal(0, 10), "w1": rng.normal(0, 1), "w2": rng.normal(0, 0.1),
              "wD": rng.normal(0, 10)}
-    # Data from the model as the fit sees it: the drift is computed from the *logged*
-    # temperature's derived inputs (the estimated dT/dt), so SBC checks the inference alone.
-    # (Simulating with the analytic dT/dt instead adds the rate estimator's smoothing bias,
-    # which with |wD| ~ 10 and 10-15 degC steps is several posterior sds: see README.)
+    # Data from the model as the fit sees it: the drift responds to the dT/dt the estimator
+    # (at the fit's window) gives on the *true* temperature, and the log's temperature
+    # carries a 0.01 degC thermometer noise, which reaches the fit's dT/dt through the
+    # estimator: the errors in variables the white likelihood carries. (Simulating with the
+    # analytic dT/dt instead adds the estimator's smoothing bias, which with |wD| ~ 10 and
+    # 10-15 degC steps is several posterior sds: see README.)
     sim = simulate_thermal_bench(parameters=truth, protocol=THERMAL, seed=seed,
-                                 noise=GyroNoise(arw_deg_rt_h=0.0))
+                                 noise=GyroNoise(arw_deg_rt_h=0.0, temperature_noise_C=0.0))
     model = DriftModel.from_terms("thermal")
     clean = np.asarray(model.predict(jnp.asarray([truth[n] for n in model.parameter_names]),
-                                     sim.log.inputs()))
+                                     sim.log.inputs(rate_window_s=RATE_WINDOW_S)))
+    noise = np.random.default_rng(seed)
     columns = dict(sim.log.columns)
-    columns["drift_deg_h"] = clean + sigma * np.random.default_rng(seed).standard_normal(clean.size)
+    columns["drift_deg_h"] = clean + sigma * noise.standard_normal(clean.size)
+    columns["temperature_C"] = (np.asarray(columns["temperature_C"])
+                                + THERMOMETER_C * noise.standard_normal(clean.size))
     truth["sigma_deg_h"] = sigma
     return BenchLog(columns=columns), "thermal", truth, {"sigma_deg_h": SIGMA_PRIOR}
 
@@ -104,8 +111,10 @@ def main() -> None:
             # truth is drawn from paper A's FOG priors, so the fits use them too. The data's
             # noise is white, and so is the fitted model (not auto: a false alarm of the
             # white fit's checks would change the estimator under calibration).
+            # The dT/dt window is the one the data were made with: the window's choice is
+            # not what is calibrated here.
             options = FitOptions(terms=terms, seed=args.seed, prior_set="paper_a_fog",
-                                 priors=priors, noise="white")
+                                 priors=priors, noise="white", rate_window_s=RATE_WINDOW_S)
             batch = run_batch(paths, options, folder / "fits", workers=args.workers,
                               progress=lambda m: print(m, flush=True) if m.startswith(
                                   f"[{args.datasets}/") else None)

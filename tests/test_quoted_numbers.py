@@ -190,3 +190,27 @@ def test_the_streamed_fit_of_a_log_too_long_to_hold():
     _quoted("White noise on the means passed its checks, and the four coefficients lie "
             f"within {math.ceil(10 * worst) / 10:.1f} posterior sd of the truths")
     assert all(not row["fit_streamed"]["failed"] for row in rows)
+
+
+def test_the_thermometer_carried_into_dt_dt():
+    runs = _results("eiv_calibration")
+    n = 30
+
+    def count(fraction):
+        return round(fraction * n)
+
+    fine, noisy = runs["thermometer_0.01C"], runs["thermometer_0.05C"]
+    carried, left = fine["carried"], fine["left_out"]
+    worst = max(count(f) for f in carried["outside_95"].values())
+    assert carried["trustworthy"] == 1.0 and carried["whiteness_failed"] == 0.0
+    assert worst <= 2  # the binomial 95 % band for 30 at 5 % reaches 4
+    _quoted(f"are {count(carried['trustworthy'])} of {n} trusted, none fails whiteness, and "
+            f"at most {worst} of {n} truths fall outside",
+            f"wD's z-scores average +{carried['z_mean']['wD']:.2f}",
+            f"left out, {count(left['whiteness_failed'])} of {n} fail whiteness "
+            f"({count(left['trustworthy'])} of {n} trusted)",
+            f"carried, {count(noisy['carried']['trustworthy'])} of {n} trusted and at most "
+            f"{max(count(f) for f in noisy['carried']['outside_95'].values())} of {n} outside",
+            f"left out, none trusted (wD's estimate averages "
+            f"{noisy['left_out']['z_mean']['wD']:.1f} sd")
+    assert noisy["left_out"]["trustworthy"] == 0.0

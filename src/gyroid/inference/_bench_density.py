@@ -79,7 +79,8 @@ class BenchDensity(eqx.Module):
     noise: str = eqx.field(static=True)
     n_blocks: int = eqx.field(static=True)
     step_s: float = eqx.field(static=True)
-    rate_window_s: float = eqx.field(static=True, default=RATE_WINDOW_S)
+    #: An array, not a static field: logs whose chosen windows differ share a compilation.
+    rate_window_s: Float[Array, ""] | float = RATE_WINDOW_S
     # Linear-Gaussian fast path: (X'WX, weighted LS solution, residual sum at it).
     gram: Float[Array, "p p"] | None = None
     solution: Float[Array, " p"] | None = None
@@ -117,7 +118,6 @@ class BenchDensity(eqx.Module):
     eiv_y: Float[Array, " n"] | None = None  # W drift
     eiv_x: Float[Array, "n p"] | None = None  # W design (a linear model)
     eiv_index: int = eqx.field(static=True, default=-1)  # wD among the parameters
-    thermometer_sd_C: float = eqx.field(static=True, default=0.0)  # a sample's, degC
 
     @classmethod
     def from_log(
@@ -132,14 +132,13 @@ class BenchDensity(eqx.Module):
         fast: bool = True,
         rows_per_mean: int = 1,
         rate_error_cov: np.ndarray | None = None,
-        thermometer_sd_C: float = 0.0,
     ) -> BenchDensity:
         """The density of ``model`` on ``log`` (whose model inputs are ``inputs``) with
         ``priors`` (model parameters, then the noise model's, in sampling order).
         ``rows_per_mean``: samples behind each row (a log of block means);
         ``rate_error_cov``: under white noise, the covariance of the dT/dt error that the
-        thermometer's noise (``thermometer_sd_C``, a sample's) causes at the rows, carried
-        into the likelihood (errors in variables)."""
+        thermometer's noise causes at the rows, carried into the likelihood (errors in
+        variables)."""
         if noise not in NOISE_MODELS:
             raise GyroidInputError(f"--noise must be one of {', '.join(NOISE_MODELS)}")
         time_s = np.asarray(log.time_s)
@@ -159,8 +158,7 @@ class BenchDensity(eqx.Module):
                 raise ValueError("errors in variables: white noise and a model reading dT/dt")
             rate = next(e for e in model.effects if e.name == "temperature_rate")
             ieee = {"rate_error_cov": jnp.asarray(rate_error_cov),
-                    "eiv_index": model.parameter_names.index(rate.parameters[0].name),
-                    "thermometer_sd_C": float(thermometer_sd_C)}
+                    "eiv_index": model.parameter_names.index(rate.parameters[0].name)}
         if noise == IEEE_NOISE:
             taus, unit = flicker_times(step, duration + step)
             ieee = {"gap_s": jnp.asarray(np.maximum(np.concatenate([[0.0], steps]) - step,
@@ -179,7 +177,7 @@ class BenchDensity(eqx.Module):
             noise=noise,
             n_blocks=int(block.max()) + 1,
             step_s=step,
-            rate_window_s=float(rate_window_s),
+            rate_window_s=jnp.asarray(float(rate_window_s)),
             row_scale=1.0 / math.sqrt(rows_per_mean),
             **ieee,
         )

@@ -158,8 +158,7 @@ class BenchProblem(AbstractProblem):
                                                rate_window_s, thermometer_var / block_rows)
         density = BenchDensity.from_log(log, model, chosen, inputs, noise=noise,
                                         rate_window_s=rate_window_s, fast=fast,
-                                        rows_per_mean=block_rows, rate_error_cov=rate_error,
-                                        thermometer_sd_C=math.sqrt(thermometer_var))
+                                        rows_per_mean=block_rows, rate_error_cov=rate_error)
         return cls(density=density, log=log, prior_set=chosen_set, prior_basis=basis,
                    rate_window_choice=choice, block_rows=block_rows, segments=samples,
                    thermometer_sd_C=math.sqrt(thermometer_var))
@@ -207,7 +206,7 @@ class BenchProblem(AbstractProblem):
 
     @property
     def rate_window_s(self) -> float:
-        return self.density.rate_window_s
+        return float(self.density.rate_window_s)
 
     @property
     def sigma_known(self) -> bool:

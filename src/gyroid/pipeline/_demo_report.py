@@ -71,6 +71,21 @@ def _benches_section(report: Report, study: _Study) -> None:
                   "against time; the gap is the azimuth turn before OZ.")
 
 
+def _carried(fit) -> str:
+    """What the white likelihood carries of the thermometer's noise, if anything."""
+    carried = fit.errors_in_variables
+    if carried is None:
+        return ""
+    means = fit.block_means
+    rows = (f" It is fitted on {means['means']} means of {means['rows_per_mean']} samples, "
+            "over which that covariance is held." if means else "")
+    return (f" The likelihood carries the thermometer's noise ({carried['thermometer_sd_C']:.3f}"
+            " degC, measured on the log) through the dT/dt estimator as a covariance "
+            "wD^2 v L L' (errors in variables): without it the white residuals fail their "
+            f"whiteness check, since wD times the rate's error is correlated over the "
+            f"estimator's {fit.problem.rate_window_s:.0f} s window.{rows}")
+
+
 def _fits_section(report: Report, study: _Study) -> None:
     tf, mf = study.fits["thermal"], study.fits["magnetic"]
     magnetic = study.benches["magnetic"]
@@ -79,7 +94,7 @@ def _fits_section(report: Report, study: _Study) -> None:
         f"Thermal model `{','.join(tf.problem.model.terms)}`; noise model "
         f"`{tf.problem.noise}` ({tf.noise_choice or 'asked for'}), its levels sampled "
         f"({_noise_levels(tf)}); {tf.posterior.n_steps} emcee steps x "
-        f"{tf.posterior.draws.shape[0]} walkers; files `thermal/fit/`.", "",
+        f"{tf.posterior.draws.shape[0]} walkers; files `thermal/fit/`.{_carried(tf)}", "",
         *_fit_table(tf, study.benches["thermal"].truth["parameters"]), "",
         *_check_lines("thermal", tf.checks))
     report.figure("thermal/fit/pair", "Posterior of the thermal coefficients (truth dashed). "
