@@ -393,7 +393,9 @@ class BenchDensity(eqx.Module):
     def _covariance(self, u: Float[Array, " d"]) -> Float[Array, "n n"]:
         """The rows' noise covariance under errors in variables, (deg/h)^2."""
         s2, a2 = self._eiv_levels(u)
-        return jnp.diag(s2 * jnp.asarray(self._white_d0())) + a2 * self.rate_error_cov
+        d0 = (self.sigma**2 if self.sigma is not None
+              else jnp.full(self.n, self.row_scale**2))  # as _white_d0, traceable
+        return jnp.diag(s2 * d0) + a2 * self.rate_error_cov
 
     def _eiv_projection(self, u: Float[Array, " d"]):
         """The residual in the eigenbasis and each coordinate's variance."""

@@ -107,14 +107,10 @@ class BenchProblem(AbstractProblem):
         block_rows = 1
         cap = IEEE_MAX_ROWS if max_rows is None else max_rows
         model = terms if isinstance(terms, DriftModel) else DriftModel.from_terms(terms)
-        thermometer_var = 0.0  # a sample's, degC^2
+        thermometer_var = 0.0  # a sample's, degC^2: the thermometer's noise to carry
         if (errors_in_variables and noise == "white" and not segment_means
                 and reads_rate(model)):
-            thermometer_var = _thermometer_var(log)
-            if thermometer_var > 0 and (not _operator_fits(log, rate_window_s, cap)
-                                        or _negligible(log, model, thermometer_var,
-                                                       rate_window_s, t0_C)):
-                thermometer_var = 0.0
+            thermometer_var = _thermometer_to_carry(log, model, rate_window_s, t0_C, cap)
         if isinstance(log, MeansOfBlocks):
             if segment_means:
                 raise GyroidInputError(
@@ -274,6 +270,17 @@ class BenchProblem(AbstractProblem):
             "log_likelihood_note": "log_likelihood holds sums over blocks of rows "
                                    "(constant_data.loo_block): LOO leaves out whole blocks",
         }
+
+
+def _thermometer_to_carry(log: BenchLog | MeansOfBlocks, model: DriftModel,
+                          rate_window_s: float | None, t0_C: float, cap: int) -> float:
+    """The thermometer's noise to carry in the white likelihood (a sample's variance,
+    degC^2), or 0: none measured, a log of bursts, or negligible."""
+    variance = _thermometer_var(log)
+    if variance > 0 and (not _operator_fits(log, rate_window_s, cap)
+                         or _negligible(log, model, variance, rate_window_s, t0_C)):
+        return 0.0
+    return variance
 
 
 def _thermometer_var(log: BenchLog | MeansOfBlocks) -> float:

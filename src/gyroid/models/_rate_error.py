@@ -10,7 +10,10 @@ times it (:class:`~gyroid.inference._bench_density.BenchDensity`).
 
 What is left out, and why: the temperature error's direct effect on ``w1 t + w2 t^2`` is
 ``(w1 + 2 w2 t) e``, white, and about ``w1 sT`` (1e-3 deg/h for paper A's gyro and a
-0.01 degC thermometer): it is absorbed into the white level. The error's effect on the
+0.01 degC thermometer): it is absorbed into the white level, ``sigma_deg_h``, which then
+means the gyro's white noise and this together. Where it is not small (coefficients drawn
+from wide priors, ``|w1 + 2 w2 t|`` up to 7 deg/h/degC: experiments/sbc.py) sigma's
+posterior sits above the gyro's own level while the coefficients stay calibrated. The error's effect on the
 rate coefficient's *estimate* (attenuation by var(rate) / (var(rate) + var(L e))) is below
 1e-4 on a bench whose rate spans a few degC/h; it is not corrected.
 """
