@@ -207,6 +207,7 @@ class _Uncollapsed:
         return None
 
 
+@pytest.mark.slow
 def test_white_noise_likelihood_is_overconfident_on_correlated_noise():
     """On a log with bias instability, white-noise intervals are too narrow; white+gm's are
     right. 20 seeds: the sd of z = (estimate - truth) / sd is ~1 when calibrated (its

@@ -226,3 +226,12 @@ def test_the_thermometer_carried_into_dt_dt():
             f"left out, none trusted (wD's estimate averages "
             f"{noisy['left_out']['z_mean']['wD']:.1f} sd")
     assert noisy["left_out"]["trustworthy"] == 0.0
+
+
+def test_the_white_fits_that_carry_the_thermometer_pass_where_they_failed():
+    runs = json.loads((ROOT / "benchmarks" / "results_scaling_eiv.json").read_text())["results"]
+    assert [r["rows"] for r in runs] == [10_000, 100_000]
+    # the fits' verdicts and agreement, not their times (those are stated with their load)
+    assert all(r["fit"]["code"] == 0 and r["agree"] for r in runs)
+    _quoted("now exit 0 (the thermometer's noise carried into dT/dt, its residuals are white)",
+            "Both fits still agree.")

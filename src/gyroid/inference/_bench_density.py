@@ -46,6 +46,7 @@ from gyroid.models._drift import DriftModel
 from gyroid.models._inputs import DriftInputs
 from gyroid.models._prior_scales import FOG_NOISE_PRIORS
 from gyroid.models._priors import Flat, LogNormal, Normal, Prior, prior_arrays
+from gyroid.models._rate_error import rate_coefficient_index
 
 NOISE_MODELS = ("white", "white+gm", IEEE_NOISE)
 #: Paper A's FOG noise priors (densities on log x); the default priors are scaled to the log
@@ -156,9 +157,8 @@ class BenchDensity(eqx.Module):
         if rate_error_cov is not None:
             if noise != "white" or "temperature_rate" not in model.terms:
                 raise ValueError("errors in variables: white noise and a model reading dT/dt")
-            rate = next(e for e in model.effects if e.name == "temperature_rate")
             ieee = {"rate_error_cov": jnp.asarray(rate_error_cov),
-                    "eiv_index": model.parameter_names.index(rate.parameters[0].name)}
+                    "eiv_index": rate_coefficient_index(model)}
         if noise == IEEE_NOISE:
             taus, unit = flicker_times(step, duration + step)
             ieee = {"gap_s": jnp.asarray(np.maximum(np.concatenate([[0.0], steps]) - step,

@@ -36,7 +36,12 @@ from gyroid.models._prior_scales import (
     reference_sd,
 )
 from gyroid.models._priors import Prior
-from gyroid.models._rate_error import rate_error_covariance, thermometer_noise_var
+from gyroid.models._rate_error import (
+    rate_coefficient_index,
+    rate_error_covariance,
+    thermometer_noise_var,
+    white_level_var,
+)
 
 #: The most rows a white+flicker+rw fit filters, and the most a white fit carrying the
 #: thermometer's noise holds a covariance over (longer logs: block means).
@@ -328,12 +333,8 @@ def _negligible(log: BenchLog | MeansOfBlocks, model: DriftModel, thermometer_va
     except (KeyError, ValueError):
         return False
     y = np.asarray(thin.drift_deg_h)
-    index = model.parameter_names.index(
-        next(e for e in model.effects if e.name == "temperature_rate").parameters[0].name)
-    wd = float(np.linalg.lstsq(design, y, rcond=None)[0][index])
-    steps = np.diff(np.asarray(rows.drift_deg_h))
-    sample_var = per_row * float((1.4826 * np.median(np.abs(steps - np.median(steps)))) ** 2
-                                 / 2.0)
+    wd = float(np.linalg.lstsq(design, y, rcond=None)[0][rate_coefficient_index(model)])
+    sample_var = per_row * white_level_var(np.asarray(rows.drift_deg_h))
     step = float(np.median(np.diff(time_s))) / per_row  # a sample's
     window = rate_window_s if rate_window_s is not None else float(window_grid(time_s)[0])
     samples = max(window / step, 2.0 * RATE_POLY_DEGREE + 1)

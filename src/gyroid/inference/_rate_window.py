@@ -136,14 +136,13 @@ def _least_biased(log: BenchLog, model: DriftModel, inputs, windows: np.ndarray,
     move by ``wD G d``, less the part of ``d`` that is the two windows' noise (its
     covariance ``v (L_W - L_0)(L_W - L_0)'`` is known), over their posterior sd."""
     from gyroid.models._derived import temperature_rate_operator
+    from gyroid.models._rate_error import rate_coefficient_index, white_level_var
 
     time_s = np.asarray(log.time_s)
     temperature = np.asarray(log.columns["temperature_C"])
     y = np.asarray(log.drift_deg_h)
-    steps = np.diff(y)  # robustly: a kink in the rate is a jump in the drift
-    white = float((1.4826 * np.median(np.abs(steps - np.median(steps)))) ** 2 / 2.0)
-    index = model.parameter_names.index(
-        next(e for e in model.effects if e.name == "temperature_rate").parameters[0].name)
+    white = white_level_var(y)
+    index = rate_coefficient_index(model)
     reference = temperature_rate_operator(time_s, temperature, float(windows[0]))
     biases: dict[float, float] = {}
     for window in windows:

@@ -13,9 +13,9 @@ What is left out, and why: the temperature error's direct effect on ``w1 t + w2 
 0.01 degC thermometer): it is absorbed into the white level, ``sigma_deg_h``, which then
 means the gyro's white noise and this together. Where it is not small (coefficients drawn
 from wide priors, ``|w1 + 2 w2 t|`` up to 7 deg/h/degC: experiments/sbc.py) sigma's
-posterior sits above the gyro's own level while the coefficients stay calibrated. The error's effect on the
-rate coefficient's *estimate* (attenuation by var(rate) / (var(rate) + var(L e))) is below
-1e-4 on a bench whose rate spans a few degC/h; it is not corrected.
+posterior sits above the gyro's own level while the coefficients stay calibrated. The
+error's effect on the rate coefficient's *estimate* (attenuation by var(rate) / (var(rate)
++ var(L e))) is below 1e-4 on a bench whose rate spans a few degC/h; it is not corrected.
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from gyroid.models._derived import temperature_rate_operator
+from gyroid.models._drift import DriftModel
 
 #: Rows are aggregated by these factors when the thermometer's noise is measured on the
 #: samples; the largest estimate is kept (see :func:`thermometer_noise_var`).
@@ -90,3 +91,16 @@ def rate_error_covariance(time_s: np.ndarray, temperature_C: np.ndarray, window_
     :data:`~gyroid.models._derived.MAX_OPERATOR_ROWS` rows)."""
     operator = temperature_rate_operator(time_s, temperature_C, window_s)
     return noise_var_C2 * (operator @ operator.T)
+
+
+def rate_coefficient_index(model: DriftModel) -> int:
+    """Where the dT/dt coefficient (wD) sits among the model's parameters."""
+    effect = next(e for e in model.effects if e.name == "temperature_rate")
+    return model.parameter_names.index(effect.parameters[0].name)
+
+
+def white_level_var(drift_deg_h: np.ndarray) -> float:
+    """The white noise's variance from the drift's first differences, robustly (MAD): a
+    kink in dT/dt is a jump in the drift, and a few jumps must not set it. (deg/h)^2."""
+    steps = np.diff(np.asarray(drift_deg_h, dtype=float))
+    return float((1.4826 * np.median(np.abs(steps - np.median(steps)))) ** 2 / 2.0)
