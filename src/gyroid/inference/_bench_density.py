@@ -5,7 +5,10 @@ Sampling coordinates ``u``: model parameters in their own units, except positive
 (time constants) as ``log x``; noise parameters as logs. Noise models:
 
 * ``white``: independent Gaussian noise, sd from ``sigma_deg_h`` when the log has it,
-  otherwise one sampled level ``sigma_deg_h``;
+  otherwise one sampled level ``sigma_deg_h`` (a sample's, also when the rows are means);
+  for a model reading dT/dt on a log with a noisy thermometer, plus that noise carried
+  through the dT/dt estimator (errors in variables, :mod:`gyroid.models._rate_error`): a
+  covariance over the rows, exact in one eigenbasis;
 * ``white+gm``: white noise plus a first-order Gauss-Markov (AR(1)) part of sd
   ``sigma_gm_deg_h`` and correlation time ``tau_gm_s`` (the usual model of a FOG's bias
   instability). The exact Gaussian likelihood comes from the innovations of a Kalman
