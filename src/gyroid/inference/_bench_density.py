@@ -195,19 +195,19 @@ class BenchDensity(eqx.Module):
         """Whether the thermometer's noise in dT/dt is carried in the likelihood."""
         return self.rate_error_cov is not None
 
-    def _white_d0(self) -> np.ndarray:
+    def _white_d0(self) -> Float[Array, " n"]:
         """The white covariance's diagonal per unit of the sampled level (the known
-        variances when the log gives them)."""
+        variances when the log gives them); traceable."""
         if self.sigma is not None:
-            return np.asarray(self.sigma) ** 2
-        return np.full(self.n, self.row_scale**2)
+            return self.sigma**2
+        return jnp.full(self.n, self.row_scale**2)
 
     def _with_errors_in_variables(self) -> BenchDensity:
         """The eigenbasis of the rate error's covariance over the white part, on the rows
         the likelihood reads (one eigendecomposition; each evaluation is then O(n))."""
         keep = (np.ones(self.n, dtype=bool) if self.weight is None
                 else np.asarray(self.weight) > 0)
-        d0 = self._white_d0()
+        d0 = np.asarray(self._white_d0())
         root = 1.0 / np.sqrt(d0[keep])
         cov = np.asarray(self.rate_error_cov)[np.ix_(keep, keep)]
         lam, vectors = np.linalg.eigh(root[:, None] * cov * root[None, :])
@@ -396,9 +396,7 @@ class BenchDensity(eqx.Module):
     def _covariance(self, u: Float[Array, " d"]) -> Float[Array, "n n"]:
         """The rows' noise covariance under errors in variables, (deg/h)^2."""
         s2, a2 = self._eiv_levels(u)
-        d0 = (self.sigma**2 if self.sigma is not None
-              else jnp.full(self.n, self.row_scale**2))  # as _white_d0, traceable
-        return jnp.diag(s2 * d0) + a2 * self.rate_error_cov
+        return jnp.diag(s2 * self._white_d0()) + a2 * self.rate_error_cov
 
     def _eiv_projection(self, u: Float[Array, " d"]):
         """The residual in the eigenbasis and each coordinate's variance."""

@@ -144,6 +144,20 @@ def temperature_rate_deg_c_per_h(
     return _rate_and_floors(time_s, temperature_C, window_s)[0]
 
 
+def _grid_plan(time_s: np.ndarray, window_s: float) -> tuple[str, float]:
+    """Where the estimator differentiates a log with at least two rows, and the step of
+    that grid (s): ``"binned"`` (means over bins of ``window_s / MAX_WINDOW_SAMPLES``),
+    ``"uniform"`` (the rows themselves) or ``"interpolated"`` (a uniform grid at the median
+    step)."""
+    steps = np.diff(time_s)
+    step = float(np.median(steps))
+    if window_s / step > MAX_WINDOW_SAMPLES:
+        return "binned", window_s / MAX_WINDOW_SAMPLES
+    if steps.min() >= step * (1 - 1e-6) and steps.max() <= step * (1 + 1e-6):
+        return "uniform", step
+    return "interpolated", step
+
+
 def _rate_and_floors(time_s: np.ndarray, temperature_C: np.ndarray, window_s: float,
                      floors: tuple[int, int] | None = None
                      ) -> tuple[np.ndarray, tuple[int, int] | None]:
@@ -154,12 +168,9 @@ def _rate_and_floors(time_s: np.ndarray, temperature_C: np.ndarray, window_s: fl
     n = time_s.size
     if n < 2:
         return np.zeros(n), None
-    steps = np.diff(time_s)
-    step = float(np.median(steps))
-    uniform = bool(steps.min() >= step * (1 - 1e-6) and steps.max() <= step * (1 + 1e-6))
-    del steps
-    if window_s / step > MAX_WINDOW_SAMPLES:
-        step = window_s / MAX_WINDOW_SAMPLES
+    kind, step = _grid_plan(time_s, window_s)
+    uniform = kind == "uniform"
+    if kind == "binned":
         offset = time_s - time_s[0]
         offset /= step  # in place: a 10^7-row log's temporaries are 80 MB each
         bins = offset.astype(np.int64)  # floor: the offsets are not negative
@@ -171,7 +182,6 @@ def _rate_and_floors(time_s: np.ndarray, temperature_C: np.ndarray, window_s: fl
                                                                           temperature_C)
         grid_t = time_s[0] + step * (np.arange(counts.size) + 0.5)
         grid_T = _interp(grid_t, centres, means)
-        uniform = False
     elif uniform:
         grid_t, grid_T = time_s, temperature_C
     else:
@@ -228,11 +238,8 @@ def estimator_grid_size(time_s: np.ndarray, window_s: float) -> int:
     time_s = np.asarray(time_s, dtype=float)
     if time_s.size < 2:
         return time_s.size
-    steps = np.diff(time_s)
-    step = float(np.median(steps))
-    if window_s / step > MAX_WINDOW_SAMPLES:
-        return int((time_s[-1] - time_s[0]) / (window_s / MAX_WINDOW_SAMPLES)) + 1
-    if steps.min() >= step * (1 - 1e-6) and steps.max() <= step * (1 + 1e-6):
+    kind, step = _grid_plan(time_s, window_s)
+    if kind == "uniform":
         return time_s.size
     return int(np.floor((time_s[-1] - time_s[0]) / step)) + 1
 
