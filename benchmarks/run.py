@@ -404,6 +404,8 @@ def main() -> None:
     parser.add_argument("--quick", action="store_true", help="fewer repeats and draws")
     parser.add_argument("--json", type=Path, default=None, help="write the results here")
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--jobs", nargs="*", default=None,
+                        help="run only these jobs (e.g. demo); default: all")
     args = parser.parse_args()
     repeats = 5 if args.quick else 20
     problem, flat, design, y, scales = bench_problems(args.seed)
@@ -417,6 +419,8 @@ def main() -> None:
         ("cold_start", bench_cold_start),
         ("demo", bench_demo),
     ):
+        if args.jobs is not None and name not in args.jobs:
+            continue
         print(f"-- {name} ...", flush=True)
         results[name] = run()
         print(json.dumps(results[name], indent=2), flush=True)
