@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import warnings
 
+import numpy as np
+
 
 def arviz():
     """The arviz module (imported here: it costs seconds, and only storage needs it)."""
@@ -20,6 +22,14 @@ def write_netcdf(idata, path) -> None:
     idata.to_netcdf(str(path), compress=False)
 
 
-def read_posterior(path):
-    """The posterior group of a netCDF file gyroid wrote."""
-    return arviz().from_netcdf(str(path)).posterior
+def read_posterior(path) -> dict[str, np.ndarray]:
+    """The draws in the posterior group of a netCDF file gyroid wrote, by variable name
+    (arrays of chain x draw x ...). Read with h5py: a netCDF-4 file is HDF5, and ArviZ with
+    xarray and dask took most of a second to import for it."""
+    import h5py
+
+    with h5py.File(path, "r") as handle:
+        group = handle["posterior"]
+        return {name: np.asarray(data[...]) for name, data in group.items()
+                if isinstance(data, h5py.Dataset)
+                and data.attrs.get("CLASS") != b"DIMENSION_SCALE"}

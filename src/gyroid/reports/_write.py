@@ -7,37 +7,23 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
-from gyroid.inference._bench_fit import BenchFit
-from gyroid.inference._noise_fit import NoiseFit
-from gyroid.inference._pool_result import PoolFit
-from gyroid.inference._roll_fit import RollFit
-from gyroid.io._arviz import write_netcdf
-from gyroid.io._logs import BENCH_COLUMNS, BenchLog
 from gyroid.io._outputs import json_text
-from gyroid.models._effects import parameter
-from gyroid.plotting import (
-    allan_figure,
-    compensation_figure,
-    discrepancy_figure,
-    dk_distribution,
-    fit_overview,
-    noise_allan_figure,
-    pair_plot,
-    plot_step,
-    roll_discrepancy_figure,
-    roll_fit_figure,
-    save,
-    sobol_bars,
-)
-from gyroid.plotting._pool import forest_plot
-from gyroid.workflows._compensate import Compensation
-from gyroid.workflows._discrepancy_report import DiscrepancyReport
-from gyroid.workflows._export import FirmwareExport
-from gyroid.workflows._noise_export import NoiseExport
-from gyroid.workflows._propagate import Propagation
+
+if TYPE_CHECKING:
+    from gyroid.inference._bench_fit import BenchFit
+    from gyroid.inference._noise_fit import NoiseFit
+    from gyroid.inference._pool_result import PoolFit
+    from gyroid.inference._roll_fit import RollFit
+    from gyroid.io._logs import BenchLog
+    from gyroid.workflows._compensate import Compensation
+    from gyroid.workflows._discrepancy_report import DiscrepancyReport
+    from gyroid.workflows._export import FirmwareExport
+    from gyroid.workflows._noise_export import NoiseExport
+    from gyroid.workflows._propagate import Propagation
 
 
 def write(folder: str | Path, result, **context) -> list[Path]:
@@ -48,8 +34,9 @@ def write(folder: str | Path, result, **context) -> list[Path]:
     ``context`` is what only some figures take (``truth``: known values drawn in a fit's
     pair plot, or a simulated lot's ``truth()`` in its forest plot; ``title``: a forest
     plot's)."""
-    for kind, writer in _WRITERS.items():
-        if isinstance(result, kind):
+    for kind in type(result).__mro__:
+        writer = _WRITERS.get(f"{kind.__module__}.{kind.__qualname__}")
+        if writer is not None:
             return writer(Path(folder), result, **context)
     raise TypeError(f"gyroid does not know how to write a {type(result).__name__}")
 
@@ -57,6 +44,10 @@ def write(folder: str | Path, result, **context) -> list[Path]:
 def _bench_fit(folder: Path, result: BenchFit, truth: dict[str, float] | None = None
                ) -> list[Path]:
     """fit.json, posterior.nc, fit.png and pair.png."""
+    from gyroid.io._arviz import write_netcdf
+    from gyroid.models._effects import parameter
+    from gyroid.plotting import fit_overview, pair_plot, plot_step, save
+
     (folder / "fit.json").write_text(json_text(result.to_json()))
     written = [folder / "fit.json"]
     if result.posterior is not None:
@@ -84,6 +75,9 @@ def _bench_fit(folder: Path, result: BenchFit, truth: dict[str, float] | None = 
 
 def _roll_fit(folder: Path, result: RollFit) -> list[Path]:
     """roll_fit.json, posterior.nc, roll_fit.png (angle residuals) and pair.png."""
+    from gyroid.io._arviz import write_netcdf
+    from gyroid.plotting import pair_plot, roll_fit_figure, save
+
     summary = result.to_json()
     problem = result.problem
     (folder / "roll_fit.json").write_text(json_text(summary))
@@ -102,6 +96,10 @@ def _roll_fit(folder: Path, result: RollFit) -> list[Path]:
 def _pool_fit(folder: Path, result: PoolFit, title: str | None = None,
               truth: dict | None = None) -> list[Path]:
     """pool.json, posterior.nc and forest.png (``truth``: a simulated lot's, drawn in it)."""
+    from gyroid.io._arviz import write_netcdf
+    from gyroid.plotting import save
+    from gyroid.plotting._pool import forest_plot
+
     record = result.to_json()
     (folder / "pool.json").write_text(json_text(record))
     write_netcdf(result.inference_data(), folder / "posterior.nc")
@@ -113,6 +111,8 @@ def _pool_fit(folder: Path, result: PoolFit, title: str | None = None,
 
 def _compensation(folder: Path, result: Compensation) -> list[Path]:
     """compensated.csv, compensate.json, compensation.png and allan.png."""
+    from gyroid.plotting import allan_figure, compensation_figure, save
+
     log = result.log
     (folder / "compensated.csv").write_text(compensated_csv(log, result))
     (folder / "compensate.json").write_text(json_text(result.to_json()))
@@ -125,6 +125,8 @@ def _compensation(folder: Path, result: Compensation) -> list[Path]:
 
 def _propagation(folder: Path, result: Propagation) -> list[Path]:
     """propagate.json, dk_samples.csv, dk_distribution.png and drivers.png."""
+    from gyroid.plotting import dk_distribution, save, sobol_bars
+
     summary = result.to_json()
     (folder / "propagate.json").write_text(json_text(summary))
     (folder / "dk_samples.csv").write_text(dk_samples_csv(result.samples["dK"]))
@@ -139,6 +141,8 @@ def _propagation(folder: Path, result: Propagation) -> list[Path]:
 
 def _discrepancy(folder: Path, report: DiscrepancyReport) -> list[Path]:
     """discrepancy.json and discrepancy.png."""
+    from gyroid.plotting import discrepancy_figure, roll_discrepancy_figure, save
+
     (folder / "discrepancy.json").write_text(json_text(report.to_json()))
     if report.log_kind == "roll":
         figure = roll_discrepancy_figure(report)
@@ -160,14 +164,24 @@ def _export(folder: Path, result: FirmwareExport | NoiseExport) -> list[Path]:
 
 def _noise(folder: Path, result: NoiseFit) -> list[Path]:
     """noise.json and allan.png."""
+    from gyroid.plotting import noise_allan_figure, save
+
     (folder / "noise.json").write_text(json_text(result.to_json()))
     return [folder / "noise.json", *save(noise_allan_figure(result), folder / "allan")]
 
 
-_WRITERS: dict[type, Callable[..., list[Path]]] = {
-    BenchFit: _bench_fit, RollFit: _roll_fit, PoolFit: _pool_fit,
-    Compensation: _compensation, Propagation: _propagation, DiscrepancyReport: _discrepancy,
-    FirmwareExport: _export, NoiseExport: _export, NoiseFit: _noise,
+#: The writer of each kind of result, by its class's full name: a command imports only the
+#: figures and storage its own result needs (importing every kind took a second).
+_WRITERS: dict[str, Callable[..., list[Path]]] = {
+    "gyroid.inference._bench_fit.BenchFit": _bench_fit,
+    "gyroid.inference._roll_fit.RollFit": _roll_fit,
+    "gyroid.inference._pool_result.PoolFit": _pool_fit,
+    "gyroid.workflows._compensate.Compensation": _compensation,
+    "gyroid.workflows._propagate.Propagation": _propagation,
+    "gyroid.workflows._discrepancy_report.DiscrepancyReport": _discrepancy,
+    "gyroid.workflows._export.FirmwareExport": _export,
+    "gyroid.workflows._noise_export.NoiseExport": _export,
+    "gyroid.inference._noise_fit.NoiseFit": _noise,
 }
 
 
@@ -179,6 +193,8 @@ def dk_samples_csv(dk: np.ndarray) -> str:
 def compensated_csv(log: BenchLog, result: Compensation) -> str:
     """The input's contract columns (those gyroid read, under their contract names) plus
     the three compensation columns."""
+    from gyroid.io._logs import BENCH_COLUMNS
+
     names = [c for c in BENCH_COLUMNS if c in log.columns]
     columns = [log.columns[c] for c in names]
     names += ["drift_model_deg_h", "drift_model_sd_deg_h", "drift_compensated_deg_h"]
