@@ -265,14 +265,23 @@ def _describe(prior: Prior) -> str:
     return prior.describe()
 
 
-def bench_checks(problem: BenchProblem, point: PointEstimate, posterior: Posterior | None
-                 ) -> CheckReport:
-    """Every self-check of a bench fit: the shared ones on its evidence, the predictive check
-    (held-out stretches), and for a fit of segment means the spike check on the samples
-    behind them."""
+def bench_checks(problem: BenchProblem, point: PointEstimate, posterior: Posterior | None,
+                 point_checks: CheckReport | None = None) -> CheckReport:
+    """Every self-check of a bench fit: the shared ones on its evidence, then those that read
+    only the mode (:func:`bench_point_checks`; ``point_checks`` when already computed for
+    this problem and ``point``)."""
+    if point_checks is None:
+        point_checks = bench_point_checks(problem, point)
+    return fit_checks(problem.evidence(point, posterior)) + point_checks
+
+
+def bench_point_checks(problem: BenchProblem, point: PointEstimate) -> CheckReport:
+    """The checks of a bench fit that read its mode and not its posterior: excitation, the
+    predictive check (held-out stretches), units, effect sizes, and for a fit of segment
+    means the spike check on the samples behind them."""
     time_s = np.asarray(problem.log.time_s)
     samples = problem.log if problem.segments is None else problem.segments.head
-    checks = fit_checks(problem.evidence(point, posterior)) + CheckReport((
+    checks = CheckReport((
         excitation(problem.model, problem.inputs, time_s, tuple(contiguous_segments(time_s))),
         bench_predictive(problem.density, time_s, np.asarray(point.u)[problem.n_model:]),
         units_sanity(samples),
@@ -349,14 +358,19 @@ def fit_log(
     chosen = sampler or Emcee(progress=progress)
     if noise != "auto":
         return fit(problem_with(noise), sampler=chosen, seed=seed, sample=sample)
+    # the white trial's mode and its mode-only checks serve the white fit when it is chosen
     white = problem_with("white")
-    trial = fit(white, seed=seed, sample=False)
-    wrong = [c.name for c in trial.checks.failed
-             if c.severity == "error" and c.name in NOISE_CHECKS]
+    point = white.mode()
+    point_checks = bench_point_checks(white, point)
+    trial = bench_checks(white, point, None, point_checks)
+    wrong = [c.name for c in trial.failed if c.severity == "error" and c.name in NOISE_CHECKS]
     if not wrong:
         why = ("auto: white noise (its residuals are white and it predicts its held-out "
                "stretches)")
-        result = trial if not sample else fit(white, sampler=chosen, seed=seed)
+        posterior = chosen.sample(white, point, seed=seed) if sample else None
+        checks = trial if not sample else bench_checks(white, point, posterior, point_checks)
+        result = BenchFit(problem=white, point=point, posterior=posterior, seed=seed,
+                          checks=checks)
     else:
         why = (f"auto: {IEEE_NOISE}, since a white-noise fit failed {' and '.join(wrong)}"
                + (" (on the samples: the noise model carries the wander between bursts)"
