@@ -10,7 +10,7 @@ from gyroid.inference import BenchProblem, fit_log
 from gyroid.inference._emcee import Emcee
 from gyroid.io import BenchLog
 from gyroid.models import temperature_rate_deg_c_per_h
-from gyroid.models._derived import temperature_rate_operator
+from gyroid.models._derived import _rate_and_floors, temperature_rate_operator
 from gyroid.models._rate_error import thermometer_noise_var
 from gyroid.simulation import GyroNoise, simulate_thermal_bench
 from tests.helpers import SHORT_THERMAL
@@ -33,6 +33,15 @@ def test_the_rate_operator_is_the_estimator(sampling):
     estimate = temperature_rate_deg_c_per_h(time_s, temperature, window)
     np.testing.assert_allclose(operator @ temperature, estimate,
                                atol=1e-10 * np.max(np.abs(estimate)))
+    # every column: the estimator applied to each unit thermometer error (a uniform clock's
+    # operator is written directly as a band and two end blocks)
+    _, floors = _rate_and_floors(time_s, temperature, window)
+    columns = rng.choice(n, 40, replace=False)
+    unit = np.zeros((n, columns.size))
+    unit[columns, np.arange(columns.size)] = 1.0
+    np.testing.assert_allclose(operator[:, columns],
+                               _rate_and_floors(time_s, unit, window, floors)[0],
+                               atol=1e-12 * np.max(np.abs(operator)))
 
 
 def test_thermometer_noise_is_read_from_a_moving_temperature():
@@ -115,6 +124,29 @@ def test_the_standardised_residuals_are_the_whitened_residuals():
     residual = np.asarray(density.drift) - np.asarray(density.predict(jnp.asarray(u)))
     expected = np.linalg.solve(np.linalg.cholesky(covariance), residual)
     np.testing.assert_allclose(problem.standardised_residuals(u), expected, atol=1e-8)
+
+
+@pytest.mark.parametrize("sigma_known", [False, True])
+def test_held_out_folds_by_generalised_least_squares_match_refitted_modes(sigma_known):
+    """The predictive check's folds under errors in variables hold the full fit's noise
+    levels (one GLS solve per fold); refitting every fold's mode, levels included, gives the
+    same predictions and bands. The levels of ~160 kept rows move by ~1/sqrt(2*160) = 6 %
+    between folds, so the bands agree to a few percent and the predictions to a small
+    fraction of their sd."""
+    from gyroid.inference._bench_predictive import _eiv_folds, _refit_folds
+    from gyroid.inference._predictive import stretches
+
+    problem = _problem(sigma_known, seed=2)
+    density, time_s = problem.density, np.asarray(problem.log.time_s)
+    parts = stretches(density.n)
+    gls = _eiv_folds(density, parts, time_s, np.asarray(problem.mode().u))
+    refit = _refit_folds(density, parts, time_s)
+    assert len(gls) == len(refit) == 5
+    for a, b in zip(gls, refit, strict=True):
+        sd = np.sqrt(np.diag(b.covariance))
+        np.testing.assert_array_equal(a.observed, b.observed)
+        assert np.max(np.abs(a.predicted - b.predicted) / sd) < 0.1
+        assert np.sqrt(np.diag(a.covariance)) / sd == pytest.approx(1.0, abs=0.15)
 
 
 @pytest.mark.slow

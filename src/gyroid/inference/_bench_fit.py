@@ -283,7 +283,7 @@ def bench_point_checks(problem: BenchProblem, point: PointEstimate) -> CheckRepo
     samples = problem.log if problem.segments is None else problem.segments.head
     checks = CheckReport((
         excitation(problem.model, problem.inputs, time_s, tuple(contiguous_segments(time_s))),
-        bench_predictive(problem.density, time_s, np.asarray(point.u)[problem.n_model:]),
+        bench_predictive(problem.density, time_s, np.asarray(point.u)),
         units_sanity(samples),
         effect_sizes(problem.model, point.value, problem.inputs,
                      np.asarray(problem.log.drift_deg_h))))

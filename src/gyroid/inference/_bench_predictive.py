@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 import numpy as np
+import scipy.linalg
 
 from gyroid.inference._bench_density import BenchDensity
 from gyroid.inference._check_report import Check
@@ -34,11 +35,12 @@ from gyroid.models._inputs import DriftInputs
 
 
 def bench_predictive(density: BenchDensity, time_s: np.ndarray,
-                     noise_u: np.ndarray | None = None) -> Check:
-    """The predictive check of a bench log's density (rows at ``time_s``, s); ``noise_u``:
-    the full fit's noise levels (sampling coordinates), held in each fold's refit of a
-    linear model under correlated noise (a generalised least-squares fit, one filter pass)."""
-    folds, part_s = bench_held_out(density, time_s, noise_u)
+                     point_u: np.ndarray | None = None) -> Check:
+    """The predictive check of a bench log's density (rows at ``time_s``, s); ``point_u``:
+    the full fit's mode (sampling coordinates), whose noise levels are held in each fold's
+    refit of a linear model under correlated noise or errors in variables (a generalised
+    least-squares fit)."""
+    folds, part_s = bench_held_out(density, time_s, point_u)
     return predictive_check(folds, part_s=part_s, remedies=_remedies(density.noise))
 
 
@@ -51,7 +53,7 @@ def _remedies(noise: str) -> tuple[str, ...]:
 
 
 def bench_held_out(density: BenchDensity, time_s: np.ndarray,
-                   noise_u: np.ndarray | None = None
+                   point_u: np.ndarray | None = None
                    ) -> tuple[list[HeldOut] | None, float | None]:
     """The held-out folds of a bench log's density and the median part's duration (s);
     None when the log is too short to hold a stretch out."""
@@ -62,8 +64,11 @@ def bench_held_out(density: BenchDensity, time_s: np.ndarray,
         return None, None
     if density.gram is not None:
         folds = _linear_folds(density, parts)
-    elif noise_u is not None and collapse(density) is not None:
-        folds = _collapsed_folds(density, parts, time_s, np.asarray(noise_u))
+    elif point_u is not None and density.eiv_x is not None:
+        folds = _eiv_folds(density, parts, time_s, np.asarray(point_u))
+    elif point_u is not None and collapse(density) is not None:
+        folds = _collapsed_folds(density, parts, time_s,
+                                 np.asarray(point_u)[density.n_model:])
     else:
         folds = _refit_folds(density, parts, time_s)
     return folds, _part_seconds(parts, time_s)
@@ -199,6 +204,43 @@ def _collapsed_folds(density: BenchDensity, parts: Stretches, time_s: np.ndarray
         x = design_means[held]
         folds.append(HeldOut(observed=observed[held], predicted=x @ np.asarray(mean),
                              covariance=x @ covariance @ x.T + noise_cov[np.ix_(held, held)],
+                             counts=counts[held]))
+    return folds
+
+
+def _eiv_folds(density: BenchDensity, parts: Stretches, time_s: np.ndarray,
+               point_u: np.ndarray) -> list[HeldOut]:
+    """Refits of a linear model under white noise with errors in variables, the noise
+    levels (the white sd and the wD of the rate error's covariance) held at the full fit's
+    mode ``point_u``: each fold's coefficients are then their exact Gaussian posterior, a
+    generalised least-squares fit on the rows kept (one Cholesky factor per fold, where a
+    refitted mode took an eigendecomposition and an optimisation). Holding the levels leaves
+    their uncertainty out of the bands, which can only make the check stricter."""
+    p = density.n_model
+    y = np.asarray(density.drift)
+    observed = part_means(y, parts.part, parts.n_parts)
+    counts = np.bincount(parts.part, minlength=parts.n_parts).astype(float)
+    design = np.asarray(density.model.design(density.inputs))
+    design_means = np.column_stack([part_means(design[:, i], parts.part, parts.n_parts)
+                                    for i in range(p)])
+    covariance_rows = np.asarray(density._covariance(jnp.asarray(point_u)))
+    on = np.asarray(density.prior_on)[:p]
+    precision = on / np.asarray(density.prior_scale)[:p] ** 2
+    prior_mean = np.asarray(density.prior_loc)[:p]
+    values = dict(zip(density.names, np.asarray(density.to_natural(jnp.asarray(point_u))),
+                      strict=True))
+    noise_cov = _noise_covariance(density, values, parts, time_s)
+    folds = []
+    for k in range(int(parts.fold_of.max()) + 1):
+        held, keep = parts.fold_of == k, ~parts.rows_of_fold(k)
+        factor = scipy.linalg.cho_factor(covariance_rows[np.ix_(keep, keep)], lower=True)
+        x, whitened_y = design[keep], scipy.linalg.cho_solve(factor, y[keep])
+        a = x.T @ scipy.linalg.cho_solve(factor, x) + np.diag(precision)
+        covariance = np.linalg.inv(a)
+        theta = covariance @ (x.T @ whitened_y + precision * prior_mean)
+        xm = design_means[held]
+        folds.append(HeldOut(observed=observed[held], predicted=xm @ theta,
+                             covariance=xm @ covariance @ xm.T + noise_cov[np.ix_(held, held)],
                              counts=counts[held]))
     return folds
 
