@@ -147,30 +147,9 @@ def _linear_gaussian(problem: BenchDensity) -> PointEstimate:
     """Closed form for a linear model with white noise: the posterior mode and covariance
     from the sufficient statistics (exact; no iterations)."""
     n, p = problem.n, problem.n_model
-    gram = np.asarray(problem.gram)
-    solution = np.asarray(problem.solution)
-    precision = np.zeros(p)
-    mean = np.zeros(p)
-    for i, prior in enumerate(problem.priors[:p]):
-        if isinstance(prior, Normal):
-            precision[i], mean[i] = 1.0 / prior.scale**2, prior.loc
-    known = problem.sigma is not None
-    scale = 1.0 if known else math.sqrt(float(problem.rss_min) / max(n - p, 1))
-    # Unknown noise: the mode's coefficients and scale solve each other; iterate to the
-    # fixed point (a prior that disagrees with the log takes more than two rounds).
-    for _ in range(1 if known else 200):
-        a = gram / scale**2 + np.diag(precision)
-        theta = np.linalg.solve(a, gram @ solution / scale**2 + precision * mean)
-        delta = theta - solution
-        rss = float(problem.rss_min) + float(delta @ gram @ delta)
-        if known:
-            break
-        new_scale = math.sqrt(rss / max(n - p, 1))
-        done = abs(new_scale - scale) <= 1e-12 * scale
-        scale = new_scale
-        if done:
-            break
-    covariance = np.linalg.inv(gram / scale**2 + np.diag(precision))
+    theta, scale, covariance = _gaussian_coefficients(
+        problem, np.asarray(problem.gram), np.asarray(problem.solution),
+        float(problem.rss_min), n)
     u, cov = theta, covariance
     if problem.noise_names:
         noise_u = np.array([math.log(scale / problem.row_scale)])  # a sample's sd
@@ -189,11 +168,67 @@ def _linear_gaussian(problem: BenchDensity) -> PointEstimate:
     )
 
 
+def _gaussian_coefficients(problem: BenchDensity, gram: np.ndarray, solution: np.ndarray,
+                           rss_min: float, n: int) -> tuple[np.ndarray, float, np.ndarray]:
+    """The mode of a linear model's coefficients under white noise and their Normal priors
+    (others flat), from the weighted Gram matrix, least-squares solution and residual sum
+    of squares of ``n`` rows: (coefficients, the noise scale, the coefficients'
+    covariance). An unknown scale is the residual RMS with n - p degrees of freedom."""
+    p = problem.n_model
+    precision = np.zeros(p)
+    mean = np.zeros(p)
+    for i, prior in enumerate(problem.priors[:p]):
+        if isinstance(prior, Normal):
+            precision[i], mean[i] = 1.0 / prior.scale**2, prior.loc
+    known = problem.sigma is not None
+    scale = 1.0 if known else math.sqrt(rss_min / max(n - p, 1))
+    # Unknown noise: the mode's coefficients and scale solve each other; iterate to the
+    # fixed point (a prior that disagrees with the log takes more than two rounds).
+    for _ in range(1 if known else 200):
+        a = gram / scale**2 + np.diag(precision)
+        theta = np.linalg.solve(a, gram @ solution / scale**2 + precision * mean)
+        delta = theta - solution
+        rss = rss_min + float(delta @ gram @ delta)
+        if known:
+            break
+        new_scale = math.sqrt(rss / max(n - p, 1))
+        done = abs(new_scale - scale) <= 1e-12 * scale
+        scale = new_scale
+        if done:
+            break
+    return theta, scale, np.linalg.inv(gram / scale**2 + np.diag(precision))
+
+
+def _white_start(problem: BenchDensity) -> np.ndarray:
+    """A linear model's white-noise mode on the rows the likelihood reads (NumPy, from its
+    design matrix), in sampling coordinates: where BFGS on a correlated likelihood starts
+    (the thermometer's noise carried), without tracing a least-squares solver for it."""
+    x = np.asarray(problem.model.design(problem.inputs))
+    y = np.asarray(problem.drift)
+    w = np.ones(problem.n) if problem.sigma is None else 1.0 / np.asarray(problem.sigma)
+    if problem.weight is not None:
+        keep = np.asarray(problem.weight) > 0
+        x, y, w = x[keep], y[keep], w[keep]
+    solution, *_ = np.linalg.lstsq(x * w[:, None], y * w, rcond=None)
+    rss = float(np.sum(((y - x @ solution) * w) ** 2))
+    gram = (x * w[:, None] ** 2).T @ x
+    theta, scale, _ = _gaussian_coefficients(problem, gram, solution, rss, y.size)
+    if not problem.noise_names:
+        return theta
+    return np.concatenate([theta, [math.log(max(scale / problem.row_scale, 1e-300))]])
+
+
 def point_estimate(problem: BenchDensity, *, max_refine: int = 3) -> PointEstimate:
     """Posterior mode and covariance of a bench log's density (see the module
     docstring)."""
     if problem.gram is not None:
         return _linear_gaussian(problem)
+    if (problem.errors_in_variables and problem.noise == "white"
+            and problem.model.is_linear):
+        # a linear model carrying the thermometer: BFGS from its white mode (NumPy)
+        value, result, hessian = _bfgs(problem, jnp.asarray(_white_start(problem)))
+        return _point(problem, np.asarray(value), _inverse(np.asarray(hessian)),
+                      *_message(result), n_starts=1)
     n, p = problem.n_observed, problem.n_model
     known = problem.sigma is not None and problem.noise == "white"
     weights = 1.0 / problem.sigma if known else jnp.ones(problem.n)
@@ -246,6 +281,12 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3) -> PointEstima
         u = np.asarray(value)
         converged, message = _message(result)
         covariance = _inverse(np.asarray(hessian))
+    return _point(problem, u, covariance, converged, message, n_starts=len(candidates))
+
+
+def _point(problem: BenchDensity, u: np.ndarray, covariance: np.ndarray, converged: bool,
+           message: str, *, n_starts: int) -> PointEstimate:
+    """The point estimate at the mode ``u`` (sampling coordinates) with its covariance."""
     x, sd = natural_with_sd(u, covariance, problem.positive)
     if not np.all(np.isfinite(sd)):
         converged, message = False, "the covariance at the optimum is singular"
@@ -260,7 +301,7 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3) -> PointEstima
         sd={k: float(v) for k, v in zip(problem.names, sd, strict=True)},
         converged=converged,
         message=message,
-        n_starts=len(candidates),
+        n_starts=n_starts,
         rms_residual=rms,
     )
 
