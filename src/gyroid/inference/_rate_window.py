@@ -66,7 +66,7 @@ def choose_rate_window(log: BenchLog, model: DriftModel, *, t0_C: float,
     (``inputs``: the log's inputs at ``t0_C``, if the caller has them). With the
     thermometer's noise carried in the likelihood (``thermometer_var_C2``, a row's variance,
     degC^2; a linear model): the longest window no longer than that whose smearing biases
-    no coefficient (:func:`_least_biased`), and the bias in posterior sd per window.
+    no coefficient (:func:`_least_biased`), and the bias in posterior sd per window tried.
 
     For a linear model only the dT/dt column changes between windows: the other columns'
     design ``A`` is kept (n x (p - 1)) with the R factor of ``[A, y]``, and each window
@@ -124,7 +124,8 @@ MAX_BIAS_SD = 0.3
 def _least_biased(log: BenchLog, model: DriftModel, inputs, windows: np.ndarray,
                   thermometer_var_C2: float) -> tuple[float, dict[float, float]]:
     """The longest of ``windows`` (ascending) whose smearing of dT/dt biases no coefficient
-    by more than :data:`MAX_BIAS_SD` posterior sd, and that bias per window.
+    by more than :data:`MAX_BIAS_SD` posterior sd, and that bias per window tried (the
+    longest down to the one chosen).
 
     Why: with the rate's noise carried in the likelihood (a covariance), a short window
     costs only width, while a long one smears the rate over each kink, which no
@@ -135,6 +136,8 @@ def _least_biased(log: BenchLog, model: DriftModel, inputs, windows: np.ndarray,
     shortest window's rate, ``d = r_W - r_0``: the generalised least-squares coefficients
     move by ``wD G d``, less the part of ``d`` that is the two windows' noise (its
     covariance ``v (L_W - L_0)(L_W - L_0)'`` is known), over their posterior sd."""
+    import scipy.linalg
+
     from gyroid.models._derived import temperature_rate_operator
     from gyroid.models._rate_error import rate_coefficient_index, white_level_var
 
@@ -145,24 +148,26 @@ def _least_biased(log: BenchLog, model: DriftModel, inputs, windows: np.ndarray,
     index = rate_coefficient_index(model)
     reference = temperature_rate_operator(time_s, temperature, float(windows[0]))
     biases: dict[float, float] = {}
-    for window in windows:
-        operator = temperature_rate_operator(time_s, temperature, float(window))
+    # from the longest down: the first window within the bound is the answer
+    for window in windows[::-1]:
+        operator = (reference if window == windows[0]
+                    else temperature_rate_operator(time_s, temperature, float(window)))
         trial = eqx.tree_at(lambda x: x.rate_C_h, inputs, jnp.asarray(operator @ temperature))
         design = np.asarray(model.design(trial))
         wd = np.linalg.lstsq(design, y, rcond=None)[0][index]
         covariance = wd**2 * thermometer_var_C2 * (operator @ operator.T)
         covariance[np.diag_indices_from(covariance)] += white
-        factor = np.linalg.cholesky(covariance)
-        whitened = np.linalg.solve(factor, design)
-        posterior = np.linalg.pinv(whitened.T @ whitened)
-        gain = posterior @ whitened.T @ np.linalg.inv(factor)  # G: y -> coefficients
+        factor = scipy.linalg.cho_factor(covariance, lower=True)
+        posterior = np.linalg.pinv(design.T @ scipy.linalg.cho_solve(factor, design))
+        gain = posterior @ scipy.linalg.cho_solve(factor, design).T  # G: y -> coefficients
         difference = operator - reference
         shift = wd * gain @ (difference @ temperature)
         noise = wd**2 * thermometer_var_C2 * np.sum((gain @ difference) ** 2, axis=1)
         bias2 = np.maximum(shift**2 - noise, 0.0) / np.diag(posterior)
         biases[float(window)] = float(np.sqrt(np.max(bias2)))
-    fine = [w for w, b in biases.items() if b <= MAX_BIAS_SD]
-    return (max(fine) if fine else float(windows[0])), biases
+        if biases[float(window)] <= MAX_BIAS_SD:
+            return float(window), biases
+    return float(windows[0]), biases
 
 
 def parse_rate_window(value: str | float | None) -> float | None:

@@ -262,7 +262,39 @@ def temperature_rate_operator(
         raise ValueError(f"the rate operator of {n} rows on a grid of {grid} (at most "
                          f"{MAX_OPERATOR_ROWS})")
     _, floors = _rate_and_floors(time_s, temperature_C, window_s)
+    if n >= 2 and _grid_plan(time_s, window_s)[0] == "uniform" and floors is not None:
+        return _uniform_operator(time_s, window_s, floors)
     return _rate_and_floors(time_s, np.eye(n), window_s, floors)[0]
+
+
+def _uniform_operator(time_s: np.ndarray, window_s: float, floors: tuple[int, int]
+                      ) -> np.ndarray:
+    """:func:`temperature_rate_operator` of a uniform clock written directly: the interior
+    rows are the differentiating kernel on a band, the first and last ``half`` rows the end
+    windows' slopes of the identity (O(n x window), where the estimator applied to the n
+    columns of the identity costs n FFT convolutions)."""
+    n = time_s.size
+    kind, step = _grid_plan(time_s, window_s)
+    half = max(int(round(window_s / step / 2.0)), RATE_POLY_DEGREE)
+    degree = RATE_POLY_DEGREE
+    if 2 * half + 1 > n:
+        half = (n - 1) // 2
+        degree = min(RATE_POLY_DEGREE, 2 * half - 1)
+    width = 2 * half + 1
+    x = np.arange(-half, half + 1) / half
+    centre = np.linalg.pinv(np.vander(x, degree + 1, increasing=True))[1]
+    reference = float(centre @ centre)
+    scale = 1.0 / (half * step / 3600.0)
+    out = np.zeros((n, n))
+    rows = np.arange(half, n - half)
+    out[rows[:, None], rows[:, None] - half + np.arange(width)] = centre * scale
+    identity = np.eye(width)
+    head, _ = _edge_slopes(identity, x, half, degree, reference, floors[0])
+    out[:half, :width] = head * scale
+    tail, _ = _edge_slopes(identity, x, half, degree, reference, floors[1])
+    # the last window read backwards: row n - 1 - i reads column n - 1 - j as tail[i, j]
+    out[n - half:, n - width:] = -tail[::-1, ::-1] * scale
+    return out
 
 
 def field_change_sign(
