@@ -8,7 +8,7 @@ import pytest
 from gyroid.cli import main
 from gyroid.inference import Emcee, fit_log
 from gyroid.io import FittedDrift
-from gyroid.simulation import ThermalProtocol, gauss_markov, simulate_thermal_bench
+from gyroid.simulation import PAPER_A_THERMAL, ThermalProtocol, gauss_markov, simulate_thermal_bench
 from gyroid.workflows import allan_deviation, compensate
 
 
@@ -67,6 +67,25 @@ def test_compensated_drift_has_the_truths_noise_level(fitted_short):
     assert result.summary["fraction_removed"] > 0.9
     assert result.summary["within_fitted_range"]
     assert np.all(result.model_sd_deg_h > 0)
+
+
+def test_a_log_of_the_same_gyro_sampled_faster_is_predicted_at_its_own_rate(fitted_short):
+    """The fit's white sd belongs to its 1 s samples; the same gyro logged at 10 Hz has
+    sqrt(10) times the noise per sample. Its bands must carry that (it was refused with
+    exit code 3: 'they vary 8.8x as much as the fit states'), and a log of another unit
+    must still be refused."""
+    protocol = ThermalProtocol(setpoints_C=(28.0, 34.0, 39.0), soak_min=25.0)
+    fast = simulate_thermal_bench(seed=24, protocol=protocol.stretched(None, 4.0))
+    assert fitted_short.noise["white_sample_s"] == pytest.approx(1.0)
+
+    def predictive(log):
+        return next(c for c in compensate(log, fitted_short).checks.checks
+                    if c.name == "predictive")
+
+    assert predictive(fast.log).passed, predictive(fast.log).message
+    other = simulate_thermal_bench(seed=24, protocol=protocol.stretched(None, 4.0),
+                                   parameters={**PAPER_A_THERMAL, "w0": 1.5})
+    assert not predictive(other.log).passed
 
 
 def test_extrapolation_is_reported(fitted_short):

@@ -149,7 +149,8 @@ class BenchFit:
     def noise_levels(self) -> dict:
         """The noise model and its levels (posterior means, else the point estimate):
         ``model``, ``white_sd_deg_h`` (a sample's white sd; the median of a log's
-        ``sigma_deg_h``), and for white+gm ``sigma_gm_deg_h`` and ``tau_gm_s``, for
+        ``sigma_deg_h``), ``white_sample_s`` (the median sample interval it belongs to, s;
+        not for a fit of segment means), and for white+gm ``sigma_gm_deg_h`` and ``tau_gm_s``, for
         white+flicker+rw ``N_deg_sqrt_h``, ``B_deg_h`` and ``K_deg_h_sqrt_h``."""
         names = self.problem.noise_names
         source = (self.posterior.summary if self.posterior is not None else
@@ -164,7 +165,10 @@ class BenchFit:
             white = levels["sigma_deg_h"]
         else:
             white = float(np.median(np.asarray(sigma)))
-        return {"model": self.problem.noise, "white_sd_deg_h": white, **levels}
+        out = {"model": self.problem.noise, "white_sd_deg_h": white, **levels}
+        if self.segment_means is None:  # the samples' interval that white sd belongs to
+            out["white_sample_s"] = density.step_s / self.problem.block_rows
+        return out
 
     def inference_data(self):
         """ArviZ InferenceData: posterior, block log-likelihoods (LOO), observed data."""
@@ -214,7 +218,8 @@ class BenchFit:
                 "point_sd": {k: point.sd[k] for k in noise_names},
                 "posterior": {},
                 "units": {k: NOISE_UNITS[k] for k in noise_names},
-                "white_sd_deg_h": self.noise_levels()["white_sd_deg_h"],
+                **{k: v for k, v in self.noise_levels().items()
+                   if k in ("white_sd_deg_h", "white_sample_s")},
                 "errors_in_variables": self.errors_in_variables,
             },
             "priors": {k: _describe(p) for k, p in zip(problem.names, problem.priors,

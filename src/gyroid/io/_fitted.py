@@ -35,7 +35,8 @@ class FittedDrift:
     #: ``DriftModel.input_ranges``): compensation flags rows beyond them.
     input_ranges: dict[str, list[float]] = field(default_factory=dict)
     #: The fit's noise model: ``model`` ("white", "white+gm" or "white+flicker+rw") and its
-    #: levels, ``white_sd_deg_h`` (a sample's white noise), ``sigma_gm_deg_h``,
+    #: levels, ``white_sd_deg_h`` (a sample's white noise; ``white_sample_s``: at that
+    #: sample interval, s, when the fit says), ``sigma_gm_deg_h``,
     #: ``tau_gm_s``, or ``N_deg_sqrt_h``, ``B_deg_h``, ``K_deg_h_sqrt_h``; what the
     #: predictive check of a compensation needs (empty: unknown).
     noise: dict = field(default_factory=dict)
@@ -186,6 +187,8 @@ def _noise_of(fit: dict) -> dict:
         noise.get("point") or {})
     if "white_sd_deg_h" in noise:
         levels["white_sd_deg_h"] = noise["white_sd_deg_h"]
+        if "white_sample_s" in noise:
+            levels["white_sample_s"] = noise["white_sample_s"]
     elif "sigma_deg_h" in levels:
         levels["white_sd_deg_h"] = levels["sigma_deg_h"]
     return {"model": noise.get("model", "white"), **levels} if levels else {}

@@ -172,7 +172,10 @@ def compensation_predictive(log: BenchLog, fitted: FittedDrift, predictions: np.
     model's uncertainty (the covariance of the parts' means over the posterior draws) plus
     the fit's noise model's covariance of those means (:mod:`gyroid.inference._predictive`).
     A fit whose stated uncertainty describes this log passes; a log that departs from it
-    (another unit, wander the fit's noise model lacks) fails, saying by how much."""
+    (another unit, wander the fit's noise model lacks) fails, saying by how much. White noise
+    is taken at this log's own sample interval (a sample's variance times the fit's interval
+    over this log's, as a rate averaged over each sample has), so a log sampled faster than
+    the fitted one is not refused for its larger per-sample noise."""
     noise = fitted.noise
     time_s = np.asarray(log.time_s)
     segments = tuple(contiguous_segments(time_s))
@@ -186,11 +189,13 @@ def compensation_predictive(log: BenchLog, fitted: FittedDrift, predictions: np.
         (parts.n_parts,) * 2)
     counts = np.bincount(parts.part, minlength=parts.n_parts).astype(float)
     sigma = log.sigma_deg_h
+    step = float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
+    # white noise at this log's own rate: a sample's variance scales as 1 / its interval
+    rate_ratio = noise.get("white_sample_s", step) / step
     white = (np.bincount(parts.part, np.asarray(sigma) ** 2, parts.n_parts) / counts**2
-             if sigma is not None else noise["white_sd_deg_h"] ** 2 / counts)
+             if sigma is not None else noise["white_sd_deg_h"] ** 2 * rate_ratio / counts)
     covariance = np.atleast_2d(model_cov) + np.diag(white)
     if noise.get("model") == IEEE_NOISE:
-        step = float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
         if sigma is None:  # the white density at this log's own rate
             white = (60.0 * noise["N_deg_sqrt_h"]) ** 2 / (counts * step)
         covariance = np.atleast_2d(model_cov) + ieee_part_covariance(
