@@ -192,13 +192,21 @@ def dk_samples_csv(dk: np.ndarray) -> str:
 
 def compensated_csv(log: BenchLog, result: Compensation) -> str:
     """The input's contract columns (those gyroid read, under their contract names) plus
-    the three compensation columns."""
+    the three compensation columns, every value to full precision (pyarrow's CSV writer:
+    10^5 rows in 0.03 s, where formatting row by row in Python took a second)."""
+    import io
+
+    import pyarrow as pa
+    import pyarrow.csv as pacsv
+
     from gyroid.io._logs import BENCH_COLUMNS
 
     names = [c for c in BENCH_COLUMNS if c in log.columns]
     columns = [log.columns[c] for c in names]
     names += ["drift_model_deg_h", "drift_model_sd_deg_h", "drift_compensated_deg_h"]
     columns += [result.model_deg_h, result.model_sd_deg_h, result.compensated_deg_h]
-    data = np.column_stack(columns)
-    lines = [",".join(names)] + [",".join(f"{v:.10g}" for v in row) for row in data]
-    return "\n".join(lines) + "\n"
+    table = pa.table({name: np.asarray(column, dtype=float)
+                      for name, column in zip(names, columns, strict=True)})
+    body = io.BytesIO()
+    pacsv.write_csv(table, body, pacsv.WriteOptions(include_header=False))
+    return ",".join(names) + "\n" + body.getvalue().decode()
