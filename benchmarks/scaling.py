@@ -11,14 +11,22 @@ and peak memory (the process and its children):
   imports included) against ``pyarrow.parquet.read_table`` and a NumPy array per column
   (what a script fits from); building the model's inputs (dT/dt, the identifiability
   check) is part of ``fit``;
-* ``fit``: ``gyroid fit LOG --terms thermal --noise white`` end to end (reading, rate
-  window choice, point fit, emcee to convergence, checks, fit.json, posterior.nc, figures);
+* ``fit``: ``gyroid fit LOG --terms thermal`` end to end, as a user runs it (``--noise
+  auto``; reading, rate window choice, point fit, emcee to convergence, checks, fit.json,
+  posterior.nc, figures);
 * ``fit_ieee``: the same with ``--noise white+flicker+rw`` (IEEE 952's noise, the model
   ``--noise auto`` turns to; the log's block means, at most 1000, are filtered), up to
   ``--ieee-rows``;
 * ``bare``: the bare script (read, Savitzky-Golay dT/dt, normal equations, emcee on
   sufficient statistics with DE moves for 3000 steps; no checks, no files);
+* ``compensate``: ``gyroid compensate LOG --fit FIT`` (the log with its own fit; the
+  compensated CSV, compensate.json, two figures, the checks) against ``bare_compensate``
+  (benchmarks/bare_compensate.py: pyarrow, the same dT/dt and posterior means, a NumPy
+  polynomial, the CSV, allantools before and after);
 * ``discrepancy``: ``gyroid discrepancy LOG --terms thermal`` (up to ``--discrepancy-rows``).
+
+``--repeat N`` runs each timed command N times and reports the median (every run's time is
+kept in ``seconds_all``).
 
 ``--stream-rows N``: a log too long to hold (a day at ~1 kHz is 8.6e7 rows), written here
 chunk by chunk (paper A's drift on the schedule's true temperature, white noise, the
@@ -63,11 +71,23 @@ _LOAD = (
 )
 
 
+#: Runs of each timed command (``--repeat``); the median time is reported, with every run's.
+REPEAT = 1
+
+
 def measure(*command: str) -> dict:
-    """Wall time and peak memory of ``command`` in a fresh process."""
-    out = subprocess.run([sys.executable, "-c", _MEASURE, *command], capture_output=True,
-                         text=True, check=True)
-    return json.loads(out.stdout)
+    """Wall time and peak memory of ``command`` in a fresh process: the median of
+    :data:`REPEAT` runs (this machine's times vary by tens of per cent between runs), every
+    run's time in ``seconds_all``."""
+    runs = []
+    for _ in range(REPEAT):
+        out = subprocess.run([sys.executable, "-c", _MEASURE, *command], capture_output=True,
+                             text=True, check=True)
+        runs.append(json.loads(out.stdout))
+    order = sorted(range(len(runs)), key=lambda i: runs[i]["seconds"])
+    middle = dict(runs[order[len(runs) // 2]])
+    middle["seconds_all"] = [r["seconds"] for r in runs]
+    return middle
 
 
 def make_log(rows: int, folder: Path) -> Path:
@@ -144,8 +164,8 @@ def one_length(rows: int, folder: Path, discrepancy_rows: int, ieee_rows: int) -
                                  "peak_mb": load["peak_mb"]}
     fit_dir = folder / f"fit_{rows:.0e}"
     fit = measure(sys.executable, "-m", "gyroid", "fit", str(log), "--terms", "thermal",
-                  "--out", str(fit_dir), "--no-progress", "--noise", "white")
-    row["fit"] = {k: fit[k] for k in ("seconds", "peak_mb", "code")}
+                  "--out", str(fit_dir), "--no-progress")
+    row["fit"] = {k: fit[k] for k in ("seconds", "seconds_all", "peak_mb", "code")}
     if rows <= ieee_rows:
         ieee_dir = folder / f"fit_ieee_{rows:.0e}"
         ieee = measure(sys.executable, "-m", "gyroid", "fit", str(log), "--terms", "thermal",
@@ -157,11 +177,14 @@ def one_length(rows: int, folder: Path, discrepancy_rows: int, ieee_rows: int) -
             row["fit_ieee"]["sd"] = {k: record["posterior"][k]["sd"]
                                      for k in ("w0", "w1", "w2", "wD")}
     bare = measure(sys.executable, str(HERE / "bare_thermal_fit.py"), str(log))
-    row["bare"] = {k: bare[k] for k in ("seconds", "peak_mb", "code")}
+    row["bare"] = {k: bare[k] for k in ("seconds", "seconds_all", "peak_mb", "code")}
     if bare["code"] == 0:
         row["bare"].update(json.loads(bare["stdout"].strip().splitlines()[-1]))
     if fit["code"] in (0, 3):
-        posterior = json.loads((fit_dir / "fit.json").read_text())["posterior"]
+        row |= compensate_rows(log, fit_dir, folder)
+        record = json.loads((fit_dir / "fit.json").read_text())
+        row["fit"]["noise_choice"] = record["noise_choice"]
+        posterior = record["posterior"]
         row["fit"]["mean"] = {k: posterior[k]["mean"] for k in ("w0", "w1", "w2", "wD")}
         row["fit"]["sd"] = {k: posterior[k]["sd"] for k in ("w0", "w1", "w2", "wD")}
         if bare["code"] == 0:
@@ -177,6 +200,25 @@ def one_length(rows: int, folder: Path, discrepancy_rows: int, ieee_rows: int) -
     return row
 
 
+def compensate_rows(log: Path, fit_dir: Path, folder: Path) -> dict:
+    """``gyroid compensate`` of the log with its own fit, against the bare compensation
+    (benchmarks/bare_compensate.py: the same posterior means, no figures or checks)."""
+    out = folder / f"comp_{log.stem}"
+    gyroid = measure(sys.executable, "-m", "gyroid", "compensate", str(log), "--fit",
+                     str(fit_dir), "--out", str(out))
+    bare = measure(sys.executable, str(HERE / "bare_compensate.py"), str(log), str(fit_dir),
+                   str(folder / f"bare_{log.stem}.csv"))
+    keys = ("seconds", "seconds_all", "peak_mb", "code")
+    row = {"compensate": {k: gyroid[k] for k in keys},
+           "bare_compensate": {k: bare[k] for k in keys}}
+    if gyroid["code"] in (0, 3):
+        row["compensate"]["rms_after_deg_h"] = json.loads(
+            (out / "compensate.json").read_text())["rms_after_deg_h"]
+    if bare["code"] == 0:
+        row["bare_compensate"].update(json.loads(bare["stdout"].strip().splitlines()[-1]))
+    return row
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rows", nargs="*", type=float, default=[1e4, 1e5, 1e6])
@@ -184,7 +226,11 @@ def main() -> None:
     parser.add_argument("--ieee-rows", type=float, default=1e6)
     parser.add_argument("--stream-rows", nargs="*", type=float, default=[])
     parser.add_argument("--json", type=Path, default=None)
+    parser.add_argument("--repeat", type=int, default=1,
+                        help="runs of each timed command; the median is reported")
     args = parser.parse_args()
+    global REPEAT
+    REPEAT = max(1, args.repeat)
     results = []
     with tempfile.TemporaryDirectory() as tmp:
         for rows in args.stream_rows:

@@ -235,3 +235,19 @@ def test_the_white_fits_that_carry_the_thermometer_pass_where_they_failed():
     assert all(r["fit"]["code"] == 0 and r["agree"] for r in runs)
     _quoted("now exit 0 (the thermometer's noise carried into dT/dt, its residuals are white)",
             "Both fits still agree.")
+
+
+def test_the_small_logs_end_to_end_against_the_bare_scripts():
+    runs = json.loads((ROOT / "benchmarks" / "results_scaling_small.json").read_text()
+                      )["results"]
+    assert [r["rows"] for r in runs] == [10_000, 100_000]
+    assert all(r["fit"]["code"] == 0 and r["agree"] and r["compensate"]["code"] == 0
+               and r["fit"]["noise_choice"].startswith("auto: white") for r in runs)
+    fit = [r["fit"]["seconds"] / r["bare"]["seconds"] for r in runs]
+    compensate = [r["compensate"]["seconds"] / r["bare_compensate"]["seconds"] for r in runs]
+    spread = max(max(v["seconds_all"]) / min(v["seconds_all"]) - 1 for r in runs
+                 for k, v in r.items() if isinstance(v, dict) and "seconds_all" in v)
+    _quoted(f"{fit[0]:.1f}x and {fit[1]:.1f}x, where the 2x the issue asks for is not met",
+            f"{compensate[0]:.1f}x and {compensate[1]:.1f}x",
+            f"differ by up to {100 * spread:.0f} % in the file",
+            f"4.5 s and {runs[1]['compensate']['peak_mb'] / 1000:.2f} GB in the file")
