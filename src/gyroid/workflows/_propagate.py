@@ -269,7 +269,7 @@ def propagate(fitted: FittedDrift, scenario: Scenario, *, draws: int = 2000, see
     sobol = sobol_indices(samplers, lambda x: _evaluate(evaluator, x, dk_only=True)["dK"],
                           sobol_n, rng)
     say("  local sensitivities and the delta method (JAX gradients) ...")
-    nominal = _nominal_inputs(scenario, fitted.draws)
+    nominal_dk, gradient = _nominal_dk(evaluator, _nominal_inputs(scenario, fitted.draws))
     eq7 = pb.dk_overloaded(scenario.mems_bias_deg_h / 3600.0, scenario.mems_sf_error,
                            scenario.uncompensated_deg_s, scenario.encoder_deg,
                            scenario.roll_rate_deg_s, scenario.period_s)
@@ -277,8 +277,8 @@ def propagate(fitted: FittedDrift, scenario: Scenario, *, draws: int = 2000, see
         scenario=scenario, samples=out,
         report_times_s=tuple(t for t in REPORT_TIMES_S if t <= scenario.duration_s),
         sobol=sobol, sobol_samples=sobol_n,
-        local_sensitivity=_local_sensitivity(evaluator, nominal),
-        delta_method=_delta_method(evaluator, nominal, scenario, fitted.draws),
+        local_sensitivity=_local_sensitivity(evaluator, gradient),
+        delta_method=_delta_method(nominal_dk, gradient, scenario, fitted.draws),
         dk_eq7=float(eq7), fitted_terms=tuple(fitted.model.terms),
         posterior_draws=int(fitted.draws.shape[0]),
         checks=CheckReport((fit_verdict(fitted.trustworthy, "propagating it"),)))
@@ -328,16 +328,26 @@ _ORDER = ("drift", "encoder_phase", "uncompensated", "mems_sf", "mems_bias", "ro
           "sins_sf", "encoder")
 
 
-def _dk_of(evaluator: _Evaluator):
-    def f(*args):
-        return evaluator.one(*args)["dK"]
-    return f
+@eqx.filter_jit
+def _dk_value_and_gradient(evaluator: _Evaluator, args: tuple):
+    """dK and its gradient in every input at ``args`` (in :data:`_ORDER`): one compiled call
+    (run op by op, the flight's gradient took ~170 small compilations, 6 s on a cold
+    cache)."""
+    def dk(*inputs):
+        return evaluator.one(*inputs)["dK"]
+
+    return jax.value_and_grad(dk, argnums=tuple(range(len(args))))(*args)
 
 
-def _local_sensitivity(evaluator: _Evaluator, nominal: dict) -> dict[str, float]:
-    """d dK / d input at the nominal point (posterior mean, nominal scenario)."""
-    args = [jnp.asarray(nominal[k], dtype=float) for k in _ORDER]
-    grads = jax.grad(_dk_of(evaluator), argnums=tuple(range(len(args))))(*args)
+def _nominal_dk(evaluator: _Evaluator, nominal: dict):
+    """dK at the nominal inputs and its gradient in each of :data:`_ORDER`."""
+    return _dk_value_and_gradient(evaluator, tuple(jnp.asarray(nominal[k], dtype=float)
+                                                   for k in _ORDER))
+
+
+def _local_sensitivity(evaluator: _Evaluator, grads) -> dict[str, float]:
+    """d dK / d input at the nominal point (posterior mean, nominal scenario; ``grads``:
+    :func:`_nominal_dk`'s)."""
     names = evaluator.model.parameter_names
     out = {f"{name} (per unit of the coefficient)": float(g)
            for name, g in zip(names, np.asarray(grads[0]), strict=True)}
@@ -349,20 +359,18 @@ def _local_sensitivity(evaluator: _Evaluator, nominal: dict) -> dict[str, float]
     return out
 
 
-def _delta_method(evaluator: _Evaluator, nominal: dict, scenario: Scenario,
-                  draws: np.ndarray) -> dict:
+def _delta_method(value, grads, scenario: Scenario, draws: np.ndarray) -> dict:
     """First-order mean and sd of dK from the gradient and the inputs' covariances, without
     the encoder phase (a uniform phase is far from linear: the delta method does not apply
-    to it)."""
-    args = [jnp.asarray(nominal[k], dtype=float) for k in _ORDER]
-    grads = jax.grad(_dk_of(evaluator), argnums=(0, 2, 3, 4))(*args)
+    to it). ``value``, ``grads``: :func:`_nominal_dk`'s."""
+    grads = [grads[i] for i in (0, 2, 3, 4)]
     cov_drift = np.cov(draws, rowvar=False).reshape(draws.shape[1], draws.shape[1])
     g0 = np.asarray(grads[0])
     variance = float(g0 @ cov_drift @ g0)
     variance += float(grads[1]) ** 2 * scenario.uncompensated_sd_deg_s**2
     variance += float(grads[2]) ** 2 * scenario.mems_sf_error_sd**2
     variance += float(grads[3]) ** 2 * (scenario.mems_bias_sd_deg_h / 3600.0) ** 2
-    return {"mean": float(_dk_of(evaluator)(*args)), "sd": math.sqrt(variance),
+    return {"mean": float(value), "sd": math.sqrt(variance),
             "excludes": "encoder phase",
             "note": "first order: 'mean' is dK at the nominal inputs (posterior mean, encoder "
                     "phase 0), not an average. It differs from the Monte-Carlo mean when the "
