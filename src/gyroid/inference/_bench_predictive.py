@@ -147,13 +147,19 @@ def _part_sums(density: BenchDensity, parts: Stretches) -> dict[str, np.ndarray]
     return out
 
 
+def _coefficient_prior(density: BenchDensity) -> tuple[np.ndarray, np.ndarray]:
+    """The model coefficients' Normal priors as a precision and a mean (precision 0 where a
+    prior is flat): what a closed-form refit adds to its normal equations."""
+    p = density.n_model
+    precision = np.asarray(density.prior_on)[:p] / np.asarray(density.prior_scale)[:p] ** 2
+    return precision, np.asarray(density.prior_loc)[:p]
+
+
 def _linear_folds(density: BenchDensity, parts: Stretches) -> list[HeldOut]:
     """Closed-form refits of a linear model with white noise, one per fold."""
     sums = _part_sums(density, parts)
     p = density.n_model
-    on = np.asarray(density.prior_on)[:p]
-    precision = on / np.asarray(density.prior_scale)[:p] ** 2
-    prior_mean = np.asarray(density.prior_loc)[:p]
+    precision, prior_mean = _coefficient_prior(density)
     known = density.sigma is not None
     folds = []
     for k in range(int(parts.fold_of.max()) + 1):
@@ -224,9 +230,7 @@ def _eiv_folds(density: BenchDensity, parts: Stretches, time_s: np.ndarray,
     design_means = np.column_stack([part_means(design[:, i], parts.part, parts.n_parts)
                                     for i in range(p)])
     covariance_rows = np.asarray(density._covariance(jnp.asarray(point_u)))
-    on = np.asarray(density.prior_on)[:p]
-    precision = on / np.asarray(density.prior_scale)[:p] ** 2
-    prior_mean = np.asarray(density.prior_loc)[:p]
+    precision, prior_mean = _coefficient_prior(density)
     values = dict(zip(density.names, np.asarray(density.to_natural(jnp.asarray(point_u))),
                       strict=True))
     noise_cov = _noise_covariance(density, values, parts, time_s)

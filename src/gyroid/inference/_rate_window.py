@@ -157,9 +157,10 @@ def _least_biased(log: BenchLog, model: DriftModel, inputs, windows: np.ndarray,
         wd = np.linalg.lstsq(design, y, rcond=None)[0][index]
         covariance = wd**2 * thermometer_var_C2 * (operator @ operator.T)
         covariance[np.diag_indices_from(covariance)] += white
-        factor = scipy.linalg.cho_factor(covariance, lower=True)
-        posterior = np.linalg.pinv(design.T @ scipy.linalg.cho_solve(factor, design))
-        gain = posterior @ scipy.linalg.cho_solve(factor, design).T  # G: y -> coefficients
+        whitened = scipy.linalg.cho_solve(scipy.linalg.cho_factor(covariance, lower=True),
+                                          design)  # C^-1 X
+        posterior = np.linalg.pinv(design.T @ whitened)
+        gain = posterior @ whitened.T  # G: y -> coefficients
         difference = operator - reference
         shift = wd * gain @ (difference @ temperature)
         noise = wd**2 * thermometer_var_C2 * np.sum((gain @ difference) ** 2, axis=1)

@@ -81,6 +81,27 @@ def _edge_slopes(window: np.ndarray, x: np.ndarray, half: int, degree: int,
     return out, floor
 
 
+def _slope_kernel(half: int, degree: int) -> tuple[np.ndarray, np.ndarray, float]:
+    """A window of ``2 half + 1`` samples: its positions scaled to [-1, 1], the weights that
+    give the degree-``degree`` least-squares slope at its centre (per unit of position),
+    and their squared norm (the centre slope's noise per unit sample variance)."""
+    x = np.arange(-half, half + 1) / half
+    centre = np.linalg.pinv(np.vander(x, degree + 1, increasing=True))[1]
+    return x, centre, float(centre @ centre)
+
+
+def _half_and_degree(window_s: float, step: float, size: int) -> tuple[int, int]:
+    """The estimator's half window (samples) and polynomial degree for ``window_s`` on a
+    grid of ``size`` points ``step`` apart: shortened to the grid, and the degree with it,
+    when the window is longer (degree below 1: a single slope over the whole grid)."""
+    half = max(int(round(window_s / step / 2.0)), RATE_POLY_DEGREE)
+    degree = RATE_POLY_DEGREE
+    if 2 * half + 1 > size:
+        half = (size - 1) // 2
+        degree = min(RATE_POLY_DEGREE, 2 * half - 1)
+    return half, degree
+
+
 def _local_polynomial_slope(values: np.ndarray, half: int, degree: int, step: float,
                             floors: tuple[int, int] | None = None
                             ) -> tuple[np.ndarray, tuple[int, int]]:
@@ -95,10 +116,7 @@ def _local_polynomial_slope(values: np.ndarray, half: int, degree: int, step: fl
     from scipy.signal import oaconvolve  # here: importing scipy.signal costs 0.7 s at start-up
 
     width = 2 * half + 1
-    x = np.arange(-half, half + 1) / half
-    vander = np.vander(x, degree + 1, increasing=True)
-    centre = np.linalg.pinv(vander)[1]  # values -> the slope at the window's centre
-    reference = float(centre @ centre)
+    x, centre, reference = _slope_kernel(half, degree)
     scale = 1.0 / (half * step)
     first, last = (None, None) if floors is None else floors
     out = np.empty(values.shape)
@@ -188,11 +206,7 @@ def _rate_and_floors(time_s: np.ndarray, temperature_C: np.ndarray, window_s: fl
         m = int(np.floor((time_s[-1] - time_s[0]) / step)) + 1
         grid_t = time_s[0] + step * np.arange(m)
         grid_T = _interp(grid_t, time_s, temperature_C)
-    half = max(int(round(window_s / step / 2.0)), RATE_POLY_DEGREE)
-    degree = RATE_POLY_DEGREE
-    if 2 * half + 1 > grid_t.size:
-        half = (grid_t.size - 1) // 2
-        degree = min(RATE_POLY_DEGREE, 2 * half - 1)
+    half, degree = _half_and_degree(window_s, step, grid_t.size)
     if degree < 1:
         slope = (grid_T[-1] - grid_T[0]) / (grid_t[-1] - grid_t[0])
         return np.broadcast_to(slope * 3600.0, temperature_C.shape).copy(), None
@@ -262,28 +276,21 @@ def temperature_rate_operator(
         raise ValueError(f"the rate operator of {n} rows on a grid of {grid} (at most "
                          f"{MAX_OPERATOR_ROWS})")
     _, floors = _rate_and_floors(time_s, temperature_C, window_s)
-    if n >= 2 and _grid_plan(time_s, window_s)[0] == "uniform" and floors is not None:
-        return _uniform_operator(time_s, window_s, floors)
+    if n >= 2 and floors is not None:
+        kind, step = _grid_plan(time_s, window_s)
+        if kind == "uniform":
+            return _uniform_operator(n, step, *_half_and_degree(window_s, step, n), floors)
     return _rate_and_floors(time_s, np.eye(n), window_s, floors)[0]
 
 
-def _uniform_operator(time_s: np.ndarray, window_s: float, floors: tuple[int, int]
+def _uniform_operator(n: int, step: float, half: int, degree: int, floors: tuple[int, int]
                       ) -> np.ndarray:
-    """:func:`temperature_rate_operator` of a uniform clock written directly: the interior
-    rows are the differentiating kernel on a band, the first and last ``half`` rows the end
-    windows' slopes of the identity (O(n x window), where the estimator applied to the n
-    columns of the identity costs n FFT convolutions)."""
-    n = time_s.size
-    kind, step = _grid_plan(time_s, window_s)
-    half = max(int(round(window_s / step / 2.0)), RATE_POLY_DEGREE)
-    degree = RATE_POLY_DEGREE
-    if 2 * half + 1 > n:
-        half = (n - 1) // 2
-        degree = min(RATE_POLY_DEGREE, 2 * half - 1)
+    """:func:`temperature_rate_operator` of ``n`` rows on a uniform clock ``step`` s apart,
+    written directly: the interior rows are the differentiating kernel on a band, the first
+    and last ``half`` rows the end windows' slopes of the identity (O(n x window), where the
+    estimator applied to the n columns of the identity costs n FFT convolutions)."""
     width = 2 * half + 1
-    x = np.arange(-half, half + 1) / half
-    centre = np.linalg.pinv(np.vander(x, degree + 1, increasing=True))[1]
-    reference = float(centre @ centre)
+    x, centre, reference = _slope_kernel(half, degree)
     scale = 1.0 / (half * step / 3600.0)
     out = np.zeros((n, n))
     rows = np.arange(half, n - half)
