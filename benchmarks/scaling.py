@@ -28,9 +28,9 @@ and peak memory (the process and its children):
 ``--repeat N`` runs each timed command N times and reports the median (every run's time is
 kept in ``seconds_all``).
 
-``--stream-rows N``: a log too long to hold (a day at ~1 kHz is 8.6e7 rows), written here
-chunk by chunk (paper A's drift on the schedule's true temperature, white noise, the
-thermometer's noise), then only ``load_pyarrow`` and ``gyroid fit LOG --terms thermal``
+``--stream-rows N``: a log too long to hold (a day at ~1 kHz is 8.6e7 rows), written by
+``gyroid simulate thermal --rate-hz F --format parquet`` chunk by chunk (``simulate_streamed``:
+its time and peak memory), then only ``load_pyarrow`` and ``gyroid fit LOG --terms thermal``
 with its default ``--noise auto``: gyroid reads it as a stream of batches reduced to block
 means. The bare script, which holds every row, is not run at that length.
 
@@ -102,51 +102,39 @@ def make_log(rows: int, folder: Path) -> Path:
     return path
 
 
-def make_streamed_log(rows: int, folder: Path, chunk: int = 1 << 20) -> Path:
-    """A thermal bench log of ``rows`` rows over paper A's 10.3 h schedule, written chunk by
-    chunk (never held whole)."""
-    import numpy as np
-    import pyarrow as pa
+def streamed_length(rows: int, folder: Path) -> dict:
+    """A log of ``rows`` rows (paper A's schedule, sampled ``rows`` times) written by
+    ``gyroid simulate thermal --format parquet``, chunk by chunk; pyarrow reading it; gyroid
+    fitting it as a stream."""
+    from gyroid.simulation import ThermalProtocol
+
+    rate_hz = rows / ThermalProtocol().duration_s
+    simulate = measure(sys.executable, "-m", "gyroid", "simulate", "thermal", "--rate-hz",
+                       repr(rate_hz), "--format", "parquet", "--seed", "1",
+                       "--out", str(folder / "simulated"))
+    log = folder / "simulated" / "bench.parquet"
+    if simulate["code"] != 0:
+        return {"rows": rows, "simulate_streamed": simulate}
     import pyarrow.parquet as pq
 
-    from gyroid.simulation import PAPER_A_THERMAL, ThermalProtocol
-    from gyroid.simulation._noise import GyroNoise
-
-    protocol = ThermalProtocol()
-    step = protocol.duration_s / rows
-    noise, w = GyroNoise(), PAPER_A_THERMAL
-    rng = np.random.default_rng(1)
-    path = folder / f"thermal_{rows:.0e}.parquet"
-    with pq.ParquetWriter(path, pa.schema([(c, pa.float64()) for c in
-                                           ("time_s", "drift_deg_h", "temperature_C")])) as out:
-        for start in range(0, rows, chunk):
-            time_s = step * np.arange(start, min(start + chunk, rows))
-            temperature, rate = protocol.temperature(time_s)
-            t = temperature - protocol.lab_C
-            drift = (w["w0"] + w["w1"] * t + w["w2"] * t**2 + w["wD"] * rate
-                     + rng.normal(0.0, noise.white_sd_deg_h(step), time_s.size))
-            measured = temperature + rng.normal(0.0, noise.temperature_noise_C, time_s.size)
-            out.write_table(pa.table({"time_s": time_s, "drift_deg_h": drift,
-                                      "temperature_C": measured}))
-    return path
-
-
-def streamed_length(rows: int, folder: Path) -> dict:
-    log = make_streamed_log(rows, folder)
+    row: dict = {"rows": pq.read_metadata(log).num_rows, "rate_hz": rate_hz,
+                 "simulate_streamed": {k: simulate[k] for k in ("seconds", "peak_mb", "code")}}
     load = measure(sys.executable, "-c", _LOAD, "pyarrow", str(log))
-    row: dict = {"rows": rows, "load_pyarrow": {"seconds": json.loads(load["stdout"])["seconds"],
-                                                "peak_mb": load["peak_mb"]}}
+    row["load_pyarrow"] = {"seconds": json.loads(load["stdout"])["seconds"],
+                           "peak_mb": load["peak_mb"]}
     fit_dir = folder / f"fit_{rows:.0e}"
     fit = measure(sys.executable, "-m", "gyroid", "fit", str(log), "--terms", "thermal",
                   "--out", str(fit_dir), "--no-progress")
     row["fit_streamed"] = {k: fit[k] for k in ("seconds", "peak_mb", "code")}
     if fit["code"] in (0, 3):
         record = json.loads((fit_dir / "fit.json").read_text())
+        truth = json.loads((folder / "simulated" / "truth.json").read_text())["parameters"]
         row["fit_streamed"] |= {
             "block_means": record["block_means"], "noise_choice": record["noise_choice"],
             "failed": [c for c, v in record["checks"].items() if not v["passed"]],
             "mean": {k: record["posterior"][k]["mean"] for k in ("w0", "w1", "w2", "wD")},
-            "sd": {k: record["posterior"][k]["sd"] for k in ("w0", "w1", "w2", "wD")}}
+            "sd": {k: record["posterior"][k]["sd"] for k in ("w0", "w1", "w2", "wD")},
+            "truth": {k: truth[k] for k in ("w0", "w1", "w2", "wD")}}
     else:
         row["fit_streamed"]["stderr"] = fit["stderr"]
     log.unlink()

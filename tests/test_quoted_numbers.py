@@ -201,6 +201,17 @@ def test_the_streamed_fit_of_a_log_too_long_to_hold():
     assert [row["rows"] for row in rows] == [21_000_000, 100_000_000]
     _quoted("White noise on the means passed its checks, and the four coefficients lie "
             f"within {math.ceil(10 * worst) / 10:.1f} posterior sd of the truths")
+    long, short = rows[1], rows[0]
+    _quoted(f"chunk by chunk in {long['simulate_streamed']['seconds']:.0f} s and "
+            f"{long['simulate_streamed']['peak_mb'] / 1000:.1f} GB",
+            f"took {long['fit_streamed']['seconds']:.0f} s and "
+            f"{long['fit_streamed']['peak_mb'] / 1000:.2f} GB end to end, against "
+            f"{long['load_pyarrow']['seconds']:.0f} s and "
+            f"{long['load_pyarrow']['peak_mb'] / 1000:.1f} GB",
+            f"at 2.1 x 10^7 rows {short['fit_streamed']['seconds']:.1f} s and "
+            f"{short['fit_streamed']['peak_mb'] / 1000:.2f} GB (pyarrow "
+            f"{short['load_pyarrow']['seconds']:.1f} s, "
+            f"{short['load_pyarrow']['peak_mb'] / 1000:.1f} GB)")
     assert all(not row["fit_streamed"]["failed"] for row in rows)
 
 

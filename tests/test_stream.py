@@ -114,3 +114,59 @@ def test_fit_streams_a_parquet_log_longer_than_the_threshold(tmp_path, monkeypat
         stream_block_means(_write(tmp_path / "unsorted.parquet", unsorted), "bias",
                            ("x",), (), 30, batch_rows=5_000)
     assert not (tmp_path / "no").exists()
+
+
+def test_a_streamed_simulation_does_not_depend_on_its_chunks(tmp_path):
+    """One random stream per noise source and the Gauss-Markov filter's state carried over:
+    the log written in chunks of 97 rows is the log written in one (bit for bit)."""
+    from gyroid.simulation import ThermalProtocol
+    from gyroid.simulation._noise import GyroNoise
+    from gyroid.simulation._stream import stream_thermal_bench
+
+    protocol = ThermalProtocol().stretched(hours=0.5)
+    noise = GyroNoise(bias_instability_deg_h=0.05, correlation_time_s=60.0)
+    whole = stream_thermal_bench(tmp_path / "whole.parquet", protocol=protocol, noise=noise,
+                                 seed=3, chunk_rows=10**6)
+    chunked = stream_thermal_bench(tmp_path / "chunked.csv", protocol=protocol, noise=noise,
+                                   seed=3, chunk_rows=97)
+    a = pq.read_table(whole.path)
+    b = load_bench_log(chunked.path)
+    assert a.num_rows == b.n == whole.n_rows == 1800
+    for name in a.column_names:
+        np.testing.assert_array_equal(a[name].to_numpy(), np.asarray(b.columns[name]))
+    assert chunked.truth == whole.truth
+
+
+def test_simulate_streams_a_long_thermal_log_that_fits_back_to_its_truth(tmp_path,
+                                                                        monkeypatch):
+    """Over STREAM_ROWS rows `gyroid simulate` writes the log chunk by chunk (as Parquet
+    here), and `gyroid fit` streams it back: the truth within 4 posterior sds. Effects
+    that need the whole history, and --average, are refused with one message."""
+    import gyroid.io._stream as stream
+    import gyroid.pipeline._fit_file as fit_file
+    import gyroid.simulation._stream as simulated
+
+    monkeypatch.setattr(stream, "STREAM_ROWS", 20_000)
+    monkeypatch.setattr(fit_file, "STREAM_ROWS", 20_000)
+    monkeypatch.setattr(simulated, "CHUNK_ROWS", 7_000)
+    out = tmp_path / "sim"
+    assert main(["simulate", "thermal", "--out", str(out), "--rate-hz", "1.5",
+                 "--format", "parquet", "--seed", "4"]) == 0
+    truth = json.loads((out / "truth.json").read_text())["parameters"]
+    assert pq.read_metadata(out / "bench.parquet").num_rows == 55_800
+    assert (out / "bench.png").exists() and not (out / "bench.csv").exists()
+    fit = tmp_path / "fit"
+    code = main(["fit", str(out / "bench.parquet"), "--terms", "thermal", "--noise", "white",
+                 "--out", str(fit), "--no-progress"])
+    record = json.loads((fit / "fit.json").read_text())
+    assert code == 0 and record["block_means"]["rows"] == 55_800
+    for name, value in truth.items():
+        posterior = record["posterior"][name]
+        assert abs(posterior["mean"] - value) < 4.0 * posterior["sd"], name
+
+    lagged = main(["simulate", "thermal", "--out", str(tmp_path / "lag"), "--rate-hz", "1.5",
+                   "--effect", "thermal_lag:tau_lag_min=5"])
+    averaged = main(["simulate", "thermal", "--out", str(tmp_path / "avg"), "--rate-hz", "1.5",
+                     "--average", "60"])
+    assert lagged == averaged == 2
+    assert not (tmp_path / "lag").exists() and not (tmp_path / "avg").exists()

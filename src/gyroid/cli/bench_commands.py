@@ -82,6 +82,10 @@ from gyroid.io._outputs import output_dir
               help="Stretch the bench's schedule to last this long, h (every phase alike).")
 @click.option("--rate-hz", "rate_hz", default=None, type=POSITIVE,
               help="Sample rate, Hz (default: the paper's 1 Hz).")
+@click.option("--format", "log_format", type=click.Choice(["csv", "parquet"]), default="csv",
+              show_default=True,
+              help="Write bench.csv (the contract's CSV) or bench.parquet (the same columns; "
+                   "what a log too long for memory is fitted from as a stream).")
 @click.option("--runs", default=1, show_default=True, type=click.IntRange(1),
               help="Simulate a lot of this many runs (or units) of one gyro type, each "
                    "with its own coefficients drawn from the population, into "
@@ -91,12 +95,14 @@ from gyroid.io._outputs import output_dir
                    "magnitude.")
 def simulate(
     bench, out, seed, overrides, effects, arw, bias_instability, correlation_time, average_s,
-    hours, rate_hz, runs, spread,
+    hours, rate_hz, log_format, runs, spread,
 ) -> None:
     """Simulate paper A's thermal or magnetic bench with known truth (of any length and
-    sample rate with --hours and --rate-hz; a lot of runs with --runs)."""
+    sample rate with --hours and --rate-hz; a lot of runs with --runs). A thermal log of
+    more than 2 x 10^7 rows is written chunk by chunk, never held whole."""
     from gyroid.io._log_writer import write_bench_log
     from gyroid.io._outputs import json_text
+    from gyroid.io._stream import STREAM_ROWS
     from gyroid.models._derived import RATE_WINDOW_S
     from gyroid.plotting import magnetic_sweep, save, thermal_run
     from gyroid.simulation._bench import (
@@ -107,6 +113,7 @@ def simulate(
         simulate_thermal_bench,
     )
     from gyroid.simulation._noise import GyroNoise
+    from gyroid.simulation._stream import thermal_bench_rows
 
     parameters = preset_parameters(bench) | parse_assignments(overrides, "--set")
     noise = GyroNoise(
@@ -130,6 +137,15 @@ def simulate(
     simulator = simulate_thermal_bench if bench == "thermal" else simulate_magnetic_bench
     protocol = (ThermalProtocol() if bench == "thermal" else MagneticProtocol()).stretched(
         hours, rate_hz)
+    log_name = f"bench.{log_format}"
+    if bench == "thermal" and thermal_bench_rows(protocol) > STREAM_ROWS:
+        if average_s:
+            raise GyroidInputError(
+                f"--average on a log of {thermal_bench_rows(protocol)} rows: its window "
+                "means are those of a slower log; simulate at a lower --rate-hz with --average")
+        _simulate_streamed(out, log_name, protocol, parameters=parameters,
+                           effects=parse_effects(effects), noise=noise, seed=seed)
+        return
     sim = simulator(
         parameters=parameters,
         effects=parse_effects(effects),
@@ -140,7 +156,7 @@ def simulate(
         say=lambda m: click.echo(m, err=True),
     )
     with output_dir(out) as stage:
-        write_bench_log(stage / "bench.csv", sim.log.columns, sim.log.comments)
+        write_bench_log(stage / log_name, sim.log.columns, sim.log.comments)
         (stage / "truth.json").write_text(json_text(sim.truth))
         if bench == "thermal":
             # The default window suits paper A's hour-long transitions; it shrinks with them.
@@ -152,7 +168,30 @@ def simulate(
         else:
             fig = magnetic_sweep(sim.log)
         save(fig, stage / "bench.png")
-    click.echo(f"wrote {out / 'bench.csv'} ({sim.log.n} rows) and {out / 'truth.json'}")
+    click.echo(f"wrote {out / log_name} ({sim.log.n} rows) and {out / 'truth.json'}")
+
+
+def _simulate_streamed(out: Path, log_name: str, protocol, **options) -> None:
+    """A thermal log too long to hold, written chunk by chunk (its figure from every k-th
+    row)."""
+    from gyroid.io._outputs import json_text
+    from gyroid.models._derived import RATE_WINDOW_S
+    from gyroid.plotting import save, thermal_run
+    from gyroid.simulation._bench import ThermalProtocol
+    from gyroid.simulation._stream import stream_thermal_bench
+
+    with output_dir(out) as stage:
+        sim = stream_thermal_bench(stage / log_name, protocol=protocol,
+                                   say=lambda m: click.echo(m, err=True), **options)
+        (stage / "truth.json").write_text(json_text(sim.truth))
+        window = RATE_WINDOW_S * protocol.transition_min / ThermalProtocol().transition_min
+        shown = sim.shown
+        save(thermal_run(shown, shown.inputs(rate_window_s=window).rate_C_h,
+                         sim.shown_true_drift_deg_h, rate_window_s=window,
+                         thinned_by=sim.shown_every),
+             stage / "bench.png")
+    click.echo(f"wrote {out / log_name} ({sim.n_rows} rows, written in chunks) and "
+               f"{out / 'truth.json'}")
 
 
 def _simulate_lot(bench: str, out: Path, *, runs: int, **options) -> None:

@@ -3,7 +3,8 @@ atomically and in batches."""
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -61,25 +62,44 @@ def write_bench_log(
     """Write a bench log atomically: ``.csv`` or ``.csv.gz`` (contract CSV with the comment
     and units lines; values by pyarrow's CSV writer, in batches) or ``.parquet`` (comments
     in the file's metadata). Memory stays bounded on 10^7-row logs."""
+    with bench_log_writer(path, _ordered(columns), comments) as append:
+        append(columns)
+    return Path(path)
+
+
+@contextmanager
+def bench_log_writer(path: str | Path, names: Sequence[str], comments: Iterable[str] = ()
+                     ) -> Iterator[Callable[[Mapping[str, np.ndarray]], None]]:
+    """A bench log written chunk by chunk (a log too long to hold): yields ``append``,
+    which writes the next rows (a mapping of ``names`` to equally long arrays). The file
+    (formats as :func:`write_bench_log`; columns in the order of ``names``) appears at
+    ``path`` when the block ends without an error, and not at all otherwise."""
     import gzip
 
     import pyarrow as pa
     import pyarrow.csv as pacsv
     import pyarrow.parquet as pq
 
-    path = Path(path)
-    names = _ordered(columns)
-    table = pa.table({c: np.asarray(columns[c], dtype=float) for c in names})
-    comments = list(comments)
+    path, names, comments = Path(path), list(names), list(comments)
+    schema = pa.schema([(c, pa.float64()) for c in names])
+
+    def table(columns: Mapping[str, np.ndarray]) -> pa.Table:
+        return pa.table({c: np.asarray(columns[c], dtype=float) for c in names}, schema=schema)
+
     with atomic_path(path) as tmp:
         if path.suffix == ".parquet":
             meta = {b"gyroid_comments": "\n".join(comments).encode()}
-            pq.write_table(table.replace_schema_metadata(meta), tmp)
-            return path
+            with pq.ParquetWriter(tmp, schema.with_metadata(meta)) as writer:
+                yield lambda columns: writer.write_table(table(columns))
+            return
         opener = gzip.open if path.name.endswith(".gz") else open
         options = pacsv.WriteOptions(include_header=False)
         with opener(tmp, "wb") as handle:
             handle.write(("\n".join(_header_lines(names, comments)) + "\n").encode())
-            for start in range(0, max(table.num_rows, 1), WRITE_BATCH_ROWS):
-                pacsv.write_csv(table.slice(start, WRITE_BATCH_ROWS), handle, options)
-    return path
+
+            def append(columns: Mapping[str, np.ndarray]) -> None:
+                rows = table(columns)
+                for start in range(0, rows.num_rows, WRITE_BATCH_ROWS):
+                    pacsv.write_csv(rows.slice(start, WRITE_BATCH_ROWS), handle, options)
+
+            yield append

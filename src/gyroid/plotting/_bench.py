@@ -20,23 +20,24 @@ from gyroid.plotting._style import (
 
 def thermal_run(
     log: BenchLog, rate_C_h: np.ndarray, true_drift: np.ndarray | None = None,
-    rate_window_s: float | None = None,
+    rate_window_s: float | None = None, thinned_by: int = 1,
 ) -> Figure:
     """Paper A Fig. 1 style: drift, temperature and its rate against time. The logged
     drift is drawn over the true drift (when known); its noise is shown in its own panel,
     because at the heating peaks' scale it is thinner than a line. ``rate_C_h`` is dT/dt as
-    gyroid estimates it from the logged temperature (window ``rate_window_s``)."""
+    gyroid estimates it from the logged temperature (window ``rate_window_s``). ``log``
+    may be every ``thinned_by``-th sample of the log (one too long to hold)."""
     with figure_style():
         rows = 4 if true_drift is not None else 3
         fig, axes = subplots(rows, 1, figsize=(6.5, 1.9 * rows + 0.8), sharex=True)
-        shown, thinned = _every(log.n)
+        shown, thinned = _every(log.n, thinned_by)
         hours = ((log.time_s - log.time_s[0]) / 3600.0)[shown]
         drift = np.asarray(log.drift_deg_h)[shown]
         temperature = np.asarray(log.columns["temperature_C"])[shown]
         rate_C_h = np.asarray(rate_C_h)[shown]
         true_drift = None if true_drift is None else np.asarray(true_drift)[shown]
         axes[0].plot(hours, drift, color="0.6", lw=0.5, ls="-",
-                     label=f"logged ({_rate_label(log.time_s)}{thinned})")
+                     label=f"logged ({_rate_label(log.time_s, thinned_by)}{thinned})")
         if true_drift is not None:
             axes[0].plot(hours, true_drift, color="0.0", lw=0.7, ls="-", label="true drift")
         axes[0].set_ylabel("drift, deg/h")

@@ -67,10 +67,12 @@ def plot_step(n: int) -> int:
     return max(1, -(-n // MAX_PLOTTED_POINTS))
 
 
-def _every(n: int) -> tuple[slice, str]:
-    """The samples to draw of ``n`` and a label suffix saying so when thinned."""
+def _every(n: int, thinned_by: int = 1) -> tuple[slice, str]:
+    """The samples to draw of ``n`` (themselves every ``thinned_by``-th of the log's) and a
+    label suffix saying so when thinned."""
     step = plot_step(n)
-    return slice(None, None, step), ("" if step == 1 else f", every {ordinal(step)} sample drawn")
+    total = step * thinned_by
+    return slice(None, None, step), ("" if total == 1 else f", every {ordinal(total)} sample drawn")
 
 
 def ordinal(k: int) -> str:
@@ -91,6 +93,7 @@ def moving_mean(values: np.ndarray, window: int) -> np.ndarray:
     return (total[hi] - total[lo]) / (hi - lo)
 
 
-def _rate_label(time_s: np.ndarray) -> str:
-    step = float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
+def _rate_label(time_s: np.ndarray, thinned_by: int = 1) -> str:
+    """The log's sample rate (of ``time_s``, every ``thinned_by``-th sample of the log)."""
+    step = float(np.median(np.diff(time_s))) / thinned_by if time_s.size > 1 else 1.0
     return f"{1.0 / step:.3g} Hz" if step <= 1.0 else f"{step:.3g} s samples"

@@ -11,4 +11,5 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "_flight": ["FlightProfile", "SimulatedFlight", "roll_log_text", "simulate_flight"],
     "_lot": ["SimulatedLot", "simulate_lot"],
     "_noise": ["GyroNoise", "gauss_markov"],
+    "_stream": ["StreamedBench", "stream_thermal_bench"],
 })

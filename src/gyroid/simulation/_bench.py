@@ -164,7 +164,7 @@ class SimulatedBench:
     true_drift_deg_h: np.ndarray = field(repr=False)
 
 
-def _resolve_truth(
+def resolve_truth(
     base: Mapping[str, float], effects: Mapping[str, Mapping[str, float]] | None
 ) -> tuple[tuple[str, ...], dict[str, float]]:
     """Effects switched on and their parameter values.
@@ -242,9 +242,19 @@ def _simulate(
         columns[name] = field_uT[:, k] + magnetometer[:, k]
     if average_s:
         columns = window_average(columns, average_s)
-    truth = {
+    truth = truth_record(bench, model, values, noise, sample_s, protocol, average_s, seed, t0_C)
+    comments = truth_comments(truth)
+    log = BenchLog(columns=columns, source=f"<simulated {bench} bench>", comments=comments)
+    return SimulatedBench(log=log, truth=truth, true_drift_deg_h=true_drift)
+
+
+def truth_record(bench: str, model: DriftModel, values: Mapping[str, float], noise: GyroNoise,
+                 sample_s: float, protocol: dict, average_s: float | None, seed: int,
+                 t0_C: float) -> dict:
+    """``truth.json`` of a simulated bench log."""
+    return {
         "bench": bench,
-        "effects": list(terms),
+        "effects": list(model.terms),
         "parameters": {name: values[name] for name in model.parameter_names},
         "units": {p: PARAMETERS[p].unit for p in model.parameter_names},
         "t0_C": t0_C,
@@ -253,12 +263,12 @@ def _simulate(
         "average_s": average_s,
         "seed": seed,
     }
-    comments = (
-        f"gyroid simulated {bench} bench, seed {seed}",
-        "truth: " + ", ".join(f"{k}={v:g}" for k, v in truth["parameters"].items()),
-    )
-    log = BenchLog(columns=columns, source=f"<simulated {bench} bench>", comments=comments)
-    return SimulatedBench(log=log, truth=truth, true_drift_deg_h=true_drift)
+
+
+def truth_comments(truth: dict) -> tuple[str, str]:
+    """A simulated log's comment lines: what it is and its truth."""
+    return (f"gyroid simulated {truth['bench']} bench, seed {truth['seed']}",
+            "truth: " + ", ".join(f"{k}={v:g}" for k, v in truth["parameters"].items()))
 
 
 def window_average(columns: Mapping[str, np.ndarray], window_s: float) -> dict[str, np.ndarray]:
@@ -304,7 +314,7 @@ def simulate_thermal_bench(
     protocol = protocol or ThermalProtocol()
     noise = noise or GyroNoise()
     base = dict(PAPER_A_THERMAL if parameters is None else parameters)
-    terms, values = _resolve_truth(base, effects)
+    terms, values = resolve_truth(base, effects)
     time_s = np.arange(0.0, protocol.duration_s, protocol.sample_s)
     if say is not None:
         say(f"simulating the thermal bench ({time_s.size} rows) ...")
@@ -344,7 +354,7 @@ def simulate_magnetic_bench(
     noise = noise or GyroNoise()
     default = {"w0": PAPER_A_THERMAL["w0"], **PAPER_A_DEVICE_2}
     base = dict(default if parameters is None else parameters)
-    terms, values = _resolve_truth(base, effects)
+    terms, values = resolve_truth(base, effects)
     time_s, field_uT = protocol.schedule()
     if say is not None:
         say(f"simulating the magnetic bench ({time_s.size} rows) ...")
