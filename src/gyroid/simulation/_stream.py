@@ -27,7 +27,6 @@ from gyroid.io._log_writer import bench_log_writer
 from gyroid.io._logs import BenchLog
 from gyroid.models._drift import DriftModel
 from gyroid.models._inputs import FIELD_COLUMNS, T0_C, inputs_from_arrays
-from gyroid.plotting._style import MAX_PLOTTED_POINTS
 from gyroid.simulation._bench import (
     PAPER_A_THERMAL,
     ThermalProtocol,
@@ -41,8 +40,8 @@ from gyroid.simulation._noise import GM_ADEV_PEAK, GyroNoise
 CHUNK_ROWS = 1 << 20
 #: Effects whose value at a row depends on the whole history before it (not streamable).
 HISTORY_EFFECTS = ("thermal_lag",)
-#: Rows of the thinned copy kept for the figure (every k-th row).
-_SHOWN_ROWS = 20 * MAX_PLOTTED_POINTS
+#: Rows of the thinned copy kept for a figure (every k-th row; a figure draws fewer still).
+SHOWN_ROWS = 100_000
 
 
 @dataclass(frozen=True)
@@ -97,7 +96,7 @@ def stream_thermal_bench(
         np.random.default_rng(s) for s in np.random.SeedSequence(seed).spawn(4))
     gm = _GaussMarkov(noise, protocol.sample_s, shocks)
     lab_field = np.asarray(protocol.lab_field_uT, dtype=float)
-    every = max(1, n // _SHOWN_ROWS)
+    every = max(1, n // SHOWN_ROWS)
     shown: dict[str, list[np.ndarray]] = {}
     names = ["time_s", "drift_deg_h", "temperature_C", *FIELD_COLUMNS]
     truth = truth_record("thermal", model, values, noise, protocol.sample_s,
