@@ -11,9 +11,10 @@ from matplotlib.figure import Figure
 
 from gyroid.io._logs import gap_threshold
 
+#: Figures are drawn inside this style and saved after it (:func:`save`), at the figure's
+#: own resolution: ``figure.dpi`` (a savefig.dpi here would never apply).
 STYLE = {
     "figure.dpi": 110,
-    "savefig.dpi": 150,
     "axes.grid": True,
     "grid.linestyle": ":",
     "grid.color": "0.7",
@@ -38,7 +39,8 @@ def figure_style(overrides: dict | None = None):
 
 
 def save(fig: Figure, path: Path, *, pdf: bool = False) -> list[Path]:
-    """Save a figure as PNG (and PDF); returns the written paths."""
+    """Save a figure as PNG (at the figure's 110 dpi) and, with ``pdf``, as PDF; returns the
+    written paths."""
     path = Path(path)
     written = [path.with_suffix(".png")]
     fig.savefig(written[0], bbox_inches="tight")
