@@ -84,3 +84,41 @@ def test_the_one_core_environment_is_restored_and_keeps_the_users_xla_flags(monk
         assert os.environ["OMP_NUM_THREADS"] == "1"
     assert os.environ["XLA_FLAGS"] == "--xla_dump_to=/tmp/x"
     assert "OMP_NUM_THREADS" not in os.environ
+
+
+def test_without_a_second_process_every_step_runs_here(monkeypatch):
+    def refused(*_args, **_kwargs):
+        raise OSError("no POSIX semaphores")
+
+    monkeypatch.setattr(_demo, "ProcessPoolExecutor", refused)
+    study = _Steps()
+    _demo._run_in_two_processes(study)
+    assert study.ran == ["simulate", "fit", "propagate", "compensate_and_reproduce",
+                         "discrepancy", "pool"]
+    assert any("no POSIX semaphores" in line for line in study.said)
+
+
+def test_a_failing_step_here_stops_the_second_process(tmp_path):
+    """A real spawned second process: a step here fails, and the error arrives without the
+    second process's steps (it is stopped, not waited for: it never reaches the pool)."""
+    import multiprocessing
+
+    import pytest
+
+    from gyroid.errors import GyroidInputError
+
+    class Failing(_Steps):
+        def __getattr__(self, name):
+            if name == "fit":
+                def fail():
+                    raise GyroidInputError("a bad step")
+                return fail
+            return super().__getattr__(name)
+
+    study = Failing()
+    study.stage, study.size = tmp_path, _demo.DemoSize(propagate_draws=10, sobol_samples=10)
+    before = set(multiprocessing.active_children())
+    with pytest.raises(GyroidInputError, match="a bad step"):
+        _demo._run_in_two_processes(study)
+    assert not set(multiprocessing.active_children()) - before
+    assert not (tmp_path / "pool").exists()

@@ -191,23 +191,38 @@ def run_demo(out: str | Path, *, seed: int = 0, echo: Callable[[str], None] = pr
 
 def _run_in_two_processes(study: _Study) -> None:
     """The discrepancy workflow and the pooled lot in a spawned process, the other steps
-    here, each process on one core (:func:`gyroid._config.one_core_environment`). If the
-    second process dies (killed, out of memory), its steps run here after the others."""
+    here, each process on one core (:func:`gyroid._config.one_core_environment`). If no
+    second process can be started, or it dies (killed, out of memory), its steps run here;
+    if a step here fails, the second process is stopped, not waited for."""
     import jax
 
     main_steps = (study.simulate, study.fit, study.propagate, study.compensate_and_reproduce)
-    with one_core_environment(), ProcessPoolExecutor(
-            1, mp_context=multiprocessing.get_context("spawn")) as pool:
-        study.echo("[4/6] and [6/6] (the discrepancy workflow and the pooled lot) run in a "
-                   "second process ...")
-        side = pool.submit(_side_steps, study.stage, study.seed, study.size,
-                           jax.config.jax_compilation_cache_dir)
+    try:
+        pool = ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn"))
+    except (OSError, NotImplementedError, ImportError) as error:  # e.g. no POSIX semaphores
+        study.echo(f"no second process ({error}); running every step here ...")
+        pool = None
+    if pool is not None:
+        with one_core_environment(), pool:
+            study.echo("[4/6] and [6/6] (the discrepancy workflow and the pooled lot) run "
+                       "in a second process ...")
+            before = set(multiprocessing.active_children())
+            side = pool.submit(_side_steps, study.stage, study.seed, study.size,
+                               jax.config.jax_compilation_cache_dir)
+            try:
+                for step in main_steps:
+                    step()
+            except BaseException:
+                for child in set(multiprocessing.active_children()) - before:
+                    child.terminate()
+                raise
+            try:
+                study.results.update(side.result())
+                return
+            except BrokenProcessPool as error:
+                study.echo(f"the second process stopped ({error}); running its steps here ...")
+    else:
         for step in main_steps:
             step()
-        try:
-            study.results.update(side.result())
-            return
-        except BrokenProcessPool as error:
-            study.echo(f"the second process stopped ({error}); running its steps here ...")
     study.discrepancy()
     study.pool()
