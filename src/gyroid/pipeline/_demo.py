@@ -8,8 +8,8 @@ tables reproduced and audited.
 The steps that need no fit (the discrepancy workflow and the pooled lot) run in a second
 process beside the others when the machine has two cores, each process on one core (their
 thread pools otherwise contend: each step ran ~1.4x slower and the pair gained little).
-Measured on two cores (``benchmarks/run.py --jobs demo``): 64 s -> 51 s cold and
-37 s -> 28 s warm, for 2.2 GB in the two processes together against 1.5 GB in one.
+Measured on two cores (``benchmarks/results_demo.json``): 64 s -> 52 s cold and
+37 s -> 22 s warm, for 2.3 GB in the two processes together against 1.5 GB in one.
 """
 
 from __future__ import annotations
