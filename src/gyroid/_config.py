@@ -53,7 +53,7 @@ def configure(*, compilation_cache: bool = True) -> None:
 #: pools off. Two gyroid processes side by side on a two-core machine otherwise run ~1.4x
 #: slower each, their pools contending (the demo's two processes: 29 s -> 25 s warm).
 ONE_CORE_ENVIRONMENT = {
-    "XLA_FLAGS": "--xla_cpu_multi_thread_eigen=false intra_op_parallelism_threads=1",
+    "XLA_FLAGS": "--xla_cpu_multi_thread_eigen=false",
     "OPENBLAS_NUM_THREADS": "1",
     "OMP_NUM_THREADS": "1",
     "MKL_NUM_THREADS": "1",
