@@ -40,13 +40,19 @@ def cache_folder() -> str | None:
 def configure(*, compilation_cache: bool = True) -> None:
     """float64 and (unless ``compilation_cache=False``) JAX's persistent compilation cache in
     :func:`cache_folder`."""
-    import jax
 
     enable_float64()
     folder = cache_folder() if compilation_cache else None
     if folder is not None:
-        jax.config.update("jax_compilation_cache_dir", folder)
-        jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
+        use_compilation_cache(folder)
+
+
+def use_compilation_cache(folder: str) -> None:
+    """Keep every compiled program in ``folder`` (JAX's persistent compilation cache)."""
+    import jax
+
+    jax.config.update("jax_compilation_cache_dir", folder)
+    jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
 
 
 #: Environment that keeps a process's computing on one core: XLA's and the BLAS's thread

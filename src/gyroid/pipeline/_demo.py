@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from gyroid._config import enable_float64, one_core_environment
+from gyroid._config import enable_float64, one_core_environment, use_compilation_cache
 from gyroid.inference._bench_fit import fit_log
 from gyroid.inference._emcee import Emcee
 from gyroid.inference._pool_fit import fit_pool
@@ -151,12 +151,9 @@ class _Study:
 def _side_steps(stage: Path, seed: int, size: DemoSize, cache: str | None) -> dict:
     """The steps that need no fit (discrepancy, pooling), run in a second process: JAX set
     up as in the first (float64, its compilation cache), silent; returns their results."""
-    import jax
-
     enable_float64()
     if cache:
-        jax.config.update("jax_compilation_cache_dir", cache)
-        jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
+        use_compilation_cache(cache)
     study = _Study(stage, seed, size, lambda _message: None)
     study.discrepancy()
     study.pool()
