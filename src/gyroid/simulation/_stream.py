@@ -84,8 +84,8 @@ def stream_thermal_bench(
     history = [t for t in terms if t in HISTORY_EFFECTS]
     if history:
         raise GyroidInputError(
-            f"{history[0]} needs the whole temperature history, so a log this long (over "
-            "the rows simulated in memory) cannot be written in chunks with it: simulate "
+            f"{history[0]} needs the whole temperature history, so a log written chunk by "
+            "chunk (gyroid simulate writes so above 2 x 10^7 rows) cannot carry it: simulate "
             "fewer rows (--hours, --rate-hz) or leave the effect out")
     n = thermal_bench_rows(protocol)
     if say is not None:
@@ -99,8 +99,8 @@ def stream_thermal_bench(
     every = max(1, n // SHOWN_ROWS)
     shown: dict[str, list[np.ndarray]] = {}
     names = ["time_s", "drift_deg_h", "temperature_C", *FIELD_COLUMNS]
-    truth = truth_record("thermal", model, values, noise, protocol.sample_s,
-                              asdict(protocol), None, seed, t0_C)
+    truth = truth_record("thermal", model, values, noise, protocol.sample_s, asdict(protocol),
+                         None, seed, t0_C)
     with bench_log_writer(path, names, truth_comments(truth)) as append:
         for start in range(0, n, chunk_rows):
             index = np.arange(start, min(start + chunk_rows, n))
