@@ -170,3 +170,62 @@ def test_simulate_streams_a_long_thermal_log_that_fits_back_to_its_truth(tmp_pat
                      "--average", "60"])
     assert lagged == averaged == 2
     assert not (tmp_path / "lag").exists() and not (tmp_path / "avg").exists()
+
+
+@pytest.mark.parametrize("name", ["long.csv", "long.csv.gz"])
+def test_a_csv_log_streams_as_the_parquet_one_does(tmp_path, name):
+    """The same log as CSV (plain or gzip) streams in batches of lines to the means and
+    samples of the whole CSV log, its rows named by their file line."""
+    from gyroid.io import write_bench_log
+
+    columns = _ramp(np.random.default_rng(0))
+    path = write_bench_log(tmp_path / name, columns, ["a ramp, two axes"])
+    streamed = stream_block_means(path, "bias,temperature", ("x", "y"), (), 60,
+                                  batch_rows=7_777)
+    for axis in ("x", "y"):
+        whole = MeansOfBlocks.of(load_bench_log(path, "bias,temperature", axis=axis), 60)
+        got = streamed[axis]
+        assert got.log.n == whole.log.n
+        for column, values in whole.log.columns.items():
+            np.testing.assert_allclose(got.log.columns[column], values, rtol=1e-13,
+                                       atol=1e-12)
+        for k in (0, 400, got.log.n - 1):
+            assert got.log.where(k) == whole.log.where(k)
+        assert got.samples.n == whole.samples.n == 60_000
+        assert got.samples.z_sum_sq == pytest.approx(whole.samples.z_sum_sq, rel=1e-9)
+    assert "(line 4 of" in streamed["x"].log.where(0)  # two comment lines, the header
+
+
+def test_fit_streams_a_long_csv_log_and_names_its_bad_lines(tmp_path, monkeypatch, capsys):
+    """Over STREAM_ROWS (estimated from the file's size) a CSV log is fitted as a stream;
+    a bad cell is named by its line; comment lines among the rows are refused, with what
+    to do."""
+    import gyroid.pipeline._fit_file as fit_file
+    from gyroid.io import write_bench_log
+
+    monkeypatch.setattr(fit_file, "STREAM_ROWS", 10_000)
+    columns = _ramp(np.random.default_rng(2), n=30_000)
+    path = write_bench_log(tmp_path / "long.csv", columns)
+    out = tmp_path / "fit"
+    code = main(["fit", str(path), "--terms", "bias,temperature", "--axes", "y",
+                 "--noise", "white", "--out", str(out), "--no-progress"])
+    said = capsys.readouterr().err
+    assert "as a stream" in said and "at most about" in said
+    record = json.loads((out / "fit.json").read_text())
+    assert record["block_means"]["rows"] == 30_000 and record["block_means"]["means"] <= 1000
+    assert code in (0, 3) and math.isfinite(record["posterior"]["w1"]["mean"])
+
+    text = path.read_text().splitlines()
+    bad = list(text)
+    row = 23_456  # data row 23 457 is on line 23 457 + 2 (the units line, the header)
+    bad[row + 2] = bad[row + 2].replace(bad[row + 2].split(",")[2], "nan", 1)
+    (tmp_path / "bad.csv").write_text("\n".join(bad) + "\n")
+    assert main(["fit", str(tmp_path / "bad.csv"), "--terms", "bias,temperature",
+                 "--axes", "y", "--out", str(tmp_path / "no")]) == 2
+    assert "row 23457 (line 23459 of bad.csv)" in capsys.readouterr().err
+    inner = text[:20_000] + ["# the bench was opened here"] + text[20_000:]
+    (tmp_path / "inner.csv").write_text("\n".join(inner) + "\n")
+    assert main(["fit", str(tmp_path / "inner.csv"), "--terms", "bias,temperature",
+                 "--axes", "y", "--out", str(tmp_path / "no")]) == 2
+    assert "comment lines sit among its rows" in capsys.readouterr().err
+    assert not (tmp_path / "no").exists()

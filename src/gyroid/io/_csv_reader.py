@@ -40,8 +40,23 @@ class ParsedCsv:
     decimal_comma: bool
 
 
-def read_csv(path: Path) -> ParsedCsv:
-    """Parse a CSV log (.csv or .csv.gz; see the module docstring)."""
+@dataclass(frozen=True)
+class CsvLayout:
+    """How a CSV log's text is laid out, read from its first 64 kB: its comment lines, its
+    header (1-based line, byte offset), delimiter and decimal mark."""
+
+    header: tuple[str, ...]
+    header_line: int
+    offset: int  # byte of the header line (in the decompressed text)
+    delimiter: str
+    decimal_comma: bool
+    comments: tuple[str, ...]
+    head: bytes  # the first 64 kB (decompressed)
+
+
+def csv_layout(path: Path) -> CsvLayout:
+    """A CSV log's layout (:class:`CsvLayout`); a file that is not UTF-8 text with a header
+    row with distinct names is refused."""
     head_bytes = read_bytes(path, 1 << 16)
     if head_bytes[:2] in (b"\xff\xfe", b"\xfe\xff") or (
             b"\x00" in head_bytes[:4096] and head_bytes[1:2] == b"\x00"):
@@ -65,6 +80,16 @@ def read_csv(path: Path) -> ParsedCsv:
     offset = 0
     for _ in range(header_line - 1):
         offset = head_bytes.index(b"\n", offset) + 1
+    return CsvLayout(tuple(names), header_line, offset, delimiter, decimal_comma,
+                     tuple(comments), head_bytes)
+
+
+def read_csv(path: Path) -> ParsedCsv:
+    """Parse a CSV log (.csv or .csv.gz; see the module docstring)."""
+    layout = csv_layout(path)
+    names, offset, header_line = list(layout.header), layout.offset, layout.header_line
+    delimiter, decimal_comma, comments = layout.delimiter, layout.decimal_comma, \
+        list(layout.comments)
     lines, inner, body = None, [], None
     if _scan_body(path, offset):  # rare: take the lines out in memory, keep line numbers
         body, lines, inner = _without_inner_lines(read_bytes(path), offset, header_line)
@@ -86,6 +111,60 @@ def read_csv(path: Path) -> ParsedCsv:
         lines = None  # a quoted field spans lines: rows are named by their number only
     return ParsedCsv(tuple(names), raw, empty, n_rows, first_line, lines,
                      tuple(comments + inner), decimal_comma)
+
+
+def csv_rows_bound(path: Path, layout: CsvLayout) -> int:
+    """An upper estimate of a CSV log's data rows, from its size and its shortest data line
+    among the first 64 kB (a gzip file's size scaled by the compression of its first MB):
+    what decides whether it is read as a stream, without reading it."""
+    data = layout.head[layout.offset:].split(b"\n")[1:-1]  # whole data lines in the head
+    shortest = max(1, min((len(line) + 1 for line in data if line.strip()), default=1))
+    size = path.stat().st_size
+    if _is_gzip(path):
+        with path.open("rb") as handle:
+            compressed = handle.read(1 << 20)
+        inflate = zlib.decompressobj(wbits=31)
+        text = inflate.decompress(compressed, 1 << 26)
+        used = len(compressed) - len(inflate.unconsumed_tail) - len(inflate.unused_data)
+        size = int(size * len(text) / max(used, 1))
+    return max(0, size - layout.offset) // shortest
+
+
+def csv_batches(path: Path, layout: CsvLayout, batch_bytes: int):
+    """A CSV log's data rows as pyarrow record batches of about ``batch_bytes`` of text,
+    read from disk as they are used (the column types are those of the first batch). A log
+    with blank or comment lines among its rows is refused: its rows are not its lines."""
+    import pyarrow as pa
+    from pyarrow import csv as pacsv
+
+    if _scan_body(path, layout.offset):
+        raise GyroidInputError(
+            f"{path.name}: blank or comment lines sit among its rows; a log this long is read "
+            "as a stream of lines, one row each: take them out (e.g. grep -v '^#'), or "
+            "write the log as Parquet")
+    text = {n: pa.string() for n in layout.header} if layout.decimal_comma else None
+    reader = pacsv.open_csv(
+        _arrow_stream(path, layout.offset),
+        read_options=pacsv.ReadOptions(block_size=batch_bytes, encoding="utf8"),
+        parse_options=pacsv.ParseOptions(delimiter=layout.delimiter),
+        convert_options=pacsv.ConvertOptions(column_types=text, strings_can_be_null=True,
+                                              null_values=[""]))
+    if [c.strip() for c in reader.schema.names] != list(layout.header):
+        raise GyroidInputError(f"{path.name}: its header cannot be split by "
+                               f"{layout.delimiter!r}; fix the header line")
+    rows = 0
+    while True:
+        try:
+            batch = reader.read_next_batch()
+        except StopIteration:
+            return
+        except pa.ArrowInvalid as error:
+            raise GyroidInputError(
+                f"{path.name}: after row {rows} (line {layout.header_line + rows}) a row "
+                f"cannot be read ({str(error).splitlines()[0]}); fix it, or write the log "
+                "as Parquet") from None
+        rows += batch.num_rows
+        yield batch.rename_columns(list(layout.header))
 
 
 def _open_failure(path: Path, error: OSError) -> GyroidInputError:

@@ -1,5 +1,5 @@
-"""A Parquet log too long to hold, read as a stream of row batches and reduced as it goes to
-what a fit of block means reads (:class:`~gyroid.io._logs.MeansOfBlocks`): every column's
+"""A Parquet or CSV log too long to hold, read as a stream of row batches and reduced as it
+goes to what a fit of block means reads (:class:`~gyroid.io._logs.MeansOfBlocks`): every column's
 mean over blocks of consecutive samples (never across a pause of the clock), and of the
 samples themselves only what the spike check needs. Peak memory is one batch and the
 means, whatever the log's length.
@@ -24,6 +24,7 @@ import numpy as np
 
 from gyroid.errors import GyroidInputError
 from gyroid.io._bench_reader import bench_log_from_table
+from gyroid.io._csv_reader import csv_batches, csv_layout, csv_rows_bound
 from gyroid.io._logs import (
     BenchLog,
     MeansOfBlocks,
@@ -35,12 +36,53 @@ from gyroid.io._logs import (
 from gyroid.io._tables import LogTable, parquet_comments
 from gyroid.io._units import ColumnMap
 
-#: Logs longer than this (rows) are read as a stream (Parquet).
+#: Logs longer than this (rows; for a CSV log, an upper estimate) are read as a stream.
 STREAM_ROWS = 20_000_000
 #: Rows per batch read.
 BATCH_ROWS = 1 << 20
+#: Most bytes of CSV text parsed per batch.
+CSV_BLOCK_BYTES = 1 << 24
 CANDIDATE_SD = 2.5
 CANDIDATES_PER_BLOCK = 10_000
+
+
+def _batches(path: Path, maps: tuple[ColumnMap, ...], batch_rows: int):
+    """The log's empty table (its header, comments and how its rows are named) and its
+    rows as pyarrow record batches of about ``batch_rows`` rows."""
+    if path.suffix.lower() in (".parquet", ".pq"):
+        import pyarrow.parquet as pq
+
+        # pre-buffering reads the whole file ahead (arrow's peak grew with the log's length:
+        # 0.95 GB for 4e7 rows, 0.1 GB without)
+        file = pq.ParquetFile(path, pre_buffer=False)
+        comments = parquet_comments(file.schema_arrow.metadata)
+        base = LogTable(path, tuple(file.schema_arrow.names), {}, 0, None, None, comments,
+                        maps)
+        return base, file.iter_batches(batch_size=batch_rows)
+    layout = csv_layout(path)
+    base = LogTable(path, layout.header, {}, 0, layout.header_line + 1, None, layout.comments,
+                    maps, layout.decimal_comma)
+    lines = layout.head[layout.offset:].split(b"\n")[1:-1]
+    per_row = max(1.0, float(np.mean([len(line) + 1 for line in lines])) if lines else 64.0)
+    # arrow parses several blocks ahead: 113 MB blocks (2^20 rows) peaked at 2.4 GB, 16 MB
+    # blocks at 0.7 GB, in the same time (3 x 10^7 rows)
+    return base, csv_batches(path, layout, min(CSV_BLOCK_BYTES,
+                                               max(1 << 16, int(batch_rows * per_row))))
+
+
+def stream_rows(path: str | Path) -> tuple[int, bool] | None:
+    """A log's row count if it is a Parquet file (from its footer), or an upper estimate
+    of it for a CSV log (:func:`~gyroid.io._csv_reader.csv_rows_bound`), with whether it is
+    exact; None for a native log."""
+    from gyroid.io._native import is_native
+
+    path = Path(path)
+    exact = parquet_rows(path)
+    if exact is not None:
+        return exact, True
+    if is_native(path) or not path.is_file():
+        return None
+    return csv_rows_bound(path, csv_layout(path)), False
 
 
 def parquet_rows(path: str | Path) -> int | None:
@@ -144,24 +186,19 @@ class _Blocks:
 def stream_block_means(path: str | Path, terms, axes: tuple[str | None, ...],
                        maps: tuple[ColumnMap, ...], rows_per_mean: int,
                        batch_rows: int | None = None) -> dict[str | None, MeansOfBlocks]:
-    """Each of ``axes``' block means (``rows_per_mean`` samples each) of a Parquet log, read
-    batch by batch (``terms``: the model whose columns each batch must hold, checked as
-    :func:`~gyroid.io._bench_reader.bench_log_from_table` checks a whole log)."""
+    """Each of ``axes``' block means (``rows_per_mean`` samples each) of a Parquet or CSV
+    log, read batch by batch (``terms``: the model whose columns each batch must hold,
+    checked as :func:`~gyroid.io._bench_reader.bench_log_from_table` checks a whole log)."""
     import pyarrow as pa
-    import pyarrow.parquet as pq
 
     from gyroid.io._csv_reader import arrow_columns
 
     path = Path(path)
-    # pre-buffering reads the whole file ahead (arrow's peak grew with the log's length:
-    # 0.95 GB for 4e7 rows, 0.1 GB without)
-    file = pq.ParquetFile(path, pre_buffer=False)
-    comments = parquet_comments(file.schema_arrow.metadata)
+    base, batches = _batches(path, maps, batch_rows or BATCH_ROWS)
     blocks = {axis: _Blocks(rows_per_mean) for axis in axes}
     heads: dict[str | None, BenchLog] = {}
     offset, threshold, last_time = 0, math.inf, -math.inf
-    base = LogTable(path, tuple(file.schema_arrow.names), {}, 0, None, None, comments, maps)
-    for batch in file.iter_batches(batch_size=batch_rows or BATCH_ROWS):
+    for batch in batches:
         raw, empty = arrow_columns([pa.Table.from_batches([batch])])
         table = replace(base, raw=raw, n_rows=batch.num_rows, empty=empty, row_offset=offset)
         for axis in axes:

@@ -18,7 +18,7 @@ from gyroid.inference._ieee_noise import IEEE_NOISE
 from gyroid.io._bench_reader import bench_log_from_table
 from gyroid.io._fitted import FittedNoise, axes_of
 from gyroid.io._logs import MeansOfBlocks
-from gyroid.io._stream import STREAM_ROWS, parquet_rows, stream_block_means
+from gyroid.io._stream import STREAM_ROWS, stream_block_means, stream_rows
 from gyroid.io._tables import LogTable, read_header, read_log_table, table_source
 from gyroid.io._units import ColumnMap
 from gyroid.models._inputs import T0_C
@@ -112,14 +112,15 @@ def fit_file(path: str | Path, options: FitOptions, out: str | Path,
     """Read, fit and write one log, each of its gyro axes (``options.axes``) from one read
     of the file: with one axis its files go to ``out``, with several to ``out/AXIS/`` with
     ``out/axes.json``; they appear whole, or not at all."""
-    rows = parquet_rows(path)
+    counted = stream_rows(path)
+    rows, exact = counted if counted is not None else (None, True)
     if rows is not None and rows > STREAM_ROWS:
         table = LogTable(Path(path), read_header(path), {}, 0, None, maps=options.maps)
         axes = chosen_axes(table, options.axes)
         per_mean = -(-rows // IEEE_MAX_ROWS)
         if say is not None:
-            say(f"reading {path} ({rows} rows) as a stream, as means of {per_mean} samples "
-                "...")
+            size = f"{rows} rows" if exact else f"at most about {rows} rows"
+            say(f"reading {path} ({size}) as a stream, as means of {per_mean} samples ...")
         streamed = stream_block_means(path, options.terms, axes, options.maps, per_mean)
     else:
         table = read_log_table(path, options.maps, options.instance)
