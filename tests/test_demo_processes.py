@@ -8,6 +8,8 @@ from concurrent.futures import Future
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 
+import pytest
+
 from gyroid._config import ONE_CORE_ENVIRONMENT, one_core_environment
 from gyroid.pipeline import _demo
 
@@ -98,12 +100,11 @@ def test_without_a_second_process_every_step_runs_here(monkeypatch):
     assert any("no POSIX semaphores" in line for line in study.said)
 
 
+@pytest.mark.slow
 def test_a_failing_step_here_stops_the_second_process(tmp_path):
     """A real spawned second process: a step here fails, and the error arrives without the
     second process's steps (it is stopped, not waited for: it never reaches the pool)."""
     import multiprocessing
-
-    import pytest
 
     from gyroid.errors import GyroidInputError
 

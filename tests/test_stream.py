@@ -137,6 +137,7 @@ def test_a_streamed_simulation_does_not_depend_on_its_chunks(tmp_path):
     assert chunked.truth == whole.truth
 
 
+@pytest.mark.slow
 def test_simulate_streams_a_long_thermal_log_that_fits_back_to_its_truth(tmp_path,
                                                                         monkeypatch):
     """Over STREAM_ROWS rows `gyroid simulate` writes the log chunk by chunk (as Parquet
@@ -196,6 +197,7 @@ def test_a_csv_log_streams_as_the_parquet_one_does(tmp_path, name):
     assert "(line 4 of" in streamed["x"].log.where(0)  # two comment lines, the header
 
 
+@pytest.mark.slow
 def test_fit_streams_a_long_csv_log_and_names_its_bad_lines(tmp_path, monkeypatch, capsys):
     """Over STREAM_ROWS (estimated from the file's size) a CSV log is fitted as a stream;
     a bad cell is named by its line; comment lines among the rows are refused, with what
