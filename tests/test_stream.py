@@ -230,4 +230,24 @@ def test_fit_streams_a_long_csv_log_and_names_its_bad_lines(tmp_path, monkeypatc
     assert main(["fit", str(tmp_path / "inner.csv"), "--terms", "bias,temperature",
                  "--axes", "y", "--out", str(tmp_path / "no")]) == 2
     assert "comment lines sit among its rows" in capsys.readouterr().err
+    assert main(["fit", str(path), "--terms", "bias,temperature", "--instance", "1",
+                 "--out", str(tmp_path / "no")]) == 2
+    assert "--instance is for flight-controller" in capsys.readouterr().err
     assert not (tmp_path / "no").exists()
+
+
+def test_a_csv_column_of_whole_numbers_at_first_takes_decimals_later(tmp_path):
+    """The streaming reader takes its column types from the first block: whole numbers
+    there (a thermometer reading 21 degC) are read as floats, so that 21.5 later is too."""
+    from gyroid.io import write_bench_log
+
+    columns = _ramp(np.random.default_rng(3), n=30_000)
+    columns["temperature_C"] = columns["temperature_C"].copy()
+    columns["temperature_C"][:5_000] = np.round(columns["temperature_C"][:5_000])
+    path = tmp_path / "whole_first.csv"
+    text = write_bench_log(path, columns).read_text()
+    path.write_text(text.replace(".0,", ",").replace(".0\n", "\n"))  # "21" rather than "21.0"
+    streamed = stream_block_means(path, "bias,temperature", ("x",), (), 30, batch_rows=1_000)
+    whole = MeansOfBlocks.of(load_bench_log(path, "bias,temperature", axis="x"), 30)
+    np.testing.assert_allclose(streamed["x"].log.columns["temperature_C"],
+                               whole.log.columns["temperature_C"], rtol=1e-13)

@@ -142,13 +142,22 @@ def csv_batches(path: Path, layout: CsvLayout, batch_bytes: int):
             f"{path.name}: blank or comment lines sit among its rows; a log this long is read "
             "as a stream of lines, one row each: take them out (e.g. grep -v '^#'), or "
             "write the log as Parquet")
-    text = {n: pa.string() for n in layout.header} if layout.decimal_comma else None
-    reader = pacsv.open_csv(
-        _arrow_stream(path, layout.offset),
-        read_options=pacsv.ReadOptions(block_size=batch_bytes, encoding="utf8"),
-        parse_options=pacsv.ParseOptions(delimiter=layout.delimiter),
-        convert_options=pacsv.ConvertOptions(column_types=text, strings_can_be_null=True,
-                                              null_values=[""]))
+    def open_reader(types):
+        return pacsv.open_csv(
+            _arrow_stream(path, layout.offset),
+            read_options=pacsv.ReadOptions(block_size=batch_bytes, encoding="utf8"),
+            parse_options=pacsv.ParseOptions(delimiter=layout.delimiter),
+            convert_options=pacsv.ConvertOptions(column_types=types, strings_can_be_null=True,
+                                                  null_values=[""]))
+
+    if layout.decimal_comma:
+        reader = open_reader({n: pa.string() for n in layout.header})
+    else:
+        # The first block's types, widened: a column of whole numbers or of empty cells
+        # there may hold decimals later (21 degC, then 21.5).
+        first = open_reader(None).schema
+        reader = open_reader({f.name: pa.float64() if pa.types.is_integer(f.type)
+                              or pa.types.is_null(f.type) else f.type for f in first})
     if [c.strip() for c in reader.schema.names] != list(layout.header):
         raise GyroidInputError(f"{path.name}: its header cannot be split by "
                                f"{layout.delimiter!r}; fix the header line")

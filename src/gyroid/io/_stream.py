@@ -1,8 +1,8 @@
 """A Parquet or CSV log too long to hold, read as a stream of row batches and reduced as it
-goes to what a fit of block means reads (:class:`~gyroid.io._logs.MeansOfBlocks`): every column's
-mean over blocks of consecutive samples (never across a pause of the clock), and of the
-samples themselves only what the spike check needs. Peak memory is one batch and the
-means, whatever the log's length.
+goes to what a fit of block means reads (:class:`~gyroid.io._logs.MeansOfBlocks`): every
+column's mean over blocks of consecutive samples (never across a pause of the clock), and
+of the samples themselves only what the spike check needs. Peak memory is one batch and
+the means, whatever the log's length.
 
 Each batch is read and checked as a whole log would be (numeric, finite, plausible, time
 increasing strictly, also across batches), and its errors name the file's row. The pause

@@ -115,6 +115,10 @@ def fit_file(path: str | Path, options: FitOptions, out: str | Path,
     counted = stream_rows(path)
     rows, exact = counted if counted is not None else (None, True)
     if rows is not None and rows > STREAM_ROWS:
+        if options.instance is not None:
+            raise GyroidInputError(f"--instance is for flight-controller, ROS and MATLAB "
+                                   f"logs; {Path(path).name} is a table: choose its columns "
+                                   "with --map")
         table = LogTable(Path(path), read_header(path), {}, 0, None, maps=options.maps)
         axes = chosen_axes(table, options.axes)
         per_mean = -(-rows // IEEE_MAX_ROWS)
