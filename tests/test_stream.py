@@ -83,6 +83,15 @@ def test_a_fit_of_the_stream_is_the_fit_of_the_whole_log(tmp_path):
     assert 1.9 - 3 * a.point.sd["w0"] < 2.0 < 2.0 + 3 * a.point.sd["w0"]
 
 
+def _fit_axis_y(path, out, capsys) -> tuple[int, str, dict]:
+    """`gyroid fit` of ``path``'s y axis (bias and temperature, white noise): the exit code,
+    what it said on stderr and its fit.json."""
+    code = main(["fit", str(path), "--terms", "bias,temperature", "--axes", "y",
+                 "--noise", "white", "--out", str(out), "--no-progress"])
+    said = capsys.readouterr().err
+    return code, said, json.loads((out / "fit.json").read_text())
+
+
 def test_fit_streams_a_parquet_log_longer_than_the_threshold(tmp_path, monkeypatch, capsys):
     """The command reads a log over STREAM_ROWS as a stream and says so; its fit.json
     records the block means; errors name the file's row wherever the batch boundary is."""
@@ -91,12 +100,8 @@ def test_fit_streams_a_parquet_log_longer_than_the_threshold(tmp_path, monkeypat
     monkeypatch.setattr(fit_file, "STREAM_ROWS", 10_000)
     columns = _ramp(np.random.default_rng(2), n=30_000)
     path = _write(tmp_path / "long.parquet", columns)
-    out = tmp_path / "fit"
-    code = main(["fit", str(path), "--terms", "bias,temperature", "--axes", "y",
-                 "--noise", "white", "--out", str(out), "--no-progress"])
-    said = capsys.readouterr().err
+    code, said, record = _fit_axis_y(path, tmp_path / "fit", capsys)
     assert "as a stream, as means of 30 samples" in said
-    record = json.loads((out / "fit.json").read_text())
     assert record["block_means"] == {"means": 999, "rows_per_mean": 30, "rows": 30_000}
     assert code in (0, 3) and math.isfinite(record["posterior"]["w1"]["mean"])
 
@@ -208,12 +213,8 @@ def test_fit_streams_a_long_csv_log_and_names_its_bad_lines(tmp_path, monkeypatc
     monkeypatch.setattr(fit_file, "STREAM_ROWS", 10_000)
     columns = _ramp(np.random.default_rng(2), n=30_000)
     path = write_bench_log(tmp_path / "long.csv", columns)
-    out = tmp_path / "fit"
-    code = main(["fit", str(path), "--terms", "bias,temperature", "--axes", "y",
-                 "--noise", "white", "--out", str(out), "--no-progress"])
-    said = capsys.readouterr().err
+    code, said, record = _fit_axis_y(path, tmp_path / "fit", capsys)
     assert "as a stream" in said and "at most about" in said
-    record = json.loads((out / "fit.json").read_text())
     assert record["block_means"]["rows"] == 30_000 and record["block_means"]["means"] <= 1000
     assert code in (0, 3) and math.isfinite(record["posterior"]["w1"]["mean"])
 

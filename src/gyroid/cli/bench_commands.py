@@ -103,8 +103,7 @@ def simulate(
     from gyroid.io._log_writer import write_bench_log
     from gyroid.io._outputs import json_text
     from gyroid.io._stream import STREAM_ROWS
-    from gyroid.models._derived import RATE_WINDOW_S
-    from gyroid.plotting import magnetic_sweep, save, thermal_run
+    from gyroid.plotting import magnetic_sweep, save
     from gyroid.simulation._bench import (
         MagneticProtocol,
         ThermalProtocol,
@@ -159,37 +158,39 @@ def simulate(
         write_bench_log(stage / log_name, sim.log.columns, sim.log.comments)
         (stage / "truth.json").write_text(json_text(sim.truth))
         if bench == "thermal":
-            # The default window suits paper A's hour-long transitions; it shrinks with them.
-            window = RATE_WINDOW_S * protocol.transition_min / ThermalProtocol().transition_min
-            fig = thermal_run(
-                sim.log, sim.log.inputs(rate_window_s=window).rate_C_h,
-                None if average_s else sim.true_drift_deg_h, rate_window_s=window,
-            )
+            fig = _thermal_figure(sim.log, None if average_s else sim.true_drift_deg_h,
+                                  protocol)
         else:
             fig = magnetic_sweep(sim.log)
         save(fig, stage / "bench.png")
     click.echo(f"wrote {out / log_name} ({sim.log.n} rows) and {out / 'truth.json'}")
 
 
+def _thermal_figure(log, true_drift, protocol, thinned_by: int = 1):
+    """A simulated thermal run's figure, dT/dt estimated over paper A's window scaled with
+    the protocol's transitions (the default suits its hour-long ones)."""
+    from gyroid.models._derived import RATE_WINDOW_S
+    from gyroid.plotting import thermal_run
+    from gyroid.simulation._bench import ThermalProtocol
+
+    window = RATE_WINDOW_S * protocol.transition_min / ThermalProtocol().transition_min
+    return thermal_run(log, log.inputs(rate_window_s=window).rate_C_h, true_drift,
+                       rate_window_s=window, thinned_by=thinned_by)
+
+
 def _simulate_streamed(out: Path, log_name: str, protocol, **options) -> None:
     """A thermal log too long to hold, written chunk by chunk (its figure from every k-th
     row)."""
     from gyroid.io._outputs import json_text
-    from gyroid.models._derived import RATE_WINDOW_S
-    from gyroid.plotting import save, thermal_run
-    from gyroid.simulation._bench import ThermalProtocol
+    from gyroid.plotting import save
     from gyroid.simulation._stream import stream_thermal_bench
 
     with output_dir(out) as stage:
         sim = stream_thermal_bench(stage / log_name, protocol=protocol,
                                    say=lambda m: click.echo(m, err=True), **options)
         (stage / "truth.json").write_text(json_text(sim.truth))
-        window = RATE_WINDOW_S * protocol.transition_min / ThermalProtocol().transition_min
-        shown = sim.shown
-        save(thermal_run(shown, shown.inputs(rate_window_s=window).rate_C_h,
-                         sim.shown_true_drift_deg_h, rate_window_s=window,
-                         thinned_by=sim.shown_every),
-             stage / "bench.png")
+        save(_thermal_figure(sim.shown, sim.shown_true_drift_deg_h, protocol,
+                             thinned_by=sim.shown_every), stage / "bench.png")
     click.echo(f"wrote {out / log_name} ({sim.n_rows} rows, written in chunks) and "
                f"{out / 'truth.json'}")
 

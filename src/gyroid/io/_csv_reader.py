@@ -53,6 +53,11 @@ class CsvLayout:
     comments: tuple[str, ...]
     head: bytes  # the first 64 kB (decompressed)
 
+    @property
+    def data_lines(self) -> list[bytes]:
+        """The whole data lines within :attr:`head` (after the header, before a cut line)."""
+        return self.head[self.offset:].split(b"\n")[1:-1]
+
 
 def csv_layout(path: Path) -> CsvLayout:
     """A CSV log's layout (:class:`CsvLayout`); a file that is not UTF-8 text with a header
@@ -117,8 +122,8 @@ def csv_rows_bound(path: Path, layout: CsvLayout) -> int:
     """An upper estimate of a CSV log's data rows, from its size and its shortest data line
     among the first 64 kB (a gzip file's size scaled by the compression of its first MB):
     what decides whether it is read as a stream, without reading it."""
-    data = layout.head[layout.offset:].split(b"\n")[1:-1]  # whole data lines in the head
-    shortest = max(1, min((len(line) + 1 for line in data if line.strip()), default=1))
+    shortest = max(1, min((len(line) + 1 for line in layout.data_lines if line.strip()),
+                          default=1))
     size = path.stat().st_size
     if _is_gzip(path):
         with path.open("rb") as handle:
