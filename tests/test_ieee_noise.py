@@ -17,6 +17,7 @@ from gyroid.inference._ieee_noise import (
     flicker_times,
     ieee_innovations,
     ieee_mean_covariance,
+    ieee_part_covariance,
 )
 from gyroid.io import BenchLog
 
@@ -50,10 +51,13 @@ def test_the_filter_is_the_exact_likelihood_of_block_means_of_any_lengths_and_ga
 
 
 @pytest.mark.parametrize("tau", [0.3, 7.0, 400.0])
-def test_the_pairwise_covariance_integrates_the_kernels(tau):
+@pytest.mark.parametrize("second_start", [9.0, 5.0 - 1e-14])
+def test_the_pairwise_covariance_integrates_the_kernels(tau, second_start):
     """Two intervals' means: the exponential kernel (one Gauss-Markov process) and the
-    random walk's ``D min(s, t)``, integrated numerically over both intervals."""
-    a, b = np.array([2.0, 9.0]), np.array([5.0, 13.0])  # [2, 5] then [9, 13], origin 0
+    random walk's ``D min(s, t)``, integrated numerically over both intervals; apart, or
+    touching with the second's start a rounding before the first's end (as a uniform
+    clock's parts are: their covariance was dropped once)."""
+    a, b = np.array([2.0, second_start]), np.array([5.0, 13.0])  # [2, 5], [.., 13]; origin 0
     exp_cov = ieee_mean_covariance(a, b, np.zeros(2), 1.0, 0.0, np.array([tau]), 1.0, 0.0)
     walk_cov = ieee_mean_covariance(a, b, np.zeros(2), 0.0, 60.0, np.array([tau]), 1.0, 0.0)
     def both(f, i, j):
@@ -72,6 +76,26 @@ def test_the_pairwise_covariance_integrates_the_kernels(tau):
             walk = both(min, i, j)
             assert exp_cov[i, j] == pytest.approx(kernel / area, rel=1e-8)
             assert walk_cov[i, j] == pytest.approx(walk / area, rel=1e-8)
+
+
+def test_the_covariance_of_a_uniform_clocks_parts_is_positive_definite():
+    """A 10^4-row log's 1000 block means, 37.2 s apart, in 80 touching parts (the
+    predictive check's): rounding put some parts' ends past the next start, their
+    covariance was dropped, and ``gyroid fit --noise white+flicker+rw`` stopped on a
+    Cholesky factor that does not exist (a real run, 2026-11-24)."""
+    step = 37.2
+    time_s = 16.74 + step * np.arange(1000)
+    part = np.arange(1000) * 80 // 1000
+    white = np.full(80, 1e-4)
+    cov = ieee_part_covariance(time_s, part, 80, step, white, 0.0365, 0.0097)
+    assert np.linalg.eigvalsh(cov).min() > 0.5 * white.min()  # the white part at least
+    # the same as with the parts' ends and starts made equal
+    first = step * (part.searchsorted(np.arange(80))) + time_s[0] - 0.5 * step
+    ends = np.append(first[1:], time_s[-1] + 0.5 * step)
+    taus, unit = flicker_times(step, time_s[-1] - time_s[0] + step)
+    exact = ieee_mean_covariance(first, ends, white, 0.0365, 0.0097, taus, unit,
+                                 time_s[0] - 0.5 * step)
+    np.testing.assert_allclose(cov, exact, rtol=1e-9)
 
 
 def test_the_flicker_sum_has_ieee_allan_floor_across_its_band():

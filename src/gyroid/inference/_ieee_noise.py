@@ -130,30 +130,34 @@ def ieee_mean_covariance(start_s: np.ndarray, end_s: np.ndarray, white_var: np.n
                          bias_instability: float, walk: float, flicker_tau_s: np.ndarray,
                          flicker_unit_var: float, origin_s: float) -> np.ndarray:
     """The covariance ((deg/h)^2) of the means over time intervals ``[start_s, end_s]``
-    (disjoint, in time order) of the same noise, written out pair by pair (dense; for the
-    predictive check's parts and for testing the filter): white variance ``white_var`` per
-    interval, each flicker process's exponential kernel integrated over both intervals, and
-    the random walk from zero at ``origin_s`` (covariance ``D min(s, t)``)."""
+    (disjoint or touching, in time order) of the same noise, written out pair by pair
+    (dense; for the predictive check's parts and for testing the filter): white variance
+    ``white_var`` per interval, each flicker process's exponential kernel integrated over
+    both intervals, and the random walk from zero at ``origin_s`` (covariance
+    ``D min(s, t)``)."""
     a = np.asarray(start_s, dtype=float) - origin_s
     b = np.asarray(end_s, dtype=float) - origin_s
     length = b - a
     cov = np.diag(np.asarray(white_var, dtype=float))
     var = bias_instability**2 * flicker_unit_var
+    # Interval j > i comes after interval i: its order, not a comparison of end points,
+    # says so. Touching intervals (a uniform clock's parts) end where the next starts, and
+    # rounding put some ends a hair past the next start: their covariance, the largest
+    # of all under a long correlation time, was dropped, and the matrix was indefinite.
+    after = np.triu(np.ones((a.size, a.size), dtype=bool), 1)
     for tau in np.asarray(flicker_tau_s, dtype=float):
         u = length / tau
         # the mean of a stationary process over L: 2 var tau^2 (u - 1 + exp(-u)) / L^2
         within = 2.0 * var * tau**2 * (u + np.expm1(-u)) / length**2
-        # disjoint intervals i before j: var tau^2 (e^{-(a_j - b_i)} - e^{-(a_j - a_i)}
-        #   - e^{-(b_j - b_i)} + e^{-(b_j - a_i)}) / (L_i L_j), all over tau
-        ai, bi = a[:, None] / tau, b[:, None] / tau
-        aj, bj = a[None, :] / tau, b[None, :] / tau
-        after = aj >= bi  # exponents <= 0 there; the rest is the lower triangle's mirror
-        terms = [np.exp(np.where(after, -x, -np.inf))
-                 for x in (aj - bi, aj - ai, bj - bi, bj - ai)]
-        cross = var * tau**2 * (terms[0] - terms[1] - terms[2] + terms[3]
-                                ) / np.outer(length, length)
-        upper = np.triu(cross, 1)
-        cov += upper + upper.T + np.diag(within)
+        # interval i before j, a gap g = a_j - b_i apart (all over tau):
+        #   var tau^2 (e^{-g} - e^{-(g + u_i)} - e^{-(g + u_j)} + e^{-(g + u_i + u_j)})
+        #   / (L_i L_j) = var tau^2 e^{-g} (1 - e^{-u_i}) (1 - e^{-u_j}) / (L_i L_j),
+        # the product written with expm1 (the four terms cancel when tau >> L)
+        gap = np.maximum(a[None, :] - b[:, None], 0.0) / tau  # touching: 0, not rounding's
+        decay = np.where(after, np.exp(-gap), 0.0)
+        edge = -np.expm1(-u) / length
+        cross = var * tau**2 * decay * np.outer(edge, edge)
+        cov += cross + cross.T + np.diag(within)
     diffusion = (walk / 60.0) ** 2
     mid = 0.5 * (a + b)
     walk_cov = diffusion * np.minimum.outer(mid, mid)
