@@ -25,6 +25,14 @@ and peak memory (the process and its children):
   polynomial, the CSV, allantools before and after);
 * ``discrepancy``: ``gyroid discrepancy LOG --terms thermal`` (up to ``--discrepancy-rows``).
 
+``imports`` (once per run, in fresh processes): the libraries alone, no work. ``bare``: what
+the bare script imports (NumPy, pyarrow, SciPy's signal, emcee); ``fit_libraries``: what
+``gyroid fit``'s outputs need on top (JAX in float64, equinox, optimistix, ArviZ with
+matplotlib, xarray, and the dask and distributed that xarray imports to write netCDF);
+``fit_modules``: gyroid's own modules a fit runs through, with those libraries. It is
+the floor under a small log's fit: with twice the bare script as the budget, what is left
+after the imports is what the fit's own work may cost.
+
 ``--repeat N`` runs each timed command N times and reports the median (every run's time is
 kept in ``seconds_all``).
 
@@ -69,6 +77,33 @@ _LOAD = (
     "               for c in table.column_names}\n"
     "print(json.dumps({'seconds': time.perf_counter() - start}))\n"
 )
+
+#: What each import set loads (``imports``: see the module docstring).
+_IMPORTS = {
+    "bare": "import numpy, pyarrow.csv, pyarrow.parquet, scipy.signal, emcee",
+    "fit_libraries": (
+        "import warnings; warnings.simplefilter('ignore', FutureWarning)\n"
+        "import numpy, pyarrow.csv, pyarrow.parquet, pyarrow.dataset, scipy.signal, emcee\n"
+        "import jax; jax.config.update('jax_enable_x64', True)\n"
+        "import equinox, optimistix, arviz, matplotlib.pyplot, dask, distributed"),
+    "fit_modules": (
+        "import gyroid._config; gyroid._config.configure()\n"
+        "import gyroid.pipeline._fit_file, gyroid.reports._write, gyroid.plotting\n"
+        "from gyroid.io._arviz import arviz; arviz()\n"
+        "import dask, distributed"),
+}
+
+
+def import_floor() -> dict:
+    """Seconds (median of :data:`REPEAT` fresh processes) each of :data:`_IMPORTS` takes."""
+    timed = "import time; start = time.perf_counter()\n{}\nprint(time.perf_counter() - start)"
+    floor = {}
+    for name, code in _IMPORTS.items():
+        runs = [float(subprocess.run([sys.executable, "-c", timed.format(code)],
+                                     capture_output=True, text=True, check=True).stdout)
+                for _ in range(REPEAT)]
+        floor[name] = {"seconds": sorted(runs)[len(runs) // 2], "seconds_all": runs}
+    return floor
 
 
 #: Runs of each timed command (``--repeat``); the median time is reported, with every run's.
@@ -164,6 +199,8 @@ def one_length(rows: int, folder: Path, discrepancy_rows: int, ieee_rows: int) -
             row["fit_ieee"]["block_means"] = record["block_means"]
             row["fit_ieee"]["sd"] = {k: record["posterior"][k]["sd"]
                                      for k in ("w0", "w1", "w2", "wD")}
+        else:
+            row["fit_ieee"]["stderr"] = ieee["stderr"]
     bare = measure(sys.executable, str(HERE / "bare_thermal_fit.py"), str(log))
     row["bare"] = {k: bare[k] for k in ("seconds", "seconds_all", "peak_mb", "code")}
     if bare["code"] == 0:
@@ -220,6 +257,8 @@ def main() -> None:
     global REPEAT
     REPEAT = max(1, args.repeat)
     results = []
+    imports = import_floor()
+    print(json.dumps({"imports": imports}), flush=True)
     with tempfile.TemporaryDirectory() as tmp:
         for rows in args.stream_rows:
             started = time.perf_counter()
@@ -233,8 +272,8 @@ def main() -> None:
             results.append(row)
             print(json.dumps(row), f"({time.perf_counter() - started:.0f} s)", flush=True)
     if args.json:
-        args.json.write_text(json.dumps({"command": " ".join(sys.argv), "results": results},
-                                        indent=1))
+        args.json.write_text(json.dumps({"command": " ".join(sys.argv), "imports": imports,
+                                         "results": results}, indent=1))
 
 
 if __name__ == "__main__":
