@@ -4,6 +4,6 @@ reproduction of both papers' files."""
 from gyroid._lazy import attach
 
 __getattr__, __dir__, __all__ = attach(__name__, {
-    "_write": ["compensated_csv", "write"],
+    "_write": ["write_compensated_csv", "write"],
     "_reproduction": ["write_reproduction"],
 })
