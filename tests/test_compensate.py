@@ -8,6 +8,7 @@ import pytest
 from gyroid.cli import main
 from gyroid.inference import Emcee, fit_log
 from gyroid.io import FittedDrift
+from gyroid.io._memory import memory_free_bytes
 from gyroid.simulation import PAPER_A_THERMAL, ThermalProtocol, gauss_markov, simulate_thermal_bench
 from gyroid.workflows import allan_deviation, compensate
 
@@ -102,7 +103,7 @@ def test_extrapolation_is_reported(fitted_short):
     assert not result.summary["within_fitted_range"]
 
 
-def test_cli_writes_the_contract_files(tmp_path):
+def test_cli_writes_the_contract_files(tmp_path, monkeypatch, capsys):
     sim, fit, out = tmp_path / "sim", tmp_path / "fit", tmp_path / "comp"
     assert main(["simulate", "magnetic", "--out", str(sim), "--seed", "4"]) == 0
     assert main(["fit", str(sim / "bench.csv"), "--terms", "magnetic", "--out", str(fit),
@@ -120,6 +121,18 @@ def test_cli_writes_the_contract_files(tmp_path):
     assert (out / "allan.png").exists() and (out / "compensation.png").exists()
     assert main(["compensate", str(sim / "bench.csv"), "--fit", str(tmp_path), "--out",
                  str(tmp_path / "x")]) == 2
+    # a log whose rows would not fit in the free memory is refused before it is read
+    assert memory_free_bytes() > 0  # this machine says what is free
+    monkeypatch.setattr("gyroid.io._memory.memory_free_bytes", lambda: 10_000)
+    capsys.readouterr()
+    assert main(["compensate", str(sim / "bench.csv"), "--fit", str(fit), "--out",
+                 str(tmp_path / "too_long")]) == 2
+    assert main(["discrepancy", str(sim / "bench.csv"), "--terms", "magnetic", "--out",
+                 str(tmp_path / "too_long")]) == 2
+    said = capsys.readouterr().err
+    assert said.count("holds the whole log, and its up to about") == 2
+    assert "GB where 0.0 GB are free: compensate it in parts" in said
+    assert not (tmp_path / "too_long").exists()
 
 
 @pytest.mark.parametrize("terms", ["thermal,bias_step", "thermal,warmup", "thermal"])

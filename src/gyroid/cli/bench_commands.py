@@ -322,6 +322,7 @@ def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings, axes
     roll log (section 4: roll_rate_deg_s, gs_angle_deg), as .csv, .csv.gz or .parquet. Exit
     code 3 when a self-check of the final model fails."""
     from gyroid.io._bench_reader import bench_log_from_table
+    from gyroid.io._memory import DISCREPANCY_BYTES_PER_ROW, refuse_if_too_long
     from gyroid.io._roll_log import load_roll_log
     from gyroid.io._tables import log_kind, read_log_table, table_source
     from gyroid.pipeline._axes import PerAxis, chosen_axes, write_per_axis
@@ -339,6 +340,10 @@ def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings, axes
         result = PerAxis({None: find_roll_discrepancies(log, terms, max_added=max_added,
                                                         progress=say)}, {"path": str(data)})
     else:
+        refuse_if_too_long(data, bytes_per_row=DISCREPANCY_BYTES_PER_ROW,
+                           command="the discrepancy search",
+                           remedy="search a part of it (its rows split by time), or on a "
+                           "machine with more memory")
         table = read_log_table(data, maps, instance)
         reports = {}
         for axis in chosen_axes(table, parse_axes(axes)):

@@ -9,6 +9,7 @@ from pathlib import Path
 from gyroid.errors import GyroidInputError
 from gyroid.io._bench_reader import bench_log_from_table
 from gyroid.io._fitted import FittedDrift, axes_of
+from gyroid.io._memory import COMPENSATE_BYTES_PER_ROW, refuse_if_too_long
 from gyroid.io._tables import read_log_table, table_source
 from gyroid.io._units import ColumnMap
 from gyroid.pipeline._axes import PerAxis, chosen_axes, write_per_axis
@@ -26,6 +27,9 @@ def compensate_file(path: str | Path, fit_dir: str | Path, out: str | Path, *, s
                     instance: int | None = None) -> PerAxis[Compensation]:
     """Compensate one log's axes (``axes``; default every axis the fit has; ``instance``: a
     native log's IMU) with their fits and write the results to ``out``."""
+    refuse_if_too_long(path, bytes_per_row=COMPENSATE_BYTES_PER_ROW, command="compensating",
+                       remedy="compensate it in parts (its rows split by time), or on a "
+                       "machine with more memory")
     table = read_log_table(path, maps, instance)
     fits = fitted_axes(fit_dir)
     if None in fits:  # a fit of one axis: the log's one drift column, or one chosen axis
