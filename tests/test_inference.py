@@ -352,3 +352,34 @@ def test_fit_log_progress_can_be_switched_off(capsys, monkeypatch):
     assert "emcee" not in capsys.readouterr().err
     fit_log(log, "bias")
     assert "emcee" in capsys.readouterr().err
+
+
+def test_white_gm_on_block_means_is_the_exact_gaussian_of_the_blocks():
+    """A log longer than the cap is fitted under white+gm as block means (as under IEEE
+    noise, a filter pass then costs the same whatever its length): each mean's noise is
+    the white level over its rows plus the Gauss-Markov process integrated over its block,
+    the blocks one step long after their gaps. The filter's likelihood equals the dense
+    Gaussian with that covariance (written pair by pair, tested against the kernels'
+    integrals in tests/test_ieee_noise.py)."""
+    from gyroid.inference._ieee_noise import ieee_mean_covariance
+
+    noise = GyroNoise(bias_instability_deg_h=0.1, correlation_time_s=60.0)
+    protocol = MagneticProtocol(axes=("x", "z"), dwell_s=10.0, turn_gap_s=50.0)
+    sim = simulate_magnetic_bench(noise=noise, protocol=protocol, seed=2)
+    problem = BenchProblem.from_log(sim.log, "bias,magnetic_x,magnetic_z", noise="white+gm",
+                                    max_rows=60)
+    assert problem.block_rows > 1 and problem.n <= 60 < sim.log.n
+    means, density = problem.log, problem.density
+    x = np.array([1.0, -0.04, -0.25, 0.3, 0.16, 60.0])
+    residual = means.drift_deg_h - (x[0] + (x[1] * means.columns["Hx_uT"]
+                                            + x[2] * means.columns["Hz_uT"]) / 100.0)
+    step = density.step_s
+    gap = np.maximum(np.diff(means.time_s, prepend=means.time_s[0]) - step, 0.0)
+    gap[0] = 0.0
+    end = np.cumsum(gap + step)
+    assert gap.max() > step  # the sweep's pauses: blocks apart as well as touching
+    cov = ieee_mean_covariance(end - step, end, np.full(problem.n, x[3] ** 2 / problem.block_rows),
+                               x[4], 0.0, np.array([x[5]]), 1.0, 0.0)
+    exact = stats.multivariate_normal(np.zeros(problem.n), cov).logpdf(residual)
+    u = problem.to_sampling(jnp.asarray(x))
+    assert float(density.log_likelihood(u)) == pytest.approx(exact, rel=1e-10)

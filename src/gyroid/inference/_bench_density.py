@@ -12,7 +12,9 @@ Sampling coordinates ``u``: model parameters in their own units, except positive
 * ``white+gm``: white noise plus a first-order Gauss-Markov (AR(1)) part of sd
   ``sigma_gm_deg_h`` and correlation time ``tau_gm_s`` (the usual model of a FOG's bias
   instability). The exact Gaussian likelihood comes from the innovations of a Kalman
-  filter (a JAX scan), for regular or irregular sampling;
+  filter (a JAX scan), for regular or irregular sampling; a long log's rows are block
+  means, each the process integrated over its block (the filter of
+  :mod:`gyroid.inference._ieee_noise` with one correlation time);
 * ``white+flicker+rw``: IEEE Std 952's angle random walk ``N_deg_sqrt_h``, bias
   instability (flicker) ``B_deg_h`` and rate random walk ``K_deg_h_sqrt_h``, each row read
   as the mean of the samples over one sampling step (a long log's rows are block means,
@@ -100,8 +102,9 @@ class BenchDensity(eqx.Module):
     #: Rows the likelihood reads (1) or leaves out (0): held-out stretches of a predictive
     #: check, kept in place so that every fold shares one compilation. None: every row.
     weight: Float[Array, " n"] | None = None
-    # white+flicker+rw: the gap before each row (s; its span is ``step_s``) and the
-    # flicker's correlation times (s) and variance per unit B^2.
+    # white+flicker+rw, and white+gm on block means: the gap before each row (s; its span
+    # is ``step_s``); white+flicker+rw: the flicker's correlation times (s) and variance
+    # per unit B^2.
     gap_s: Float[Array, " n"] | None = None
     flicker_tau_s: Float[Array, " j"] | None = None
     flicker_unit_var: float = eqx.field(static=True, default=0.0)
@@ -162,11 +165,13 @@ class BenchDensity(eqx.Module):
                 raise ValueError("errors in variables: white noise and a model reading dT/dt")
             ieee = {"rate_error_cov": jnp.asarray(rate_error_cov),
                     "eiv_index": rate_coefficient_index(model)}
+        if noise == IEEE_NOISE or (noise == "white+gm" and rows_per_mean > 1):
+            # block means: each row the mean over one step, after a gap (a pause)
+            ieee = {"gap_s": jnp.asarray(np.maximum(np.concatenate([[0.0], steps]) - step,
+                                                    0.0))}
         if noise == IEEE_NOISE:
             taus, unit = flicker_times(step, duration + step)
-            ieee = {"gap_s": jnp.asarray(np.maximum(np.concatenate([[0.0], steps]) - step,
-                                                    0.0)),
-                    "flicker_tau_s": jnp.asarray(taus), "flicker_unit_var": unit}
+            ieee |= {"flicker_tau_s": jnp.asarray(taus), "flicker_unit_var": unit}
         problem = cls(
             model=model,
             inputs=inputs,
@@ -435,6 +440,15 @@ class BenchDensity(eqx.Module):
                                     jnp.broadcast_to(white**2, span.shape), values["B_deg_h"],
                                     values["K_deg_h_sqrt_h"], self.flicker_tau_s,
                                     self.flicker_unit_var, self.weight)
+        if self.gap_s is not None:
+            # white+gm on block means: the Gauss-Markov process integrated over each block,
+            # exactly (IEEE's filter with one correlation time, free, and no random walk);
+            # sampling it at the blocks' centres would be its own approximation
+            span = jnp.full_like(self.steps_s, self.step_s)
+            return ieee_innovations(residual, span, self.gap_s,
+                                    jnp.broadcast_to(white**2, span.shape),
+                                    values["sigma_gm_deg_h"], jnp.zeros(()),
+                                    jnp.reshape(values["tau_gm_s"], (1,)), 1.0, self.weight)
         return gauss_markov_innovations(residual, self.steps_s, white,
                                         values["sigma_gm_deg_h"], values["tau_gm_s"],
                                         self.weight)

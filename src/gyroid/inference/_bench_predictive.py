@@ -296,7 +296,12 @@ def _noise_covariance(density: BenchDensity, values: dict, parts: Stretches,
         wd = values[density.names[density.eiv_index]]
         covariance = covariance + wd**2 * (average @ np.asarray(density.rate_error_cov)
                                            @ average.T)
-    if density.noise == "white+gm":
+    if density.noise == "white+gm" and density.gap_s is not None:
+        # block means: the process integrated over each block, as the likelihood reads it
+        covariance = covariance + ieee_part_covariance(
+            time_s, parts.part, parts.n_parts, density.step_s, np.zeros(parts.n_parts),
+            values["sigma_gm_deg_h"], 0.0, (np.array([values["tau_gm_s"]]), 1.0))
+    elif density.noise == "white+gm":
         covariance = covariance + gauss_markov_mean_covariance(
             time_s, parts.part, parts.n_parts, values["sigma_gm_deg_h"],
             values["tau_gm_s"])

@@ -90,9 +90,10 @@ class BenchProblem(AbstractProblem):
         (its mean), so that the bias's wander between bursts is the noise the model
         estimates rather than a correlation it ignores; the samples are still checked for
         spikes, which the means would hide. ``fast=False`` keeps the likelihood on the rows
-        (no sufficient statistics), for tests of the fast path. Under ``white+flicker+rw`` a
-        log of more than ``max_rows`` rows (default :data:`IEEE_MAX_ROWS`) is fitted as the
-        means of blocks of consecutive samples, at most that many: the likelihood of the
+        (no sufficient statistics), for tests of the fast path. Under ``white+flicker+rw``
+        and ``white+gm`` a log of more than ``max_rows`` rows (default
+        :data:`IEEE_MAX_ROWS`) is fitted as the means of blocks of consecutive samples, at
+        most that many (not with ``segment_means``): the likelihood of the
         means is exact, a filter pass costs the same whatever the log's length, and a
         linear model's coefficients lose little (their regressors barely change within a
         block); the samples are still checked for spikes. A log given as
@@ -128,7 +129,8 @@ class BenchProblem(AbstractProblem):
                 "--segment-means with --noise white+flicker+rw: the IEEE noise model reads "
                 "a log of bursts as it is (the wander between bursts is its flicker and "
                 "random walk); fit the samples, without --segment-means")
-        if (noise == IEEE_NOISE or thermometer_var > 0) and log.n > cap:
+        if (noise == IEEE_NOISE or thermometer_var > 0
+                or (noise == "white+gm" and not segment_means)) and log.n > cap:
             reduced = MeansOfBlocks.of(log, -(-log.n // cap))
             log, block_rows, samples = reduced.log, reduced.rows_per_mean, reduced.samples
         if segment_means:

@@ -166,18 +166,21 @@ def ieee_mean_covariance(start_s: np.ndarray, end_s: np.ndarray, white_var: np.n
 
 
 def ieee_part_covariance(time_s: np.ndarray, part: np.ndarray, n_parts: int, step_s: float,
-                         white_var: np.ndarray, bias_instability: float, walk: float
-                         ) -> np.ndarray:
+                         white_var: np.ndarray, bias_instability: float, walk: float,
+                         processes: tuple[np.ndarray, float] | None = None) -> np.ndarray:
     """The covariance ((deg/h)^2) of parts' means of a log's rows (``part``: each row's
     part, -1 for none; parts contiguous and in time order), each row one sampling step
     ``step_s`` long: ``white_var`` each part's white variance, the flicker as the drift
-    likelihood's for this log (:func:`flicker_times`), the walk from zero at its start."""
+    likelihood's for this log (:func:`flicker_times`; ``processes``: other correlation
+    times and their variance per unit ``bias_instability**2``, e.g. one Gauss-Markov
+    process), the walk from zero at its start."""
     time_s = np.asarray(time_s, dtype=float)
     kept = part >= 0
     first = np.full(n_parts, np.inf)
     last = np.full(n_parts, -np.inf)
     np.minimum.at(first, part[kept], time_s[kept])
     np.maximum.at(last, part[kept], time_s[kept])
-    taus, unit = flicker_times(step_s, float(time_s[-1] - time_s[0]) + step_s)
+    taus, unit = (flicker_times(step_s, float(time_s[-1] - time_s[0]) + step_s)
+                  if processes is None else processes)
     return ieee_mean_covariance(first - 0.5 * step_s, last + 0.5 * step_s, white_var,
                                 bias_instability, walk, taus, unit, time_s[0] - 0.5 * step_s)
