@@ -25,6 +25,12 @@ and peak memory (the process and its children):
   polynomial, the CSV, allantools before and after);
 * ``discrepancy``: ``gyroid discrepancy LOG --terms thermal`` (up to ``--discrepancy-rows``).
 
+``--gm-rows N``: a log of N rows with a Gauss-Markov bias instability (0.05 deg/h, 600 s
+correlation time) beside the white noise, fitted with ``--noise white+gm``: its time, peak
+memory, exit code and how far its coefficients and noise levels lie from the truth (in
+posterior sd). A white-noise log would not do: white+gm's extra levels are not identified
+there (its sampler runs to its cap and the fit is refused).
+
 ``imports`` (once per run, in fresh processes): the libraries alone, no work. ``bare``: what
 the bare script imports (NumPy, pyarrow, SciPy's signal, emcee); ``fit_libraries``: what
 ``gyroid fit``'s outputs need on top (JAX in float64, equinox, optimistix, ArviZ with
@@ -176,6 +182,44 @@ def streamed_length(rows: int, folder: Path) -> dict:
     return row
 
 
+#: The correlated part of ``--gm-rows``' logs: a bias instability and its correlation time.
+GM_NOISE = {"bias_instability_deg_h": 0.05, "correlation_time_s": 600.0}
+
+
+def gm_length(rows: int, folder: Path) -> dict:
+    """A thermal log of ``rows`` rows with white + Gauss-Markov noise (:data:`GM_NOISE`),
+    fitted with ``--noise white+gm``; the fit's distance from the truth in posterior sd."""
+    from gyroid.io import write_bench_log
+    from gyroid.simulation import GyroNoise, ThermalProtocol, simulate_thermal_bench
+
+    protocol = ThermalProtocol()
+    noise = GyroNoise(**GM_NOISE)
+    sim = simulate_thermal_bench(seed=2, noise=noise,
+                                 protocol=protocol.stretched(None, rows / protocol.duration_s))
+    log = folder / f"gm_{rows:.0e}.parquet"
+    write_bench_log(log, sim.log.columns)
+    out = folder / f"fit_gm_{rows:.0e}"
+    fit = measure(sys.executable, "-m", "gyroid", "fit", str(log), "--terms", "thermal",
+                  "--noise", "white+gm", "--out", str(out), "--no-progress")
+    row: dict = {"rows": rows, "gm_noise": GM_NOISE,
+                 "fit_gm": {k: fit[k] for k in ("seconds", "seconds_all", "peak_mb", "code")}}
+    if fit["code"] not in (0, 3):
+        row["fit_gm"]["stderr"] = fit["stderr"]
+        return row
+    record = json.loads((out / "fit.json").read_text())
+    truth = {**sim.truth["parameters"], "sigma_deg_h": sim.truth["noise"]["white_sd_deg_h"],
+             "sigma_gm_deg_h": noise.bias_instability_deg_h / 0.6174,
+             "tau_gm_s": noise.correlation_time_s}
+    posterior = {**record["posterior"], **record["noise"]["posterior"]}
+    row["fit_gm"] |= {
+        "block_means": record["block_means"],
+        "failed": [c for c, v in record["checks"].items() if not v["passed"]],
+        "steps": record["convergence"]["sampler"]["steps"],
+        "z": {k: (posterior[k]["mean"] - truth[k]) / posterior[k]["sd"] for k in truth},
+        "truth": truth}
+    return row
+
+
 def one_length(rows: int, folder: Path, discrepancy_rows: int, ieee_rows: int) -> dict:
     log = make_log(rows, folder)
     row: dict = {"rows": rows}
@@ -250,6 +294,7 @@ def main() -> None:
     parser.add_argument("--discrepancy-rows", type=float, default=1e6)
     parser.add_argument("--ieee-rows", type=float, default=1e6)
     parser.add_argument("--stream-rows", nargs="*", type=float, default=[])
+    parser.add_argument("--gm-rows", nargs="*", type=float, default=[])
     parser.add_argument("--json", type=Path, default=None)
     parser.add_argument("--repeat", type=int, default=1,
                         help="runs of each timed command; the median is reported")
@@ -263,6 +308,11 @@ def main() -> None:
         for rows in args.stream_rows:
             started = time.perf_counter()
             results.append(streamed_length(int(rows), Path(tmp)))
+            print(json.dumps(results[-1]), f"({time.perf_counter() - started:.0f} s)",
+                  flush=True)
+        for rows in args.gm_rows:
+            started = time.perf_counter()
+            results.append(gm_length(int(rows), Path(tmp)))
             print(json.dumps(results[-1]), f"({time.perf_counter() - started:.0f} s)",
                   flush=True)
         for rows in args.rows:
