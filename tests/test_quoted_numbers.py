@@ -265,6 +265,59 @@ def test_the_small_logs_end_to_end_against_the_bare_scripts():
             f"{runs[1]['compensate']['peak_mb'] / 1000:.2f} GB in the file")
 
 
+def _seconds(value: float) -> str:
+    return f"{value:.1f} s" if value < 9.95 else f"{value:.0f} s"
+
+
+def _took(run: dict, joint: str = ", ") -> str:
+    return f"{_seconds(run['seconds'])}{joint}{run['peak_mb'] / 1000:.2f} GB"
+
+
+def test_the_scaling_table_is_the_results_file():
+    file = json.loads((ROOT / "benchmarks" / "results_scaling.json").read_text())
+    runs = file["results"]
+    assert [r["rows"] for r in runs] == [10**k for k in range(4, 8)]
+    assert all(r["fit"]["code"] == 0 and r["agree"] and r["compensate"]["code"] == 0
+               for r in runs)
+    for k, r in enumerate(runs, start=4):
+        ieee = r.get("fit_ieee")
+        assert ieee is None or ieee["code"] == 0  # it ended in an internal error once
+        load = " / ".join(f"{x:.2f} s" if x < 1 else _seconds(x) for x in
+                          (r["load_gyroid"]["seconds"], r["load_pyarrow"]["seconds"]))
+        _quoted(f"| 10^{k} | {load} | {_took(r['fit'])} | {_took(r['bare'])} | "
+                f"{r['fit']['seconds'] / r['bare']['seconds']:.1f}x | {_took(r['compensate'])} | "
+                f"{_took(r['bare_compensate'])} | {_took(ieee) if ieee else 'not run'} | "
+                f"{_took(r['discrepancy'])} |")
+    ratio = [r["fit"]["seconds"] / r["bare"]["seconds"] for r in runs]
+    compensate = [r["compensate"]["seconds"] / r["bare_compensate"]["seconds"] for r in runs]
+    load = [r["load_gyroid"]["seconds"] / r["load_pyarrow"]["seconds"] for r in runs]
+    _quoted(f"gyroid's fit is {min(ratio[:3]):.1f}-{max(ratio[:3]):.1f}x the bare script up "
+            f"to 10^6 rows and {ratio[3]:.1f}x at 10^7",
+            f"Compensation is {min(compensate):.1f}-{max(compensate):.1f}x the bare one",
+            f"Loading is {min(load):.1f}-{max(load):.1f}x pyarrow's")
+
+
+def test_the_white_gm_fits_are_the_results_file():
+    runs = json.loads((ROOT / "benchmarks" / "results_scaling_gm.json").read_text())["results"]
+    assert [r["rows"] for r in runs] == [10**5, 10**6]
+    fits = [r["fit_gm"] for r in runs]
+    assert all(f["code"] == 0 and not f["failed"] and f["block_means"] for f in fits)
+    worst = max(abs(z) for f in fits for z in f["z"].values())
+    assert worst < 3  # seven coefficients and levels per fit
+    _quoted(f"{_took(fits[0], ' and ')} at 10^5 rows, {_took(fits[1], ' and ')} at 10^6, "
+            "both converged and "
+            f"trusted, every coefficient and noise level within {worst:.1f} posterior sd")
+
+
+def test_the_import_floor_is_the_results_file():
+    imports = json.loads((ROOT / "benchmarks" / "results_scaling_small.json").read_text()
+                         )["imports"]
+    seconds = {k: v["seconds"] for k, v in imports.items()}
+    _quoted(f"emcee) {seconds['bare']:.2f} s;",
+            f"to write netCDF) {seconds['fit_libraries']:.1f} s",
+            f"gyroid's own modules with all of those {seconds['fit_modules']:.1f} s")
+
+
 def test_the_demo_time_is_the_results_file():
     demo = json.loads((ROOT / "benchmarks" / "results_demo.json").read_text())["demo"]
     _quoted(f"{demo['warm_seconds']:.0f} s with JAX's compilation cache warm, "
