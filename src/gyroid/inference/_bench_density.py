@@ -434,21 +434,20 @@ class BenchDensity(eqx.Module):
     def innovations(self, residual, white, values):
         """Innovations of the residual (or of columns) under the correlated noise models; a
         row left out (weight 0) is predicted through, not learnt from."""
-        if self.noise == IEEE_NOISE:
+        if self.gap_s is not None:  # rows that are means over a step: IEEE's block filter
+            if self.noise == IEEE_NOISE:
+                level, walk = values["B_deg_h"], values["K_deg_h_sqrt_h"]
+                taus, unit = self.flicker_tau_s, self.flicker_unit_var
+            else:
+                # white+gm on block means: the Gauss-Markov process integrated over each
+                # block, exactly (one correlation time, free, and no random walk); sampling
+                # it at the blocks' centres would be its own approximation
+                level, walk = values["sigma_gm_deg_h"], jnp.zeros(())
+                taus, unit = jnp.reshape(values["tau_gm_s"], (1,)), 1.0
             span = jnp.full_like(self.steps_s, self.step_s)
             return ieee_innovations(residual, span, self.gap_s,
-                                    jnp.broadcast_to(white**2, span.shape), values["B_deg_h"],
-                                    values["K_deg_h_sqrt_h"], self.flicker_tau_s,
-                                    self.flicker_unit_var, self.weight)
-        if self.gap_s is not None:
-            # white+gm on block means: the Gauss-Markov process integrated over each block,
-            # exactly (IEEE's filter with one correlation time, free, and no random walk);
-            # sampling it at the blocks' centres would be its own approximation
-            span = jnp.full_like(self.steps_s, self.step_s)
-            return ieee_innovations(residual, span, self.gap_s,
-                                    jnp.broadcast_to(white**2, span.shape),
-                                    values["sigma_gm_deg_h"], jnp.zeros(()),
-                                    jnp.reshape(values["tau_gm_s"], (1,)), 1.0, self.weight)
+                                    jnp.broadcast_to(white**2, span.shape), level, walk,
+                                    taus, unit, self.weight)
         return gauss_markov_innovations(residual, self.steps_s, white,
                                         values["sigma_gm_deg_h"], values["tau_gm_s"],
                                         self.weight)

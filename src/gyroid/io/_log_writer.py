@@ -77,7 +77,6 @@ def bench_log_writer(path: str | Path, names: Sequence[str], comments: Iterable[
     import gzip
 
     import pyarrow as pa
-    import pyarrow.csv as pacsv
     import pyarrow.parquet as pq
 
     path, names, comments = Path(path), list(names), list(comments)
@@ -93,13 +92,20 @@ def bench_log_writer(path: str | Path, names: Sequence[str], comments: Iterable[
                 yield lambda columns: writer.write_table(table(columns))
             return
         opener = gzip.open if path.name.endswith(".gz") else open
-        options = pacsv.WriteOptions(include_header=False)
         with opener(tmp, "wb") as handle:
             handle.write(("\n".join(_header_lines(names, comments)) + "\n").encode())
 
             def append(columns: Mapping[str, np.ndarray]) -> None:
-                rows = table(columns)
-                for start in range(0, rows.num_rows, WRITE_BATCH_ROWS):
-                    pacsv.write_csv(rows.slice(start, WRITE_BATCH_ROWS), handle, options)
+                write_csv_rows(handle, table(columns))
 
             yield append
+
+
+def write_csv_rows(handle, rows) -> None:
+    """A pyarrow table's rows appended to an open binary CSV file, without a header, by
+    pyarrow's CSV writer :data:`WRITE_BATCH_ROWS` at a time (its memory stays bounded)."""
+    import pyarrow.csv as pacsv
+
+    options = pacsv.WriteOptions(include_header=False)
+    for start in range(0, rows.num_rows, WRITE_BATCH_ROWS):
+        pacsv.write_csv(rows.slice(start, WRITE_BATCH_ROWS), handle, options)

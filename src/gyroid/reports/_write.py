@@ -197,21 +197,16 @@ def write_compensated_csv(path: str | Path, log: BenchLog, result: Compensation)
     row by row in Python took a second; the whole text built in memory first took 5 GB
     at 10^7 rows)."""
     import pyarrow as pa
-    import pyarrow.csv as pacsv
 
-    from gyroid.io._log_writer import WRITE_BATCH_ROWS
+    from gyroid.io._log_writer import write_csv_rows
     from gyroid.io._logs import BENCH_COLUMNS
 
     names = [c for c in BENCH_COLUMNS if c in log.columns]
     columns = [log.columns[c] for c in names]
     names += ["drift_model_deg_h", "drift_model_sd_deg_h", "drift_compensated_deg_h"]
     columns += [result.model_deg_h, result.model_sd_deg_h, result.compensated_deg_h]
-    columns = [np.asarray(column, dtype=float) for column in columns]
-    options = pacsv.WriteOptions(include_header=False)
     with open(path, "wb") as handle:
         handle.write((",".join(names) + "\n").encode())
-        for start in range(0, log.n, WRITE_BATCH_ROWS):
-            rows = slice(start, start + WRITE_BATCH_ROWS)
-            pacsv.write_csv(pa.table({name: column[rows] for name, column
-                                      in zip(names, columns, strict=True)}), handle, options)
+        write_csv_rows(handle, pa.table({name: np.asarray(column, dtype=float)
+                                         for name, column in zip(names, columns, strict=True)}))
     return Path(path)
