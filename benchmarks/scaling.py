@@ -89,7 +89,7 @@ _IMPORTS = {
     "bare": "import numpy, pyarrow.csv, pyarrow.parquet, scipy.signal, emcee",
     "fit_libraries": (
         "import warnings; warnings.simplefilter('ignore', FutureWarning)\n"
-        "import numpy, pyarrow.csv, pyarrow.parquet, pyarrow.dataset, scipy.signal, emcee\n"
+        "import numpy, pyarrow.csv, pyarrow.parquet, scipy.signal, emcee\n"
         "import jax; jax.config.update('jax_enable_x64', True)\n"
         "import equinox, optimistix, arviz, matplotlib.pyplot, dask, distributed"),
     "fit_modules": (
