@@ -309,6 +309,16 @@ def test_the_white_gm_fits_are_the_results_file():
             f"trusted, every coefficient and noise level within {worst:.1f} posterior sd")
 
 
+def test_the_white_gm_calibration_is_the_results_file():
+    results = _results("white_gm_calibration")
+    inside = results["inside_90"]
+    others = [v for k, v in inside.items() if k != "wD"]
+    _quoted(f"wD's posterior sat {results['z_mean']['wD']:.2f} sd above its truth on average "
+            f"({inside['wD']} of {results['datasets']} inside its 90 % interval, the other "
+            f"coefficients and noise levels {min(others)}-{max(others)} of "
+            f"{results['datasets']}; all {results['trustworthy']} fits trusted themselves)")
+
+
 def test_the_import_floor_is_the_results_file():
     imports = json.loads((ROOT / "benchmarks" / "results_scaling_small.json").read_text()
                          )["imports"]
