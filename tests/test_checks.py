@@ -36,7 +36,7 @@ def _evidence(draws, point, priors, *, residuals=None, sigma_given=False, refere
         names=names, n_model=len(names), point_u=np.asarray(point, dtype=float),
         point_converged=True, point_message="converged", priors=tuple(priors),
         reference_sd=reference or {}, residuals=residuals, sigma_given=sigma_given,
-        noise="white", draws_u=np.asarray(draws, dtype=float)[None, :, :],
+        correlated_noise=False, draws_u=np.asarray(draws, dtype=float)[None, :, :],
         summary={n: {"r_hat": 1.0, "ess_bulk": 1000.0} for n in names},
         hints={"a": "a needs a log in which x varies"},
     )
@@ -205,7 +205,7 @@ def test_a_noise_parameter_held_up_by_its_prior_is_only_a_warning():
         names=("a", "sigma_gm_deg_h"), n_model=1, point_u=np.array([0.0, -6.0]),
         point_converged=True, point_message="converged",
         priors=(Flat(), LogNormal(0.1, 3.0)),
-        reference_sd={}, residuals=None, sigma_given=False, noise="white+gm",
+        reference_sd={}, residuals=None, sigma_given=False, correlated_noise=True,
         draws_u=draws[None], summary=None)
     check = prior_data_conflict(evidence)
     assert not check.passed and check.severity == "warning"
@@ -316,13 +316,13 @@ def test_a_white_gm_fit_that_mispredicts_is_not_told_to_use_white_gm():
     experiments/mems_thermal_bench.py: flicker and a random walk under white+gm)."""
     from gyroid.cli.base import check_lines
     from gyroid.inference import CheckReport
-    from gyroid.inference._bench_predictive import _remedies
     from gyroid.inference._predictive import HeldOut, predictive_check
+    from gyroid.noise import noise_model
 
     rng = np.random.default_rng(0)
     folds = [HeldOut(observed=rng.normal(0.0, 5.0, 16), predicted=np.zeros(16),
                      covariance=np.eye(16), counts=np.full(16, 100)) for _ in range(4)]
-    white, gm = (predictive_check(folds, remedies=_remedies(noise))
+    white, gm = (predictive_check(folds, remedies=noise_model(noise).remedies)
                  for noise in ("white", "white+gm"))
     assert not white.passed and not gm.passed
     assert check_lines(CheckReport((white,)), "fit")[0].endswith(

@@ -294,6 +294,6 @@ def test_quiet_prints_only_the_failed_checks_and_verbose_the_time(tmp_path, caps
 def test_the_noise_choices_the_help_lists_are_the_models_gyroid_fits():
     """The command line writes --noise's names out (importing them imports JAX)."""
     from gyroid.cli.base import NOISE_CHOICES
-    from gyroid.inference._bench_density import NOISE_MODELS
+    from gyroid.noise import NOISE_MODELS
 
     assert set(NOISE_CHOICES) == {"auto", *NOISE_MODELS}

@@ -77,7 +77,7 @@ def test_a_log_of_the_same_gyro_sampled_faster_is_predicted_at_its_own_rate(fitt
     must still be refused."""
     protocol = ThermalProtocol(setpoints_C=(28.0, 34.0, 39.0), soak_min=25.0)
     fast = simulate_thermal_bench(seed=24, protocol=protocol.stretched(None, 4.0))
-    assert fitted_short.noise["white_sample_s"] == pytest.approx(1.0)
+    assert fitted_short.noise.white_sample_s == pytest.approx(1.0)
 
     def predictive(log):
         return next(c for c in compensate(log, fitted_short).checks.checks

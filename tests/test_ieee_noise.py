@@ -13,13 +13,13 @@ import pytest
 from scipy import integrate, stats
 
 from gyroid.inference import BenchProblem, fit_log
-from gyroid.inference._ieee_noise import (
+from gyroid.io import BenchLog
+from gyroid.noise._ieee import (
     flicker_times,
     ieee_innovations,
     ieee_mean_covariance,
     ieee_part_covariance,
 )
-from gyroid.io import BenchLog
 
 
 def _blocks(rng, n):
@@ -156,10 +156,10 @@ def test_a_long_log_is_fitted_as_block_means_and_its_samples_checked_for_spikes(
 def test_auto_keeps_white_noise_when_it_is_white_and_changes_when_it_is_not():
     rng = np.random.default_rng(2)
     white = fit_log(_ramp_log(rng, 4000), "bias,temperature", noise="auto", sample=False)
-    assert white.problem.noise == "white" and white.noise_choice.startswith("auto: white")
+    assert white.problem.noise.name == "white" and white.noise_choice.startswith("auto: white")
     flicker = fit_log(_ramp_log(rng, 4000, b=30.0, k=20.0), "bias,temperature", noise="auto",
                       sample=False)
-    assert flicker.problem.noise == "white+flicker+rw"
+    assert flicker.problem.noise.name == "white+flicker+rw"
     assert "failed residual_whiteness" in flicker.noise_choice
     assert fit_log(_ramp_log(rng, 500), "bias", noise="white",
                    sample=False).to_json()["noise_choice"] == "asked for: white"
@@ -180,7 +180,7 @@ def test_a_burst_log_is_read_as_it_is():
     fit = fit_log(BenchLog(columns), "bias,temperature", noise="auto", segment_means=True,
                   sample=False)
     # the means of a walk's bursts are a walk: not white
-    assert fit.problem.noise == "white+flicker+rw"
+    assert fit.problem.noise.name == "white+flicker+rw"
     assert "on the samples" in fit.noise_choice
     # 6000 samples: means of 6 (3 per burst, its last 2 samples left out), 22 s apart
     # across a gap

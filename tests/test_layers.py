@@ -13,6 +13,7 @@ SOURCE = Path(__file__).resolve().parents[1] / "src" / "gyroid"
 RANKS = {
     "errors": 0, "_config": 0, "_lazy": 0,
     "models": 1,
+    "noise": 1.5,
     "io": 2,
     "simulation": 3, "inference": 3,
     "workflows": 4, "papers": 4,

@@ -262,3 +262,18 @@ def test_burst_logs_pool_on_segment_means(tmp_path):
     for name, value in truth.items():
         lo, hi = means["population"][name]["ci95"]
         assert lo < value < hi, (name, value, lo, hi)
+
+
+@pytest.mark.slow
+def test_cli_pool_of_thermal_runs_whose_thermometer_is_noisy(tmp_path):
+    """A lot of thermal runs with a noisy thermometer pools (exit 0 or 3): each run's fit
+    had carried the thermometer's noise, which left it without the sufficient statistics
+    the pooled algebra reads, and `gyroid pool --terms thermal` ended in an IndexError."""
+    lot_dir, pool_dir = tmp_path / "lot", tmp_path / "pool"
+    assert main(["simulate", "thermal", "--runs", "3", "--hours", "2", "--out", str(lot_dir),
+                 "--seed", "3"]) == 0
+    logs = [str(lot_dir / f"run_0{k}" / "bench.csv") for k in (1, 2, 3)]
+    code = main(["pool", *logs, "--terms", "thermal", "--out", str(pool_dir), "--seed", "1"])
+    record = json.loads((pool_dir / "pool.json").read_text())
+    assert code == (0 if record["trustworthy"] else 3)
+    assert set(record["population"]) == {"w0", "w1", "w2", "wD"}

@@ -13,7 +13,7 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "_emcee": ["Emcee"],
     "_nuts": ["Nuts"],
     "_bench_problem": ["BenchProblem"],
-    "_bench_density": ["BenchDensity", "NOISE_MODELS"],
+    "_bench_density": ["BenchDensity"],
     "_bench_fit": ["BenchFit", "fit_log"],
     "_roll_problem": ["ALL_PARAMETERS", "RollProblem"],
     "_roll_fit": ["RollFit", "fit_roll_log"],

@@ -2,24 +2,13 @@
 and priors as one pytree of arrays; :class:`~gyroid.inference.BenchProblem` describes it.
 
 Sampling coordinates ``u``: model parameters in their own units, except positive ones
-(time constants) as ``log x``; noise parameters as logs. Noise models:
-
-* ``white``: independent Gaussian noise, sd from ``sigma_deg_h`` when the log has it,
-  otherwise one sampled level ``sigma_deg_h`` (a sample's, also when the rows are means);
-  for a model reading dT/dt on a log with a noisy thermometer, plus that noise carried
-  through the dT/dt estimator (errors in variables, :mod:`gyroid.models._rate_error`): a
-  covariance over the rows, exact in one eigenbasis;
-* ``white+gm``: white noise plus a first-order Gauss-Markov (AR(1)) part of sd
-  ``sigma_gm_deg_h`` and correlation time ``tau_gm_s`` (the usual model of a FOG's bias
-  instability). The exact Gaussian likelihood comes from the innovations of a Kalman
-  filter (a JAX scan), for regular or irregular sampling; a long log's rows are block
-  means, each the process integrated over its block (the filter of
-  :mod:`gyroid.inference._ieee_noise` with one correlation time);
-* ``white+flicker+rw``: IEEE Std 952's angle random walk ``N_deg_sqrt_h``, bias
-  instability (flicker) ``B_deg_h`` and rate random walk ``K_deg_h_sqrt_h``, each row read
-  as the mean of the samples over one sampling step (a long log's rows are block means,
-  :class:`~gyroid.inference.BenchProblem`), by the exact filter of
-  :mod:`gyroid.inference._ieee_noise`.
+(time constants) as ``log x``; noise levels as logs. The noise model is an object
+(:class:`gyroid.noise.NoiseModel`: white, white + Gauss-Markov, IEEE 952's white + flicker
++ rate random walk, or one of the user's own) that gives the likelihood of the residual:
+independent rows, or the innovations of its filter. Under white noise, a model reading
+dT/dt on a log with a noisy thermometer carries that noise through the dT/dt estimator
+(errors in variables, :mod:`gyroid.models._rate_error`): a covariance over the rows, exact
+in one eigenbasis.
 
 For a model linear in its parameters with white noise, the log-likelihood is computed
 from sufficient statistics (cost independent of the log's length).
@@ -35,30 +24,16 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
 
-from gyroid.errors import GyroidInputError
-from gyroid.inference._ieee_noise import (
-    IEEE_NOISE,
-    IEEE_NOISE_NAMES,
-    IEEE_NOISE_UNITS,
-    flicker_times,
-    ieee_innovations,
-)
-from gyroid.inference._kalman import gauss_markov_innovations
 from gyroid.io._logs import BenchLog
 from gyroid.models._derived import RATE_WINDOW_S
 from gyroid.models._design import least_squares_from_r, with_rows
 from gyroid.models._drift import DriftModel
 from gyroid.models._inputs import DriftInputs
-from gyroid.models._prior_scales import FOG_NOISE_PRIORS
 from gyroid.models._priors import Flat, LogNormal, Normal, Prior, prior_arrays
 from gyroid.models._rate_error import rate_coefficient_index
+from gyroid.noise._base import NoiseModel, RowClock
+from gyroid.noise._kinds import White, noise_model
 
-NOISE_MODELS = ("white", "white+gm", IEEE_NOISE)
-#: Paper A's FOG noise priors (densities on log x); the default priors are scaled to the log
-#: (:mod:`gyroid.models._prior_scales`).
-NOISE_PRIORS: dict[str, Prior] = FOG_NOISE_PRIORS
-NOISE_UNITS = {"sigma_deg_h": "deg/h", "sigma_gm_deg_h": "deg/h", "tau_gm_s": "s",
-               **IEEE_NOISE_UNITS}
 #: Length of the blocks whose summed log-likelihood ArviZ's LOO treats as one observation, s.
 LOO_BLOCK_S = 60.0
 #: At most this many LOO blocks (longer blocks on long logs).
@@ -82,7 +57,7 @@ class BenchDensity(eqx.Module):
     prior_loc: Float[Array, " d"]
     prior_scale: Float[Array, " d"]
     prior_on: Float[Array, " d"]
-    noise: str = eqx.field(static=True)
+    noise: NoiseModel  # set up for this log (:meth:`NoiseModel.for_log`)
     n_blocks: int = eqx.field(static=True)
     step_s: float = eqx.field(static=True)
     #: An array, not a static field: logs whose chosen windows differ share a compilation.
@@ -102,12 +77,9 @@ class BenchDensity(eqx.Module):
     #: Rows the likelihood reads (1) or leaves out (0): held-out stretches of a predictive
     #: check, kept in place so that every fold shares one compilation. None: every row.
     weight: Float[Array, " n"] | None = None
-    # white+flicker+rw, and white+gm on block means: the gap before each row (s; its span
-    # is ``step_s``); white+flicker+rw: the flicker's correlation times (s) and variance
-    # per unit B^2.
+    #: Rows read as means over one step (:meth:`NoiseModel.rows_as_means`): the gap before
+    #: each row, s (its span is ``step_s``).
     gap_s: Float[Array, " n"] | None = None
-    flicker_tau_s: Float[Array, " j"] | None = None
-    flicker_unit_var: float = eqx.field(static=True, default=0.0)
     #: A row's white sd per sample's (1/sqrt(m) for a row that is the mean of m samples):
     #: ``sigma_deg_h`` is always a sample's.
     row_scale: float = eqx.field(static=True, default=1.0)
@@ -134,7 +106,7 @@ class BenchDensity(eqx.Module):
         priors: tuple[Prior, ...],
         inputs: DriftInputs,
         *,
-        noise: str = "white",
+        noise: str | NoiseModel | None = None,
         rate_window_s: float = RATE_WINDOW_S,
         fast: bool = True,
         rows_per_mean: int = 1,
@@ -146,32 +118,28 @@ class BenchDensity(eqx.Module):
         ``rate_error_cov``: under white noise, the covariance of the dT/dt error that the
         thermometer's noise causes at the rows, carried into the likelihood (errors in
         variables)."""
-        if noise not in NOISE_MODELS:
-            raise GyroidInputError(f"--noise must be one of {', '.join(NOISE_MODELS)}")
+        noise = White() if noise is None else noise_model(noise)
         time_s = np.asarray(log.time_s)
         steps = np.diff(time_s)
         step = float(np.median(steps)) if steps.size else 1.0
         sigma = None if log.sigma_deg_h is None else jnp.asarray(log.sigma_deg_h)
-        noise_names = _noise_names(noise, sigma is not None)
+        noise_names = noise.names(sigma is not None)
         positive = [p.positive for p in model.parameters] + [True] * len(noise_names)
         loc, scale, on = prior_arrays(priors, positive)
         duration = float(time_s[-1] - time_s[0])
         block_s = max(LOO_BLOCK_S, step, duration / MAX_LOO_BLOCKS * 1.0001)
         block = np.floor((time_s - time_s[0]) / block_s).astype(int)
         _, block = np.unique(block, return_inverse=True)
-        ieee: dict = {}  # the noise model's own fields
+        extra: dict = {}  # the noise model's own fields
         if rate_error_cov is not None:
-            if noise != "white" or "temperature_rate" not in model.terms:
+            if not isinstance(noise, White) or "temperature_rate" not in model.terms:
                 raise ValueError("errors in variables: white noise and a model reading dT/dt")
-            ieee = {"rate_error_cov": jnp.asarray(rate_error_cov),
-                    "eiv_index": rate_coefficient_index(model)}
-        if noise == IEEE_NOISE or (noise == "white+gm" and rows_per_mean > 1):
+            extra = {"rate_error_cov": jnp.asarray(rate_error_cov),
+                     "eiv_index": rate_coefficient_index(model)}
+        if noise.rows_as_means(rows_per_mean):
             # block means: each row the mean over one step, after a gap (a pause)
-            ieee = {"gap_s": jnp.asarray(np.maximum(np.concatenate([[0.0], steps]) - step,
-                                                    0.0))}
-        if noise == IEEE_NOISE:
-            taus, unit = flicker_times(step, duration + step)
-            ieee |= {"flicker_tau_s": jnp.asarray(taus), "flicker_unit_var": unit}
+            extra = {"gap_s": jnp.asarray(np.maximum(np.concatenate([[0.0], steps]) - step,
+                                                     0.0))}
         problem = cls(
             model=model,
             inputs=inputs,
@@ -182,16 +150,16 @@ class BenchDensity(eqx.Module):
             prior_loc=jnp.asarray(loc),
             prior_scale=jnp.asarray(scale),
             prior_on=jnp.asarray(on),
-            noise=noise,
+            noise=noise.for_log(step, duration),
             n_blocks=int(block.max()) + 1,
             step_s=step,
             rate_window_s=jnp.asarray(float(rate_window_s)),
             row_scale=1.0 / math.sqrt(rows_per_mean),
-            **ieee,
+            **extra,
         )
         if rate_error_cov is not None:
             return problem._with_errors_in_variables()
-        if fast and model.is_linear and noise == "white":
+        if fast and model.is_linear and not noise.correlated:
             problem = problem._with_sufficient_statistics()
         return problem
 
@@ -302,7 +270,12 @@ class BenchDensity(eqx.Module):
 
     @property
     def noise_names(self) -> tuple[str, ...]:
-        return _noise_names(self.noise, self.sigma is not None)
+        return self.noise.names(self.sigma is not None)
+
+    @property
+    def clock(self) -> RowClock:
+        """Where the rows sit in time, as the noise model's filter reads them."""
+        return RowClock(self.steps_s, self.step_s, self.gap_s, self.weight)
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -356,39 +329,37 @@ class BenchDensity(eqx.Module):
         level by name (natural units), from the noise levels' sampling coordinates (logs)."""
         values = dict(zip(self.noise_names, jnp.exp(noise_u), strict=True))
         if self.sigma is not None:
-            white = self.sigma if self.noise in ("white", IEEE_NOISE) else jnp.median(
-                self.sigma)
-        elif self.noise == IEEE_NOISE:  # a row's mean over one step, deg/h
-            white = 60.0 * values["N_deg_sqrt_h"] / math.sqrt(self.step_s)
-        else:
-            white = values["sigma_deg_h"] * self.row_scale
-        return white, values
+            return self.noise.known_white(self.sigma), values
+        return self.noise.row_white_sd(values, step_s=self.step_s,
+                                       row_scale=self.row_scale), values
 
     def log_likelihood_rows(self, u: Float[Array, " d"]) -> Float[Array, " n"]:
         """Log-likelihood of each row (for white+gm: of its innovation); 0 for a row left
         out (:meth:`without_rows`)."""
         residual = self.drift - self.predict(u)
         white, values = self._noise_levels(u)
+        filtered = self.innovations(residual, white, values)
         if self.errors_in_variables:
             rows = self._leave_one_out_rows(u, residual)
-        elif self.noise == "white":
+        elif filtered is None:
             rows = -0.5 * (residual / white) ** 2 - jnp.log(white) - 0.5 * _LOG_2PI
         else:
-            innovation, variance = self.innovations(residual, white, values)
+            innovation, variance = filtered
             rows = -0.5 * innovation**2 / variance - 0.5 * jnp.log(variance) - 0.5 * _LOG_2PI
         return rows if self.weight is None else rows * self.weight
 
     def standardised_residuals(self, u: Float[Array, " d"]) -> Float[Array, " n"]:
-        """Residuals over their modelled sd (white) or Kalman innovations over theirs
-        (white+gm): independent N(0, 1) when the model and its noise model are right."""
+        """Residuals over their modelled sd (white) or the noise model's innovations over
+        theirs: independent N(0, 1) when the model and its noise model are right."""
         residual = self.drift - self.predict(u)
         white, values = self._noise_levels(u)
         if self.errors_in_variables:  # sequential innovations: time-ordered, white if right
             chol = jnp.linalg.cholesky(self._covariance(u))
             return jax.scipy.linalg.solve_triangular(chol, residual, lower=True)
-        if self.noise == "white":
+        filtered = self.innovations(residual, white, values)
+        if filtered is None:
             return residual / white
-        innovation, variance = self.innovations(residual, white, values)
+        innovation, variance = filtered
         return innovation / jnp.sqrt(variance)
 
     # ----- errors in variables ------------------------------------------------------------
@@ -432,25 +403,10 @@ class BenchDensity(eqx.Module):
         return jnp.where(c > 0, rows, 0.0)
 
     def innovations(self, residual, white, values):
-        """Innovations of the residual (or of columns) under the correlated noise models; a
-        row left out (weight 0) is predicted through, not learnt from."""
-        if self.gap_s is not None:  # rows that are means over a step: IEEE's block filter
-            if self.noise == IEEE_NOISE:
-                level, walk = values["B_deg_h"], values["K_deg_h_sqrt_h"]
-                taus, unit = self.flicker_tau_s, self.flicker_unit_var
-            else:
-                # white+gm on block means: the Gauss-Markov process integrated over each
-                # block, exactly (one correlation time, free, and no random walk); sampling
-                # it at the blocks' centres would be its own approximation
-                level, walk = values["sigma_gm_deg_h"], jnp.zeros(())
-                taus, unit = jnp.reshape(values["tau_gm_s"], (1,)), 1.0
-            span = jnp.full_like(self.steps_s, self.step_s)
-            return ieee_innovations(residual, span, self.gap_s,
-                                    jnp.broadcast_to(white**2, span.shape), level, walk,
-                                    taus, unit, self.weight)
-        return gauss_markov_innovations(residual, self.steps_s, white,
-                                        values["sigma_gm_deg_h"], values["tau_gm_s"],
-                                        self.weight)
+        """Innovations of the residual (or of columns) and their variances under the noise
+        model (None for independent rows); a row left out (weight 0) is predicted through,
+        not learnt from."""
+        return self.noise.innovations(residual, white, values, self.clock)
 
     def log_likelihood(self, u: Float[Array, " d"]) -> Float[Array, ""]:
         """Total log-likelihood (the sufficient-statistics path where it applies)."""
@@ -550,12 +506,3 @@ class BenchDensity(eqx.Module):
     def log_posterior(self, u: Float[Array, " d"]) -> Float[Array, ""]:
         value = self.log_likelihood(u) + self.log_prior(u)
         return jnp.where(jnp.isfinite(value), value, -jnp.inf)
-
-
-def _noise_names(noise: str, sigma_known: bool) -> tuple[str, ...]:
-    if noise == IEEE_NOISE:
-        return IEEE_NOISE_NAMES[1:] if sigma_known else IEEE_NOISE_NAMES
-    white = () if sigma_known else ("sigma_deg_h",)
-    if noise == "white":
-        return white
-    return (*white, "sigma_gm_deg_h", "tau_gm_s")

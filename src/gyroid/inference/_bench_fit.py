@@ -10,14 +10,12 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from gyroid.inference._batching import problem_batcher
-from gyroid.inference._bench_density import NOISE_UNITS
 from gyroid.inference._bench_predictive import bench_predictive
 from gyroid.inference._bench_problem import BenchProblem
 from gyroid.inference._check_report import Check, CheckReport
 from gyroid.inference._checks import fit_checks
 from gyroid.inference._excitation import excitation
 from gyroid.inference._fit import fit
-from gyroid.inference._ieee_noise import IEEE_NOISE
 from gyroid.inference._plausibility import effect_sizes, units_sanity
 from gyroid.inference._posterior import AbstractSampler, Posterior, inference_data
 from gyroid.inference._problem import PointEstimate
@@ -29,6 +27,8 @@ from gyroid.models._drift import DriftModel
 from gyroid.models._effects import parameter
 from gyroid.models._inputs import T0_C
 from gyroid.models._priors import Prior
+from gyroid.noise._base import NoiseEstimate, NoiseModel
+from gyroid.noise._kinds import Ieee952, White, noise_model
 
 
 @dataclass(frozen=True, eq=False)
@@ -47,7 +47,7 @@ class BenchFit:
     def __repr__(self) -> str:
         verdict = "trustworthy" if self.trustworthy else "NOT trustworthy"
         return (f"BenchFit(terms={','.join(self.problem.model.terms)!r}, "
-                f"n_samples={self.problem.n}, noise={self.problem.noise!r}, {verdict})")
+                f"n_samples={self.problem.n}, noise={self.problem.noise.name!r}, {verdict})")
 
     @property
     def trustworthy(self) -> bool:
@@ -109,9 +109,9 @@ class BenchFit:
                    f", the thermometer's {self.problem.thermometer_sd_C:.3g} degC noise "
                    "carried through dT/dt")
         lines = [f"{','.join(self.problem.model.terms)} on {self.problem.n} rows "
-                 f"({self.problem.noise} noise{carried}); {kind}:"]
+                 f"({self.problem.noise.name} noise{carried}); {kind}:"]
         for name in names:
-            unit = NOISE_UNITS.get(name) or parameter(name).unit
+            unit = self.problem.noise.units.get(name) or parameter(name).unit
             lines.append(f"  {name:>16s} = {source[name]['mean']: .6g} +/- "
                          f"{source[name]['sd']:.3g} {unit}")
         lines += [f"  {line}" for line in self.checks.lines()]
@@ -128,7 +128,7 @@ class BenchFit:
         return FittedDrift(model=self.problem.model, draws=draws, t0_C=self.t0_C,
                            rate_window_s=float(self.problem.rate_window_s),
                            trustworthy=self.trustworthy, input_ranges=self.input_ranges,
-                           noise=self.noise_levels(),
+                           noise=self.noise_estimate(),
                            contributions=self.effect_contributions())
 
     def effect_contributions(self, max_rows: int = 1000) -> dict:
@@ -146,29 +146,27 @@ class BenchFit:
             e.name: np.asarray(e.contribution(params, self.problem.inputs))[::every]
             for e in self.problem.model.effects}}
 
-    def noise_levels(self) -> dict:
-        """The noise model and its levels (posterior means, else the point estimate):
-        ``model``, ``white_sd_deg_h`` (a sample's white sd; the median of a log's
-        ``sigma_deg_h``), ``white_sample_s`` (the median sample interval it belongs to, s;
-        not for a fit of segment means), and for white+gm ``sigma_gm_deg_h`` and ``tau_gm_s``, for
-        white+flicker+rw ``N_deg_sqrt_h``, ``B_deg_h`` and ``K_deg_h_sqrt_h``."""
+    def noise_estimate(self) -> NoiseEstimate:
+        """The noise model with its levels (posterior means, else the point estimate) and
+        a sample's white sd (deg/h; the median of a log's ``sigma_deg_h`` when it gives
+        them) at the samples' interval (s; not for a fit of segment means)."""
         names = self.problem.noise_names
         source = (self.posterior.summary if self.posterior is not None else
                   {n: {"mean": self.point.value[n]} for n in names})
         levels = {n: source[n]["mean"] for n in names}
         density = self.problem.density
-        sigma = density.sigma
-        if "N_deg_sqrt_h" in levels:  # a sample's white sd at the log's own rate
-            white = 60.0 * levels["N_deg_sqrt_h"] / np.sqrt(
-                density.step_s / self.problem.block_rows)
-        elif sigma is None:
-            white = levels["sigma_deg_h"]
+        sample_s = density.step_s / self.problem.block_rows
+        if density.sigma is None:
+            white = self.problem.noise.sample_white_sd(levels, sample_s)
         else:
-            white = float(np.median(np.asarray(sigma)))
-        out = {"model": self.problem.noise, "white_sd_deg_h": white, **levels}
-        if self.segment_means is None:  # the samples' interval that white sd belongs to
-            out["white_sample_s"] = density.step_s / self.problem.block_rows
-        return out
+            white = float(np.median(np.asarray(density.sigma)))
+        return NoiseEstimate(model=self.problem.noise, levels=levels, white_sd_deg_h=white,
+                             white_sample_s=sample_s if self.segment_means is None else None)
+
+    def noise_levels(self) -> dict:
+        """:meth:`noise_estimate` as fit.json writes it: ``model`` (the noise model's name),
+        ``white_sd_deg_h``, ``white_sample_s`` and each level by name."""
+        return self.noise_estimate().to_json()
 
     def inference_data(self):
         """ArviZ InferenceData: posterior, block log-likelihoods (LOO), observed data."""
@@ -212,12 +210,12 @@ class BenchFit:
             "t0_C": self.t0_C,
             "seed": self.seed,
             "noise": {
-                "model": problem.noise,
+                "model": problem.noise.name,
                 "sigma_from_log": problem.sigma_known,
                 "point": {k: point.value[k] for k in noise_names},
                 "point_sd": {k: point.sd[k] for k in noise_names},
                 "posterior": {},
-                "units": {k: NOISE_UNITS[k] for k in noise_names},
+                "units": {k: problem.noise.units[k] for k in noise_names},
                 **{k: v for k, v in self.noise_levels().items()
                    if k in ("white_sd_deg_h", "white_sample_s")},
                 "errors_in_variables": self.errors_in_variables,
@@ -230,7 +228,7 @@ class BenchFit:
             "rate_window_choice": problem.rate_window_choice,
             "segment_means": self.segment_means,
             "block_means": self.block_means,
-            "noise_choice": self.noise_choice or f"asked for: {problem.noise}",
+            "noise_choice": self.noise_choice or f"asked for: {problem.noise.name}",
             "convergence": {
                 "point_estimate": point.message,
                 "point_converged": point.converged,
@@ -323,7 +321,7 @@ def fit_log(
     log: BenchLog | MeansOfBlocks,
     terms: str | tuple[str, ...] | DriftModel,
     *,
-    noise: str = "white",
+    noise: str | NoiseModel | None = None,
     seed: int = 0,
     priors: Mapping[str, Prior] | None = None,
     prior_set: str = "default",
@@ -344,7 +342,7 @@ def fit_log(
     ``noise="auto"`` (the command line's default) fits white noise's mode and checks it;
     if its residuals are not white or it fails to predict its held-out stretches
     (:data:`NOISE_CHECKS`), the fit is IEEE 952's white + flicker + rate random walk instead
-    (:mod:`gyroid.inference._ieee_noise`); ``noise_choice`` says which and why.
+    (:mod:`gyroid.noise._ieee`); ``noise_choice`` says which and why.
 
     ``log`` may be a log already reduced to block means (:class:`MeansOfBlocks`, as a log
     too long to hold is read: :func:`gyroid.io.stream_block_means`).
@@ -352,19 +350,21 @@ def fit_log(
     likelihood (:meth:`BenchProblem.from_log`)."""
     from gyroid.inference._emcee import Emcee
 
-    def problem_with(noise_model: str) -> BenchProblem:
+    def problem_with(kind: NoiseModel) -> BenchProblem:
         # IEEE noise reads a log of bursts as it is: its flicker and walk are the wander
-        return BenchProblem.from_log(log, terms, noise=noise_model, priors=priors,
+        return BenchProblem.from_log(log, terms, noise=kind, priors=priors,
                                      prior_set=prior_set, flat_prior=flat_prior, t0_C=t0_C,
                                      rate_window_s=rate_window_s,
-                                     segment_means=segment_means and noise_model != IEEE_NOISE,
+                                     segment_means=segment_means
+                                     and not isinstance(kind, Ieee952),
                                      errors_in_variables=errors_in_variables)
 
     chosen = sampler or Emcee(progress=progress)
-    if noise != "auto":
-        return fit(problem_with(noise), sampler=chosen, seed=seed, sample=sample)
+    if not (isinstance(noise, str) and noise == "auto"):
+        kind = White() if noise is None else noise_model(noise)
+        return fit(problem_with(kind), sampler=chosen, seed=seed, sample=sample)
     # the white trial's mode and its mode-only checks serve the white fit when it is chosen
-    white = problem_with("white")
+    white = problem_with(White())
     point = white.mode()
     point_checks = bench_point_checks(white, point)
     trial = bench_checks(white, point, None, point_checks)
@@ -377,8 +377,8 @@ def fit_log(
         result = BenchFit(problem=white, point=point, posterior=posterior, seed=seed,
                           checks=checks)
     else:
-        why = (f"auto: {IEEE_NOISE}, since a white-noise fit failed {' and '.join(wrong)}"
+        why = (f"auto: {Ieee952.name}, since a white-noise fit failed {' and '.join(wrong)}"
                + (" (on the samples: the noise model carries the wander between bursts)"
                   if segment_means else ""))
-        result = fit(problem_with(IEEE_NOISE), sampler=chosen, seed=seed, sample=sample)
+        result = fit(problem_with(Ieee952()), sampler=chosen, seed=seed, sample=sample)
     return replace(result, noise_choice=why)

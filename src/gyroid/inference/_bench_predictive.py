@@ -17,12 +17,10 @@ import scipy.linalg
 from gyroid.inference._bench_density import BenchDensity
 from gyroid.inference._check_report import Check
 from gyroid.inference._collapsed import collapse
-from gyroid.inference._ieee_noise import IEEE_NOISE, ieee_part_covariance
 from gyroid.inference._point import point_estimate
 from gyroid.inference._predictive import (
     HeldOut,
     Stretches,
-    gauss_markov_mean_covariance,
     mean_jacobian,
     part_means,
     predictive_check,
@@ -32,6 +30,8 @@ from gyroid.inference._whitened_fit import NoiseLevels, held_out_solution
 from gyroid.io._logs import contiguous_segments
 from gyroid.models._drift import DriftModel
 from gyroid.models._inputs import DriftInputs
+from gyroid.noise._kalman import gauss_markov_mean_covariance
+from gyroid.noise._kinds import GaussMarkov
 
 
 def bench_predictive(density: BenchDensity, time_s: np.ndarray,
@@ -41,15 +41,7 @@ def bench_predictive(density: BenchDensity, time_s: np.ndarray,
     refit of a linear model under correlated noise or errors in variables (a generalised
     least-squares fit)."""
     folds, part_s = bench_held_out(density, time_s, point_u)
-    return predictive_check(folds, part_s=part_s, remedies=_remedies(density.noise))
-
-
-def _remedies(noise: str) -> tuple[str, ...]:
-    """What a failed predictive check advises: a richer noise model than the fit's own."""
-    if noise == IEEE_NOISE:
-        return ("segment_means", "discrepancy")
-    richer = "noise_terms" if noise == "white+gm" else "noise_model"
-    return (richer, "segment_means", "discrepancy")
+    return predictive_check(folds, part_s=part_s, remedies=density.noise.remedies)
 
 
 def bench_held_out(density: BenchDensity, time_s: np.ndarray,
@@ -118,7 +110,7 @@ def whitened_predictive(model: DriftModel, inputs: DriftInputs, drift: np.ndarra
             covariance=jacobian @ np.asarray(covariance) @ jacobian.T
             + noise_cov[np.ix_(held, held)], counts=counts[held]))
     return predictive_check(folds, part_s=_part_seconds(parts, time_s),
-                            remedies=_remedies("white+gm"))
+                            remedies=GaussMarkov.remedies)
 
 
 def _part_sums(density: BenchDensity, parts: Stretches) -> dict[str, np.ndarray]:
@@ -276,34 +268,24 @@ def _refit_folds(density: BenchDensity, parts: Stretches, time_s: np.ndarray
 def _noise_covariance(density: BenchDensity, values: dict, parts: Stretches,
                       time_s: np.ndarray) -> np.ndarray:
     """The noise model's covariance of the parts' means, at the training fit's noise levels
-    (``values``: by name, natural units)."""
+    (``values``: by name, natural units), as the likelihood reads the rows; under errors in
+    variables, plus wD^2 times the parts' means of the rate error's covariance."""
     counts = np.bincount(parts.part, minlength=parts.n_parts).astype(float)
+    white_levels = {k: values[k] for k in density.noise_names}
     if density.sigma is not None:
-        sigma = np.asarray(density.sigma)
-        white = (np.bincount(parts.part, sigma**2, parts.n_parts) / counts**2
-                 if density.noise != "white+gm" else np.median(sigma) ** 2 / counts)
-    elif density.noise == IEEE_NOISE:
-        white = (60.0 * values["N_deg_sqrt_h"]) ** 2 / (counts * density.step_s)
-    else:  # sigma_deg_h is a sample's
-        white = (values["sigma_deg_h"] * density.row_scale) ** 2 / counts
-    if density.noise == IEEE_NOISE:
-        return ieee_part_covariance(time_s, parts.part, parts.n_parts, density.step_s, white,
-                                    values["B_deg_h"], values["K_deg_h_sqrt_h"])
-    covariance = np.diag(white)
+        known = np.asarray(density.noise.known_white(density.sigma))
+        white = (np.bincount(parts.part, np.broadcast_to(known, density.n) ** 2,
+                             parts.n_parts) / counts**2)
+    else:
+        white = float(density.noise.row_white_sd(white_levels, step_s=density.step_s,
+                                                 row_scale=density.row_scale)) ** 2 / counts
+    covariance = density.noise.part_covariance(time_s, parts.part, parts.n_parts,
+                                               density.step_s, white, white_levels,
+                                               block_means=density.gap_s is not None)
     if density.errors_in_variables:  # wD^2 times the parts' means of the rate error
         average = np.zeros((parts.n_parts, density.n))
         average[parts.part, np.arange(density.n)] = 1.0 / counts[parts.part]
         wd = values[density.names[density.eiv_index]]
         covariance = covariance + wd**2 * (average @ np.asarray(density.rate_error_cov)
                                            @ average.T)
-    if density.noise == "white+gm" and density.gap_s is not None:
-        # block means: the process integrated over each block, as the likelihood reads it
-        covariance = covariance + ieee_part_covariance(
-            time_s, parts.part, parts.n_parts, density.step_s, np.zeros(parts.n_parts),
-            values["sigma_gm_deg_h"], 0.0, (np.array([values["tau_gm_s"]]), 1.0))
-    elif density.noise == "white+gm":
-        covariance = covariance + gauss_markov_mean_covariance(
-            time_s, parts.part, parts.n_parts, values["sigma_gm_deg_h"],
-            values["tau_gm_s"])
     return covariance
-

@@ -12,9 +12,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyroid.errors import GyroidInputError
-from gyroid.inference._bench_density import BenchDensity, _noise_names
+from gyroid.inference._bench_density import BenchDensity
 from gyroid.inference._check_report import FitEvidence
-from gyroid.inference._ieee_noise import IEEE_NOISE
 from gyroid.inference._point import point_estimate
 from gyroid.inference._problem import AbstractProblem, PointEstimate
 from gyroid.inference._rate_window import choose_rate_window, reads_rate, window_grid
@@ -33,6 +32,7 @@ from gyroid.models._prior_scales import (
     PriorBasis,
     choose_priors,
     identifiability_hints,
+    log_scales,
     reference_sd,
 )
 from gyroid.models._priors import Prior
@@ -42,6 +42,8 @@ from gyroid.models._rate_error import (
     thermometer_noise_var,
     white_level_var,
 )
+from gyroid.noise._base import NoiseModel
+from gyroid.noise._kinds import Ieee952, White, noise_model
 
 #: The most rows a white+flicker+rw fit filters, and the most a white fit carrying the
 #: thermometer's noise holds a covariance over (longer logs: block means).
@@ -69,7 +71,7 @@ class BenchProblem(AbstractProblem):
         log: BenchLog | MeansOfBlocks,
         terms: str | tuple[str, ...] | DriftModel,
         *,
-        noise: str = "white",
+        noise: str | NoiseModel | None = None,
         priors: Mapping[str, Prior] | None = None,
         prior_set: str = "default",
         flat_prior: bool = False,
@@ -109,12 +111,13 @@ class BenchProblem(AbstractProblem):
         gaps too long to write as a matrix, nor where it is negligible
         (:data:`NEGLIGIBLE_EIV`); ``errors_in_variables=False`` leaves it out (the plain
         white likelihood)."""
+        noise = White() if noise is None else noise_model(noise)
         samples = None
         block_rows = 1
         cap = IEEE_MAX_ROWS if max_rows is None else max_rows
         model = terms if isinstance(terms, DriftModel) else DriftModel.from_terms(terms)
         thermometer_var = 0.0  # a sample's, degC^2: the thermometer's noise to carry
-        if (errors_in_variables and noise == "white" and not segment_means
+        if (errors_in_variables and not noise.correlated and not segment_means
                 and reads_rate(model)):
             thermometer_var = _thermometer_to_carry(log, model, rate_window_s, t0_C, cap)
         if isinstance(log, MeansOfBlocks):
@@ -124,13 +127,13 @@ class BenchProblem(AbstractProblem):
                     f"{log.rows_per_mean} samples (it was read as a stream); leave "
                     "--segment-means out")
             log, block_rows, samples = log.log, log.rows_per_mean, log.samples
-        if noise == IEEE_NOISE and segment_means:
+        if isinstance(noise, Ieee952) and segment_means:
             raise GyroidInputError(
-                "--segment-means with --noise white+flicker+rw: the IEEE noise model reads "
+                f"--segment-means with --noise {noise.name}: the IEEE noise model reads "
                 "a log of bursts as it is (the wander between bursts is its flicker and "
                 "random walk); fit the samples, without --segment-means")
-        if (noise == IEEE_NOISE or thermometer_var > 0
-                or (noise == "white+gm" and not segment_means)) and log.n > cap:
+        if (thermometer_var > 0 or (noise.on_block_means and not segment_means)) \
+                and log.n > cap:
             reduced = MeansOfBlocks.of(log, -(-log.n // cap))
             log, block_rows, samples = reduced.log, reduced.rows_per_mean, reduced.samples
         if segment_means:
@@ -150,10 +153,10 @@ class BenchProblem(AbstractProblem):
             inputs = eqx.tree_at(lambda x: x.rate_C_h, inputs, jnp.asarray(rate))
         model.check_identifiable(inputs, frozenset(log.columns))
         chosen_set = "flat" if flat_prior else prior_set
-        noise_names = _noise_names(noise, log.sigma_deg_h is not None)
-        chosen, basis = choose_priors(model, inputs, np.asarray(log.drift_deg_h), noise_names,
-                                      prior_set=chosen_set, overrides=priors,
-                                      rows_per_mean=block_rows)
+        chosen, basis = choose_priors(model, inputs, np.asarray(log.drift_deg_h),
+                                      _noise_priors(noise, log, inputs, block_rows, chosen_set,
+                                                    log.sigma_deg_h is not None),
+                                      prior_set=chosen_set, overrides=priors)
         rate_error = None
         if thermometer_var > 0:
             rate_error = rate_error_covariance(np.asarray(log.time_s),
@@ -192,7 +195,7 @@ class BenchProblem(AbstractProblem):
         return self.density.inputs
 
     @property
-    def noise(self) -> str:
+    def noise(self) -> NoiseModel:
         return self.density.noise
 
     @property
@@ -248,7 +251,7 @@ class BenchProblem(AbstractProblem):
             reference_sd=reference_sd(model, inputs, np.asarray(log.drift_deg_h)),
             residuals=self.standardised_residuals(point.u),
             sigma_given=self.sigma_known,
-            noise=self.noise,
+            correlated_noise=self.noise.correlated,
             draws_u=None if posterior is None else self.to_sampling_host(posterior.draws),
             summary=None if posterior is None else posterior.summary,
             hints=identifiability_hints(model, inputs),
@@ -273,10 +276,24 @@ class BenchProblem(AbstractProblem):
     def idata_attrs(self) -> dict[str, str]:
         return {
             "terms": ",".join(self.model.terms),
-            "noise_model": self.noise,
+            "noise_model": self.noise.name,
             "log_likelihood_note": "log_likelihood holds sums over blocks of rows "
                                    "(constant_data.loo_block): LOO leaves out whole blocks",
         }
+
+
+def _noise_priors(noise: NoiseModel, log: BenchLog, inputs, rows_per_mean: int,
+                  prior_set: str, sigma_known: bool) -> dict[str, Prior]:
+    """The noise levels' priors, in sampling order: paper A's FOG priors under
+    ``paper_a_fog``, else scaled to the log (its rows' high-frequency level and step)."""
+    if prior_set == "paper_a_fog":
+        priors = noise.fog_priors()
+    else:
+        _, level = log_scales(np.asarray(log.drift_deg_h))
+        time_s = 3600.0 * np.asarray(inputs.time_h)
+        step = float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
+        priors = noise.default_priors(level, step, rows_per_mean)
+    return {name: priors[name] for name in noise.names(sigma_known)}
 
 
 def _thermometer_to_carry(log: BenchLog | MeansOfBlocks, model: DriftModel,

@@ -106,7 +106,8 @@ class FitEvidence:
     reference_sd: Mapping[str, float]
     residuals: np.ndarray | None
     sigma_given: bool
-    noise: str
+    #: Whether the fit's noise model has correlated parts (its residuals are innovations).
+    correlated_noise: bool
     draws_u: np.ndarray | None = None  # (walkers, draws, d)
     summary: Mapping[str, Mapping] | None = None  # r_hat, ess_bulk per name
     hints: Mapping[str, str] = field(default_factory=dict)  # per coefficient: what to vary
@@ -126,7 +127,7 @@ def fit_verdict(trustworthy: bool, use: str) -> Check:
 
 
 def point_fit_evidence(names: tuple[str, ...], n_model: int, point_u: np.ndarray,
-                       residuals: np.ndarray, *, noise: str, converged: bool = True,
+                       residuals: np.ndarray, *, correlated_noise: bool, converged: bool = True,
                        message: str = "converged",
                        segments: tuple[tuple[int, int], ...] | None = None,
                        where: Callable[[int], str] | None = None,
@@ -136,5 +137,6 @@ def point_fit_evidence(names: tuple[str, ...], n_model: int, point_u: np.ndarray
     return FitEvidence(names=tuple(names), n_model=n_model, point_u=np.asarray(point_u),
                        point_converged=converged, point_message=message,
                        priors=tuple(Flat() for _ in names), reference_sd={},
-                       residuals=np.asarray(residuals), sigma_given=False, noise=noise,
+                       residuals=np.asarray(residuals), sigma_given=False,
+                       correlated_noise=correlated_noise,
                        segments=segments, where=where, remedies=remedies)

@@ -94,7 +94,7 @@ def fit_checks(evidence: FitEvidence) -> CheckReport:
         prior_data_conflict(evidence),
         goodness_of_fit(evidence),
         residual_whiteness(evidence.residuals, segments=evidence.segments,
-                           correlated_noise_modelled=evidence.noise not in ("white",),
+                           correlated_noise_modelled=evidence.correlated_noise,
                            remedies=evidence.remedies),
         outliers(evidence.residuals, where=evidence.where),
         identifiability(evidence),

@@ -1,7 +1,6 @@
 """A linear drift model under correlated noise with its coefficients integrated out.
 
-Given the noise levels ``v`` (sampling coordinates: logs of the white sd, the Gauss-Markov
-sd and its correlation time under ``white+gm``; of N, B and K under ``white+flicker+rw``),
+Given the noise levels ``v`` (sampling coordinates: the logs of the noise model's levels),
 the likelihood is Gaussian in the coefficients ``beta``: one
 Kalman pass over the data and every column of the design gives the whitened data ``a`` and
 design ``A`` (``-0.5 |a - A beta|^2`` plus the innovations' log-variances), and with the
@@ -26,8 +25,6 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
-
-from gyroid.inference._ieee_noise import IEEE_NOISE
 
 _LOG_2PI = math.log(2.0 * math.pi)
 
@@ -83,11 +80,11 @@ class CollapsedCoefficients(eqx.Module):
 
 def collapse(density) -> CollapsedCoefficients | None:
     """The collapsed form of a :class:`~gyroid.inference._bench_density.BenchDensity`: a
-    linear model (every coefficient real) under white + Gauss-Markov or white + flicker +
-    random-walk noise; None otherwise."""
+    linear model (every coefficient real) under a correlated noise model; None
+    otherwise."""
     model = density.model
     p = density.n_model
-    if density.noise not in ("white+gm", IEEE_NOISE) or not model.is_linear or any(
+    if not density.noise.correlated or not model.is_linear or any(
             q.positive for q in model.parameters):
         return None
     loc, scale, on = (np.asarray(a, dtype=float) for a in (

@@ -194,7 +194,7 @@ def noise_model_result(problem: NoiseProblem, point: PointEstimate,
         names=problem.names, n_model=len(problem.names), point_u=np.asarray(point.u),
         point_converged=point.converged, point_message=point.message,
         priors=problem.priors, reference_sd={}, residuals=None, sigma_given=False,
-        noise="noise model", draws_u=problem.to_sampling_host(posterior.draws),
+        correlated_noise=False, draws_u=problem.to_sampling_host(posterior.draws),
         summary=posterior.summary, remedies=frozenset({"discrepancy"}))
     # The checks of residuals and identifiability read a drift fit's residuals and
     # reference scales, which a noise fit does not have (level_fit and the terms' inclusion

@@ -223,14 +223,13 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3) -> PointEstima
     docstring)."""
     if problem.gram is not None:
         return _linear_gaussian(problem)
-    if (problem.errors_in_variables and problem.noise == "white"
-            and problem.model.is_linear):
+    if problem.errors_in_variables and problem.model.is_linear:
         # a linear model carrying the thermometer: BFGS from its white mode (NumPy)
         value, result, hessian = _bfgs(problem, jnp.asarray(_white_start(problem)))
         return _point(problem, np.asarray(value), _inverse(np.asarray(hessian)),
                       *_message(result), n_starts=1)
     n, p = problem.n_observed, problem.n_model
-    known = problem.sigma is not None and problem.noise == "white"
+    known = problem.sigma is not None and not problem.noise.correlated
     weights = 1.0 / problem.sigma if known else jnp.ones(problem.n)
     if problem.weight is not None:  # rows left out (a predictive check's training fit)
         weights = weights * problem.weight
@@ -273,10 +272,10 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3) -> PointEstima
         noise_u, noise_cov = _noise_start(problem, residual, scale)
         u = np.concatenate([u_model, noise_u])
         covariance = _block_diag(covariance_model, noise_cov)
-    collapsed = collapse(problem) if problem.noise != "white" else None
+    collapsed = collapse(problem)
     if collapsed is not None:
         u, covariance, converged, message = _collapsed_mode(collapsed, u[:p], u[p:])
-    elif problem.noise != "white" or problem.errors_in_variables:
+    elif problem.noise.correlated or problem.errors_in_variables:
         value, result, hessian = _bfgs(problem, jnp.asarray(u))
         u = np.asarray(value)
         converged, message = _message(result)
@@ -307,30 +306,14 @@ def _point(problem: BenchDensity, u: np.ndarray, covariance: np.ndarray, converg
 
 
 def _noise_start(problem: BenchDensity, residual: np.ndarray, white: float):
-    """Starting values (log coordinates) and a rough covariance for the noise parameters."""
-    n = residual.size
-    values, variances = [], []
-    dof = max(n - problem.n_model, 1)
-    for name in problem.noise_names:
-        if name == "sigma_deg_h":
-            # High-frequency level: first differences remove slow correlated parts.
-            level = white if problem.noise == "white" else np.std(np.diff(residual)) / math.sqrt(2)
-            values.append(math.log(max(level / problem.row_scale, 1e-12)))  # a sample's
-            variances.append(1.0 / (2.0 * dof))
-        elif name == "sigma_gm_deg_h":
-            values.append(math.log(max(0.3 * np.std(residual), 1e-6)))
-            variances.append(0.1)
-        elif name == "N_deg_sqrt_h":  # the first differences' level as a white density
-            level = np.std(np.diff(residual)) / math.sqrt(2) * math.sqrt(problem.step_s) / 60
-            values.append(math.log(max(level, 1e-12)))
-            variances.append(1.0 / (2.0 * dof))
-        elif name in ("B_deg_h", "K_deg_h_sqrt_h"):  # a tenth of the residual's sd
-            values.append(math.log(max(0.1 * np.std(residual), 1e-9)))
-            variances.append(0.1)
-        else:
-            values.append(math.log(300.0))
-            variances.append(0.1)
-    return np.asarray(values), np.diag(variances)
+    """Starting values (log coordinates) and a rough covariance for the noise levels (the
+    noise model's own guess, :meth:`gyroid.noise.NoiseModel.start_levels`)."""
+    dof = max(residual.size - problem.n_model, 1)
+    start, variances = problem.noise.start_levels(residual, white, step_s=problem.step_s,
+                                                  row_scale=problem.row_scale, dof=dof)
+    names = problem.noise_names
+    return (np.log(np.maximum([start[k] for k in names], 1e-12)),
+            np.diag([variances[k] for k in names]))
 
 
 def _inverse(matrix: np.ndarray) -> np.ndarray:

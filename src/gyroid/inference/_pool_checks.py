@@ -211,7 +211,7 @@ def pool_checks(problem: PoolProblem, point: PointEstimate, posterior: Posterior
         point_converged=point.converged, point_message=point.message,
         priors=problem.mean_priors + problem.priors,
         reference_sd=dict(zip(problem.coefficient_names, map(float, reference), strict=True)),
-        residuals=None, sigma_given=False, noise="white",
+        residuals=None, sigma_given=False, correlated_noise=False,
         draws_u=np.concatenate([mean_draws, sampled_u], axis=-1), summary=summary)
     own_sd = problem.own_sd
     population = CheckReport((
@@ -246,7 +246,7 @@ def run_checks(problem: PoolProblem, u_mean: np.ndarray, pooled_mean: np.ndarray
         run_evidence = FitEvidence(names=q.names, n_model=q.n_model, point_u=u_run,
                                    point_converged=True, point_message="", priors=q.priors,
                                    reference_sd={}, residuals=z, sigma_given=q.sigma_known,
-                                   noise="white")
+                                   correlated_noise=False)
         checks = [goodness_of_fit(run_evidence),
                   residual_whiteness(z, segments=tuple(contiguous_segments(
                       np.asarray(q.log.time_s))), remedies=POOL_REMEDIES),

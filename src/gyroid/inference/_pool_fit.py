@@ -25,6 +25,7 @@ from gyroid.models._drift import DriftModel
 from gyroid.models._inputs import T0_C
 from gyroid.models._prior_scales import reference_sd
 from gyroid.models._priors import Flat, Normal, Prior
+from gyroid.noise._kinds import White
 
 
 def pool_priors(problems: Sequence[BenchProblem],
@@ -110,9 +111,12 @@ def pool_problem(
             f"pooling takes effects linear in their coefficients; {', '.join(nonlinear)} "
             "has a time constant or time of its own: fit those runs one by one with "
             "'gyroid fit', or pool without it")
-    runs = tuple(BenchProblem.from_log(log, model, noise="white", prior_set=prior_set,
+    # white noise on sufficient statistics, the thermometer's noise not carried (the pooled
+    # algebra reads each run's Gram matrix; a run whose likelihood carries it has none)
+    runs = tuple(BenchProblem.from_log(log, model, noise=White(), prior_set=prior_set,
                                        t0_C=t0_C, rate_window_s=None,
-                                       segment_means=segment_means) for log in logs)
+                                       segment_means=segment_means,
+                                       errors_in_variables=False) for log in logs)
     mean_priors, scales, reference = pool_priors(runs, priors)
     for name, scale in (spread_scales or {}).items():
         if name not in model.parameter_names or not scale > 0:

@@ -227,31 +227,6 @@ def _duration(seconds: float) -> str:
     return f"{seconds / 60:.2g} min" if seconds >= 90 else f"{seconds:.2g} s"
 
 
-def gauss_markov_mean_covariance(time_s: np.ndarray, part: np.ndarray, n_parts: int,
-                                 sd: float, tau_s: float) -> np.ndarray:
-    """Covariance of the parts' means of a stationary Gauss-Markov process (sd ``sd``,
-    correlation time ``tau_s``) sampled at ``time_s`` (parts contiguous and in time order):
-    the exponential kernel summed over every pair of samples, exactly, in O(n) (log-sum-exp
-    of ``+-t / tau`` within and across parts)."""
-    from scipy.special import logsumexp
-
-    cov = np.zeros((n_parts, n_parts))
-    a = np.asarray(time_s, dtype=float) / tau_s
-    lse_plus, lse_minus, counts = np.zeros(n_parts), np.zeros(n_parts), np.zeros(n_parts)
-    for s in range(n_parts):
-        x = a[part == s]
-        counts[s] = x.size
-        # sum_{i, j in s} exp(-|a_i - a_j|) = m + 2 sum_i sum_{j < i} exp(a_j - a_i)
-        running = np.logaddexp.accumulate(x)[:-1]  # log sum_{j <= i-1} exp(a_j)
-        within = x.size + 2.0 * float(np.sum(np.exp(running - x[1:])))
-        cov[s, s] = within
-        lse_plus[s], lse_minus[s] = logsumexp(x), logsumexp(-x)
-    for s in range(n_parts):
-        for r in range(s + 1, n_parts):  # part s before part r: exp(a_i - a_j)
-            cov[s, r] = cov[r, s] = float(np.exp(lse_plus[s] + lse_minus[r]))
-    return sd**2 * cov / np.outer(counts, counts)
-
-
 def part_means(values: np.ndarray, part: np.ndarray, n_parts: int) -> np.ndarray:
     """Means of ``values`` over each part (rows of part -1 ignored)."""
     keep = part >= 0

@@ -221,7 +221,7 @@ def roll_evidence(problem: RollProblem, point: PointEstimate, posterior: Posteri
         point_converged=point.converged, point_message=point.message,
         priors=problem.priors, reference_sd=dict(zip(problem.names, prior_sd.tolist(),
                                                      strict=True)),
-        residuals=residuals, sigma_given=False, noise="white",
+        residuals=residuals, sigma_given=False, correlated_noise=False,
         draws_u=None if posterior is None else problem.to_sampling_host(posterior.draws),
         summary=None if posterior is None else posterior.summary,
         hints={n: roll_parameter(n).hint for n in problem.names if roll_parameter(n).hint},

@@ -26,12 +26,12 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from gyroid.inference._kalman import random_walk_innovations
 from gyroid.inference._problem import AbstractProblem, PointEstimate
 from gyroid.io._roll_log import RollLog
 from gyroid.models._priors import Prior, prior_arrays
 from gyroid.models._roll import encoder_error_deg, sins_scale
 from gyroid.models._roll_effects import ROLL_EFFECTS, ROLL_NUISANCE, resolve_roll_terms
+from gyroid.noise._kalman import random_walk_innovations
 
 _LOG_2PI = math.log(2.0 * math.pi)
 

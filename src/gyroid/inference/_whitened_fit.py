@@ -17,13 +17,15 @@ import numpy as np
 import optimistix as optx
 from scipy.optimize import minimize
 
-from gyroid.inference._bench_density import NOISE_PRIORS
-from gyroid.inference._kalman import gauss_markov_innovations
 from gyroid.inference._starts import grid_points, start_grid
 from gyroid.models._drift import DriftModel
 from gyroid.models._inputs import DriftInputs
+from gyroid.noise._kalman import gauss_markov_innovations
+from gyroid.noise._kinds import GaussMarkov
 
 _LOG_2PI = math.log(2.0 * math.pi)
+#: The white + Gauss-Markov levels' priors (paper A's FOG priors, densities on log x).
+_NOISE_PRIORS = GaussMarkov().fog_priors()
 
 
 @dataclass(frozen=True)
@@ -178,9 +180,9 @@ def _noise_nll(u, args):
     innovation, variance = gauss_markov_innovations(residual, steps_s, white, gm, tau)
     log_lik = -0.5 * jnp.sum(innovation**2 / variance + jnp.log(variance))
     prior = (
-        NOISE_PRIORS["sigma_deg_h"].log_density(u[0])
-        + NOISE_PRIORS["sigma_gm_deg_h"].log_density(u[1])
-        + NOISE_PRIORS["tau_gm_s"].log_density(jnp.log(tau))
+        _NOISE_PRIORS["sigma_deg_h"].log_density(u[0])
+        + _NOISE_PRIORS["sigma_gm_deg_h"].log_density(u[1])
+        + _NOISE_PRIORS["tau_gm_s"].log_density(jnp.log(tau))
     )
     return -(log_lik + prior)
 

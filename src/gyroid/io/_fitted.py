@@ -18,6 +18,8 @@ from gyroid.io._arviz import read_posterior
 from gyroid.models._derived import RATE_WINDOW_S
 from gyroid.models._drift import DriftModel
 from gyroid.models._inputs import T0_C
+from gyroid.noise._base import NoiseEstimate
+from gyroid.noise._kinds import White, levels_from_json
 
 
 @dataclass(frozen=True)
@@ -34,12 +36,9 @@ class FittedDrift:
     #: The range of every input the fit saw ([min, max] by name; see
     #: ``DriftModel.input_ranges``): compensation flags rows beyond them.
     input_ranges: dict[str, list[float]] = field(default_factory=dict)
-    #: The fit's noise model: ``model`` ("white", "white+gm" or "white+flicker+rw") and its
-    #: levels, ``white_sd_deg_h`` (a sample's white noise; ``white_sample_s``: at that
-    #: sample interval, s, when the fit says), ``sigma_gm_deg_h``,
-    #: ``tau_gm_s``, or ``N_deg_sqrt_h``, ``B_deg_h``, ``K_deg_h_sqrt_h``; what the
-    #: predictive check of a compensation needs (empty: unknown).
-    noise: dict = field(default_factory=dict)
+    #: The fit's noise model and its levels: what the predictive check of a compensation
+    #: needs (None: unknown, an old fit folder).
+    noise: NoiseEstimate | None = None
     #: Each effect's contribution over the fitted rows (fit.json's
     #: ``effect_contributions_deg_h``: ``every``, ``rows``, ``effects``); empty: unknown.
     contributions: dict = field(default_factory=dict)
@@ -87,9 +86,9 @@ class FittedDrift:
                    trustworthy=bool(pool.get("trustworthy", True)),
                    source="pool: predictive for a new run",
                    input_ranges=pool.get("input_ranges", {}),
-                   noise=({"model": "white", "white_sd_deg_h": float(np.median(
-                       [s["mean"] for s in pool["noise"].values()]))}
-                          if pool.get("noise") else {}))
+                   noise=(NoiseEstimate(White(), {}, float(np.median(
+                       [s["mean"] for s in pool["noise"].values()])))
+                          if pool.get("noise") else None))
 
 
 @dataclass(frozen=True)
@@ -180,15 +179,16 @@ def _draws(posterior, name: str, path: Path) -> np.ndarray:
     return np.asarray(posterior[name]).reshape(-1)
 
 
-def _noise_of(fit: dict) -> dict:
-    """The noise model a fit.json records (posterior means, or the point estimate)."""
+def _noise_of(fit: dict) -> NoiseEstimate | None:
+    """The noise model a fit.json records (posterior means, or the point estimate); None
+    when it records none."""
     noise = fit.get("noise", {})
     levels = {k: v["mean"] for k, v in (noise.get("posterior") or {}).items()} or dict(
         noise.get("point") or {})
-    if "white_sd_deg_h" in noise:
-        levels["white_sd_deg_h"] = noise["white_sd_deg_h"]
-        if "white_sample_s" in noise:
-            levels["white_sample_s"] = noise["white_sample_s"]
-    elif "sigma_deg_h" in levels:
-        levels["white_sd_deg_h"] = levels["sigma_deg_h"]
-    return {"model": noise.get("model", "white"), **levels} if levels else {}
+    if not levels and "white_sd_deg_h" not in noise:
+        return None
+    model, _ = levels_from_json(noise)
+    white = noise.get("white_sd_deg_h", levels.get("sigma_deg_h"))
+    if white is None:
+        return None
+    return NoiseEstimate(model, levels, float(white), noise.get("white_sample_s"))

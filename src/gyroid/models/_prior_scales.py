@@ -50,15 +50,6 @@ from gyroid.models._priors import Flat, LogNormal, Normal, Prior
 #: How many drift scales a coefficient may move the drift over its span, a priori.
 SCALE_FACTOR = 10.0
 PRIOR_SETS = ("default", "paper_a_fog", "flat")
-#: Paper A's FOG noise priors (``paper_a_fog``), densities on log x.
-FOG_NOISE_PRIORS: dict[str, Prior] = {
-    "sigma_deg_h": LogNormal(1.0, 3.0),
-    "sigma_gm_deg_h": LogNormal(0.05, 3.0),
-    "tau_gm_s": LogNormal(300.0, 2.0),
-    "N_deg_sqrt_h": LogNormal(0.01, 3.0),
-    "B_deg_h": LogNormal(0.05, 3.0),
-    "K_deg_h_sqrt_h": LogNormal(0.05, 3.0),
-}
 @dataclass(frozen=True)
 class PriorBasis:
     """The log-derived numbers behind the default priors (for fit.json)."""
@@ -84,11 +75,10 @@ def log_scales(drift_deg_h: np.ndarray) -> tuple[float, float]:
     return d, max(h, 1e-6 * d, tiny)
 
 
-def default_priors(model: DriftModel, inputs: DriftInputs, drift_deg_h: np.ndarray,
-                   rows_per_mean: int = 1) -> tuple[dict[str, Prior], PriorBasis]:
-    """The default log-scaled priors of the model's and the noise's parameters
-    (``rows_per_mean``: samples behind each row of a log of block means; ``sigma_deg_h`` is
-    a sample's)."""
+def default_priors(model: DriftModel, inputs: DriftInputs, drift_deg_h: np.ndarray
+                   ) -> tuple[dict[str, Prior], PriorBasis]:
+    """The default log-scaled priors of the model's parameters (a noise model scales its
+    own levels' priors: :meth:`gyroid.noise.NoiseModel.default_priors`)."""
     d, h = log_scales(drift_deg_h)
     priors: dict[str, Prior] = {}
     spans: dict[str, float] = {}
@@ -102,15 +92,6 @@ def default_priors(model: DriftModel, inputs: DriftInputs, drift_deg_h: np.ndarr
             span = max(float(seen), p.span)
             spans[p.name] = span
             priors[p.name] = Normal(0.0, SCALE_FACTOR * d / span)
-    priors["sigma_deg_h"] = LogNormal(h * math.sqrt(rows_per_mean), 3.0)
-    priors["sigma_gm_deg_h"] = LogNormal(h / 3.0, 3.0)
-    priors["tau_gm_s"] = FOG_NOISE_PRIORS["tau_gm_s"]
-    time_s = 3600.0 * np.asarray(inputs.time_h)
-    step = float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
-    density = h * math.sqrt(max(step, 1e-9))
-    priors["N_deg_sqrt_h"] = LogNormal(density / 60.0, 3.0)
-    priors["B_deg_h"] = LogNormal(density / 10.0, 3.0)
-    priors["K_deg_h_sqrt_h"] = LogNormal(0.1 * density, 3.0)
     return priors, PriorBasis(d, h, spans)
 
 
@@ -195,15 +176,17 @@ def identifiability_hints(model: DriftModel, inputs: DriftInputs) -> dict[str, s
 
 
 def choose_priors(model: DriftModel, inputs: DriftInputs, drift_deg_h: np.ndarray,
-                  noise_names: tuple[str, ...], *, prior_set: str = "default",
-                  overrides: Mapping[str, Prior] | None = None, rows_per_mean: int = 1
+                  noise_priors: Mapping[str, Prior], *, prior_set: str = "default",
+                  overrides: Mapping[str, Prior] | None = None
                   ) -> tuple[tuple[Prior, ...], PriorBasis]:
-    """Priors in sampling order (model parameters, then noise) for a prior set and
-    per-parameter overrides. Noise parameters keep proper priors under ``flat``."""
+    """Priors in sampling order (model parameters, then the noise levels, whose priors
+    ``noise_priors`` gives in order) for a prior set and per-parameter overrides. Noise
+    levels keep proper priors under ``flat``."""
     if prior_set not in PRIOR_SETS:
         raise GyroidInputError(f"--priors {prior_set!r}: use one of {', '.join(PRIOR_SETS)} "
                                "or a .toml file")
-    scaled, basis = default_priors(model, inputs, drift_deg_h, rows_per_mean)
+    scaled, basis = default_priors(model, inputs, drift_deg_h)
+    noise_names = tuple(noise_priors)
     overrides = dict(overrides or {})
     unknown = set(overrides) - set(model.parameter_names) - set(noise_names)
     if unknown:
@@ -218,8 +201,7 @@ def choose_priors(model: DriftModel, inputs: DriftInputs, drift_deg_h: np.ndarra
         else:
             base = scaled[p.name]
         chosen.append(overrides.get(p.name, base))
-    for name in noise_names:
-        base = FOG_NOISE_PRIORS[name] if prior_set == "paper_a_fog" else scaled[name]
+    for name, base in noise_priors.items():
         chosen.append(overrides.get(name, base))
     return tuple(chosen), basis
 

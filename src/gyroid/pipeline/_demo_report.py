@@ -92,7 +92,7 @@ def _fits_section(report: Report, study: _Study) -> None:
     report.add(
         "## 2. Posteriors (optimistix point estimate, emcee, ArviZ diagnostics)", "",
         f"Thermal model `{','.join(tf.problem.model.terms)}`; noise model "
-        f"`{tf.problem.noise}` ({tf.noise_choice or 'asked for'}), its levels sampled "
+        f"`{tf.problem.noise.name}` ({tf.noise_choice or 'asked for'}), its levels sampled "
         f"({_noise_levels(tf)}); {tf.posterior.n_steps} emcee steps x "
         f"{tf.posterior.draws.shape[0]} walkers; files `thermal/fit/`.{_carried(tf)}", "",
         *_fit_table(tf, study.benches["thermal"].truth["parameters"]), "",
@@ -267,10 +267,8 @@ def _pool_section(report: Report, study: _Study) -> None:
 
 def _noise_levels(fit) -> str:
     """The posterior means of a fit's noise levels, with units."""
-    from gyroid.inference._bench_density import NOISE_UNITS
-
-    summary = fit.posterior.summary
-    return ", ".join(f"{name} {summary[name]['mean']:.3g} {NOISE_UNITS[name]}"
+    summary, units = fit.posterior.summary, fit.problem.noise.units
+    return ", ".join(f"{name} {summary[name]['mean']:.3g} {units[name]}"
                      for name in fit.problem.noise_names)
 
 

@@ -10,11 +10,9 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from gyroid.errors import GyroidInputError
-from gyroid.inference._bench_density import NOISE_MODELS
 from gyroid.inference._bench_fit import BenchFit, fit_log
 from gyroid.inference._bench_problem import IEEE_MAX_ROWS
 from gyroid.inference._emcee import Emcee
-from gyroid.inference._ieee_noise import IEEE_NOISE
 from gyroid.io._bench_reader import bench_log_from_table
 from gyroid.io._fitted import FittedNoise, axes_of
 from gyroid.io._logs import MeansOfBlocks
@@ -25,6 +23,7 @@ from gyroid.models._inputs import T0_C
 from gyroid.models._prior_scales import PRIOR_SETS, priors_from_noise
 from gyroid.models._priors import Prior
 from gyroid.models._terms import resolve_terms
+from gyroid.noise._kinds import NOISE_MODELS, Ieee952
 from gyroid.pipeline._axes import PerAxis, chosen_axes, write_per_axis
 
 
@@ -58,9 +57,9 @@ class FitOptions:
             raise GyroidInputError(f"--noise {self.noise!r}: use one of "
                                    f"{', '.join(NOISE_MODELS)}, auto or the --out folder of "
                                    "'gyroid noise'")
-        if self.noise_priors and self.noise != IEEE_NOISE:
+        if self.noise_priors and self.noise != Ieee952.name:
             raise GyroidInputError(f"noise priors from {self.noise_source} are priors of "
-                                   f"the {IEEE_NOISE} noise model, not of {self.noise}")
+                                   f"the {Ieee952.name} noise model, not of {self.noise}")
         if not 0 <= self.seed < 2**32:
             raise GyroidInputError(f"--seed {self.seed}: give a whole number from 0 to "
                                    f"{2**32 - 1}")
@@ -84,7 +83,7 @@ def noise_file_options(folder: str | Path) -> dict:
                 f"--noise {where}: that noise fit is not trustworthy (it failed its own "
                 "checks), so its posterior cannot serve as a prior: fix what its noise.json "
                 "names, or use --noise auto")
-    return {"noise": IEEE_NOISE, "noise_source": str(folder),
+    return {"noise": Ieee952.name, "noise_source": str(folder),
             "noise_priors": {axis: priors_from_noise(noise.terms)
                              for axis, noise in fitted.items()}}
 
@@ -148,7 +147,7 @@ def fit_file(path: str | Path, options: FitOptions, out: str | Path,
                       sampler=Emcee(progress=options.progress),
                       segment_means=options.segment_means)
         if noise_priors[axis]:
-            fit = replace(fit, noise_choice=f"asked for: {IEEE_NOISE}, its N, B and K priors "
+            fit = replace(fit, noise_choice=f"asked for: {Ieee952.name}, its N, B and K priors "
                                             f"from the noise fit in {options.noise_source}")
         fits[axis] = fit
     result = PerAxis(fits, table_source(table))

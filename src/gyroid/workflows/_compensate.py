@@ -20,11 +20,9 @@ import numpy as np
 
 from gyroid.errors import GyroidInputError
 from gyroid.inference._checks import Check, CheckReport, fit_verdict
-from gyroid.inference._ieee_noise import IEEE_NOISE, ieee_part_covariance
 from gyroid.inference._plausibility import units_sanity
 from gyroid.inference._predictive import (
     HeldOut,
-    gauss_markov_mean_covariance,
     part_means,
     predictive_check,
     stretches,
@@ -223,10 +221,10 @@ def compensation_predictive(log: BenchLog, fitted: FittedDrift,
     time_s = np.asarray(log.time_s)
     segments = tuple(contiguous_segments(time_s))
     parts = stretches(log.n, segments if len(segments) > 1 else None, folds=1)
-    if parts is None or not noise:
+    if parts is None or noise is None:
         return predictive_check(None, why_none=(
             "the fit's noise model is unknown (an old fit folder?): the bands are not tested "
-            "on this log" if not noise else ""))
+            "on this log" if noise is None else ""))
     means = draw_part_means(parts.part, parts.n_parts)
     model_cov = np.cov(means, rowvar=False) if means.shape[0] > 1 else np.zeros(
         (parts.n_parts,) * 2)
@@ -234,19 +232,10 @@ def compensation_predictive(log: BenchLog, fitted: FittedDrift,
     sigma = log.sigma_deg_h
     step = float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
     # white noise at this log's own rate: a sample's variance scales as 1 / its interval
-    rate_ratio = noise.get("white_sample_s", step) / step
     white = (np.bincount(parts.part, np.asarray(sigma) ** 2, parts.n_parts) / counts**2
-             if sigma is not None else noise["white_sd_deg_h"] ** 2 * rate_ratio / counts)
-    covariance = np.atleast_2d(model_cov) + np.diag(white)
-    if noise.get("model") == IEEE_NOISE:
-        if sigma is None:  # the white density at this log's own rate
-            white = (60.0 * noise["N_deg_sqrt_h"]) ** 2 / (counts * step)
-        covariance = np.atleast_2d(model_cov) + ieee_part_covariance(
-            time_s, parts.part, parts.n_parts, step, white, noise["B_deg_h"],
-            noise["K_deg_h_sqrt_h"])
-    if noise.get("model") == "white+gm":
-        covariance = covariance + gauss_markov_mean_covariance(
-            time_s, parts.part, parts.n_parts, noise["sigma_gm_deg_h"], noise["tau_gm_s"])
+             if sigma is not None else noise.white_sd_at(step) ** 2 / counts)
+    covariance = np.atleast_2d(model_cov) + noise.part_covariance(time_s, parts.part,
+                                                                  parts.n_parts, step, white)
     held = HeldOut(observed=part_means(np.asarray(log.drift_deg_h), parts.part,
                                        parts.n_parts),
                    predicted=means.mean(axis=0), covariance=covariance, counts=counts)

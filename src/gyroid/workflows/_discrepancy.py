@@ -2,7 +2,7 @@
 explains it, and how much does adding it close the gap?
 
 Evidence. Every comparison uses the exact Gaussian likelihood under a white + Gauss-Markov
-noise model (:func:`gyroid.inference._kalman.gauss_markov_innovations`), so slowly wandering noise
+noise model (:func:`gyroid.noise._kalman.gauss_markov_innovations`), so slowly wandering noise
 (bias instability) is not mistaken for an effect. A candidate effect is scored by the BIC
 difference ``dBIC = 2 (logL_with - logL_without) - k log n`` (``k`` its parameters, ``n``
 rows), the large-sample (Laplace) approximation to twice the log Bayes factor. A candidate
@@ -28,7 +28,6 @@ from gyroid.errors import GyroidInputError
 from gyroid.inference._bench_predictive import whitened_predictive
 from gyroid.inference._checks import Check, CheckReport, fit_checks, point_fit_evidence
 from gyroid.inference._excitation import excitation
-from gyroid.inference._kalman import gauss_markov_innovations
 from gyroid.inference._rate_window import choose_rate_window
 from gyroid.inference._whitened_fit import ModelFit, NoiseLevels, fit_with_noise
 from gyroid.io._logs import BenchLog, block_means, contiguous_segments
@@ -37,6 +36,7 @@ from gyroid.models._drift import DriftModel
 from gyroid.models._effects import EFFECTS, EXTRA_PREFIX, parameter
 from gyroid.models._inputs import T0_C, DriftInputs
 from gyroid.models._terms import resolve_terms
+from gyroid.noise._kalman import gauss_markov_innovations
 from gyroid.workflows._discrepancy_report import (
     DiscrepancyReport,
     Search,
@@ -94,7 +94,7 @@ def _final_checks(log: BenchLog, fit: ModelFit, noise: NoiseLevels, steps_s) -> 
     names = tuple(fit.values)
     evidence = point_fit_evidence(
         names, len(names), np.asarray(list(fit.values.values())),
-        np.asarray(innovation / jnp.sqrt(variance)), noise="white+gm",
+        np.asarray(innovation / jnp.sqrt(variance)), correlated_noise=True,
         message="whitened least squares", segments=tuple(contiguous_segments(log.time_s)),
         where=log.where)
     return fit_checks(evidence)

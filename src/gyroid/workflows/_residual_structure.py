@@ -11,10 +11,10 @@ import math
 import jax.numpy as jnp
 import numpy as np
 
-from gyroid.inference._kalman import gauss_markov_innovations
 from gyroid.inference._whitened_fit import MAX_NOISE_TAU_S, ModelFit, NoiseLevels, estimate_noise
 from gyroid.io._logs import BenchLog
 from gyroid.models._inputs import DriftInputs
+from gyroid.noise._kalman import gauss_markov_innovations
 from gyroid.workflows._discrepancy_report import (
     Unexplained,
 )

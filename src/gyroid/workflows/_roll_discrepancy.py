@@ -116,7 +116,7 @@ def find_roll_discrepancies(log: RollLog, terms="ideal", *, max_added: int = 3,
     u = jnp.asarray(final.point.u)
     checks = fit_checks(point_fit_evidence(
         problem.names, n_model, np.asarray(u),
-        np.asarray(problem.density.standardised_residuals(u)), noise="white",
+        np.asarray(problem.density.standardised_residuals(u)), correlated_noise=False,
         converged=final.point.converged, message=final.point.message))
     return DiscrepancyReport(
         log_kind="roll",

@@ -29,12 +29,6 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-#: Name of the noise model in ``--noise`` and fit.json.
-IEEE_NOISE = "white+flicker+rw"
-#: The sampled levels' names (natural units).
-IEEE_NOISE_NAMES = ("N_deg_sqrt_h", "B_deg_h", "K_deg_h_sqrt_h")
-IEEE_NOISE_UNITS = {"N_deg_sqrt_h": "deg/sqrt(h)", "B_deg_h": "deg/h",
-                    "K_deg_h_sqrt_h": "deg/h/sqrt(h)"}
 #: Gauss-Markov processes summed into the flicker.
 FLICKER_PROCESSES = 6
 
