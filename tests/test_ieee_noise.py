@@ -30,24 +30,58 @@ def _blocks(rng, n):
     return span, gap, start, start + span
 
 
-def test_the_filter_is_the_exact_likelihood_of_block_means_of_any_lengths_and_gaps():
+def _centred_covariance(start, end, white, b, k, taus, unit, span):
+    """White + flicker, and the walk centred on its span-weighted mean over the blocks:
+    ``P C P'`` with ``P = I - 1 w'``, the walk's covariance from zero at time 0."""
+    stationary = ieee_mean_covariance(start, end, white, b, 0.0, taus, unit, 0.0)
+    walk = ieee_mean_covariance(start, end, np.zeros(span.size), 0.0, k, taus, unit, 0.0)
+    centring = np.eye(span.size) - np.outer(np.ones(span.size), span / span.sum())
+    return stationary + centring @ walk @ centring.T
+
+
+@pytest.mark.parametrize("held_out", [0, 7])
+def test_the_filter_is_the_exact_likelihood_of_block_means_of_any_lengths_and_gaps(held_out):
+    """The walk has no anchor at the first block: its level there is diffuse and it averages
+    zero over the blocks. The filter's likelihood equals the dense Gaussian of that centred
+    covariance, for blocks of any lengths and gaps, and with the first blocks held out
+    (the predictive check's first fold; the diffuse level is then revealed later)."""
     rng = np.random.default_rng(0)
     span, gap, start, end = _blocks(rng, 80)
     n_arw, b, k = 0.3, 6.0, 10.0
     white = (60.0 * n_arw) ** 2 / span
     taus, unit = flicker_times(span.min(), end[-1])
-    cov = ieee_mean_covariance(start, end, white, b, k, taus, unit, 0.0)
+    cov = _centred_covariance(start, end, white, b, k, taus, unit, span)
     y = rng.multivariate_normal(np.zeros(span.size), cov)
-    exact = stats.multivariate_normal(np.zeros(span.size), cov).logpdf(y)
+    kept = np.arange(span.size) >= held_out
+    exact = stats.multivariate_normal(np.zeros(kept.sum()),
+                                      cov[np.ix_(kept, kept)]).logpdf(y[kept])
     args = (jnp.asarray(span), jnp.asarray(gap), jnp.asarray(white), b, k, jnp.asarray(taus),
-            unit)
+            unit, jnp.asarray(kept, dtype=float))
     innovation, variance = ieee_innovations(jnp.asarray(y), *args)
-    filtered = -0.5 * float(jnp.sum(innovation**2 / variance + jnp.log(2 * np.pi * variance)))
+    terms = innovation**2 / variance + jnp.log(2 * np.pi * variance)
+    filtered = -0.5 * float(jnp.sum(jnp.where(jnp.asarray(kept), terms, 0.0)))
     assert filtered == pytest.approx(exact, rel=1e-9)
     # the filter is linear in the data: columns are filtered alike
     both, _ = ieee_innovations(jnp.column_stack([y, -2.0 * y]), *args)
     np.testing.assert_allclose(both[:, 1], -2.0 * np.asarray(innovation), rtol=1e-12,
                                atol=1e-12)
+
+
+def test_a_walk_without_a_walk_is_a_constant_the_constraint_removes():
+    """K = 0: the diffuse level cannot wander, and averaging zero it is zero: the
+    centred filter gives the likelihood without any walk (the stationary noise's)."""
+    rng = np.random.default_rng(1)
+    span, gap, start, end = _blocks(rng, 40)
+    white = (60.0 * 0.3) ** 2 / span
+    taus, unit = flicker_times(span.min(), end[-1])
+    cov = ieee_mean_covariance(start, end, white, 6.0, 0.0, taus, unit, 0.0)
+    y = rng.multivariate_normal(np.zeros(span.size), cov)
+    innovation, variance = ieee_innovations(
+        jnp.asarray(y), jnp.asarray(span), jnp.asarray(gap), jnp.asarray(white), 6.0, 0.0,
+        jnp.asarray(taus), unit)
+    filtered = -0.5 * float(jnp.sum(innovation**2 / variance + jnp.log(2 * np.pi * variance)))
+    exact = stats.multivariate_normal(np.zeros(span.size), cov).logpdf(y)
+    assert filtered == pytest.approx(exact, rel=1e-9)
 
 
 @pytest.mark.parametrize("tau", [0.3, 7.0, 400.0])
@@ -94,8 +128,23 @@ def test_the_covariance_of_a_uniform_clocks_parts_is_positive_definite():
     ends = np.append(first[1:], time_s[-1] + 0.5 * step)
     taus, unit = flicker_times(step, time_s[-1] - time_s[0] + step)
     exact = ieee_mean_covariance(first, ends, white, 0.0365, 0.0097, taus, unit,
-                                 time_s[0] - 0.5 * step)
+                                 time_s[0] - 0.5 * step,
+                                 centre_span_s=time_s[-1] - time_s[0] + step)
     np.testing.assert_allclose(cov, exact, rtol=1e-9)
+
+
+def test_the_centred_walks_dense_covariance_is_the_filters_on_tiled_blocks():
+    """The predictive check's dense covariance centres the walk on the log's span, the
+    filter on its blocks' weighted mean: the same on blocks that tile the log."""
+    span = np.full(30, 20.0)
+    end = np.cumsum(span)
+    start = end - span
+    taus, unit = flicker_times(20.0, end[-1])
+    dense = ieee_mean_covariance(start, end, np.full(30, 0.1), 0.0, 5.0, taus, unit, 0.0,
+                                 centre_span_s=end[-1])
+    np.testing.assert_allclose(dense, _centred_covariance(start, end, np.full(30, 0.1), 0.0,
+                                                          5.0, taus, unit, span),
+                               rtol=1e-9, atol=1e-12)
 
 
 def test_the_flicker_sum_has_ieee_allan_floor_across_its_band():
@@ -187,3 +236,32 @@ def test_a_burst_log_is_read_as_it_is():
     assert fit.problem.block_rows == 6 and fit.problem.n == 900
     gaps = np.asarray(fit.problem.density.gap_s)
     assert np.sum(gaps > 0) == 299 and np.allclose(gaps[gaps > 0], 22.0)
+
+
+@pytest.mark.slow
+def test_w0_is_the_bias_over_the_log_not_at_its_first_row():
+    """A bias that walks far over the log (written here with NumPy's cumsum, not gyroid's
+    simulator): under IEEE noise the posterior of w0 is centred on the log's mean bias,
+    within its sd, and its interval holds it. With the walk anchored at zero at the first
+    row (before issue 42), w0 was the bias of the first minutes: 63 deg/h off the log's mean
+    bias, 16 of its 4 deg/h sd."""
+    from gyroid.inference import Emcee
+
+    rng = np.random.default_rng(7)
+    n, k = 20_000, 40.0  # 5.6 h at 1 Hz; K in deg/h/sqrt(h)
+    time_s = np.arange(n, dtype=float)
+    walk = np.cumsum(rng.normal(0.0, k / 60.0, n))
+    walk -= walk[:600].mean() - 3.0  # the first ten minutes at 3 deg/h
+    drift = walk + rng.normal(0.0, 60.0 * 0.3, n)
+    log = BenchLog({"time_s": time_s, "drift_deg_h": drift})
+    fit = fit_log(log, "bias", noise="white+flicker+rw", seed=1,
+                  sampler=Emcee(progress=False))
+    w0 = fit.posterior.summary["w0"]
+    mean_bias, first_minutes = float(walk.mean()), float(walk[:600].mean())
+    assert abs(first_minutes - mean_bias) > 5.0 * w0["sd"]  # the two readings differ
+    assert abs(w0["mean"] - mean_bias) < 2.5 * w0["sd"], (w0, mean_bias)
+    assert w0["ci95"][0] < mean_bias < w0["ci95"][1]
+    # the point estimate reads w0 alike, and the model's level is the data's
+    assert abs(fit.point.value["w0"] - mean_bias) < 2.5 * w0["sd"]
+    level = fit.fitted_drift().draws[:, 0].mean()
+    assert abs(level - drift.mean()) < 2.5 * w0["sd"]

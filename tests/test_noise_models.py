@@ -52,7 +52,7 @@ class KnownTauGaussMarkov(NoiseModel):
                                         clock.weight)
 
     def part_covariance(self, time_s, part, n_parts, step_s, white_var, values, *,
-                        block_means=False):
+                        block_means=False, after_s=None):
         return np.diag(white_var) + gauss_markov_mean_covariance(
             time_s, part, n_parts, values["sigma_gm_deg_h"], TAU_S)
 

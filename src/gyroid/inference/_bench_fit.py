@@ -160,12 +160,14 @@ class BenchFit:
             white = self.problem.noise.sample_white_sd(levels, sample_s)
         else:
             white = float(np.median(np.asarray(density.sigma)))
+        time_s = np.asarray(self.problem.log.time_s)
         return NoiseEstimate(model=self.problem.noise, levels=levels, white_sd_deg_h=white,
-                             white_sample_s=sample_s if self.segment_means is None else None)
+                             white_sample_s=sample_s if self.segment_means is None else None,
+                             span_s=float(time_s[-1] - time_s[0]) + density.step_s)
 
     def noise_levels(self) -> dict:
         """:meth:`noise_estimate` as fit.json writes it: ``model`` (the noise model's name),
-        ``white_sd_deg_h``, ``white_sample_s`` and each level by name."""
+        ``white_sd_deg_h``, ``white_sample_s``, ``span_s`` and each level by name."""
         return self.noise_estimate().to_json()
 
     def inference_data(self):
@@ -217,7 +219,7 @@ class BenchFit:
                 "posterior": {},
                 "units": {k: problem.noise.units[k] for k in noise_names},
                 **{k: v for k, v in self.noise_levels().items()
-                   if k in ("white_sd_deg_h", "white_sample_s")},
+                   if k in ("white_sd_deg_h", "white_sample_s", "span_s")},
                 "errors_in_variables": self.errors_in_variables,
             },
             "priors": {k: _describe(p) for k, p in zip(problem.names, problem.priors,

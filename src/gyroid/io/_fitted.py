@@ -191,4 +191,5 @@ def _noise_of(fit: dict) -> NoiseEstimate | None:
     white = noise.get("white_sd_deg_h", levels.get("sigma_deg_h"))
     if white is None:
         return None
-    return NoiseEstimate(model, levels, float(white), noise.get("white_sample_s"))
+    return NoiseEstimate(model, levels, float(white), noise.get("white_sample_s"),
+                         noise.get("span_s"))

@@ -110,11 +110,15 @@ class NoiseModel(eqx.Module):
     @abc.abstractmethod
     def part_covariance(self, time_s: np.ndarray, part: np.ndarray, n_parts: int,
                         step_s: float, white_var: np.ndarray, values: Mapping, *,
-                        block_means: bool = False) -> np.ndarray:
+                        block_means: bool = False, after_s: float | None = None
+                        ) -> np.ndarray:
         """The covariance ((deg/h)^2) of the means of parts of a log's rows (``part``: each
         row's part, -1 for none; parts contiguous and in time order; rows ``step_s``
         apart): ``white_var`` each part's white variance, plus the correlated processes as
-        the likelihood reads them (``block_means``: the rows are block means)."""
+        the likelihood reads them (``block_means``: the rows are block means). With
+        ``after_s``, the parts are of a new log that follows the fitted one (of that span,
+        s): a level the model lets wander without bound (a random walk) has moved since
+        the fitted log's mean."""
 
 
 @dataclass(frozen=True)
@@ -123,12 +127,14 @@ class NoiseEstimate:
     compensation's predictive check and an export read of a fit.
 
     ``white_sd_deg_h`` is a sample's white sd at the sample interval ``white_sample_s`` (s;
-    None when unknown, e.g. a fit of segment means)."""
+    None when unknown, e.g. a fit of segment means); ``span_s`` the fitted log's duration
+    (s; None when unknown, an old fit record)."""
 
     model: NoiseModel
     levels: Mapping[str, float]
     white_sd_deg_h: float
     white_sample_s: float | None = None
+    span_s: float | None = None
 
     def white_sd_at(self, step_s: float) -> float:
         """A sample's white sd (deg/h) at sample interval ``step_s``: a rate averaged over
@@ -139,13 +145,15 @@ class NoiseEstimate:
     def part_covariance(self, time_s: np.ndarray, part: np.ndarray, n_parts: int,
                         step_s: float, white_var: np.ndarray) -> np.ndarray:
         """The covariance of parts' means of a new log's rows (:meth:`NoiseModel.
-        part_covariance`, rows as samples)."""
+        part_covariance`, rows as samples, the log after the fitted one)."""
         return self.model.part_covariance(time_s, part, n_parts, step_s, white_var,
-                                          self.levels)
+                                          self.levels, after_s=self.span_s or 0.0)
 
     def to_json(self) -> dict:
         out = {"model": self.model.name, "white_sd_deg_h": self.white_sd_deg_h,
                **self.levels}
         if self.white_sample_s is not None:
             out["white_sample_s"] = self.white_sample_s
+        if self.span_s is not None:
+            out["span_s"] = self.span_s
         return out

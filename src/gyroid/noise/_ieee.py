@@ -5,7 +5,18 @@ blocks of samples, by an exact Kalman filter.
 Units: ``N`` in deg/sqrt(h) (white rate noise of two-sided density ``60 N`` deg/h sqrt(s)),
 ``B`` in deg/h (flicker of two-sided density ``B**2 / (2 pi f)``, Allan floor
 ``0.664 B``), ``K`` in deg/h/sqrt(h) (a rate random walk diffusing ``(K / 60)**2``
-(deg/h)^2 per second, from zero at the log's first sample: ``w0`` is the bias there).
+(deg/h)^2 per second).
+
+The random walk has no anchor at the first row: its level there is diffuse (unknown, with
+no prior), and the walk is constrained to average zero over the log's blocks (each weighted
+by its span), so that a drift model's bias ``w0`` is the bias over the log, not at its
+start. A walk anchored at zero at the first row made ``w0`` the bias of the log's first
+minutes, with an interval that did not describe the log (issue 42: a real 74 h thermal log).
+The filter starts the diffuse level exactly (Durbin & Koopman's exact initial filter: the
+first observed block reveals it), accumulates the walk's weighted mean as a state, and ends
+with that mean observed as zero; the constraint's innovation takes the first observed row's
+place, so the ``n`` innovations are the exact likelihood of the centred walk. The flicker is
+stationary (``w0`` is its long-run mean).
 
 Each observation is the mean of a block ``k`` of the log: its time span ``L_k`` (s, the
 samples' count times the sampling step) follows a gap ``g_k`` (s) after the previous block.
@@ -87,19 +98,78 @@ def ieee_innovations(
     flicker_tau_s: Float[Array, " j"],
     flicker_unit_var: Float[Array, ""],
     update: Float[Array, " n"] | None = None,
+    centred: bool = True,
 ) -> tuple[Float[Array, "n ..."], Float[Array, " n"]]:
     """Innovations of the block means ``observed`` (trailing columns filtered alike) and
     their variances, under white noise of per-block variance ``white_var`` ((deg/h)^2) plus
     flicker of level ``bias_instability`` (B, deg/h) plus a rate random walk ``walk`` (K,
-    deg/h/sqrt(h)). Rows with ``update == 0`` are predicted through, not learnt from."""
+    deg/h/sqrt(h)). Rows with ``update == 0`` are predicted through, not learnt from.
+
+    ``centred``: the walk diffuse at the start and averaging zero over the blocks (module
+    docstring); the first row learnt from then carries the constraint's innovation.
+    ``centred=False``: the walk from zero at the first block (for a model without a walk,
+    whose filter needs no diffuse start)."""
     variance = bias_instability**2 * flicker_unit_var
     diffusion = (walk / 60.0) ** 2
     phi, c, qxx, qmm, qxm = block_transitions(span_s, gap_s, flicker_tau_s, variance,
                                               diffusion)
     r = white_var + jnp.sum(qmm, axis=1)
     update = jnp.ones_like(span_s) if update is None else update
-    n_states = flicker_tau_s.size + 1
-    start_var = jnp.concatenate([jnp.full(flicker_tau_s.shape, variance), jnp.zeros(1)])
+    j = flicker_tau_s.size
+    if not centred:
+        return _anchored(observed, phi, c, qxx, qxm, r, update, variance, j)
+    weight = span_s / jnp.sum(span_s)  # each block's share of the log's mean
+    walk_qmm, walk_qxm = qmm[:, j], qxm[:, j]
+    n_states = j + 2  # flicker, walk, the walk's running weighted mean
+    a = j + 1  # the running mean's index
+    zero = jnp.zeros_like(span_s)[:, None]
+    phi = jnp.concatenate([phi, zero + 1.0], axis=1)
+    c = jnp.concatenate([c, zero], axis=1)
+    q_diag = jnp.concatenate([qxx, (weight**2 * walk_qmm)[:, None]], axis=1)
+    q_xm = jnp.concatenate([qxm, (weight * walk_qmm)[:, None]], axis=1)
+    start_var = jnp.concatenate([jnp.full(flicker_tau_s.shape, variance), jnp.zeros(2)])
+    start_d = jnp.zeros(n_states).at[j].set(1.0)  # the diffuse level's coefficients
+
+    def step(carry, row):
+        mean, cov, d, pending = carry  # states at the previous block's end; d: of the level
+        y, phi_k, c_k, qd_k, qxm_k, r_k, u_k, m_k, wq_k = row
+        # transition: diagonal, and the running mean adds m_k times the walk's block mean
+        f = jnp.diag(phi_k).at[a, j].set(m_k)
+        q = jnp.diag(qd_k).at[a, j].set(m_k * wq_k).at[j, a].set(m_k * wq_k)
+        pc = cov @ c_k
+        s_mm = c_k @ pc + r_k
+        s_xm = f @ pc + qxm_k
+        s_xx = f @ cov @ f.T + q
+        innovation = y - jnp.tensordot(c_k, mean, axes=1)
+        predicted = jnp.tensordot(f, mean, axes=1)
+        d_next = f @ d  # the level's coefficients in the predicted states
+        # the first row learnt from reveals the diffuse level (the exact initial filter:
+        # its own likelihood term is the constraint's, set after the scan)
+        reveal = pending * u_k
+        ordinary = (1.0 - pending) * u_k
+        gain = ordinary * s_xm / s_mm + reveal * d_next
+        mean = predicted + jnp.tensordot(gain, innovation, axes=0)
+        revealed = (s_xx + s_mm * jnp.outer(d_next, d_next) - jnp.outer(d_next, s_xm)
+                    - jnp.outer(s_xm, d_next))
+        cov = jnp.where(reveal > 0, revealed, s_xx - ordinary * jnp.outer(s_xm, s_xm) / s_mm)
+        d = (1.0 - reveal) * d_next
+        return (mean, cov, d, pending * (1.0 - u_k)), (innovation, s_mm)
+
+    start = (jnp.zeros((n_states, *observed.shape[1:])), jnp.diag(start_var), start_d,
+             jnp.ones(()))
+    (mean, cov, _, _), (innovation, total) = jax.lax.scan(
+        step, start, (observed, phi, c, q_diag, q_xm, r, update, weight, walk_qxm))
+    # the walk's weighted mean over the log, observed as zero
+    first = jnp.argmax(update > 0)
+    innovation = innovation.at[first].set(-mean[a])
+    total = total.at[first].set(cov[a, a])
+    return innovation, total
+
+
+def _anchored(observed, phi, c, qxx, qxm, r, update, variance, j):
+    """The block filter with the walk from zero at the first block (``centred=False``)."""
+    n_states = j + 1
+    start_var = jnp.concatenate([jnp.full((j,), variance), jnp.zeros(1)])
 
     def step(carry, row):
         mean, cov = carry  # of the states at the previous block's end
@@ -122,13 +192,16 @@ def ieee_innovations(
 
 def ieee_mean_covariance(start_s: np.ndarray, end_s: np.ndarray, white_var: np.ndarray,
                          bias_instability: float, walk: float, flicker_tau_s: np.ndarray,
-                         flicker_unit_var: float, origin_s: float) -> np.ndarray:
+                         flicker_unit_var: float, origin_s: float,
+                         centre_span_s: float | None = None) -> np.ndarray:
     """The covariance ((deg/h)^2) of the means over time intervals ``[start_s, end_s]``
     (disjoint or touching, in time order) of the same noise, written out pair by pair
     (dense; for the predictive check's parts and for testing the filter): white variance
     ``white_var`` per interval, each flicker process's exponential kernel integrated over
-    both intervals, and the random walk from zero at ``origin_s`` (covariance
-    ``D min(s, t)``)."""
+    both intervals, and the random walk: from zero at ``origin_s`` (covariance
+    ``D min(s, t)``), or with ``centre_span_s`` centred, its mean over ``[origin_s,
+    origin_s + centre_span_s]`` zero (as the likelihood's, on a log whose blocks tile
+    that span)."""
     a = np.asarray(start_s, dtype=float) - origin_s
     b = np.asarray(end_s, dtype=float) - origin_s
     length = b - a
@@ -156,25 +229,41 @@ def ieee_mean_covariance(start_s: np.ndarray, end_s: np.ndarray, white_var: np.n
     mid = 0.5 * (a + b)
     walk_cov = diffusion * np.minimum.outer(mid, mid)
     walk_cov[np.diag_indices_from(walk_cov)] = diffusion * (a + length / 3.0)
+    if centre_span_s is not None:
+        # W(t) - mean W over [0, T]: each interval's covariance with the mean, D (mean of
+        # t - t^2 / 2T over it), and the mean's variance D T / 3
+        span = float(centre_span_s)
+        with_mean = diffusion * (mid - (a**2 + a * b + b**2) / (6.0 * span))
+        walk_cov = (walk_cov - with_mean[:, None] - with_mean[None, :]
+                    + diffusion * span / 3.0)
     return cov + walk_cov
 
 
 def ieee_part_covariance(time_s: np.ndarray, part: np.ndarray, n_parts: int, step_s: float,
                          white_var: np.ndarray, bias_instability: float, walk: float,
-                         processes: tuple[np.ndarray, float] | None = None) -> np.ndarray:
+                         processes: tuple[np.ndarray, float] | None = None,
+                         after_s: float | None = None) -> np.ndarray:
     """The covariance ((deg/h)^2) of parts' means of a log's rows (``part``: each row's
     part, -1 for none; parts contiguous and in time order), each row one sampling step
     ``step_s`` long: ``white_var`` each part's white variance, the flicker as the drift
     likelihood's for this log (:func:`flicker_times`; ``processes``: other correlation
     times and their variance per unit ``bias_instability**2``, e.g. one Gauss-Markov
-    process), the walk from zero at its start."""
+    process), and the walk centred on this log (as the likelihood's), or, with
+    ``after_s``, on a log of that span just before this one (a new log compensated with a
+    fit's bias: the walk from the fitted log's mean, whose variance at its end is
+    ``D after_s / 3``, then on from zero at this log's start)."""
     time_s = np.asarray(time_s, dtype=float)
     kept = part >= 0
     first = np.full(n_parts, np.inf)
     last = np.full(n_parts, -np.inf)
     np.minimum.at(first, part[kept], time_s[kept])
     np.maximum.at(last, part[kept], time_s[kept])
-    taus, unit = (flicker_times(step_s, float(time_s[-1] - time_s[0]) + step_s)
-                  if processes is None else processes)
-    return ieee_mean_covariance(first - 0.5 * step_s, last + 0.5 * step_s, white_var,
-                                bias_instability, walk, taus, unit, time_s[0] - 0.5 * step_s)
+    span = float(time_s[-1] - time_s[0]) + step_s
+    taus, unit = flicker_times(step_s, span) if processes is None else processes
+    cov = ieee_mean_covariance(first - 0.5 * step_s, last + 0.5 * step_s, white_var,
+                               bias_instability, walk, taus, unit,
+                               time_s[0] - 0.5 * step_s,
+                               centre_span_s=span if after_s is None else None)
+    if after_s is not None:
+        cov = cov + (walk / 60.0) ** 2 * float(after_s) / 3.0
+    return cov

@@ -67,7 +67,7 @@ class White(NoiseModel):
         return None
 
     def part_covariance(self, time_s, part, n_parts, step_s, white_var, values, *,
-                        block_means=False):
+                        block_means=False, after_s=None):
         return np.diag(np.asarray(white_var, dtype=float))
 
 
@@ -120,10 +120,11 @@ class GaussMarkov(NoiseModel):
         return ieee_innovations(observed, span, clock.gap_s,
                                 jnp.broadcast_to(white**2, span.shape),
                                 values["sigma_gm_deg_h"], jnp.zeros(()),
-                                jnp.reshape(values["tau_gm_s"], (1,)), 1.0, clock.weight)
+                                jnp.reshape(values["tau_gm_s"], (1,)), 1.0, clock.weight,
+                                centred=False)
 
     def part_covariance(self, time_s, part, n_parts, step_s, white_var, values, *,
-                        block_means=False):
+                        block_means=False, after_s=None):
         white = np.diag(np.asarray(white_var, dtype=float))
         if block_means:
             return white + ieee_part_covariance(
@@ -189,9 +190,10 @@ class Ieee952(NoiseModel):
                                 self.flicker_tau_s, self.flicker_unit_var, clock.weight)
 
     def part_covariance(self, time_s, part, n_parts, step_s, white_var, values, *,
-                        block_means=False):
+                        block_means=False, after_s=None):
         return ieee_part_covariance(time_s, part, n_parts, step_s, white_var,
-                                    values["B_deg_h"], values["K_deg_h_sqrt_h"])
+                                    values["B_deg_h"], values["K_deg_h_sqrt_h"],
+                                    after_s=after_s)
 
 
 #: The noise models ``--noise`` offers, by name.
