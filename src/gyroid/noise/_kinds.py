@@ -159,10 +159,17 @@ class Ieee952(NoiseModel):
         return Ieee952(flicker_tau_s=jnp.asarray(taus), flicker_unit_var=unit)
 
     def default_priors(self, level_deg_h, step_s, rows_per_mean):
+        """N about the log's white density; B and K with medians a thousandth of it (deg/h,
+        deg/h/sqrt(h)) and a log-sd of 3: negligible a priori, real values two log-sds up
+        still plain (a FOG's B of 0.01 deg/h is 33x its median, a MEMS gyro's 6 deg/h
+        330x). Medians a tenth of it, as before, put the posterior of a white log's B and K
+        at the largest values the log cannot rule out, and widened its coefficients'
+        intervals 1.2-1.8x over white noise's (two 10 h FOG benches); a thousandth, 1.0-1.2x,
+        while a bench with a FOG's flicker and walk still widens them 1.7-2.7x."""
         density = level_deg_h * math.sqrt(max(step_s, 1e-9))  # deg/h sqrt(s)
         return {"N_deg_sqrt_h": LogNormal(density / 60.0, 3.0),
-                "B_deg_h": LogNormal(density / 10.0, 3.0),
-                "K_deg_h_sqrt_h": LogNormal(0.1 * density, 3.0)}
+                "B_deg_h": LogNormal(density / 1000.0, 3.0),
+                "K_deg_h_sqrt_h": LogNormal(density / 1000.0, 3.0)}
 
     def fog_priors(self):
         return {"N_deg_sqrt_h": LogNormal(0.01, 3.0), "B_deg_h": LogNormal(0.05, 3.0),
