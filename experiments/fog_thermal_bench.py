@@ -103,6 +103,7 @@ def one(seed: int, profile: str, noise: str, white_only: bool) -> dict:
     return {"seed": seed, "profile": profile, "noise": noise,
             "noise_used": fit.problem.noise.name, "trustworthy": fit.trustworthy,
             "failed_errors": [c.name for c in fit.checks.failed if c.severity == "error"],
+            "failed_messages": [c.message for c in fit.checks.failed if c.severity == "error"],
             "inside_95": {name: bool(summary[name]["ci95"][0] <= value
                                      <= summary[name]["ci95"][1])
                           for name, value in truth.items()},

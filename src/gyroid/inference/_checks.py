@@ -129,23 +129,43 @@ def convergence(evidence: FitEvidence) -> Check:
 
 
 def point_vs_posterior(evidence: FitEvidence) -> Check:
+    """The point estimate against the posterior mean, in posterior sd, for the coefficients
+    and the noise levels the log resolves. A noise level whose posterior is mostly its prior
+    (its sd more than :data:`IDENTIFIED_RATIO` of the prior's, as a coefficient the log does
+    not identify) is not compared: a flicker or a walk the log cannot rule out has a
+    posterior from negligible up to what the log allows, whose mode sits at its upper end,
+    a posterior sd or more from its mean, in a posterior that is neither multimodal nor
+    stopped early."""
     moments = _posterior_u(evidence)
     if moments is None:
         return Check("point_vs_posterior", True, "error", None, POINT_POSTERIOR_SD,
                      "no posterior to compare with")
     mean, sd = moments
     z = np.abs(np.asarray(evidence.point_u) - mean) / np.where(sd > 0, sd, np.inf)
+    unresolved = [i for i in range(evidence.n_model, len(evidence.names))
+                  if _mostly_prior(evidence.priors[i], sd[i])]
+    z[unresolved] = 0.0
     k = int(np.argmax(z))
     value = float(z[k])
     name = evidence.names[k]
     ok = value <= POINT_POSTERIOR_SD
+    aside = ("" if not unresolved else
+             f"; {', '.join(evidence.names[i] for i in unresolved)} not compared: the log does "
+             "not resolve them, their posteriors are mostly their priors")
     message = (f"point estimate and posterior mean agree (largest gap {value:.2f} posterior "
-               f"sd, {name})" if ok else
+               f"sd, {name}){aside}" if ok else
                f"the point estimate of {name} is {value:.1f} posterior sd from the posterior "
                "mean: the posterior is multimodal or the fit stopped early; do not use either "
                "until they agree (check the priors, try flat priors, or simplify the model)")
     return Check("point_vs_posterior", ok, "error", value, POINT_POSTERIOR_SD, message,
                  () if ok else ("prior",))
+
+
+def _mostly_prior(prior: Prior, posterior_sd: float) -> bool:
+    """Whether a parameter's posterior sd (sampling coordinates) exceeds
+    :data:`IDENTIFIED_RATIO` of its prior's."""
+    moments = _prior_moments(prior)
+    return moments is not None and posterior_sd > IDENTIFIED_RATIO * moments[1]
 
 
 def _prior_moments(prior: Prior) -> tuple[float, float] | None:

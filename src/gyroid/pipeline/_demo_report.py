@@ -281,9 +281,8 @@ def _check_lines(name: str, checks) -> list[str]:
     if name == "thermal" and not checks.trustworthy:
         lines.append("- Why: the drift is simulated with the true dT/dt, the fit sees the "
                      "estimated one; the estimator's smoothing at the setpoint transitions "
-                     "leaves structure in the residuals that a white-noise model cannot "
-                     "explain (errors in variables). `--noise auto` turns to IEEE 952's "
-                     "white + flicker + random-walk noise for it.")
+                     "leaves structure in the residuals (errors in variables) that the "
+                     "fit's noise model does not describe.")
     return [*lines, ""]
 
 
