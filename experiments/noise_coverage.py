@@ -110,7 +110,7 @@ def one(grade: Grade, seed: int) -> dict:
     started = time.time()
     fit = fit_noise(rate, grade.sample_s, seed=seed)
     seconds = time.time() - started
-    summary = fit.summary()
+    summary = fit.term_summaries()
     gyroid_answer = {}
     for name in truth:
         entry = summary[name]

@@ -35,7 +35,7 @@ def one(name: str, columns: dict, axis: str, seed: int) -> dict:
     step = (time_s[-1] - time_s[0]) / (time_s.size - 1)
     rate = np.asarray(columns[f"drift_{axis}_deg_h"], dtype=float)
     fit = fit_noise(rate, step, seed=seed, label=f"{name} {axis}")
-    summary = fit.summary()
+    summary = fit.term_summaries()
     gyroid_answer = {}
     for term in TERMS:
         entry = summary[term]

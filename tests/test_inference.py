@@ -383,3 +383,13 @@ def test_white_gm_on_block_means_is_the_exact_gaussian_of_the_blocks():
     exact = stats.multivariate_normal(np.zeros(problem.n), cov).logpdf(residual)
     u = problem.to_sampling(jnp.asarray(x))
     assert float(density.log_likelihood(u)) == pytest.approx(exact, rel=1e-10)
+
+
+def test_the_burn_in_never_discards_the_whole_run():
+    """An autocorrelation time that could not be estimated is taken as the whole run; three
+    of them discarded every step and emcee's next estimate failed on an empty chain."""
+    from gyroid.inference._emcee import next_burn
+
+    assert next_burn(300, 50.0, 800) == 300
+    assert next_burn(300, 200.0, 2000) == 600
+    assert next_burn(300, 800.0, 800) == 400 < 800

@@ -41,7 +41,7 @@ def test_white_and_rate_random_walk_recovered_with_honest_intervals():
     rng = np.random.default_rng(7)
     truth = {"N": 0.3, "K": 20.0}
     result = fit_noise(_static_rate(rng, 400_000, 0.01, **truth), 0.01, seed=1)
-    summary = result.summary()
+    summary = result.term_summaries()
     assert result.trustworthy, result.checks.failed
     assert summary["N"]["resolved"] and summary["K"]["resolved"]
     for name, value in truth.items():
@@ -62,7 +62,7 @@ def test_intervals_cover_at_their_nominal_rate():
     for seed in range(24):
         rng = np.random.default_rng(100 + seed)
         summary = fit_noise(_static_rate(rng, 60_000, 0.01, **truth), 0.01,
-                            seed=seed).summary()
+                            seed=seed).term_summaries()
         for name, value in truth.items():
             entry = summary[name]
             inside[name] += (entry["ci90"][0] <= value <= entry["ci90"][1] if entry["resolved"]
@@ -261,5 +261,5 @@ def test_an_allan_variance_the_terms_cannot_describe_is_refused_not_believed():
     assert not filtered.trustworthy
     clean = fit_noise(white[1:], dt)
     assert clean.dispersion == 1.0 and clean.trustworthy
-    low, high = clean.summary()["N"]["ci90"]
+    low, high = clean.term_summaries()["N"]["ci90"]
     assert low < arw < high

@@ -430,7 +430,7 @@ def noise(data, out, seed, mappings, axes, instance, static_deg_s) -> None:
                    f"{kept['rows']} rows in {kept['stretches']} still stretch(es)", err=True)
     for axis, item in result.results.items():
         which = f"axis {axis}: " if result.several else ""
-        for name, entry in item.summary().items():
+        for name, entry in item.term_summaries().items():
             if entry["resolved"]:
                 lo, hi = entry["ci90"]
                 click.echo(f"{which}{name} = {entry['mean']:.4g} [{lo:.4g}, {hi:.4g}] "

@@ -59,6 +59,6 @@ def pool(logs, terms, out, seed, t0_C, prior_choice, prior_items, segment_means,
                       t0_C=t0_C, segment_means=segment_means)
     with output_dir(out) as stage:
         write(stage, result)
-    click.echo(result.summary_text())
+    click.echo(result.summary())
     click.echo(f"wrote {out / 'pool.json'}, {out / 'posterior.nc'} and {out / 'forest.png'}")
     report_checks(result.checks)

@@ -9,6 +9,7 @@ from gyroid._lazy import attach
 __getattr__, __dir__, __all__ = attach(__name__, {
     "_problem": ["AbstractProblem", "PointEstimate"],
     "_fit": ["fit"],
+    "_result": ["FitResult"],
     "_posterior": ["AbstractSampler", "Posterior", "interval_summary", "summarise_draws"],
     "_emcee": ["Emcee"],
     "_nuts": ["Nuts"],

@@ -20,6 +20,7 @@ from gyroid.inference._plausibility import effect_sizes, units_sanity
 from gyroid.inference._posterior import AbstractSampler, Posterior, inference_data
 from gyroid.inference._problem import PointEstimate
 from gyroid.inference._residual_checks import outliers_among
+from gyroid.inference._result import FitResult
 from gyroid.io._fitted import FittedDrift
 from gyroid.io._logs import BenchLog, MeansOfBlocks, SampleDeviations, contiguous_segments
 from gyroid.models._design import rows_of
@@ -32,7 +33,7 @@ from gyroid.noise._kinds import Ieee952, White, noise_model
 
 
 @dataclass(frozen=True, eq=False)
-class BenchFit:
+class BenchFit(FitResult):
     """A fitted bench log: its problem, point estimate, posterior (None when only the mode
     was asked for) and self-checks."""
 
@@ -47,11 +48,7 @@ class BenchFit:
     def __repr__(self) -> str:
         verdict = "trustworthy" if self.trustworthy else "NOT trustworthy"
         return (f"BenchFit(terms={','.join(self.problem.model.terms)!r}, "
-                f"n_samples={self.problem.n}, noise={self.problem.noise.name!r}, {verdict})")
-
-    @property
-    def trustworthy(self) -> bool:
-        return self.checks.trustworthy
+                f"n_samples={self.n_samples}, noise={self.problem.noise.name!r}, {verdict})")
 
     @property
     def model_names(self) -> tuple[str, ...]:
@@ -81,6 +78,24 @@ class BenchFit:
         return None if problem.block_rows == 1 else {
             "means": problem.n, "rows_per_mean": problem.block_rows,
             "rows": problem.segments.n}
+
+    @property
+    def n_samples(self) -> int:
+        """The log's samples fitted: for a fit of block means, the samples behind them."""
+        problem = self.problem
+        return problem.segments.n if problem.block_rows > 1 else problem.n
+
+    @property
+    def rms_residual_deg_h(self) -> float:
+        """The RMS of the drift's residuals at the point estimate over the samples (deg/h):
+        for a fit of block means, the means' residuals (each for its block's samples, the
+        model barely changing within a block) and the samples about their means."""
+        problem, rms = self.problem, self.point.rms_residual
+        if problem.block_rows == 1:
+            return rms
+        samples = problem.segments
+        within = samples.z_sum_sq * samples.within_sd**2
+        return math.sqrt((problem.block_rows * problem.n * rms**2 + within) / samples.n)
 
     @property
     def errors_in_variables(self) -> dict | None:
@@ -203,11 +218,11 @@ class BenchFit:
         names, noise_names = self.model_names, problem.noise_names
         out: dict = {
             "terms": list(problem.model.terms),
-            "n_samples": problem.n,
+            "n_samples": self.n_samples,
             "point": {k: point.value[k] for k in names},
             "point_sd": {k: point.sd[k] for k in names},
             "posterior": {},
-            "rms_residual_deg_h": point.rms_residual,
+            "rms_residual_deg_h": self.rms_residual_deg_h,
             "units": {k: parameter(k).unit for k in names},
             "t0_C": self.t0_C,
             "seed": self.seed,

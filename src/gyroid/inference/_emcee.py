@@ -138,8 +138,7 @@ def _sample(problem: AbstractProblem, point: PointEstimate, settings: Emcee, see
                        for v in summary.values())
             if good or capped:
                 break
-        # Once the walkers have mixed, a burn-in of a few autocorrelation times suffices.
-        burn = max(burn, int(3 * tau_max))
+        burn = next_burn(burn, tau_max, sampler.iteration)
         # Aim the next chunk at tau_factor * tau (10 % margin); once there, a check that
         # failed on r_hat or ESS grows the run by a quarter, so few checks are needed.
         kept = sampler.iteration - burn
@@ -259,6 +258,14 @@ class _PlainProgress:
 
     def close(self) -> None:
         pass
+
+
+def next_burn(burn: int, tau_max: float, steps: int) -> int:
+    """The burn-in once the walkers have mixed: a few autocorrelation times, but at most
+    half the steps run. Uncapped, a long or unestimated autocorrelation time (taken as the
+    whole run) discarded every step, and emcee's next estimate failed on an empty chain
+    (a FOG bench's fit whose rate random walk the log does not resolve)."""
+    return max(burn, min(int(3 * tau_max), steps // 2))
 
 
 def _advance(sampler: emcee.EnsembleSampler, state, steps: int, bar) -> emcee.State:

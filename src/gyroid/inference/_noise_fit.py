@@ -46,6 +46,7 @@ from gyroid.inference._noise_problem import (
 )
 from gyroid.inference._posterior import AbstractSampler, Posterior
 from gyroid.inference._problem import PointEstimate
+from gyroid.inference._result import FitResult
 
 LEVEL_P = 1e-4
 DISPERSION_P = 1e-3
@@ -56,7 +57,7 @@ LEVEL_RATIO = 2.0
 
 
 @dataclass(frozen=True, eq=False)
-class NoiseModelFit:
+class NoiseModelFit(FitResult):
     """One set of noise terms' posterior (log-amplitudes sampled) and its checks."""
 
     terms: tuple[str, ...]
@@ -64,9 +65,20 @@ class NoiseModelFit:
     posterior: Posterior
     checks: CheckReport
 
+    def summary(self) -> str:
+        lines = [f"noise terms {', '.join(self.terms)}; posterior mean +/- sd:"]
+        lines += [f"  {name:>4s} = {entry['mean']:.4g} +/- {entry['sd']:.2g} {term(name).unit}"
+                  for name, entry in self.posterior.summary.items()]
+        return "\n".join([*lines, *(f"  {line}" for line in self.checks.lines()),
+                          f"  {self.checks.verdict()}"])
+
+    def to_json(self) -> dict:
+        return {"terms": list(self.terms), "posterior": self.posterior.summary,
+                **self.checks.to_json()}
+
 
 @dataclass(frozen=True, eq=False)
-class NoiseFit:
+class NoiseFit(FitResult):
     """A static log's noise model, averaged over the sets of terms the log supports
     (weights by BIC): each term's posterior (datasheet units; zero in the draws of sets
     without it), upper bounds for the terms it does not resolve, the Haar statistics fitted
@@ -81,10 +93,6 @@ class NoiseFit:
     #: How many times more the Allan variance scatters about the model than independent
     #: Haar coefficients allow (1: no more than chance); the intervals are its root wider.
     dispersion: float = 1.0
-
-    @property
-    def trustworthy(self) -> bool:
-        return self.checks.trustworthy
 
     @property
     def terms(self) -> tuple[str, ...]:
@@ -106,7 +114,22 @@ class NoiseFit:
         a = float(np.median(self.draws(name)))
         return a**2 * shapes(_at(self.stats, np.asarray(tau_s)), (name,))[:, 0]
 
-    def summary(self) -> dict[str, dict]:
+    def summary(self) -> str:
+        """Each term the log resolves (mean, 90 % interval) or its upper bound, and the
+        failed checks."""
+        lines = [f"noise of {self.label or 'the log'}; terms (datasheet units):"]
+        for name, entry in self.term_summaries().items():
+            if entry["resolved"]:
+                lo, hi = entry["ci90"]
+                lines.append(f"  {name} = {entry['mean']:.4g} {entry['unit']} "
+                             f"(90 %: {lo:.4g} ... {hi:.4g})")
+            elif entry["upper_bound_95"] is not None:
+                lines.append(f"  {name} < {entry['upper_bound_95']:.4g} {entry['unit']} "
+                             "(95 %; not resolved)")
+        return "\n".join([*lines, *(f"  {line}" for line in self.checks.lines()),
+                          f"  {self.checks.verdict()}"])
+
+    def term_summaries(self) -> dict[str, dict]:
         """Per term of :data:`NOISE_TERMS`: mean, sd, 90 % interval (or the upper bound of
         a term the log does not resolve), unit, process, inclusion probability."""
         out = {}
@@ -130,7 +153,7 @@ class NoiseFit:
         band = np.sqrt(np.quantile(self.model_avar(), [0.05, 0.5, 0.95], axis=0))
         return {
             "log": self.label,
-            "terms": self.summary(),
+            "terms": self.term_summaries(),
             "model": [{"name": n, "process": term(n).process, "unit": term(n).unit}
                       for n in self.terms],
             "models_averaged": [{"terms": list(m.terms), "weight": round(w, 6),

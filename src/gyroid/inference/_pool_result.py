@@ -15,6 +15,7 @@ from gyroid.inference._check_report import CheckReport
 from gyroid.inference._pool_problem import PoolProblem
 from gyroid.inference._posterior import Posterior, inference_data, interval_summary
 from gyroid.inference._problem import PointEstimate
+from gyroid.inference._result import FitResult
 from gyroid.models._effects import parameter
 
 #: Cochran's Q p-value below which the runs differ by more than their noise.
@@ -38,7 +39,7 @@ class Heterogeneity:
 
 
 @dataclass(frozen=True, eq=False)
-class PoolFit:
+class PoolFit(FitResult):
     """A pooled fit: the problem, its mode and posterior, the derived draws and checks."""
 
     problem: PoolProblem = field(repr=False)
@@ -57,10 +58,6 @@ class PoolFit:
         verdict = "trustworthy" if self.trustworthy else "NOT trustworthy"
         return (f"PoolFit(terms={','.join(self.terms)!r}, runs={len(self.run_labels)}, "
                 f"{verdict})")
-
-    @property
-    def trustworthy(self) -> bool:
-        return self.checks.trustworthy
 
     @property
     def terms(self) -> tuple[str, ...]:
@@ -101,9 +98,6 @@ class PoolFit:
                 for k in ranges[0]}
 
     def summary(self) -> str:
-        return self.posterior_summary_text()
-
-    def summary_text(self) -> str:
         """A few lines per coefficient: population mean, between-run sd, a new run, and
         whether the runs differ by more than their noise."""
         record = self.to_json()

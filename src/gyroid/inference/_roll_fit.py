@@ -22,6 +22,7 @@ from gyroid.inference._posterior import (
     interval_summary,
 )
 from gyroid.inference._problem import PointEstimate
+from gyroid.inference._result import FitResult
 from gyroid.inference._roll_predictive import roll_predictive
 from gyroid.inference._roll_problem import RollDensity, RollProblem
 from gyroid.io._roll_log import RollLog
@@ -144,7 +145,7 @@ def confounded_pairs(names: tuple[str, ...], draws: np.ndarray) -> tuple[Confoun
 
 
 @dataclass(frozen=True, eq=False)
-class RollFit:
+class RollFit(FitResult):
     """A fitted roll log: problem, mode, posterior, the encoder error's amplitude and phase,
     the confounded pairs and the self-checks."""
 
@@ -160,10 +161,6 @@ class RollFit:
         verdict = "trustworthy" if self.trustworthy else "NOT trustworthy"
         return (f"RollFit(terms={','.join(self.problem.terms)!r}, "
                 f"n_samples={self.problem.log.n}, {verdict})")
-
-    @property
-    def trustworthy(self) -> bool:
-        return self.checks.trustworthy
 
     @property
     def loop_names(self) -> tuple[str, ...]:

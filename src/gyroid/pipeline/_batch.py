@@ -90,7 +90,7 @@ def fit_one(path: str, options: FitOptions, folder: str) -> list[LogOutcome]:
         return [LogOutcome(path, message=f"internal error: {type(error).__name__}: {error} "
                                          "(a bug in gyroid; fit this log alone with "
                                          "GYROID_DEBUG=1 for the traceback)")]
-    return [LogOutcome(path, axis, n_samples=fit.problem.n, trustworthy=fit.trustworthy,
+    return [LogOutcome(path, axis, n_samples=fit.n_samples, trustworthy=fit.trustworthy,
                        posterior={p: {"mean": s["mean"], "sd": s["sd"]}
                                   for p, s in fit.to_json()["posterior"].items()})
             for axis, fit in result.results.items()]

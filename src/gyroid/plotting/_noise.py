@@ -43,6 +43,6 @@ def noise_allan_figure(result) -> Figure:
 
 
 def _value(result, name: str) -> str:
-    entry = result.summary()[name]
+    entry = result.term_summaries()[name]
     lo, hi = entry["ci90"]
     return f"{entry['mean']:.3g} [{lo:.3g}, {hi:.3g}] {entry['unit']}"

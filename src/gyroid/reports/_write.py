@@ -34,9 +34,8 @@ def write(folder: str | Path, result, **context) -> list[Path]:
     ``context`` is what only some figures take (``truth``: known values drawn in a fit's
     pair plot, or a simulated lot's ``truth()`` in its forest plot; ``title``: a forest
     plot's)."""
-    for kind in type(result).__mro__:
-        writer = _WRITERS.get(f"{kind.__module__}.{kind.__qualname__}")
-        if writer is not None:
+    for kind, writer in _writers():
+        if isinstance(result, kind):
             return writer(Path(folder), result, **context)
     raise TypeError(f"gyroid does not know how to write a {type(result).__name__}")
 
@@ -172,17 +171,23 @@ def _noise(folder: Path, result: NoiseFit) -> list[Path]:
 
 #: The writer of each kind of result, by its class's full name: a command imports only the
 #: figures and storage its own result needs (importing every kind took a second).
-_WRITERS: dict[str, Callable[..., list[Path]]] = {
-    "gyroid.inference._bench_fit.BenchFit": _bench_fit,
-    "gyroid.inference._roll_fit.RollFit": _roll_fit,
-    "gyroid.inference._pool_result.PoolFit": _pool_fit,
-    "gyroid.workflows._compensate.Compensation": _compensation,
-    "gyroid.workflows._propagate.Propagation": _propagation,
-    "gyroid.workflows._discrepancy_report.DiscrepancyReport": _discrepancy,
-    "gyroid.workflows._export.FirmwareExport": _export,
-    "gyroid.workflows._noise_export.NoiseExport": _export,
-    "gyroid.inference._noise_fit.NoiseFit": _noise,
-}
+def _writers() -> tuple[tuple[type, Callable[..., list[Path]]], ...]:
+    """Each kind of result and its writer, by type (the kinds imported when the first
+    result is written: a result's own module is loaded by then)."""
+    from gyroid.inference._bench_fit import BenchFit
+    from gyroid.inference._noise_fit import NoiseFit
+    from gyroid.inference._pool_result import PoolFit
+    from gyroid.inference._roll_fit import RollFit
+    from gyroid.workflows._compensate import Compensation
+    from gyroid.workflows._discrepancy_report import DiscrepancyReport
+    from gyroid.workflows._export import FirmwareExport
+    from gyroid.workflows._noise_export import NoiseExport
+    from gyroid.workflows._propagate import Propagation
+
+    return ((BenchFit, _bench_fit), (RollFit, _roll_fit), (PoolFit, _pool_fit),
+            (Compensation, _compensation), (Propagation, _propagation),
+            (DiscrepancyReport, _discrepancy), (FirmwareExport, _export),
+            (NoiseExport, _export), (NoiseFit, _noise))
 
 
 def dk_samples_csv(dk: np.ndarray) -> str:

@@ -1,0 +1,37 @@
+"""The inference core's shape (issue 41): every fit's result shares one base, noise models
+are objects whose names one library file spells, and writers are chosen by type."""
+
+import ast
+from pathlib import Path
+
+from gyroid.inference import BenchFit, FitResult, PoolFit, RollFit
+from gyroid.inference._noise_fit import NoiseFit, NoiseModelFit
+from gyroid.noise import NOISE_MODELS
+
+SOURCE = Path(__file__).resolve().parents[1] / "src" / "gyroid"
+
+
+def test_every_fit_result_shares_one_base():
+    for kind in (BenchFit, RollFit, PoolFit, NoiseFit, NoiseModelFit):
+        assert issubclass(kind, FitResult), kind
+        assert not getattr(kind.summary, "__isabstractmethod__", False)
+
+
+def test_one_library_file_spells_the_noise_models_names():
+    """Outside cli/ (whose --help lists the choices without importing JAX) and plotting/
+    (where "white" is a colour), the names appear as string constants in noise/_kinds.py
+    only: everything else reads the noise model through its interface."""
+    spelling = set()
+    for path in SOURCE.rglob("*.py"):
+        relative = path.relative_to(SOURCE)
+        if relative.parts[0] in ("cli", "plotting"):
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Constant) and node.value in NOISE_MODELS:
+                spelling.add(str(relative))
+    assert spelling == {"noise/_kinds.py"}, spelling
+
+
+def test_writers_are_chosen_by_type_not_by_a_class_path():
+    text = (SOURCE / "reports" / "_write.py").read_text()
+    assert "__qualname__" not in text and "gyroid.inference._bench_fit.BenchFit\"" not in text
