@@ -335,3 +335,47 @@ def test_the_demo_time_is_the_results_file():
             f"{demo['cold_peak_total_rss_mb'] / 1000:.1f} GB in its two processes together",
             f"{demo['cold_seconds']:.0f} s / {demo['warm_seconds']:.0f} s, "
             f"{demo['cold_peak_total_rss_mb'] / 1000:.1f} GB |")
+
+
+def _fog_phrases() -> dict[str, str]:
+    """The FOG bench study's sentences (experiments/fog_thermal_bench.py)."""
+    import numpy as np
+
+    summary = _results("fog_thermal_bench")["summary"]
+    smooth, raised = summary["smooth"], summary["raised_cosine"]
+    n = smooth["fits"]
+    lo, hi = stats.binom(n, 0.95).ppf([0.005, 0.995])
+    inside = smooth["inside_95"]
+    z_sd = smooth["z_sd"]
+    beyond = smooth["exit_0_beyond_3_3_sd"]
+    out = {"smooth": (
+        f"on the smooth profile the default trusted {n - smooth['exit_3']} of {n} fits; their "
+        f"95 % intervals held the truths {inside['w0']}, {inside['w1']}, {inside['w2']} and "
+        f"{inside['wD']} times of {n} for w0, w1, w2 and wD (binomial 99 % band "
+        f"{lo:.0f}-{hi:.0f}), the z-scores' sd {min(z_sd.values()):.2f}-"
+        f"{max(z_sd.values()):.2f} (w1's {z_sd['w1']:.2f}), and {beyond} trusted fit"
+        f"{'' if beyond == 1 else 's'} had a truth more than 3.3 sd away")}
+    raised_sd = raised["z_sd"].values()
+    out["raised"] = (
+        f"On the raised-cosine profile {raised['exit_3']} of {raised['fits']} refused (exit 3)"
+        f" and every coefficient of all {raised['fits']} lay inside its 95 % interval, the "
+        f"intervals far wider than needed (z-scores' sd {min(raised_sd):.2f}-"
+        f"{max(raised_sd):.2f})")
+    default = _results("fog_thermal_bench_white_only")["runs"]
+    white = {r["seed"]: r for r in _results("fog_thermal_bench_white_only_white")["runs"]}
+    ratios = {k: [r["sd"][k] / white[r["seed"]]["sd"][k] for r in default]
+              for k in ("w0", "w1", "w2", "wD")}
+    medians = [float(np.median(v)) for v in ratios.values()]
+    largest = max(max(v) for v in ratios.values())
+    trusted = sum(r["trustworthy"] for r in default)
+    out["white_only"] = (
+        f"the default's posterior sds were {min(medians):.2f}-{max(medians):.2f}x "
+        f"`--noise white`'s (medians per coefficient over {len(default)} seeds; at most "
+        f"{largest:.2f}x), {trusted} of {len(default)} default fits trusted")
+    out["seconds"] = (f"a median {smooth['median_seconds']:.0f} s with two such fits running "
+                      "side by side")
+    return out
+
+
+def test_the_fog_benches_under_the_default_noise():
+    _quoted(*_fog_phrases().values())
