@@ -10,6 +10,10 @@ from helpers import write_log
 
 from gyroid.cli import main
 
+#: Tests of the pipeline fit white noise: the default (IEEE 952 noise) is tested on its own
+#: (tests/test_ieee_noise.py, the README tour) and costs a minute per fit.
+WHITE = ("--noise", "white")
+
 TERMS = "bias,temperature"
 #: Per axis: bias (deg/h), temperature slope (deg/h/degC), white noise (deg/h).
 AXES = {"x": (3.0, 0.2, 0.5), "y": (-1.0, -0.1, 0.5), "z": (10.0, 0.05, 0.5)}
@@ -32,7 +36,8 @@ def test_three_axes_in_one_command_equal_three_logs_of_one(tmp_path):
     columns = _three_axis_log(0)
     log = write_log(tmp_path / "imu.csv", columns)
     out = tmp_path / "fit"
-    assert main(["fit", str(log), "--terms", TERMS, "--out", str(out), "--no-progress"]) == 0
+    assert main(["fit", *WHITE, str(log), "--terms", TERMS, "--out", str(out),
+                 "--no-progress"]) == 0
     record = json.loads((out / "axes.json").read_text())
     assert list(record["axes"]) == ["x", "y", "z"]
     assert all(entry == {"trustworthy": True, "exit": 0, "folder": axis}
@@ -43,7 +48,7 @@ def test_three_axes_in_one_command_equal_three_logs_of_one(tmp_path):
             "time_s": columns["time_s"], "temperature_C": columns["temperature_C"],
             "drift_deg_h": columns[f"drift_{axis}_deg_h"]})
         single = tmp_path / f"fit_{axis}"
-        assert main(["fit", str(alone), "--terms", TERMS, "--out", str(single),
+        assert main(["fit", *WHITE, str(alone), "--terms", TERMS, "--out", str(single),
                      "--no-progress"]) == 0
         one = json.loads((single / "fit.json").read_text())["posterior"]
         many = json.loads((out / axis / "fit.json").read_text())["posterior"]
@@ -71,7 +76,7 @@ def test_an_axis_that_must_not_be_used_is_named_and_the_others_written(tmp_path,
     log = write_log(tmp_path / "imu.csv", _three_axis_log(2, wander_z=60.0))
     out = tmp_path / "fit"
     # under white noise, which the z axis's wander breaks (auto would model it)
-    assert main(["fit", str(log), "--terms", TERMS, "--out", str(out), "--no-progress",
+    assert main(["fit", *WHITE, str(log), "--terms", TERMS, "--out", str(out), "--no-progress",
                  "--noise", "white"]) == 3
     err = capsys.readouterr().err
     assert "axes z must not be used" in err and "axis z:" in err
@@ -86,7 +91,7 @@ def test_an_axis_that_must_not_be_used_is_named_and_the_others_written(tmp_path,
 ])
 def test_bad_axes_are_refused_before_fitting(tmp_path, capsys, args, message):
     log = write_log(tmp_path / "imu.csv", _three_axis_log(3, n=50))
-    assert main(["fit", str(log), "--terms", TERMS, "--out", str(tmp_path / "o"),
+    assert main(["fit", *WHITE, str(log), "--terms", TERMS, "--out", str(tmp_path / "o"),
                  "--no-progress", *args]) == 2
     assert message in capsys.readouterr().err
     assert not (tmp_path / "o").exists()

@@ -9,6 +9,10 @@ from helpers import SHORT_THERMAL, write_log
 from gyroid.cli import main
 from gyroid.simulation import simulate_thermal_bench
 
+#: Tests of the pipeline fit white noise: the default (IEEE 952 noise) is tested on its own
+#: (tests/test_ieee_noise.py, the README tour) and costs a minute per fit.
+WHITE = ("--noise", "white")
+
 
 @pytest.mark.slow
 def test_a_lot_is_fitted_on_dask_and_a_bad_log_fails_alone(tmp_path, capsys):
@@ -22,7 +26,7 @@ def test_a_lot_is_fitted_on_dask_and_a_bad_log_fails_alone(tmp_path, capsys):
     bad = tmp_path / "bad.csv"
     bad.write_text("time_s,drift_deg_h,temperature_C\n0,1,20\n1,x,20\n2,1,21\n")
     out = tmp_path / "lot"
-    code = main(["batch", str(logs[0]), str(bad), str(logs[1]), "--terms", "thermal",
+    code = main(["batch", *WHITE, str(logs[0]), str(bad), str(logs[1]), "--terms", "thermal",
                  "--out", str(out), "--workers", "2", "--priors", "paper_a_fog",
                  "--prior", "w0=normal(0,5)", "--t0", "20", "--rate-window", "900",
                  "--noise", "white"])
@@ -51,7 +55,7 @@ def test_logs_that_would_share_a_folder_are_refused_before_any_work(tmp_path, ca
     for stand in ("x", "y"):
         (tmp_path / stand / "day1").mkdir(parents=True)
         (tmp_path / stand / "day1" / "unit.csv").write_text("time_s,drift_deg_h\n0,1\n")
-    code = main(["batch", str(tmp_path / "x" / "day1" / "unit.csv"),
+    code = main(["batch", *WHITE, str(tmp_path / "x" / "day1" / "unit.csv"),
                  str(tmp_path / "y" / "day1" / "unit.csv"), "--terms", "thermal", "--out",
                  str(tmp_path / "lot")])
     assert code == 2

@@ -11,6 +11,10 @@ from helpers import write_log
 from gyroid import MagneticProtocol, ThermalProtocol, load_bench_log
 from gyroid.cli import main
 
+#: Tests of the pipeline fit white noise: the default (IEEE 952 noise) is tested on its own
+#: (tests/test_ieee_noise.py, the README tour) and costs a minute per fit.
+WHITE = ("--noise", "white")
+
 
 def test_help_lists_the_commands(capsys):
     assert main(["--help"]) == 0
@@ -167,7 +171,7 @@ def test_progress_in_a_log_file_is_plain_lines(tmp_path, simulated_magnetic, cap
     import gyroid.inference._emcee as emcee_module
 
     monkeypatch.setattr(emcee_module, "PLAIN_EVERY_S", 0.0)
-    assert main(["fit", str(simulated_magnetic), "--terms", "magnetic", "--out",
+    assert main(["fit", *WHITE, str(simulated_magnetic), "--terms", "magnetic", "--out",
                  str(tmp_path / "fit")]) == 0
     err = capsys.readouterr().err
     assert "\r" not in err
@@ -177,7 +181,7 @@ def test_progress_in_a_log_file_is_plain_lines(tmp_path, simulated_magnetic, cap
 
 def test_fit_writes_the_contract_outputs(tmp_path, simulated_magnetic):
     out = tmp_path / "fit"
-    assert main(["fit", str(simulated_magnetic), "--terms", "magnetic", "--out", str(out),
+    assert main(["fit", *WHITE, str(simulated_magnetic), "--terms", "magnetic", "--out", str(out),
                  "--seed", "1", "--no-progress"]) == 0
     fit = json.loads((out / "fit.json").read_text())
     names = ["w0", "wx", "wy", "wz"]
@@ -219,7 +223,7 @@ def test_fit_refuses_a_malformed_log_and_writes_nothing(tmp_path, capsys, simula
     bad = tmp_path / "bad.csv"
     bad.write_text(edit(simulated_magnetic.read_text()))
     out = tmp_path / "fit"
-    assert main(["fit", str(bad), "--terms", "magnetic", "--out", str(out)]) == 2
+    assert main(["fit", *WHITE, str(bad), "--terms", "magnetic", "--out", str(out)]) == 2
     err = capsys.readouterr().err
     assert expected in err and "Traceback" not in err
     assert not out.exists()
@@ -250,7 +254,7 @@ def test_a_second_writer_to_one_out_is_refused_and_a_stale_lock_taken_over(
     writer = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
     try:
         lock.write_text(f"{writer.pid}\n")
-        args = ["fit", str(simulated_magnetic), "--terms", "magnetic", "--out", str(out),
+        args = ["fit", *WHITE, str(simulated_magnetic), "--terms", "magnetic", "--out", str(out),
                 "--no-progress"]
         assert main(args) == 2
         err = capsys.readouterr().err
@@ -273,10 +277,10 @@ def test_quiet_prints_only_the_failed_checks_and_verbose_the_time(tmp_path, caps
     drift = 1.0 + np.cumsum(rng.normal(0.0, 0.05, 2000)) + rng.normal(0.0, 0.3, 2000)
     log = write_log(tmp_path / "wander.csv", {"time_s": time_s, "drift_deg_h": drift})
     white = ["--noise", "white"]  # which refuses this wander
-    assert main(["fit", str(log), "--terms", "bias", "--out", str(tmp_path / "loud"),
+    assert main(["fit", *WHITE, str(log), "--terms", "bias", "--out", str(tmp_path / "loud"),
                  "--no-progress", *white]) == 3
     loud = capsys.readouterr()
-    assert main(["fit", str(log), "--terms", "bias", "--out", str(tmp_path / "quiet"), "-q",
+    assert main(["fit", *WHITE, str(log), "--terms", "bias", "--out", str(tmp_path / "quiet"), "-q",
                  *white]) == 3
     quiet = capsys.readouterr()
     assert quiet.out == "" and loud.out

@@ -12,6 +12,10 @@ from gyroid.io._memory import memory_free_bytes
 from gyroid.simulation import PAPER_A_THERMAL, ThermalProtocol, gauss_markov, simulate_thermal_bench
 from gyroid.workflows import allan_deviation, compensate
 
+#: Tests of the pipeline fit white noise: the default (IEEE 952 noise) is tested on its own
+#: (tests/test_ieee_noise.py, the README tour) and costs a minute per fit.
+WHITE = ("--noise", "white")
+
 
 def test_white_noise_has_slope_minus_half_and_the_arw_level():
     arw = 0.005
@@ -106,7 +110,7 @@ def test_extrapolation_is_reported(fitted_short):
 def test_cli_writes_the_contract_files(tmp_path, monkeypatch, capsys):
     sim, fit, out = tmp_path / "sim", tmp_path / "fit", tmp_path / "comp"
     assert main(["simulate", "magnetic", "--out", str(sim), "--seed", "4"]) == 0
-    assert main(["fit", str(sim / "bench.csv"), "--terms", "magnetic", "--out", str(fit),
+    assert main(["fit", *WHITE, str(sim / "bench.csv"), "--terms", "magnetic", "--out", str(fit),
                  "--no-progress"]) == 0
     assert main(["compensate", str(sim / "bench.csv"), "--fit", str(fit), "--out",
                  str(out)]) == 0

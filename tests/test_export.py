@@ -12,6 +12,10 @@ from helpers import write_log
 from gyroid.cli import main
 from gyroid.workflows._export import recentre
 
+#: Tests of the pipeline fit white noise: the default (IEEE 952 noise) is tested on its own
+#: (tests/test_ieee_noise.py, the README tour) and costs a minute per fit.
+WHITE = ("--noise", "white")
+
 TERMS = "bias,temperature,temperature_sq,temperature_rate"
 DEG_H = math.pi / 180.0 / 3600.0  # rad/s per deg/h
 
@@ -32,7 +36,7 @@ def fit_dir(tmp_path_factory):
         columns[f"drift_{axis}_deg_h"] = (5.0 * (k - 1) + 0.3 * t + 0.004 * t**2 + 0.05 * rate
                                           + 0.2 * rng.standard_normal(time_s.size))
     log = write_log(root / "imu.csv", columns)
-    assert main(["fit", str(log), "--terms", TERMS, "--out", str(root / "fit"),
+    assert main(["fit", *WHITE, str(log), "--terms", TERMS, "--out", str(root / "fit"),
                  "--no-progress"]) == 0
     return root / "fit"
 
@@ -112,7 +116,7 @@ def test_a_fit_without_temperature_cannot_be_exported(tmp_path, capsys):
     log = write_log(tmp_path / "b.csv", {"time_s": np.arange(50.0),
                                          "drift_deg_h": np.random.default_rng(1).normal(
                                              size=50)})
-    assert main(["fit", str(log), "--terms", "bias", "--out", str(tmp_path / "f"),
+    assert main(["fit", *WHITE, str(log), "--terms", "bias", "--out", str(tmp_path / "f"),
                  "--no-progress"]) in (0, 3)
     assert main(["export", str(tmp_path / "f"), "--to", "px4", "--out",
                  str(tmp_path / "e")]) == 2
@@ -183,7 +187,7 @@ def test_an_untrustworthy_fit_is_exported_with_exit_3(tmp_path, capsys):
     drift = 0.3 * (temperature - 21.0) + np.random.default_rng(2).normal(0.0, 0.2, 600)
     log = write_log(tmp_path / "warmup.csv", {"time_s": time_s, "temperature_C": temperature,
                                               "drift_deg_h": drift})
-    assert main(["fit", str(log), "--terms", TERMS, "--out", str(tmp_path / "f"),
+    assert main(["fit", *WHITE, str(log), "--terms", TERMS, "--out", str(tmp_path / "f"),
                  "--no-progress"]) == 3
     assert "collinear" in capsys.readouterr().err
     assert main(["export", str(tmp_path / "f"), "--to", "px4", "--out",

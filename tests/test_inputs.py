@@ -13,6 +13,10 @@ from gyroid.io import load_bench_log, load_roll_log
 from gyroid.simulation import FlightProfile, roll_log_text, simulate_flight, simulate_magnetic_bench
 from gyroid.workflows import allan_deviation
 
+#: Tests of the pipeline fit white noise: the default (IEEE 952 noise) is tested on its own
+#: (tests/test_ieee_noise.py, the README tour) and costs a minute per fit.
+WHITE = ("--noise", "white")
+
 
 @pytest.fixture(scope="module")
 def magnetic_columns():
@@ -34,8 +38,8 @@ def test_unwritable_out_is_one_message(tmp_path, capsys, magnetic_columns):
     path = write_log(tmp_path / "bench.csv", magnetic_columns)
     blocker = tmp_path / "a_file"
     blocker.write_text("x")
-    code, err = _run(["fit", str(path), "--terms", "magnetic", "--out", str(blocker / "fit")],
-                     capsys)
+    code, err = _run(["fit", *WHITE, str(path), "--terms", "magnetic", "--out",
+                      str(blocker / "fit")], capsys)
     assert code == 2 and "cannot write there" in err and "internal error" not in err
 
 
@@ -43,8 +47,8 @@ def test_an_absurd_value_names_its_row(tmp_path, capsys, magnetic_columns):
     columns = {k: v.copy() for k, v in magnetic_columns.items()}
     columns["drift_deg_h"][9] = 1e300
     path = write_log(tmp_path / "bench.csv", columns)
-    code, err = _run(["fit", str(path), "--terms", "magnetic", "--out", str(tmp_path / "o")],
-                     capsys)
+    code, err = _run(["fit", *WHITE, str(path), "--terms", "magnetic", "--out",
+                      str(tmp_path / "o")], capsys)
     assert code == 2 and "row 10" in err and "not a plausible value" in err
     assert not (tmp_path / "o").exists()
 
@@ -78,7 +82,8 @@ def test_vendor_columns_and_units_through_map(tmp_path, magnetic_columns):
               "temp": magnetic_columns["temperature_C"] + 273.15}
     path = write_log(tmp_path / "vendor.csv", vendor)
     out = tmp_path / "fit"
-    assert main(["fit", str(path), "--terms", "magnetic", "--out", str(out), "--no-progress",
+    assert main(["fit", *WHITE,
+                 str(path), "--terms", "magnetic", "--out", str(out), "--no-progress",
                  "--map", "time_s=t_ms:ms", "--map", "drift_deg_h=gyro_x:rad/s",
                  "--map", "Hx_uT=mag_x:G", "--map", "Hy_uT=mag_y:nT",
                  "--map", "Hz_uT=mag_z:T", "--map", "temperature_C=temp:K"]) in (0, 3)
@@ -101,7 +106,8 @@ def test_each_command_names_the_other_for_the_wrong_log(tmp_path, capsys, magnet
     roll.write_text(roll_log_text(roll_columns))
     code, err = _run(["roll", "fit", str(bench), "--out", str(tmp_path / "r")], capsys)
     assert code == 2 and "use 'gyroid fit'" in err
-    code, err = _run(["fit", str(roll), "--terms", "magnetic", "--out", str(tmp_path / "b")],
+    code, err = _run(["fit", *WHITE,
+                      str(roll), "--terms", "magnetic", "--out", str(tmp_path / "b")],
                      capsys)
     assert code == 2 and "use 'gyroid roll fit'" in err
 
@@ -170,12 +176,13 @@ def test_extra_column_terms_are_fitted_but_refused_where_they_cannot_apply(tmp_p
     columns = {"time_s": t, "drift_deg_h": 1.0 + 0.2 * pressure + 0.3 * rng.standard_normal(
         t.size), "pressure": pressure}
     write_bench_log(tmp_path / "log.csv", columns)
-    assert main(["fit", str(tmp_path / "log.csv"), "--terms", "bias,extra:pressure", "--out",
+    assert main(["fit", *WHITE,
+                 str(tmp_path / "log.csv"), "--terms", "bias,extra:pressure", "--out",
                  str(tmp_path / "fit"), "--no-progress"]) in (0, 3)
     fit = __import__("json").loads((tmp_path / "fit" / "fit.json").read_text())
     post = fit["posterior"]["w_extra_pressure"]
     assert abs(post["mean"] - 0.2) < 4 * post["sd"]
-    assert main(["fit", str(tmp_path / "log.csv"), "--terms", "bias,extra:nope", "--out",
+    assert main(["fit", *WHITE, str(tmp_path / "log.csv"), "--terms", "bias,extra:nope", "--out",
                  str(tmp_path / "f2")]) == 2
     capsys.readouterr()
     assert main(["compensate", str(tmp_path / "log.csv"), "--fit", str(tmp_path / "fit"),

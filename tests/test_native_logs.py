@@ -13,6 +13,10 @@ from gyroid.cli import main
 from gyroid.errors import GyroidInputError
 from gyroid.io import read_log_table
 
+#: Tests of the pipeline fit white noise: the default (IEEE 952 noise) is tested on its own
+#: (tests/test_ieee_noise.py, the README tour) and costs a minute per fit.
+WHITE = ("--noise", "white")
+
 RAD_TO_DEG_H = 180.0 / np.pi * 3600.0
 
 
@@ -104,7 +108,8 @@ def test_mat_files_read_every_column_and_map_units(tmp_path):
                                 "gyroBuffer_4", "temp")
         np.testing.assert_allclose(table.raw["gyroBuffer_3"], rates_deg_s[:, 1], rtol=1e-15)
     out = tmp_path / "fit"
-    args = ["fit", str(v73), "--terms", "bias,temperature", "--axes", "y", "--out", str(out),
+    args = ["fit", *WHITE,
+            str(v73), "--terms", "bias,temperature", "--axes", "y", "--out", str(out),
             "--no-progress"]
     for item in maps:
         args += ["--map", item]
@@ -124,7 +129,7 @@ def test_a_ulog_is_fitted_on_every_axis_as_its_csv(tmp_path):
     csv.write_text(",".join(columns) + "\n" + "\n".join(
         ",".join(repr(float(v)) for v in row) for row in rows) + "\n")
     for name, path in (("ulog", ulog), ("csv", csv)):
-        assert main(["fit", str(path), "--terms", "bias,temperature", "--out",
+        assert main(["fit", *WHITE, str(path), "--terms", "bias,temperature", "--out",
                      str(tmp_path / name), "--no-progress"]) == 0
     source = json.loads((tmp_path / "ulog" / "axes.json").read_text())["source"]
     assert source["format"] == "PX4 ULog" and source["gyro_unit"] == "rad/s"
@@ -145,7 +150,7 @@ def test_a_ulog_is_fitted_on_every_axis_as_its_csv(tmp_path):
 def test_a_damaged_native_log_gets_one_clear_message(tmp_path, capsys, name, content, message):
     path = tmp_path / name
     path.write_bytes(content)
-    assert main(["fit", str(path), "--terms", "bias", "--out", str(tmp_path / "o")]) == 2
+    assert main(["fit", *WHITE, str(path), "--terms", "bias", "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
 

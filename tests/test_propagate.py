@@ -13,6 +13,10 @@ from gyroid.models import _paper_b as pb
 from gyroid.workflows import SCENARIOS as PRESETS
 from gyroid.workflows import load_scenario, propagate
 
+#: Tests of the pipeline fit white noise: the default (IEEE 952 noise) is tested on its own
+#: (tests/test_ieee_noise.py, the README tour) and costs a minute per fit.
+WHITE = ("--noise", "white")
+
 CERTAIN = replace(PRESETS["paper_b_worked"], uncompensated_sd_deg_s=0.0, mems_sf_error_sd=0.0,
                   mems_bias_sd_deg_h=0.0, encoder_deg=0.0, encoder_phase="0.0",
                   sample_s=0.05)
@@ -77,7 +81,7 @@ def test_scenario_files_and_bad_scenarios(tmp_path):
 def test_cli_propagates_a_fitted_bench(tmp_path):
     sim, fit, out = tmp_path / "sim", tmp_path / "fit", tmp_path / "prop"
     assert main(["simulate", "thermal", "--out", str(sim), "--seed", "2"]) == 0
-    assert main(["fit", str(sim / "bench.csv"), "--terms", "thermal", "--out", str(fit),
+    assert main(["fit", *WHITE, str(sim / "bench.csv"), "--terms", "thermal", "--out", str(fit),
                  "--no-progress"]) == 0
     assert main(["propagate", str(fit), "--out", str(out), "--draws", "500"]) == 0
     data = json.loads((out / "propagate.json").read_text())

@@ -291,9 +291,9 @@ def fit_options(function):
         click.option("--noise", default="auto", show_default=True,
                      metavar="|".join(NOISE_CHOICES) + "|DIR",
                      help="Noise model: white; white plus a Gauss-Markov part; IEEE 952's "
-                     "white + flicker (bias instability) + rate random walk; auto: white "
-                     "unless its residuals are not white or it fails to predict held-out "
-                     "stretches, then white+flicker+rw; or DIR, the --out folder of 'gyroid "
+                     "white + flicker (bias instability) + rate random walk; auto: "
+                     "white+flicker+rw on every log, B and K with priors that let them be "
+                     "negligible; or DIR, the --out folder of 'gyroid "
                      "noise' on the same gyro at rest: white+flicker+rw with its N, B and K "
                      "posteriors as priors."),
         click.option("--t0", "t0_C", default=21.0, show_default=True, type=TEMPERATURE,

@@ -83,15 +83,21 @@ class Emcee(AbstractSampler):
 def _initial_walkers(batch, start: np.ndarray, covariance: np.ndarray, n_walkers: int,
                      rng: np.random.Generator) -> np.ndarray:
     d = start.size
+    if not np.all(np.isfinite(covariance)):  # a singular curvature at the mode: small steps
+        covariance = np.diag(np.where(np.isfinite(np.diag(covariance)),
+                                      np.diag(covariance), 1e-4))
     factor = covariance_factor(covariance)
     walkers = start + rng.standard_normal((n_walkers, d)) @ factor.T
     half = n_walkers // 2  # emcee evaluates half the ensemble at a time: one compilation
-    for _ in range(20):
+    for attempt in range(21):
         lp = np.concatenate([np.asarray(batch(walkers[:half])), np.asarray(batch(walkers[half:]))])
         bad = ~np.isfinite(lp)
         if not bad.any():
             break
-        walkers[bad] = start + 0.1 * rng.standard_normal((bad.sum(), d)) @ factor.T
+        # closer to the start each time; a walker left where the posterior is zero would
+        # never move (emcee compares its -inf with its proposals')
+        shrink = 0.1 * 0.5**attempt
+        walkers[bad] = start + shrink * rng.standard_normal((bad.sum(), d)) @ factor.T
     return walkers
 
 

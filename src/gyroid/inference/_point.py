@@ -121,9 +121,14 @@ def _collapsed_mode(collapsed, u_model: np.ndarray, noise_u: np.ndarray,
                                        for i in correlated]
     solutions = [optx.minimise(_negative_marginal, solver, start, args=collapsed,
                                max_steps=2000, throw=False) for start in starts]
+    # a candidate counts within 6 prior sds of each level's prior median: far beyond, the
+    # filter's arithmetic (a walk's variance 1e30 times the data's) is no likelihood
+    loc, scale = np.asarray(collapsed.noise_loc), np.asarray(collapsed.noise_scale)
+    on = np.asarray(collapsed.noise_on) > 0
     values = [float(_marginal_value(s.value, collapsed)) for s in solutions]
-    solution = solutions[int(np.nanargmin(np.where(np.isfinite(values), values, np.nan)))
-                         if np.any(np.isfinite(values)) else 0]
+    plausible = [i for i, s in enumerate(solutions) if np.isfinite(values[i]) and np.all(
+        ~on | (np.abs(np.asarray(s.value) - loc) <= 6.0 * scale))]
+    solution = solutions[min(plausible, key=values.__getitem__) if plausible else 0]
     v = solution.value
     # central differences of the gradient (a few passes) rather than jax.hessian, whose
     # forward-over-reverse pass through the filter's scan took 46 s on the demo's log
