@@ -19,6 +19,9 @@ SHORT_THERMAL = ThermalProtocol(
     sample_s=10.0,
 )
 SHORT_MAGNETIC = MagneticProtocol(dwell_s=60.0, sample_s=5.0, turn_gap_s=100.0)
+#: Tests of the pipeline fit white noise: the default (IEEE 952 noise) is tested on its own
+#: (tests/test_ieee_noise.py, the README tour) and costs up to a minute per fit.
+WHITE = ("--noise", "white")
 
 
 def write_log(path: Path, columns: dict[str, np.ndarray]) -> Path:

@@ -6,13 +6,9 @@ import json
 
 import numpy as np
 import pytest
-from helpers import write_log
+from helpers import WHITE, write_log
 
 from gyroid.cli import main
-
-#: Tests of the pipeline fit white noise: the default (IEEE 952 noise) is tested on its own
-#: (tests/test_ieee_noise.py, the README tour) and costs a minute per fit.
-WHITE = ("--noise", "white")
 
 TERMS = "bias,temperature"
 #: Per axis: bias (deg/h), temperature slope (deg/h/degC), white noise (deg/h).

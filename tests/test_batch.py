@@ -4,14 +4,10 @@ import csv
 import json
 
 import pytest
-from helpers import SHORT_THERMAL, write_log
+from helpers import SHORT_THERMAL, WHITE, write_log
 
 from gyroid.cli import main
 from gyroid.simulation import simulate_thermal_bench
-
-#: Tests of the pipeline fit white noise: the default (IEEE 952 noise) is tested on its own
-#: (tests/test_ieee_noise.py, the README tour) and costs a minute per fit.
-WHITE = ("--noise", "white")
 
 
 @pytest.mark.slow

@@ -6,14 +6,10 @@ import sys
 
 import numpy as np
 import pytest
-from helpers import write_log
+from helpers import WHITE, write_log
 
 from gyroid import MagneticProtocol, ThermalProtocol, load_bench_log
 from gyroid.cli import main
-
-#: Tests of the pipeline fit white noise: the default (IEEE 952 noise) is tested on its own
-#: (tests/test_ieee_noise.py, the README tour) and costs a minute per fit.
-WHITE = ("--noise", "white")
 
 
 def test_help_lists_the_commands(capsys):

@@ -4,6 +4,7 @@ import json
 
 import numpy as np
 import pytest
+from helpers import WHITE
 
 from gyroid.cli import main
 from gyroid.inference import Emcee, fit_log
@@ -11,10 +12,6 @@ from gyroid.io import FittedDrift
 from gyroid.io._memory import memory_free_bytes
 from gyroid.simulation import PAPER_A_THERMAL, ThermalProtocol, gauss_markov, simulate_thermal_bench
 from gyroid.workflows import allan_deviation, compensate
-
-#: Tests of the pipeline fit white noise: the default (IEEE 952 noise) is tested on its own
-#: (tests/test_ieee_noise.py, the README tour) and costs a minute per fit.
-WHITE = ("--noise", "white")
 
 
 def test_white_noise_has_slope_minus_half_and_the_arw_level():

@@ -7,14 +7,10 @@ import math
 
 import numpy as np
 import pytest
-from helpers import write_log
+from helpers import WHITE, write_log
 
 from gyroid.cli import main
 from gyroid.workflows._export import recentre
-
-#: Tests of the pipeline fit white noise: the default (IEEE 952 noise) is tested on its own
-#: (tests/test_ieee_noise.py, the README tour) and costs a minute per fit.
-WHITE = ("--noise", "white")
 
 TERMS = "bias,temperature,temperature_sq,temperature_rate"
 DEG_H = math.pi / 180.0 / 3600.0  # rad/s per deg/h

@@ -5,17 +5,13 @@ import gzip
 
 import numpy as np
 import pytest
-from helpers import SHORT_MAGNETIC, write_log
+from helpers import SHORT_MAGNETIC, WHITE, write_log
 
 from gyroid.cli import main
 from gyroid.errors import GyroidInputError
 from gyroid.io import load_bench_log, load_roll_log
 from gyroid.simulation import FlightProfile, roll_log_text, simulate_flight, simulate_magnetic_bench
 from gyroid.workflows import allan_deviation
-
-#: Tests of the pipeline fit white noise: the default (IEEE 952 noise) is tested on its own
-#: (tests/test_ieee_noise.py, the README tour) and costs a minute per fit.
-WHITE = ("--noise", "white")
 
 
 @pytest.fixture(scope="module")

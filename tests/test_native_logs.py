@@ -7,15 +7,11 @@ import json
 
 import numpy as np
 import pytest
-from helpers import write_dataflash, write_rosbag, write_ulog
+from helpers import WHITE, write_dataflash, write_rosbag, write_ulog
 
 from gyroid.cli import main
 from gyroid.errors import GyroidInputError
 from gyroid.io import read_log_table
-
-#: Tests of the pipeline fit white noise: the default (IEEE 952 noise) is tested on its own
-#: (tests/test_ieee_noise.py, the README tour) and costs a minute per fit.
-WHITE = ("--noise", "white")
 
 RAD_TO_DEG_H = 180.0 / np.pi * 3600.0
 

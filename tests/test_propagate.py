@@ -5,6 +5,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
+from helpers import WHITE
 
 from gyroid.cli import main
 from gyroid.io import FittedDrift
@@ -12,10 +13,6 @@ from gyroid.models import DriftModel, RollParams, constant_flight, run_loop
 from gyroid.models import _paper_b as pb
 from gyroid.workflows import SCENARIOS as PRESETS
 from gyroid.workflows import load_scenario, propagate
-
-#: Tests of the pipeline fit white noise: the default (IEEE 952 noise) is tested on its own
-#: (tests/test_ieee_noise.py, the README tour) and costs a minute per fit.
-WHITE = ("--noise", "white")
 
 CERTAIN = replace(PRESETS["paper_b_worked"], uncompensated_sd_deg_s=0.0, mems_sf_error_sd=0.0,
                   mems_bias_sd_deg_h=0.0, encoder_deg=0.0, encoder_phase="0.0",

@@ -19,7 +19,7 @@ from gyroid.models._derived import RATE_WINDOW_S
 from gyroid.models._drift import DriftModel
 from gyroid.models._inputs import T0_C
 from gyroid.noise._base import NoiseEstimate
-from gyroid.noise._kinds import White, levels_from_json
+from gyroid.noise._kinds import White, recorded_model
 
 
 @dataclass(frozen=True)
@@ -187,7 +187,7 @@ def _noise_of(fit: dict) -> NoiseEstimate | None:
         noise.get("point") or {})
     if not levels and "white_sd_deg_h" not in noise:
         return None
-    model, _ = levels_from_json(noise)
+    model = recorded_model(noise)
     white = noise.get("white_sd_deg_h", levels.get("sigma_deg_h"))
     if white is None:
         return None

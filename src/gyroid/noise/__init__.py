@@ -7,6 +7,6 @@ from gyroid._lazy import attach
 
 __getattr__, __dir__, __all__ = attach(__name__, {
     "_base": ["NoiseEstimate", "NoiseModel", "RowClock"],
-    "_kinds": ["GaussMarkov", "Ieee952", "NOISE_MODELS", "NOISE_UNITS", "White",
-               "levels_from_json", "noise_model"],
+    "_kinds": ["GaussMarkov", "Ieee952", "NOISE_MODELS", "White", "noise_model",
+               "recorded_model"],
 })

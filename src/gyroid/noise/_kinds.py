@@ -205,8 +205,6 @@ class Ieee952(NoiseModel):
 
 #: The noise models ``--noise`` offers, by name.
 NOISE_MODELS: dict[str, NoiseModel] = {m.name: m for m in (White(), GaussMarkov(), Ieee952())}
-#: Every noise level's unit, by name.
-NOISE_UNITS: dict[str, str] = {k: v for m in NOISE_MODELS.values() for k, v in m.units.items()}
 
 
 def noise_model(kind: str | NoiseModel) -> NoiseModel:
@@ -219,8 +217,7 @@ def noise_model(kind: str | NoiseModel) -> NoiseModel:
     return NOISE_MODELS[kind]
 
 
-def levels_from_json(record: Mapping) -> tuple[NoiseModel, dict[str, float]]:
-    """A noise model and its levels from a fit record's ``noise`` section (``model`` and the
-    levels by name); an old record without ``model`` had white noise."""
-    model = noise_model(record.get("model", White.name))
-    return model, {k: float(record[k]) for k in model.level_names if k in record}
+def recorded_model(record: Mapping) -> NoiseModel:
+    """The noise model a fit record's ``noise`` section names (``model``); an old record
+    without it had white noise."""
+    return noise_model(record.get("model", White.name))
