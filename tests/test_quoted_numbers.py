@@ -372,8 +372,11 @@ def _fog_phrases() -> dict[str, str]:
         f"the default's posterior sds were {min(medians):.2f}-{max(medians):.2f}x "
         f"`--noise white`'s (medians per coefficient over {len(default)} seeds; at most "
         f"{largest:.2f}x), {trusted} of {len(default)} default fits trusted")
+    white_seconds = _results("fog_thermal_bench_white_only_white")["summary"]["smooth"][
+        "median_seconds"]
     out["seconds"] = (f"a median {smooth['median_seconds']:.0f} s with two such fits running "
-                      "side by side")
+                      f"side by side (`experiments/results/fog_thermal_bench/`), against "
+                      f"{white_seconds:.1f} s for `--noise white`")
     return out
 
 

@@ -112,7 +112,7 @@ def _collapsed_mode(collapsed, u_model: np.ndarray, noise_u: np.ndarray,
     conditional one beside the levels' inverse Hessian.
 
     The marginal can have a mode for each way of explaining slow wander (flicker or a random
-    walk: a real log's, 30 +/- 14 deg/h/sqrt(h) of walk, had a second mode with none and
+    walk: a real log's, 33 +/- 7 deg/h/sqrt(h) of walk, had a second mode with none and
     more flicker, where the guess's BFGS stopped): besides the guess, BFGS starts from each
     level of ``correlated`` (indices into the levels) raised :data:`RAISED_START` times,
     and the best of them is the mode."""
