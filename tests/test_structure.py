@@ -5,7 +5,8 @@ import ast
 from pathlib import Path
 
 from gyroid.inference import BenchFit, FitResult, PoolFit, RollFit
-from gyroid.inference._noise_fit import NoiseFit, NoiseModelFit
+from gyroid.inference._noise_fit import NoiseFit
+from gyroid.inference._noise_model_fit import NoiseModelFit
 from gyroid.noise import NOISE_MODELS
 
 SOURCE = Path(__file__).resolve().parents[1] / "src" / "gyroid"
@@ -35,3 +36,37 @@ def test_one_library_file_spells_the_noise_models_names():
 def test_writers_are_chosen_by_type_not_by_a_class_path():
     text = (SOURCE / "reports" / "_write.py").read_text()
     assert "__qualname__" not in text and "gyroid.inference._bench_fit.BenchFit\"" not in text
+
+
+#: A module longer than this does more than one job; a function longer, more than one step.
+MAX_MODULE_LINES = 400
+MAX_FUNCTION_LINES = 80
+
+
+def test_modules_and_functions_stay_short():
+    long = []
+    for path in sorted(SOURCE.rglob("*.py")):
+        text = path.read_text()
+        relative = path.relative_to(SOURCE)
+        if len(text.splitlines()) > MAX_MODULE_LINES:
+            long.append(f"{relative}: {len(text.splitlines())} lines")
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                length = node.end_lineno - node.lineno + 1
+                if length > MAX_FUNCTION_LINES:
+                    long.append(f"{relative}:{node.lineno} {node.name}: {length} lines")
+    assert not long, "\n".join(long)
+
+
+def test_the_command_line_only_parses_calls_and_prints():
+    """No command writes a file or stages an output folder itself: the pipeline does."""
+    writing = []
+    for path in sorted((SOURCE / "cli").glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            name = (node.func.attr if isinstance(node, ast.Call)
+                    and isinstance(node.func, ast.Attribute) else
+                    node.func.id if isinstance(node, ast.Call)
+                    and isinstance(node.func, ast.Name) else None)
+            if name in ("output_dir", "write_text", "write_bytes", "write", "save"):
+                writing.append(f"{path.name}:{node.lineno} {name}")
+    assert not writing, "\n".join(writing)

@@ -26,8 +26,7 @@ from gyroid.cli.base import (
     terms_help,
     terms_option,
 )
-from gyroid.errors import GyroidInputError, UntrustworthyResult
-from gyroid.io._outputs import output_dir
+from gyroid.errors import UntrustworthyResult
 
 
 @cli.command()
@@ -100,116 +99,18 @@ def simulate(
     """Simulate paper A's thermal or magnetic bench with known truth (of any length and
     sample rate with --hours and --rate-hz; a lot of runs with --runs). A thermal log of
     more than 2 x 10^7 rows is written chunk by chunk, never held whole."""
-    from gyroid.io._log_writer import write_bench_log
-    from gyroid.io._outputs import json_text
-    from gyroid.io._stream import STREAM_ROWS
-    from gyroid.plotting import magnetic_sweep, save
-    from gyroid.simulation._bench import (
-        MagneticProtocol,
-        ThermalProtocol,
-        preset_parameters,
-        simulate_magnetic_bench,
-        simulate_thermal_bench,
-    )
+    from gyroid.pipeline._simulate_file import SimulateOptions, simulate_to_dir
+    from gyroid.simulation._bench import preset_parameters
     from gyroid.simulation._noise import GyroNoise
-    from gyroid.simulation._stream import thermal_bench_rows
 
-    parameters = preset_parameters(bench) | parse_assignments(overrides, "--set")
-    noise = GyroNoise(
-        arw_deg_rt_h=arw,
-        bias_instability_deg_h=bias_instability,
-        correlation_time_s=correlation_time,
-    )
-    if arw < 0 or bias_instability < 0 or correlation_time <= 0:
-        raise GyroidInputError("noise levels must be >= 0 and the correlation time > 0")
-    if (hours is not None and hours <= 0) or (rate_hz is not None and rate_hz <= 0):
-        raise GyroidInputError("--hours and --rate-hz must be positive")
-    if runs < 1:
-        raise GyroidInputError("--runs must be at least 1")
-    if runs > 1:
-        if effects:
-            raise GyroidInputError("--effect is for single runs; a lot (--runs) varies the "
-                                   "preset's coefficients only")
-        _simulate_lot(bench, out, runs=runs, spread=spread, mean=parameters, noise=noise,
-                      seed=seed, hours=hours, rate_hz=rate_hz, average_s=average_s)
-        return
-    simulator = simulate_thermal_bench if bench == "thermal" else simulate_magnetic_bench
-    protocol = (ThermalProtocol() if bench == "thermal" else MagneticProtocol()).stretched(
-        hours, rate_hz)
-    log_name = f"bench.{log_format}"
-    if bench == "thermal" and thermal_bench_rows(protocol) > STREAM_ROWS:
-        if average_s:
-            raise GyroidInputError(
-                f"--average on a log of {thermal_bench_rows(protocol)} rows: its window "
-                "means are those of a slower log; simulate at a lower --rate-hz with --average")
-        _simulate_streamed(out, log_name, protocol, parameters=parameters,
-                           effects=parse_effects(effects), noise=noise, seed=seed)
-        return
-    sim = simulator(
-        parameters=parameters,
+    options = SimulateOptions(
+        parameters=preset_parameters(bench) | parse_assignments(overrides, "--set"),
         effects=parse_effects(effects),
-        noise=noise,
-        seed=seed,
-        average_s=average_s,
-        protocol=protocol,
-        say=lambda m: click.echo(m, err=True),
-    )
-    with output_dir(out) as stage:
-        write_bench_log(stage / log_name, sim.log.columns, sim.log.comments)
-        (stage / "truth.json").write_text(json_text(sim.truth))
-        if bench == "thermal":
-            fig = _thermal_figure(sim.log, None if average_s else sim.true_drift_deg_h,
-                                  protocol)
-        else:
-            fig = magnetic_sweep(sim.log)
-        save(fig, stage / "bench.png")
-    click.echo(f"wrote {out / log_name} ({sim.log.n} rows) and {out / 'truth.json'}")
-
-
-def _thermal_figure(log, true_drift, protocol, thinned_by: int = 1):
-    """A simulated thermal run's figure, dT/dt estimated over paper A's window scaled with
-    the protocol's transitions (the default suits its hour-long ones)."""
-    from gyroid.models._derived import RATE_WINDOW_S
-    from gyroid.plotting import thermal_run
-    from gyroid.simulation._bench import ThermalProtocol
-
-    window = RATE_WINDOW_S * protocol.transition_min / ThermalProtocol().transition_min
-    return thermal_run(log, log.inputs(rate_window_s=window).rate_C_h, true_drift,
-                       rate_window_s=window, thinned_by=thinned_by)
-
-
-def _simulate_streamed(out: Path, log_name: str, protocol, **options) -> None:
-    """A thermal log too long to hold, written chunk by chunk (its figure from every k-th
-    row)."""
-    from gyroid.io._outputs import json_text
-    from gyroid.plotting import save
-    from gyroid.simulation._stream import stream_thermal_bench
-
-    with output_dir(out) as stage:
-        sim = stream_thermal_bench(stage / log_name, protocol=protocol,
-                                   say=lambda m: click.echo(m, err=True), **options)
-        (stage / "truth.json").write_text(json_text(sim.truth))
-        save(_thermal_figure(sim.shown, sim.shown_true_drift_deg_h, protocol,
-                             thinned_by=sim.shown_every), stage / "bench.png")
-    click.echo(f"wrote {out / log_name} ({sim.n_rows} rows, written in chunks) and "
-               f"{out / 'truth.json'}")
-
-
-def _simulate_lot(bench: str, out: Path, *, runs: int, **options) -> None:
-    """Write a simulated lot: OUT/run_NN/bench.csv and truth.json, and OUT/lot.json."""
-    from gyroid.io._log_writer import write_bench_log
-    from gyroid.io._outputs import json_text
-    from gyroid.simulation._lot import simulate_lot
-
-    lot = simulate_lot(bench, runs, **options)
-    with output_dir(out) as stage:
-        for label, sim in zip(lot.labels, lot.runs, strict=True):
-            (stage / label).mkdir()
-            write_bench_log(stage / label / "bench.csv", sim.log.columns, sim.log.comments)
-            (stage / label / "truth.json").write_text(json_text(sim.truth))
-        (stage / "lot.json").write_text(json_text(lot.truth()))
-    click.echo(f"wrote {runs} runs to {out}/run_*/bench.csv and the lot's truth to "
-               f"{out / 'lot.json'}")
+        noise=GyroNoise(arw_deg_rt_h=arw, bias_instability_deg_h=bias_instability,
+                        correlation_time_s=correlation_time),
+        seed=seed, hours=hours, rate_hz=rate_hz, average_s=average_s, log_format=log_format,
+        runs=runs, spread=spread)
+    click.echo(simulate_to_dir(bench, out, options, say=lambda m: click.echo(m, err=True)))
 
 
 @cli.command()
@@ -272,21 +173,11 @@ def compensate(data, fit_dir, out, seed, mappings, axes, instance) -> None:
               help="Monte-Carlo draws for the distributions.")
 def propagate(fit_dir, out, scenario, seed, draws) -> None:
     """Push a fit's posterior through paper B's correction loop: dK, roll and lateral error."""
-    from gyroid.io._fitted import FittedDrift
-    from gyroid.reports._write import write
+    from gyroid.pipeline._propagate_file import propagate_dir
     from gyroid.workflows._propagate import driver_shares
-    from gyroid.workflows._propagate import propagate as run
-    from gyroid.workflows._scenarios import load_scenario
 
-    if draws < 10:
-        raise GyroidInputError("--draws must be at least 10")
-    fitted = FittedDrift.from_dir(fit_dir)
-    chosen = load_scenario(scenario)
-    click.echo(f"propagating {fit_dir} through scenario {chosen.name} ...", err=True)
-    result = run(fitted, chosen, draws=draws, seed=seed,
-                 progress=lambda m: click.echo(m, err=True))
-    with output_dir(out) as stage:
-        write(stage, result)
+    result = propagate_dir(fit_dir, out, scenario, draws=draws, seed=seed,
+                           say=lambda m: click.echo(m, err=True))
     dk = result.dk
     click.echo(f"dK = {dk['mean']:.3g} +/- {dk['sd']:.2g} (95 % {dk['ci95'][0]:.3g} ... "
                f"{dk['ci95'][1]:.3g}); wrote {out / 'propagate.json'}")
@@ -321,41 +212,12 @@ def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings, axes
     DATA is a bench log (docs/formats.md section 1; each gyro axis of a log of several) or a
     roll log (section 4: roll_rate_deg_s, gs_angle_deg), as .csv, .csv.gz or .parquet. Exit
     code 3 when a self-check of the final model fails."""
-    from gyroid.io._bench_reader import bench_log_from_table
-    from gyroid.io._memory import DISCREPANCY_BYTES_PER_ROW, refuse_if_too_long
-    from gyroid.io._roll_log import load_roll_log
-    from gyroid.io._tables import log_kind, read_log_table, table_source
-    from gyroid.pipeline._axes import PerAxis, chosen_axes, write_per_axis
-    from gyroid.workflows._discrepancy import find_discrepancies
-    from gyroid.workflows._roll_discrepancy import find_roll_discrepancies
+    from gyroid.pipeline._discrepancy_file import discrepancy_file
 
-    maps = parse_maps(mappings)
-
-    def say(message: str) -> None:
-        click.echo(message, err=True)
-
-    if log_kind(data, maps) == "roll":
-        log = load_roll_log(data, column_map=maps)
-        say(f"searching what {terms} misses in roll log {data} ({log.n} rows) ...")
-        result = PerAxis({None: find_roll_discrepancies(log, terms, max_added=max_added,
-                                                        progress=say)}, {"path": str(data)})
-    else:
-        refuse_if_too_long(data, bytes_per_row=DISCREPANCY_BYTES_PER_ROW,
-                           command="the discrepancy search",
-                           remedy="search a part of it (its rows split by time), or on a "
-                           "machine with more memory")
-        table = read_log_table(data, maps, instance)
-        reports = {}
-        for axis in chosen_axes(table, parse_axes(axes)):
-            log = bench_log_from_table(table, terms, extra_columns=extra_columns, axis=axis)
-            extra = (f"; extra columns {', '.join(log.extra_columns)}" if log.extra_columns
-                     else "")
-            which = f" (axis {axis})" if axis is not None else ""
-            say(f"searching what {terms} misses in {data}{which} ({log.n} rows{extra}) ...")
-            reports[axis] = find_discrepancies(log, terms, max_added=max_added, t0_C=t0_C,
-                                               progress=say)
-        result = PerAxis(reports, table_source(table))
-    write_per_axis(out, result)
+    result = discrepancy_file(data, out, terms, t0_C=t0_C, max_added=max_added,
+                              extra_columns=extra_columns, maps=parse_maps(mappings),
+                              axes=parse_axes(axes), instance=instance,
+                              say=lambda m: click.echo(m, err=True))
     for axis, report in result.results.items():
         for line in report.summary_lines():
             click.echo(f"axis {axis}: {line}" if result.several else line)
@@ -377,17 +239,11 @@ def batch(logs, out, workers, scheduler, options) -> None:
     each, in parallel on Dask, every one as 'gyroid fit' would with the same options. A log
     that cannot be fitted fails alone (batch.json says why). Exit code 3 when a log failed
     or a fit is not trustworthy."""
-    from gyroid.io._outputs import json_text
     from gyroid.pipeline._batch import run_batch
 
-    if workers < 1:
-        raise GyroidInputError("--workers must be at least 1")
     click.echo(f"fitting {len(logs)} logs with {workers} workers ...", err=True)
     result = run_batch(logs, options, out, workers=workers, scheduler=scheduler,
                        progress=lambda m: click.echo(m, err=True))
-    with output_dir(out) as stage:
-        (stage / "batch.json").write_text(json_text(result.to_json()))
-        (stage / "batch.csv").write_text(result.csv_text())
     failed = [o for o in result.outcomes if o.failed]
     doubtful = [o for o in result.outcomes if not o.failed and not o.trustworthy]
     click.echo(f"{len(logs) - len(failed)} fitted, {len(failed)} failed; wrote "

@@ -16,7 +16,6 @@ from gyroid.cli.base import (
     report_checks,
     terms_option,
 )
-from gyroid.io._outputs import output_dir
 
 
 @cli.command()
@@ -45,20 +44,13 @@ def pool(logs, terms, out, seed, t0_C, prior_choice, prior_items, segment_means,
     for a new run, which 'gyroid compensate --fit OUT' uses. Each log is a bench log of one
     run (docs/formats.md section 1); runs are named by file stem, or by folder when stems repeat.
     Exit code 3 when a self-check says the result must not be used."""
-    from gyroid.inference._pool_fit import fit_pool
     from gyroid.models._prior_scales import resolve_prior_option
-    from gyroid.pipeline._pool_runs import pool_runs
-    from gyroid.reports._write import write
+    from gyroid.pipeline._pool_runs import pool_to_dir
 
     prior_set, overrides = resolve_prior_option(prior_choice, prior_items)
-    loaded, labels = pool_runs(logs, terms, maps=parse_maps(mappings), axis=axis,
-                               instances=instances)
-    rows = sum(log.n for log in loaded)
-    click.echo(f"pooling {terms} over {len(loaded)} runs ({rows} rows) ...", err=True)
-    result = fit_pool(loaded, labels, terms, seed=seed, prior_set=prior_set, priors=overrides,
-                      t0_C=t0_C, segment_means=segment_means)
-    with output_dir(out) as stage:
-        write(stage, result)
+    result = pool_to_dir(logs, terms, out, seed=seed, prior_set=prior_set, priors=overrides,
+                         t0_C=t0_C, segment_means=segment_means, maps=parse_maps(mappings),
+                         axis=axis, instances=instances, say=lambda m: click.echo(m, err=True))
     click.echo(result.summary())
     click.echo(f"wrote {out / 'pool.json'}, {out / 'posterior.nc'} and {out / 'forest.png'}")
     report_checks(result.checks)

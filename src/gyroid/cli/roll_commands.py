@@ -16,7 +16,6 @@ from gyroid.cli.base import (
     report_line,
 )
 from gyroid.errors import GyroidInputError
-from gyroid.io._outputs import output_dir
 
 
 @cli.group()
@@ -46,22 +45,16 @@ def roll() -> None:
 def roll_simulate(out, seed, overrides, roll_profile, rate, duration, period, overload,
                   gs_capacity) -> None:
     """Simulate a flight with known truth: roll.csv (docs/formats.md section 4) and truth.json."""
-    from gyroid.io._outputs import json_text
-    from gyroid.simulation._flight import FlightProfile, roll_log_text, simulate_flight
+    from gyroid.pipeline._roll_files import simulate_roll_dir
+    from gyroid.simulation._flight import FlightProfile
 
     if duration <= 0 or period <= 0 or period > duration:
         raise GyroidInputError("--duration and --period must be positive, period <= duration")
     profile = FlightProfile(duration_s=duration, period_s=period, roll=roll_profile,
                             roll_rate_deg_s=rate, overload_fraction=overload,
                             gs_capacity_deg_s=gs_capacity)
-    sim = simulate_flight(params=parse_assignments(overrides, "--set"), profile=profile,
-                          seed=seed)
-    with output_dir(out) as stage:
-        (stage / "roll.csv").write_text(roll_log_text(
-            sim.columns, [f"gyroid simulated flight, seed {seed}"]))
-        (stage / "truth.json").write_text(json_text(sim.truth))
-    click.echo(f"wrote {out / 'roll.csv'} ({sim.columns['time_s'].size} rows) and "
-               f"{out / 'truth.json'}")
+    click.echo(simulate_roll_dir(out, profile, parse_assignments(overrides, "--set"),
+                                 seed=seed))
 
 
 @roll.command("fit")
@@ -75,19 +68,11 @@ def roll_simulate(out, seed, overrides, roll_profile, rate, duration, period, ov
 def roll_fit(data, out, seed, mappings, progress) -> None:
     """Fit the loop parameters (D0, D1, D0gs, D1gs, Denc) to a roll log ROLL (.csv, .csv.gz
     or .parquet; docs/formats.md section 4). Exit code 3 when a self-check fails."""
-    from gyroid.inference._emcee import Emcee
-    from gyroid.inference._roll_fit import fit_roll_log
-    from gyroid.io._roll_log import load_roll_log
-    from gyroid.reports._write import write
+    from gyroid.pipeline._roll_files import roll_fit_file
 
-    log = load_roll_log(data, parse_maps(mappings))
-    for note in log.notes:
-        click.echo(f"note: {note}", err=True)
-    click.echo(f"fitting the roll loop to {data} ({log.n} rows) ...", err=True)
-    result = fit_roll_log(log, seed=seed, sampler=Emcee(progress=progress))
-    with output_dir(out) as stage:
-        write(stage, result)
-    for name, s in result.to_json()["parameters"].items():
+    result = roll_fit_file(data, out, maps=parse_maps(mappings), seed=seed, progress=progress,
+                           say=lambda m: click.echo(m, err=True))
+    for name, s in result.parameter_summaries.items():
         click.echo(f"  {name:>5s} = {s['mean']:.6g} +/- {s['sd']:.2g}")
     derived = []
     for item in result.confounded:

@@ -11,7 +11,6 @@ from gyroid.cli.base import (
     cli,
 )
 from gyroid.errors import GyroidInputError
-from gyroid.io._outputs import output_dir
 
 
 @cli.command()
@@ -19,11 +18,10 @@ from gyroid.io._outputs import output_dir
               help="Folder for reproduce.json, tables.md and the figures.")
 def reproduce(out) -> None:
     """Recompute both papers' tables and audit them against their own formulas."""
-    from gyroid.reports._reproduction import write_reproduction
+    from gyroid.pipeline._study_files import reproduce_dir
 
     click.echo("recomputing paper A's and paper B's tables and their figures ...", err=True)
-    with output_dir(out) as stage:
-        result = write_reproduction(stage)
+    result = reproduce_dir(out)
     click.echo(f"{len(result['audit'])} disagreements found; wrote {out / 'reproduce.json'}")
 
 
@@ -54,8 +52,8 @@ def datasets(name, out) -> None:
     """Public real gyro logs gyroid knows: list them, or with NAME and --out fetch one
     (into GYROID_DATA or the user's cache, checked by its SHA-256) and write its logs in
     gyroid's columns (one drift_AXIS_deg_h column per gyro axis)."""
-    from gyroid.io._datasets import DATASETS, data_home, dataset_logs
-    from gyroid.io._log_writer import write_bench_log
+    from gyroid.io._datasets import DATASETS, data_home
+    from gyroid.pipeline._study_files import dataset_to_dir
 
     if name is None:
         for dataset in DATASETS.values():
@@ -64,9 +62,5 @@ def datasets(name, out) -> None:
         return
     if out is None:
         raise GyroidInputError("give --out DIR to write the dataset's logs into")
-    logs = dataset_logs(name)
-    with output_dir(out) as stage:
-        for log_name, (columns, comments) in logs.items():
-            write_bench_log(stage / f"{log_name}.csv", columns, comments)
-    click.echo(f"wrote {len(logs)} log(s) of {name} to {out}: "
-               + ", ".join(f"{k}.csv" for k in logs))
+    written = dataset_to_dir(name, out)
+    click.echo(f"wrote {len(written)} log(s) of {name} to {out}: " + ", ".join(written))

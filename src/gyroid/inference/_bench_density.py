@@ -24,9 +24,13 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
 
+from gyroid.inference._bench_precompute import (
+    host_log_posterior,
+    with_errors_in_variables,
+    with_sufficient_statistics,
+)
 from gyroid.io._logs import BenchLog
 from gyroid.models._derived import RATE_WINDOW_S
-from gyroid.models._design import least_squares_from_r, with_rows
 from gyroid.models._drift import DriftModel
 from gyroid.models._inputs import DriftInputs
 from gyroid.models._priors import Flat, LogNormal, Normal, Prior, prior_arrays
@@ -158,9 +162,9 @@ class BenchDensity(eqx.Module):
             **extra,
         )
         if rate_error_cov is not None:
-            return problem._with_errors_in_variables()
+            return with_errors_in_variables(problem)
         if fast and model.is_linear and not noise.correlated:
-            problem = problem._with_sufficient_statistics()
+            problem = with_sufficient_statistics(problem)
         return problem
 
     @property
@@ -168,81 +172,12 @@ class BenchDensity(eqx.Module):
         """Whether the thermometer's noise in dT/dt is carried in the likelihood."""
         return self.rate_error_cov is not None
 
-    def _white_d0(self) -> Float[Array, " n"]:
+    def white_d0(self) -> Float[Array, " n"]:
         """The white covariance's diagonal per unit of the sampled level (the known
         variances when the log gives them); traceable."""
         if self.sigma is not None:
             return self.sigma**2
         return jnp.full(self.n, self.row_scale**2)
-
-    def _with_errors_in_variables(self) -> BenchDensity:
-        """The eigenbasis of the rate error's covariance over the white part, on the rows
-        the likelihood reads (one eigendecomposition; each evaluation is then O(n))."""
-        keep = (np.ones(self.n, dtype=bool) if self.weight is None
-                else np.asarray(self.weight) > 0)
-        d0 = np.asarray(self._white_d0())
-        root = 1.0 / np.sqrt(d0[keep])
-        cov = np.asarray(self.rate_error_cov)[np.ix_(keep, keep)]
-        lam, vectors = np.linalg.eigh(root[:, None] * cov * root[None, :])
-        k = int(keep.sum())
-        basis = np.zeros((self.n, self.n))
-        basis[:k][:, keep] = vectors.T * root[None, :]
-        lam_full, on = np.zeros(self.n), np.zeros(self.n)
-        lam_full[:k], on[:k] = np.maximum(lam, 0.0), 1.0
-        y = basis @ np.asarray(self.drift)
-        x = (basis @ np.asarray(self.model.design(self.inputs))
-             if self.model.is_linear else None)
-        return eqx.tree_at(
-            lambda q: (q.eiv_basis, q.eiv_lambda, q.eiv_on, q.eiv_log_d0, q.eiv_y, q.eiv_x),
-            self,
-            (jnp.asarray(basis), jnp.asarray(lam_full), jnp.asarray(on),
-             jnp.asarray(float(np.sum(np.log(d0[keep])))), jnp.asarray(y),
-             None if x is None else jnp.asarray(x)),
-            is_leaf=lambda q: q is None)
-
-    def _with_sufficient_statistics(self) -> BenchDensity:
-        """The linear-Gaussian fast path: the Gram matrix and least-squares solution of the
-        whole log and of each LOO block (about that solution, which keeps the block sums
-        well conditioned). Two passes over the design in blocks of rows (its R factor,
-        then the block sums): memory of one block, whatever the log's length."""
-        y = np.asarray(self.drift)
-        w = None if self.sigma is None else 1.0 / np.asarray(self.sigma)
-        p = self.n_model
-
-        def weighted_blocks():
-            for rows, x in self.model.design_blocks(self.inputs):
-                yield rows, (x, y[rows]) if w is None else (x * w[rows, None], y[rows] * w[rows])
-
-        r = None
-        for _, (xw, yw) in weighted_blocks():
-            r = with_rows(r, np.column_stack([xw, yw]))
-        solution, rss = least_squares_from_r(r)
-        gram = r[:, :p].T @ r[:, :p]
-        block = np.asarray(self.block)
-        n_blocks = int(self.n_blocks)
-        gram_b = np.zeros((n_blocks, p, p))
-        xr_b = np.zeros((n_blocks, p))
-        rr_b = np.zeros(n_blocks)
-        for rows, (xw, yw) in weighted_blocks():
-            r0 = yw - xw @ solution
-            index = block[rows]
-            for i in range(p):
-                xr_b[:, i] += np.bincount(index, xw[:, i] * r0, n_blocks)
-                for j in range(i, p):
-                    gram_b[:, i, j] += np.bincount(index, xw[:, i] * xw[:, j], n_blocks)
-                    gram_b[:, j, i] = gram_b[:, i, j]
-            rr_b += np.bincount(index, r0**2, n_blocks)
-        log_sigma = np.zeros_like(y) if self.sigma is None else np.log(np.asarray(self.sigma))
-        return eqx.tree_at(
-            lambda q: (q.gram, q.solution, q.rss_min, q.log_sigma_sum, q.block_gram,
-                       q.block_xr, q.block_rr, q.block_count, q.block_log_sigma),
-            self,
-            (jnp.asarray(gram), jnp.asarray(solution), jnp.asarray(rss),
-             jnp.asarray(float(np.sum(log_sigma))), jnp.asarray(gram_b), jnp.asarray(xr_b),
-             jnp.asarray(rr_b), jnp.asarray(np.bincount(block, minlength=n_blocks).astype(float)),
-             jnp.asarray(np.bincount(block, log_sigma, n_blocks))),
-            is_leaf=lambda x: x is None,
-        )
 
     def without_rows(self, held_out: np.ndarray) -> BenchDensity:
         """The same density with the rows ``held_out`` (a boolean mask) left out of the
@@ -256,7 +191,7 @@ class BenchDensity(eqx.Module):
                        q.block_xr, q.block_rr, q.block_count, q.block_log_sigma),
             self, (weight, *none), is_leaf=lambda x: x is None)
         # errors in variables: the marginal of the rows kept, in their own eigenbasis
-        return out._with_errors_in_variables() if self.errors_in_variables else out
+        return with_errors_in_variables(out) if self.errors_in_variables else out
 
     # ----- parameter bookkeeping -------------------------------------------------------
     @property
@@ -372,7 +307,7 @@ class BenchDensity(eqx.Module):
     def _covariance(self, u: Float[Array, " d"]) -> Float[Array, "n n"]:
         """The rows' noise covariance under errors in variables, (deg/h)^2."""
         s2, a2 = self._eiv_levels(u)
-        return jnp.diag(s2 * self._white_d0()) + a2 * self.rate_error_cov
+        return jnp.diag(s2 * self.white_d0()) + a2 * self.rate_error_cov
 
     def _eiv_projection(self, u: Float[Array, " d"]):
         """The residual in the eigenbasis and each coordinate's variance."""
@@ -423,62 +358,8 @@ class BenchDensity(eqx.Module):
         return jnp.sum(self.log_likelihood_rows(u))
 
     def host_log_posterior(self):
-        """The log-posterior of many walkers, ``u (w, d) -> (w,)``, in NumPy on the
-        sufficient statistics: what emcee calls every step. For a linear model with white
-        noise a step then costs a (w, p) x (p, p) product and no JAX dispatch, whose
-        overhead had made gyroid's steps 1.7x dearer than a NumPy script's
-        (benchmarks/run.py); None for other models."""
-        if self.eiv_x is not None:
-            return self._eiv_host_log_posterior()
-        if self.gram is None:
-            return None
-        gram, solution = np.asarray(self.gram), np.asarray(self.solution)
-        rss_min, n, p = float(self.rss_min), self.n, self.n_model
-        loc, scale = np.asarray(self.prior_loc), np.asarray(self.prior_scale)
-        on = np.asarray(self.prior_on)
-        constant = -float(np.sum(on * (np.log(scale) + 0.5 * _LOG_2PI))) - 0.5 * n * _LOG_2PI
-        known = None if self.sigma is None else float(self.log_sigma_sum)
-
-        def log_posterior(u: np.ndarray) -> np.ndarray:
-            u = np.atleast_2d(np.asarray(u, dtype=float))
-            delta = u[:, :p] - solution
-            rss = rss_min + np.einsum("ki,ij,kj->k", delta, gram, delta)
-            if known is not None:
-                log_lik = -0.5 * rss - known
-            else:
-                log_sd = u[:, p] + math.log(self.row_scale)
-                log_lik = -0.5 * rss * np.exp(-2.0 * log_sd) - n * log_sd
-            z = on * (u - loc) / scale
-            with np.errstate(over="ignore", invalid="ignore"):
-                value = log_lik - 0.5 * np.sum(z**2, axis=1) + constant
-            return np.where(np.isfinite(value), value, -np.inf)
-
-        return log_posterior
-
-    def _eiv_host_log_posterior(self):
-        """:meth:`host_log_posterior` under errors in variables (a linear model): a step
-        costs a (w, p) x (p, n) product."""
-        y, x = np.asarray(self.eiv_y), np.asarray(self.eiv_x)
-        lam, on = np.asarray(self.eiv_lambda), np.asarray(self.eiv_on)
-        p, index, known = self.n_model, self.eiv_index, self.sigma is not None
-        loc, scale = np.asarray(self.prior_loc), np.asarray(self.prior_scale)
-        prior_on = np.asarray(self.prior_on)
-        constant = (-float(np.sum(prior_on * (np.log(scale) + 0.5 * _LOG_2PI)))
-                    - 0.5 * float(self.eiv_log_d0) - 0.5 * float(on.sum()) * _LOG_2PI)
-
-        def log_posterior(u: np.ndarray) -> np.ndarray:
-            u = np.atleast_2d(np.asarray(u, dtype=float))
-            projected = y[None, :] - u[:, :p] @ x.T
-            with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-                s2 = np.ones(u.shape[0]) if known else np.exp(2.0 * u[:, p])
-                variance = s2[:, None] + (u[:, index] ** 2)[:, None] * lam[None, :]
-                log_lik = -0.5 * np.sum(on * (projected**2 / variance + np.log(variance)),
-                                        axis=1)
-                z = prior_on * (u - loc) / scale
-                value = log_lik - 0.5 * np.sum(z**2, axis=1) + constant
-            return np.where(np.isfinite(value), value, -np.inf)
-
-        return log_posterior
+        """:func:`~gyroid.inference._bench_precompute.host_log_posterior` of this density."""
+        return host_log_posterior(self)
 
     def log_likelihood_blocks(self, u: Float[Array, " d"]) -> Float[Array, " b"]:
         """Log-likelihood summed over blocks of ``LOO_BLOCK_S`` (what LOO leaves out); from

@@ -13,7 +13,9 @@ import numpy as np
 
 from gyroid.errors import GyroidInputError
 from gyroid.inference._bench_density import BenchDensity
+from gyroid.inference._bench_result import BenchFit, bench_checks
 from gyroid.inference._check_report import FitEvidence
+from gyroid.inference._emcee import Emcee
 from gyroid.inference._point import point_estimate
 from gyroid.inference._problem import AbstractProblem, PointEstimate
 from gyroid.inference._rate_window import choose_rate_window, reads_rate, window_grid
@@ -112,32 +114,14 @@ class BenchProblem(AbstractProblem):
         (:data:`NEGLIGIBLE_EIV`); ``errors_in_variables=False`` leaves it out (the plain
         white likelihood)."""
         noise = White() if noise is None else noise_model(noise)
-        samples = None
-        block_rows = 1
         cap = IEEE_MAX_ROWS if max_rows is None else max_rows
         model = terms if isinstance(terms, DriftModel) else DriftModel.from_terms(terms)
         thermometer_var = 0.0  # a sample's, degC^2: the thermometer's noise to carry
         if (errors_in_variables and not noise.correlated and not segment_means
                 and reads_rate(model)):
             thermometer_var = _thermometer_to_carry(log, model, rate_window_s, t0_C, cap)
-        if isinstance(log, MeansOfBlocks):
-            if segment_means:
-                raise GyroidInputError(
-                    f"--segment-means: {log.log.source} is fitted as the means of blocks of "
-                    f"{log.rows_per_mean} samples (it was read as a stream); leave "
-                    "--segment-means out")
-            log, block_rows, samples = log.log, log.rows_per_mean, log.samples
-        if isinstance(noise, Ieee952) and segment_means:
-            raise GyroidInputError(
-                f"--segment-means with --noise {noise.name}: the IEEE noise model reads "
-                "a log of bursts as it is (the wander between bursts is its flicker and "
-                "random walk); fit the samples, without --segment-means")
-        if (thermometer_var > 0 or (noise.on_block_means and not segment_means)) \
-                and log.n > cap:
-            reduced = MeansOfBlocks.of(log, -(-log.n // cap))
-            log, block_rows, samples = reduced.log, reduced.rows_per_mean, reduced.samples
-        if segment_means:
-            log, samples = means_of_segments(log, contiguous_segments(np.asarray(log.time_s)))
+        log, block_rows, samples = _rows_fitted(log, noise, segment_means,
+                                                carry_thermometer=thermometer_var > 0, cap=cap)
         inputs = log.inputs(t0_C=t0_C)  # the one set built (10^7 rows: 0.8 GB)
         if rate_window_s is None:
             rate_window_s, _ = choose_rate_window(log, model, t0_C=t0_C, inputs=inputs,
@@ -146,11 +130,7 @@ class BenchProblem(AbstractProblem):
             choice = "auto" if reads_rate(model) else "default (the model reads no dT/dt)"
         else:
             choice = "given"
-        if rate_window_s != RATE_WINDOW_S and "temperature_C" in log.columns:
-            rate = temperature_rate_deg_c_per_h(np.asarray(log.time_s),
-                                                np.asarray(log.columns["temperature_C"]),
-                                                rate_window_s)
-            inputs = eqx.tree_at(lambda x: x.rate_C_h, inputs, jnp.asarray(rate))
+        inputs = _with_rate_window(log, inputs, rate_window_s)
         model.check_identifiable(inputs, frozenset(log.columns))
         chosen_set = "flat" if flat_prior else prior_set
         chosen, basis = choose_priors(model, inputs, np.asarray(log.drift_deg_h),
@@ -259,9 +239,10 @@ class BenchProblem(AbstractProblem):
             where=log.where,
         )
 
-    def result(self, point: PointEstimate, posterior, *, seed: int):
-        from gyroid.inference._bench_fit import BenchFit, bench_checks
+    def default_sampler(self) -> Emcee:
+        return Emcee()
 
+    def result(self, point: PointEstimate, posterior, *, seed: int) -> BenchFit:
         return BenchFit(problem=self, point=point, posterior=posterior, seed=seed,
                         checks=bench_checks(self, point, posterior))
 
@@ -280,6 +261,43 @@ class BenchProblem(AbstractProblem):
             "log_likelihood_note": "log_likelihood holds sums over blocks of rows "
                                    "(constant_data.loo_block): LOO leaves out whole blocks",
         }
+
+
+def _rows_fitted(log: BenchLog | MeansOfBlocks, noise: NoiseModel, segment_means: bool, *,
+                 carry_thermometer: bool, cap: int
+                 ) -> tuple[BenchLog, int, SampleDeviations | None]:
+    """The rows a fit reads (the log, its block means or its segments' means), the samples
+    per row, and the samples behind the means (for the spike check); see
+    :meth:`BenchProblem.from_log`."""
+    samples, block_rows = None, 1
+    if isinstance(log, MeansOfBlocks):
+        if segment_means:
+            raise GyroidInputError(
+                f"--segment-means: {log.log.source} is fitted as the means of blocks of "
+                f"{log.rows_per_mean} samples (it was read as a stream); leave "
+                "--segment-means out")
+        log, block_rows, samples = log.log, log.rows_per_mean, log.samples
+    if isinstance(noise, Ieee952) and segment_means:
+        raise GyroidInputError(
+            f"--segment-means with --noise {noise.name}: the IEEE noise model reads "
+            "a log of bursts as it is (the wander between bursts is its flicker and "
+            "random walk); fit the samples, without --segment-means")
+    if (carry_thermometer or (noise.on_block_means and not segment_means)) and log.n > cap:
+        reduced = MeansOfBlocks.of(log, -(-log.n // cap))
+        log, block_rows, samples = reduced.log, reduced.rows_per_mean, reduced.samples
+    if segment_means:
+        log, samples = means_of_segments(log, contiguous_segments(np.asarray(log.time_s)))
+    return log, block_rows, samples
+
+
+def _with_rate_window(log: BenchLog, inputs, rate_window_s: float):
+    """``inputs`` with dT/dt estimated over ``rate_window_s`` (s) when that is not the
+    default window the inputs were built with."""
+    if rate_window_s == RATE_WINDOW_S or "temperature_C" not in log.columns:
+        return inputs
+    rate = temperature_rate_deg_c_per_h(np.asarray(log.time_s),
+                                        np.asarray(log.columns["temperature_C"]), rate_window_s)
+    return eqx.tree_at(lambda x: x.rate_C_h, inputs, jnp.asarray(rate))
 
 
 def _noise_priors(noise: NoiseModel, log: BenchLog, inputs, rows_per_mean: int,

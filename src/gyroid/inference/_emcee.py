@@ -36,13 +36,8 @@ from tqdm.auto import tqdm
 
 from gyroid.inference._batching import in_chunks, problem_batcher
 from gyroid.inference._checks import MAX_R_HAT, MIN_ESS
-from gyroid.inference._posterior import (
-    AbstractSampler,
-    Posterior,
-    covariance_factor,
-    summarise_draws,
-)
-from gyroid.inference._problem import AbstractProblem, PointEstimate
+from gyroid.inference._posterior import Posterior, covariance_factor, summarise_draws
+from gyroid.inference._problem import AbstractProblem, AbstractSampler, PointEstimate
 
 #: Cap on the draws kept (walkers x draws) after thinning.
 MAX_STORED_SAMPLES = 2000

@@ -4,8 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from gyroid.inference._posterior import AbstractSampler
-from gyroid.inference._problem import AbstractProblem
+from gyroid.inference._problem import AbstractProblem, AbstractSampler
 
 
 def fit(problem: AbstractProblem, *, sampler: AbstractSampler | None = None, seed: int = 0,

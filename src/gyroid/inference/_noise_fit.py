@@ -29,52 +29,26 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 from scipy.stats import chi2
 
-from gyroid.inference._check_report import Check, CheckReport, FitEvidence
-from gyroid.inference._checks import fit_checks
+from gyroid.inference._check_report import Check, CheckReport
 from gyroid.inference._emcee import Emcee
 from gyroid.inference._fit import fit
 from gyroid.inference._haar import HaarStatistics, haar_statistics
+from gyroid.inference._noise_model_fit import NoiseModelFit
 from gyroid.inference._noise_problem import (
-    NOISE_TERMS,
-    TERM_NAMES,
     NoiseProblem,
     TermChoice,
     choose_terms,
     deviance,
-    shapes,
-    term,
 )
-from gyroid.inference._posterior import AbstractSampler, Posterior
-from gyroid.inference._problem import PointEstimate
+from gyroid.inference._noise_terms import NOISE_TERMS, TERM_NAMES, shapes, term
+from gyroid.inference._problem import AbstractSampler
 from gyroid.inference._result import FitResult
 
 LEVEL_P = 1e-4
 DISPERSION_P = 1e-3
 #: Beyond this dispersion the terms do not describe the log (an error, not a widening).
 DISPERSION_MAX = 10.0
-POSTERIOR_CHECKS = ("convergence", "point_vs_posterior", "prior_data_conflict")
 LEVEL_RATIO = 2.0
-
-
-@dataclass(frozen=True, eq=False)
-class NoiseModelFit(FitResult):
-    """One set of noise terms' posterior (log-amplitudes sampled) and its checks."""
-
-    terms: tuple[str, ...]
-    point: PointEstimate
-    posterior: Posterior
-    checks: CheckReport
-
-    def summary(self) -> str:
-        lines = [f"noise terms {', '.join(self.terms)}; posterior mean +/- sd:"]
-        lines += [f"  {name:>4s} = {entry['mean']:.4g} +/- {entry['sd']:.2g} {term(name).unit}"
-                  for name, entry in self.posterior.summary.items()]
-        return "\n".join([*lines, *(f"  {line}" for line in self.checks.lines()),
-                          f"  {self.checks.verdict()}"])
-
-    def to_json(self) -> dict:
-        return {"terms": list(self.terms), "posterior": self.posterior.summary,
-                **self.checks.to_json()}
 
 
 @dataclass(frozen=True, eq=False)
@@ -206,24 +180,6 @@ def level_fit(stats: HaarStatistics, model_avar: np.ndarray) -> Check:
                  "is not static, or a temperature drift; cut the log to a static stretch "
                  "or remove the drift first (gyroid compensate)",
                  ("discrepancy",))
-
-
-def noise_model_result(problem: NoiseProblem, point: PointEstimate,
-                       posterior: Posterior | None) -> NoiseModelFit:
-    """The frozen :class:`NoiseModelFit` of one sampled set of terms, checks first."""
-    if posterior is None:
-        raise ValueError("a noise fit reports posterior intervals: sample it")
-    evidence = FitEvidence(
-        names=problem.names, n_model=len(problem.names), point_u=np.asarray(point.u),
-        point_converged=point.converged, point_message=point.message,
-        priors=problem.priors, reference_sd={}, residuals=None, sigma_given=False,
-        correlated_noise=False, draws_u=problem.to_sampling_host(posterior.draws),
-        summary=posterior.summary, remedies=frozenset({"discrepancy"}))
-    # The checks of residuals and identifiability read a drift fit's residuals and
-    # reference scales, which a noise fit does not have (level_fit and the terms' inclusion
-    # do their work): only the checks of the posterior itself are kept.
-    kept = tuple(c for c in fit_checks(evidence).checks if c.name in POSTERIOR_CHECKS)
-    return NoiseModelFit(problem.terms, point, posterior, CheckReport(kept))
 
 
 #: Model-averaged draws kept.

@@ -27,13 +27,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyroid.inference._checks import MAX_R_HAT, MIN_ESS
-from gyroid.inference._posterior import (
-    AbstractSampler,
-    Posterior,
-    covariance_factor,
-    summarise_draws,
-)
-from gyroid.inference._problem import AbstractProblem, PointEstimate
+from gyroid.inference._posterior import Posterior, covariance_factor, summarise_draws
+from gyroid.inference._problem import AbstractProblem, AbstractSampler, PointEstimate
 
 
 @dataclass(frozen=True)

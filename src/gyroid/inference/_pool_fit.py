@@ -8,18 +8,14 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 
-import jax
-import jax.numpy as jnp
 import numpy as np
 
 from gyroid.errors import GyroidInputError
 from gyroid.inference._bench_problem import BenchProblem
 from gyroid.inference._fit import fit
-from gyroid.inference._pool_checks import pool_checks
 from gyroid.inference._pool_problem import PoolProblem
-from gyroid.inference._pool_result import PoolFit, heterogeneity
-from gyroid.inference._posterior import AbstractSampler, Posterior, summarise_draws
-from gyroid.inference._problem import PointEstimate
+from gyroid.inference._pool_result import PoolFit
+from gyroid.inference._problem import AbstractSampler
 from gyroid.io._logs import BenchLog
 from gyroid.models._drift import DriftModel
 from gyroid.models._inputs import T0_C
@@ -160,57 +156,3 @@ def pool_estimates(names: tuple[str, ...], labels: tuple[str, ...], estimates: n
         spread_scales=spread_scales, own_mean=estimates, own_sd=sds,
         reference=np.asarray(spread_scales, dtype=float))
     return fit(problem, sampler=sampler, seed=seed)
-
-
-def pool_result(problem: PoolProblem, point: PointEstimate, posterior: Posterior | None, *,
-                seed: int) -> PoolFit:
-    """The :class:`PoolFit` of a pooled problem: the population means, the runs' and a new
-    run's coefficients drawn per posterior draw, then the checks."""
-    if posterior is None:
-        raise ValueError("a pooled fit needs its posterior (the population is drawn from it)")
-    mean_draws, run_draws, new_draws, run_log_lik = derived_draws(problem, posterior,
-                                                                  seed=seed)
-    names = problem.coefficient_names
-    summary = summarise_draws(mean_draws, names) | posterior.summary
-    return PoolFit(
-        problem=problem, point=point, posterior=posterior, seed=seed,
-        mean_draws=mean_draws, run_draws=run_draws, new_run_draws=new_draws,
-        run_log_likelihood=run_log_lik, posterior_summary=summary,
-        heterogeneity=heterogeneity(names, problem.own_mean, problem.own_sd),
-        checks=pool_checks(problem, point, posterior, mean_draws, run_draws, summary))
-
-
-def derived_draws(problem: PoolProblem, posterior: Posterior, *, seed: int):
-    """Per posterior draw of the between-run sds and noise levels: the population means
-    from their exact conditional, every run's coefficients from theirs, a new run's from
-    the population, and each run's log-likelihood. Returns (chains, draws, p), (M, R, p),
-    (M, p), (chains, draws, R)."""
-    chains, draws, d = posterior.draws.shape
-    u = np.log(posterior.draws.reshape(-1, d))
-    rng = np.random.default_rng([seed, 1])
-    p, r = problem.n_model, problem.n_runs
-    z_mean = rng.standard_normal((u.shape[0], p))
-    z_runs = rng.standard_normal((u.shape[0], r, p))
-    z_new = rng.standard_normal((u.shape[0], p))
-    mean, runs, log_lik, _ = _conditional_draws(problem.density, jnp.asarray(u),
-                                                jnp.asarray(z_mean), jnp.asarray(z_runs))
-    mean = np.asarray(mean)
-    new = mean + np.exp(u[:, :p]) * z_new
-    return (mean.reshape(chains, draws, p), np.asarray(runs), new,
-            np.asarray(log_lik).reshape(chains, draws, r))
-
-
-@jax.jit
-def _conditional_draws(density, u, z_mean, z_runs):
-    # A loop over draws (lax.map), each batched over runs only: the same draws vmapped over
-    # thousands of draws at once sometimes never returned on XLA's CPU runtime (jax 0.10.2;
-    # idle threads, a lost wake-up; 30 runs x 1000 draws hung where 30 x 2000 did not).
-    def one(args):
-        u, z_mean, z_runs = args
-        mu = density.mean_conditional(u, z_mean)
-        return (mu, density.run_coefficients(mu, u, z_runs), density.run_log_likelihood(mu, u),
-                density.run_consistency(mu, u))
-
-    return jax.lax.map(one, (u, z_mean, z_runs))
-
-

@@ -41,6 +41,8 @@ import numpy as np
 import optimistix as optx
 from jaxtyping import Array, Float
 
+from gyroid.inference._nuts import Nuts
+from gyroid.inference._pool_result import PoolFit, pool_result
 from gyroid.inference._problem import AbstractProblem, PointEstimate
 from gyroid.models._inputs import T0_C
 from gyroid.models._priors import Flat as FlatPrior
@@ -320,16 +322,12 @@ class PoolProblem(AbstractProblem):
         }
 
     # ----- fitting ---------------------------------------------------------------------------
-    def default_sampler(self):
+    def default_sampler(self) -> Nuts:
         """NUTS: emcee's ensemble moves do not mix this posterior (see
         :mod:`gyroid.inference._nuts`)."""
-        from gyroid.inference._nuts import Nuts
-
         return Nuts()
 
-    def result(self, point: PointEstimate, posterior, *, seed: int):
-        from gyroid.inference._pool_fit import pool_result
-
+    def result(self, point: PointEstimate, posterior, *, seed: int) -> PoolFit:
         return pool_result(self, point, posterior, seed=seed)
 
     def start(self) -> np.ndarray:

@@ -8,14 +8,17 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import jax
+import jax.numpy as jnp
 import numpy as np
 from scipy import stats
 
 from gyroid.inference._check_report import CheckReport
-from gyroid.inference._pool_problem import PoolProblem
-from gyroid.inference._posterior import Posterior, inference_data, interval_summary
-from gyroid.inference._problem import PointEstimate
+from gyroid.inference._pool_checks import pool_checks
+from gyroid.inference._posterior import Posterior, interval_summary, summarise_draws
+from gyroid.inference._problem import AbstractProblem, PointEstimate
 from gyroid.inference._result import FitResult
+from gyroid.inference._storage import inference_data
 from gyroid.models._effects import parameter
 
 #: Cochran's Q p-value below which the runs differ by more than their noise.
@@ -42,7 +45,7 @@ class Heterogeneity:
 class PoolFit(FitResult):
     """A pooled fit: the problem, its mode and posterior, the derived draws and checks."""
 
-    problem: PoolProblem = field(repr=False)
+    problem: AbstractProblem = field(repr=False)  # a PoolProblem
     point: PointEstimate = field(repr=False)
     posterior: Posterior = field(repr=False)
     seed: int
@@ -208,3 +211,57 @@ def heterogeneity(names: tuple[str, ...], own_mean: np.ndarray, own_sd: np.ndarr
                                   i_squared=max(0.0, (q - dof) / q) if q > 0 else 0.0,
                                   within_run_sd=float(np.median(s)))
     return out
+
+
+def pool_result(problem: AbstractProblem, point: PointEstimate, posterior: Posterior | None, *,
+                seed: int) -> PoolFit:
+    """The :class:`PoolFit` of a pooled problem: the population means, the runs' and a new
+    run's coefficients drawn per posterior draw, then the checks."""
+    if posterior is None:
+        raise ValueError("a pooled fit needs its posterior (the population is drawn from it)")
+    mean_draws, run_draws, new_draws, run_log_lik = derived_draws(problem, posterior,
+                                                                  seed=seed)
+    names = problem.coefficient_names
+    summary = summarise_draws(mean_draws, names) | posterior.summary
+    return PoolFit(
+        problem=problem, point=point, posterior=posterior, seed=seed,
+        mean_draws=mean_draws, run_draws=run_draws, new_run_draws=new_draws,
+        run_log_likelihood=run_log_lik, posterior_summary=summary,
+        heterogeneity=heterogeneity(names, problem.own_mean, problem.own_sd),
+        checks=pool_checks(problem, point, posterior, mean_draws, run_draws, summary))
+
+
+def derived_draws(problem: AbstractProblem, posterior: Posterior, *, seed: int):
+    """Per posterior draw of the between-run sds and noise levels: the population means
+    from their exact conditional, every run's coefficients from theirs, a new run's from
+    the population, and each run's log-likelihood. Returns (chains, draws, p), (M, R, p),
+    (M, p), (chains, draws, R)."""
+    chains, draws, d = posterior.draws.shape
+    u = np.log(posterior.draws.reshape(-1, d))
+    rng = np.random.default_rng([seed, 1])
+    p, r = problem.n_model, problem.n_runs
+    z_mean = rng.standard_normal((u.shape[0], p))
+    z_runs = rng.standard_normal((u.shape[0], r, p))
+    z_new = rng.standard_normal((u.shape[0], p))
+    mean, runs, log_lik, _ = _conditional_draws(problem.density, jnp.asarray(u),
+                                                jnp.asarray(z_mean), jnp.asarray(z_runs))
+    mean = np.asarray(mean)
+    new = mean + np.exp(u[:, :p]) * z_new
+    return (mean.reshape(chains, draws, p), np.asarray(runs), new,
+            np.asarray(log_lik).reshape(chains, draws, r))
+
+
+@jax.jit
+def _conditional_draws(density, u, z_mean, z_runs):
+    # A loop over draws (lax.map), each batched over runs only: the same draws vmapped over
+    # thousands of draws at once sometimes never returned on XLA's CPU runtime (jax 0.10.2;
+    # idle threads, a lost wake-up; 30 runs x 1000 draws hung where 30 x 2000 did not).
+    def one(args):
+        u, z_mean, z_runs = args
+        mu = density.mean_conditional(u, z_mean)
+        return (mu, density.run_coefficients(mu, u, z_runs), density.run_log_likelihood(mu, u),
+                density.run_consistency(mu, u))
+
+    return jax.lax.map(one, (u, z_mean, z_runs))
+
+

@@ -1,23 +1,17 @@
-"""What a sampler gives (:class:`Posterior`), the interface every sampler has
-(:class:`AbstractSampler`: emcee's and NUTS's), and the summaries and ArviZ storage shared
-by every kind of fit."""
+"""What a sampler gives (:class:`Posterior`: draws and their diagnostics) and the summaries
+of draws shared by every kind of fit. It knows no problem: the sampler interface is
+:class:`~gyroid.inference._problem.AbstractSampler`, the ArviZ storage
+:mod:`gyroid.inference._storage`."""
 
 from __future__ import annotations
 
-import abc
 import warnings
-from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-from gyroid.inference._batching import in_chunks, problem_batcher
 from gyroid.inference._checks import MAX_R_HAT, MIN_ESS
 from gyroid.io._arviz import arviz
-
-if TYPE_CHECKING:
-    from gyroid.inference._problem import AbstractProblem, PointEstimate
 
 
 @dataclass(frozen=True, eq=False)
@@ -46,16 +40,6 @@ class Posterior:
                    for s in self.summary.values())
 
 
-class AbstractSampler(abc.ABC):
-    """A way to sample a problem's posterior, started from its mode: :class:`~gyroid.
-    inference.Emcee` or :class:`~gyroid.inference.Nuts`."""
-
-    @abc.abstractmethod
-    def sample(self, problem: AbstractProblem, point: PointEstimate, *, seed: int = 0,
-               progress: Callable[[str], None] | None = None) -> Posterior:
-        """Posterior draws of ``problem`` (natural units), from ``point``."""
-
-
 def covariance_factor(covariance: np.ndarray) -> np.ndarray:
     """A lower-triangular factor of a mode's covariance, for drawing starting points: the
     Cholesky factor of its symmetric part, or its diagonal's square roots when it is not
@@ -69,44 +53,6 @@ def covariance_factor(covariance: np.ndarray) -> np.ndarray:
         return np.linalg.cholesky(covariance)
     except np.linalg.LinAlgError:
         return np.diag(np.sqrt(np.clip(np.diag(covariance), 1e-12, None)))
-
-
-def inference_data(problem: AbstractProblem, posterior: Posterior, *,
-                   log_likelihood: dict[str, np.ndarray] | None = None,
-                   extra_posterior: dict[str, np.ndarray] | None = None,
-                   coords: dict | None = None, dims: dict | None = None):
-    """ArviZ InferenceData of a fit: the posterior, a log-likelihood per LOO unit (by
-    default the problem's blocks of rows, computed here), observed and constant data,
-    sample stats and the problem's attributes (its ``observed_data``, ``constant_data``
-    and ``idata_attrs``)."""
-    if log_likelihood is None:
-        log_likelihood = {next(iter(problem.observed_data())): block_log_likelihood(
-            problem, posterior)}
-    observed, constant = problem.observed_data(), problem.constant_data()
-    names = problem.names
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", message="More chains .* than draws")
-        return arviz().from_dict(
-            posterior={n: posterior.draws[..., i] for i, n in enumerate(names)}
-            | (extra_posterior or {}),
-            log_likelihood=log_likelihood,
-            observed_data=observed,
-            constant_data=constant,
-            sample_stats={"lp": posterior.log_posterior},
-            coords=coords,
-            dims=(dims if dims is not None else
-                  {**{k: ["row"] for k in log_likelihood}, **{k: ["row"] for k in constant}}),
-            attrs={**problem.idata_attrs(), "sampler": posterior.method},
-        )
-
-
-def block_log_likelihood(problem: AbstractProblem, posterior: Posterior, chunk: int = 256
-                         ) -> np.ndarray:
-    """The problem's block log-likelihoods at every draw: (chains, draws, blocks)."""
-    walkers, draws, d = posterior.draws.shape
-    flat = np.asarray(problem.to_sampling_host(posterior.draws.reshape(-1, d)))
-    blocks = problem_batcher(problem.density.log_likelihood_blocks)
-    return in_chunks(blocks, flat, chunk).reshape(walkers, draws, -1)
 
 
 def interval_summary(values: np.ndarray) -> dict:

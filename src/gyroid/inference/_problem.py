@@ -24,16 +24,13 @@ from __future__ import annotations
 import abc
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
 
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
+from gyroid.inference._posterior import Posterior
 from gyroid.models._priors import Prior, natural_from_sampling
-
-if TYPE_CHECKING:
-    from gyroid.inference._posterior import AbstractSampler, Posterior
 
 
 @dataclass(frozen=True, eq=False)
@@ -106,11 +103,10 @@ class AbstractProblem(eqx.Module):
     def mode(self) -> PointEstimate:
         """The posterior mode and its Gaussian covariance (the sampler starts there)."""
 
+    @abc.abstractmethod
     def default_sampler(self) -> AbstractSampler:
-        """The sampler :func:`~gyroid.inference.fit` uses unless given one: emcee."""
-        from gyroid.inference._emcee import Emcee
-
-        return Emcee()
+        """The sampler :func:`~gyroid.inference.fit` uses unless given one (emcee for bench
+        and roll logs, NUTS for a pooled lot)."""
 
     def collapsed(self):
         """The problem with its linear coefficients integrated out, where that is exact and
@@ -137,3 +133,13 @@ class AbstractProblem(eqx.Module):
     @abc.abstractmethod
     def idata_attrs(self) -> dict[str, str]:
         """Attributes stored with the posterior."""
+
+
+class AbstractSampler(abc.ABC):
+    """A way to sample a problem's posterior, started from its mode: :class:`~gyroid.
+    inference.Emcee` or :class:`~gyroid.inference.Nuts`."""
+
+    @abc.abstractmethod
+    def sample(self, problem: AbstractProblem, point: PointEstimate, *, seed: int = 0,
+               progress: Callable[[str], None] | None = None) -> Posterior:
+        """Posterior draws of ``problem`` (natural units), from ``point``."""

@@ -21,8 +21,9 @@ import numpy as np
 
 from gyroid.inference._check_report import Check
 from gyroid.inference._predictive import HeldOut, part_means, predictive_check, stretches
-from gyroid.inference._problem import PointEstimate
-from gyroid.inference._roll_problem import ModelDensity, RollProblem
+from gyroid.inference._problem import AbstractProblem, PointEstimate
+from gyroid.inference._roll_density import ModelDensity
+from gyroid.inference._roll_point import roll_point_estimate
 
 
 @eqx.filter_jit
@@ -44,7 +45,7 @@ def _expected(density: ModelDensity, u, n_model: int):
     return value, total - sigma_gs**2, sigma_gs**2, jacobian
 
 
-def roll_predictive(problem: RollProblem, point: PointEstimate) -> Check:
+def roll_predictive(problem: AbstractProblem, point: PointEstimate) -> Check:
     """The predictive check of a roll problem's fit, ``point`` its mode on the whole flight
     (see the module docstring)."""
     folds, part_s = roll_held_out(problem, point)
@@ -52,11 +53,10 @@ def roll_predictive(problem: RollProblem, point: PointEstimate) -> Check:
                             subject=f"held out in {len(folds or ())} stretches of the flight")
 
 
-def roll_held_out(problem: RollProblem, point: PointEstimate
+def roll_held_out(problem: AbstractProblem, point: PointEstimate
                   ) -> tuple[list[HeldOut] | None, float | None]:
     """The held-out folds of a roll fit and the median part's duration (s); None when the
     flight is too short to hold a stretch out."""
-    from gyroid.inference._roll_fit import roll_point_estimate
 
     full = problem.density.full
     observed = np.asarray(full.observed)

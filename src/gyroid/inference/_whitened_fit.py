@@ -220,3 +220,26 @@ def fit_with_noise(model, inputs, y, steps_s, start: NoiseLevels, rounds: int = 
         noise = estimate_noise(fit.residual, steps_s)
         fit = fit_whitened(model, inputs, y, steps_s, noise)
     return fit, noise
+
+
+def basis_fit(residual: np.ndarray, basis: np.ndarray, steps_s, noise: NoiseLevels):
+    """Log-likelihood of ``residual`` less its best whitened fit on ``basis`` (columns) under
+    ``noise``, and that fit (deg/h per row)."""
+    stacked = jnp.concatenate([jnp.asarray(residual)[:, None], jnp.asarray(basis)], axis=1)
+    innovations, variance = gauss_markov_innovations(stacked, steps_s, noise.white, noise.gm,
+                                                     noise.tau_s)
+    scale = 1.0 / jnp.sqrt(variance)
+    target, columns = innovations[:, 0] * scale, innovations[:, 1:] * scale[:, None]
+    coef, *_ = jnp.linalg.lstsq(columns, target)
+    rss = float(jnp.sum((target - columns @ coef) ** 2))
+    log_lik = (-0.5 * rss - 0.5 * float(jnp.sum(jnp.log(variance)))
+               - 0.5 * residual.size * _LOG_2PI)
+    return log_lik, np.asarray(basis) @ np.asarray(coef)
+
+
+def noise_log_likelihood(residual: np.ndarray, steps_s, noise: NoiseLevels) -> float:
+    """Log-likelihood of ``residual`` (deg/h) as noise alone under ``noise``."""
+    innovation, variance = gauss_markov_innovations(jnp.asarray(residual), steps_s, noise.white,
+                                                    noise.gm, noise.tau_s)
+    return float(-0.5 * jnp.sum(innovation**2 / variance + jnp.log(variance))
+                 - 0.5 * residual.size * _LOG_2PI)

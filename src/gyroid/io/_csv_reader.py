@@ -12,7 +12,6 @@ module (slow: about 60 bytes of memory per cell).
 
 from __future__ import annotations
 
-import codecs
 import csv
 import gzip
 import io
@@ -24,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from gyroid.errors import GyroidInputError
+from gyroid.io._file_bytes import has_inner_lines, is_gzip, read_bytes
 
 
 @dataclass(frozen=True)
@@ -96,13 +96,13 @@ def read_csv(path: Path) -> ParsedCsv:
     delimiter, decimal_comma, comments = layout.delimiter, layout.decimal_comma, \
         list(layout.comments)
     lines, inner, body = None, [], None
-    if _scan_body(path, offset):  # rare: take the lines out in memory, keep line numbers
+    if has_inner_lines(path, offset):  # rare: take the lines out in memory, keep line numbers
         body, lines, inner = _without_inner_lines(read_bytes(path), offset, header_line)
     # usual (body None): pyarrow reads the file in blocks from disk
     table = _read_arrow_csv(path, offset, body, delimiter, names, decimal_comma)
     if table is None:
         if lines is None:
-            with (gzip.open(path) if _is_gzip(path) else path.open("rb")) as handle:
+            with (gzip.open(path) if is_gzip(path) else path.open("rb")) as handle:
                 handle.read(offset)
                 _raise_bad_row(path, handle, delimiter, len(names), header_line, None)
         else:
@@ -125,7 +125,7 @@ def csv_rows_bound(path: Path, layout: CsvLayout) -> int:
     shortest = max(1, min((len(line) + 1 for line in layout.data_lines if line.strip()),
                           default=1))
     size = path.stat().st_size
-    if _is_gzip(path):
+    if is_gzip(path):
         with path.open("rb") as handle:
             compressed = handle.read(1 << 20)
         inflate = zlib.decompressobj(wbits=31)
@@ -142,7 +142,7 @@ def csv_batches(path: Path, layout: CsvLayout, batch_bytes: int):
     import pyarrow as pa
     from pyarrow import csv as pacsv
 
-    if _scan_body(path, layout.offset):
+    if has_inner_lines(path, layout.offset):
         raise GyroidInputError(
             f"{path.name}: blank or comment lines sit among its rows; a log this long is read "
             "as a stream of lines, one row each: take them out (e.g. grep -v '^#'), or "
@@ -181,67 +181,6 @@ def csv_batches(path: Path, layout: CsvLayout, batch_bytes: int):
         yield batch.rename_columns(list(layout.header))
 
 
-def _open_failure(path: Path, error: OSError) -> GyroidInputError:
-    if isinstance(error, FileNotFoundError):
-        return GyroidInputError(f"{path}: no such file; check the path")
-    if isinstance(error, IsADirectoryError):
-        return GyroidInputError(f"{path} is a folder; give the log file")
-    if isinstance(error, PermissionError):
-        return GyroidInputError(f"{path}: not readable (permission denied)")
-    return GyroidInputError(f"{path}: cannot be read ({error})")
-
-
-def _is_gzip(path: Path) -> bool:
-    try:
-        with path.open("rb") as handle:
-            return handle.read(2) == b"\x1f\x8b"
-    except OSError as error:
-        raise _open_failure(path, error) from None
-
-
-def read_bytes(path: Path, limit: int = -1) -> bytes:
-    """The file's bytes (the first ``limit`` only, if given), gzip decompressed."""
-    try:
-        with (gzip.open(path) if _is_gzip(path) else path.open("rb")) as handle:
-            return handle.read(limit)
-    except (EOFError, gzip.BadGzipFile, zlib.error):
-        raise GyroidInputError(f"{path}: a damaged gzip file; compress it again") from None
-    except OSError as error:
-        raise _open_failure(path, error) from None
-
-
-#: Bytes read at a time when a log is scanned.
-SCAN_CHUNK = 1 << 24
-#: A blank or comment line, with the newline before it and the one that ends it.
-_INNER_LINE_ENDED = re.compile(rb"\n[ \t\r]*(?:[#%][^\n]*)?\n")
-
-
-def _scan_body(path: Path, offset: int) -> bool:
-    """Whether blank or comment lines sit among the rows after the header (which starts at
-    byte ``offset``), reading the file in chunks (a 10^7-row log is never held whole); a file
-    that is not UTF-8 is refused."""
-    decoder = codecs.getincrementaldecoder("utf-8")()
-    tail, inner = b"", False
-    try:
-        with (gzip.open(path) if _is_gzip(path) else path.open("rb")) as handle:
-            decoder.decode(handle.read(offset))
-            while chunk := handle.read(SCAN_CHUNK):
-                if not chunk.isascii() or decoder.getstate()[0]:
-                    decoder.decode(chunk)
-                block = tail + chunk
-                inner = inner or _INNER_LINE_ENDED.search(block) is not None
-                cut = block.rfind(b"\n")
-                tail = block[cut:] if cut >= 0 else block
-            decoder.decode(b"", final=True)
-    except UnicodeDecodeError:
-        raise GyroidInputError(f"{path.name}: not a UTF-8 text file; give a CSV log") from None
-    except (EOFError, gzip.BadGzipFile, zlib.error):
-        raise GyroidInputError(f"{path}: a damaged gzip file; compress it again") from None
-    # the last line, when the file does not end with a newline
-    return inner or re.fullmatch(rb"\n[ \t\r]*(?:[#%].*)?", tail, re.S) is not None and (
-        tail != b"\n")
-
-
 _DELIMITERS = (",", ";", "\t")
 #: What starts a comment line: ``#``, or MATLAB's ``%``.
 COMMENT_MARKS = ("#", "%")
@@ -278,7 +217,7 @@ def _arrow_stream(path: Path, offset: int):
     import pyarrow as pa
 
     stream = pa.OSFile(str(path))
-    if _is_gzip(path):
+    if is_gzip(path):
         stream = pa.CompressedInputStream(stream, "gzip")
         stream.read(offset)
     else:

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from gyroid.errors import GyroidInputError
-from gyroid.io._tables import LogTable
+from gyroid.io._log_table import LogTable
 
 RAD_S_TO_DEG_H = 180.0 / np.pi * 3600.0
 

@@ -23,7 +23,7 @@ import numpy as np
 
 from gyroid.errors import GyroidInputError
 from gyroid.io._imu_table import ImuStreams, imu_table
-from gyroid.io._tables import LogTable
+from gyroid.io._log_table import LogTable
 
 #: File suffixes read here (a ROS 2 bag folder is recognised by its metadata.yaml).
 NATIVE_SUFFIXES = (".ulg", ".bin", ".bag", ".mcap", ".db3", ".mat")

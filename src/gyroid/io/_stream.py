@@ -25,6 +25,7 @@ import numpy as np
 from gyroid.errors import GyroidInputError
 from gyroid.io._bench_reader import bench_log_from_table
 from gyroid.io._csv_reader import csv_batches, csv_layout, csv_rows_bound
+from gyroid.io._log_table import LogTable
 from gyroid.io._logs import (
     BenchLog,
     MeansOfBlocks,
@@ -33,7 +34,7 @@ from gyroid.io._logs import (
     log_of_means,
     means_of_blocks,
 )
-from gyroid.io._tables import LogTable, parquet_comments
+from gyroid.io._tables import parquet_comments
 from gyroid.io._units import ColumnMap
 
 #: Logs longer than this (rows; for a CSV log, an upper estimate) are read as a stream.

@@ -7,5 +7,6 @@ from gyroid._lazy import attach
 __getattr__, __dir__, __all__ = attach(__name__, {
     "_fit_file": ["FitOptions", "fit_file"],
     "_batch": ["BatchResult", "LogOutcome", "run_batch"],
-    "_demo": ["DemoSize", "run_demo"],
+    "_demo": ["run_demo"],
+    "_demo_study": ["DemoSize"],
 })

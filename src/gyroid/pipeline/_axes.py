@@ -9,8 +9,8 @@ from pathlib import Path
 from typing import Generic, TypeVar
 
 from gyroid.errors import GyroidInputError
+from gyroid.io._log_table import LogTable
 from gyroid.io._outputs import json_text, output_dir
-from gyroid.io._tables import LogTable
 from gyroid.reports._write import write
 
 R = TypeVar("R")

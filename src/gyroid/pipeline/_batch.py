@@ -20,6 +20,7 @@ from pathlib import Path
 
 from gyroid.errors import GyroidInputError
 from gyroid.io._logs import run_labels
+from gyroid.io._outputs import json_text, output_dir
 from gyroid.pipeline._fit_file import FitOptions
 
 
@@ -136,4 +137,8 @@ def run_batch(paths: Sequence[str | Path], options: FitOptions, out: Path, *,
         client.close()
         if cluster is not None:
             cluster.close()
-    return BatchResult(where, n_workers, [o for p in paths for o in done[p]])
+    result = BatchResult(where, n_workers, [o for p in paths for o in done[p]])
+    with output_dir(out) as stage:
+        (stage / "batch.json").write_text(json_text(result.to_json()))
+        (stage / "batch.csv").write_text(result.csv_text())
+    return result

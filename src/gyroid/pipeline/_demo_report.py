@@ -3,12 +3,9 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 import numpy as np
 
-if TYPE_CHECKING:
-    from gyroid.pipeline._demo import _Study
+from gyroid.pipeline._demo_study import Study
 
 
 def _fmt(mean: float, sd: float) -> str:
@@ -46,7 +43,7 @@ class Report:
         return "\n".join(self.lines)
 
 
-def _benches_section(report: Report, study: _Study) -> None:
+def _benches_section(report: Report, study: Study) -> None:
     thermal = study.benches["thermal"]
     report.add(
         "# gyroid demo: Bayesian identification of a FOG's drift and its effect on paper "
@@ -86,7 +83,7 @@ def _carried(fit) -> str:
             f"estimator's {fit.problem.rate_window_s:.0f} s window.{rows}")
 
 
-def _fits_section(report: Report, study: _Study) -> None:
+def _fits_section(report: Report, study: Study) -> None:
     tf, mf = study.fits["thermal"], study.fits["magnetic"]
     magnetic = study.benches["magnetic"]
     report.add(
@@ -115,7 +112,7 @@ def _fits_section(report: Report, study: _Study) -> None:
         "The Bayesian estimate is about twice as precise: it uses every dwell, not two.", "")
 
 
-def _propagation_section(report: Report, study: _Study) -> None:
+def _propagation_section(report: Report, study: Study) -> None:
     scenario = study.results["scenario"]
     prop = study.results["propagation"].to_json()
     dk = prop["dK"]
@@ -154,7 +151,7 @@ def _propagation_section(report: Report, study: _Study) -> None:
                   "with the period.")
 
 
-def _discrepancy_section(report: Report, study: _Study) -> None:
+def _discrepancy_section(report: Report, study: Study) -> None:
     found = study.results.get("discrepancy")
     if found is None:
         return
@@ -174,7 +171,7 @@ def _discrepancy_section(report: Report, study: _Study) -> None:
                   "white noise dominates).")
 
 
-def _compensation_section(report: Report, study: _Study) -> None:
+def _compensation_section(report: Report, study: Study) -> None:
     cs = study.results["compensation"].summary
     before, after = cs["allan_before"], cs["allan_after"]
     inside = ("Every input stayed inside the fitted range." if cs["within_fitted_range"] else
@@ -199,7 +196,7 @@ def _compensation_section(report: Report, study: _Study) -> None:
                   "dT/dt.")
 
 
-def _papers_section(report: Report, study: _Study) -> None:
+def _papers_section(report: Report, study: Study) -> None:
     repro = study.results["reproduction"]
     report.add("## 6. Both papers reproduced and audited", "",
                "Files `reproduce/` (`reproduce.json`, `tables.md`).", "")
@@ -223,7 +220,7 @@ def distinct(a: float, b: float, digits: int = 3) -> tuple[str, str]:
     return f"{a:.10g}", f"{b:.10g}"
 
 
-def _pool_section(report: Report, study: _Study) -> None:
+def _pool_section(report: Report, study: Study) -> None:
     """Section 7: a simulated lot pooled against its truth, and paper A's table."""
     pooled, lot = study.results["pooled"], study.results["lot"]
     record = pooled.to_json()

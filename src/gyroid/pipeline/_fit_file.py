@@ -10,14 +10,16 @@ from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from gyroid.errors import GyroidInputError
-from gyroid.inference._bench_fit import BenchFit, fit_log
+from gyroid.inference._bench_fit import fit_log
 from gyroid.inference._bench_problem import IEEE_MAX_ROWS
+from gyroid.inference._bench_result import BenchFit
 from gyroid.inference._emcee import Emcee
 from gyroid.io._bench_reader import bench_log_from_table
 from gyroid.io._fitted import FittedNoise, axes_of
+from gyroid.io._log_table import LogTable
 from gyroid.io._logs import MeansOfBlocks
 from gyroid.io._stream import STREAM_ROWS, stream_block_means, stream_rows
-from gyroid.io._tables import LogTable, read_header, read_log_table, table_source
+from gyroid.io._tables import read_header, read_log_table, table_source
 from gyroid.io._units import ColumnMap
 from gyroid.models._inputs import T0_C
 from gyroid.models._prior_scales import PRIOR_SETS, priors_from_noise

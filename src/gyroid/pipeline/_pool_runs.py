@@ -1,16 +1,41 @@
-"""What ``gyroid pool`` reads: each log a run, or (``--instances``) each IMU of one
-flight-controller, ROS or MATLAB log a run: several gyros of one type in one log pool
-naturally, one gyro axis at a time (``--axis``)."""
+"""What ``gyroid pool`` does: read the runs (each log a run, or with ``--instances`` each IMU
+of one flight-controller, ROS or MATLAB log a run: several gyros of one type in one log
+pool naturally, one gyro axis at a time, ``--axis``), pool them, write the result."""
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from gyroid.errors import GyroidInputError
+from gyroid.inference._pool_fit import fit_pool
+from gyroid.inference._pool_result import PoolFit
 from gyroid.io._bench_reader import bench_log_from_table
 from gyroid.io._logs import BenchLog, run_labels
+from gyroid.io._outputs import output_dir
 from gyroid.io._tables import read_log_table
 from gyroid.io._units import ColumnMap
+from gyroid.models._inputs import T0_C
+from gyroid.models._priors import Prior
+from gyroid.reports._write import write
+
+
+def pool_to_dir(paths: tuple[Path, ...], terms: str, out: Path, *, seed: int = 0,
+                prior_set: str = "default", priors: Mapping[str, Prior] | None = None,
+                t0_C: float = T0_C, segment_means: bool = False,
+                maps: tuple[ColumnMap, ...] = (), axis: str | None = None,
+                instances: str | None = None,
+                say: Callable[[str], None] = lambda _m: None) -> PoolFit:
+    """Pool ``terms`` over the runs read from ``paths`` (:func:`pool_runs`) and write
+    ``pool.json``, ``posterior.nc`` and ``forest.png`` to ``out``."""
+    loaded, labels = pool_runs(paths, terms, maps=maps, axis=axis, instances=instances)
+    rows = sum(log.n for log in loaded)
+    say(f"pooling {terms} over {len(loaded)} runs ({rows} rows) ...")
+    result = fit_pool(loaded, labels, terms, seed=seed, prior_set=prior_set, priors=priors,
+                      t0_C=t0_C, segment_means=segment_means)
+    with output_dir(out) as stage:
+        write(stage, result)
+    return result
 
 
 def pool_runs(paths: tuple[Path, ...], terms: str, *, maps: tuple[ColumnMap, ...] = (),

@@ -14,10 +14,10 @@ import numpy as np
 from gyroid.io._outputs import json_text
 
 if TYPE_CHECKING:
-    from gyroid.inference._bench_fit import BenchFit
+    from gyroid.inference._bench_result import BenchFit
     from gyroid.inference._noise_fit import NoiseFit
     from gyroid.inference._pool_result import PoolFit
-    from gyroid.inference._roll_fit import RollFit
+    from gyroid.inference._roll_result import RollFit
     from gyroid.io._logs import BenchLog
     from gyroid.workflows._compensate import Compensation
     from gyroid.workflows._discrepancy_report import DiscrepancyReport
@@ -174,10 +174,10 @@ def _noise(folder: Path, result: NoiseFit) -> list[Path]:
 def _writers() -> tuple[tuple[type, Callable[..., list[Path]]], ...]:
     """Each kind of result and its writer, by type (the kinds imported when the first
     result is written: a result's own module is loaded by then)."""
-    from gyroid.inference._bench_fit import BenchFit
+    from gyroid.inference._bench_result import BenchFit
     from gyroid.inference._noise_fit import NoiseFit
     from gyroid.inference._pool_result import PoolFit
-    from gyroid.inference._roll_fit import RollFit
+    from gyroid.inference._roll_result import RollFit
     from gyroid.workflows._compensate import Compensation
     from gyroid.workflows._discrepancy_report import DiscrepancyReport
     from gyroid.workflows._export import FirmwareExport

@@ -8,13 +8,18 @@ from __future__ import annotations
 
 import math
 
-import jax.numpy as jnp
 import numpy as np
 
-from gyroid.inference._whitened_fit import MAX_NOISE_TAU_S, ModelFit, NoiseLevels, estimate_noise
+from gyroid.inference._whitened_fit import (
+    MAX_NOISE_TAU_S,
+    ModelFit,
+    NoiseLevels,
+    basis_fit,
+    estimate_noise,
+    noise_log_likelihood,
+)
 from gyroid.io._logs import BenchLog
 from gyroid.models._inputs import DriftInputs
-from gyroid.noise._kalman import gauss_markov_innovations
 from gyroid.workflows._discrepancy_report import (
     Unexplained,
 )
@@ -114,28 +119,6 @@ def _flexible_basis(time_s: np.ndarray) -> np.ndarray:
     return np.cos(np.pi * np.outer(tau, np.arange(1, FLEXIBLE_TERMS + 1)))
 
 
-def _whitened_fit(residual: np.ndarray, basis: np.ndarray, steps_s, noise: NoiseLevels):
-    """Log-likelihood of ``residual`` less its best whitened fit on ``basis`` under
-    ``noise``, and that fit (deg/h per row)."""
-    stacked = jnp.concatenate([jnp.asarray(residual)[:, None], jnp.asarray(basis)], axis=1)
-    innovations, variance = gauss_markov_innovations(stacked, steps_s, noise.white, noise.gm,
-                                                     noise.tau_s)
-    scale = 1.0 / jnp.sqrt(variance)
-    target, columns = innovations[:, 0] * scale, innovations[:, 1:] * scale[:, None]
-    coef, *_ = jnp.linalg.lstsq(columns, target)
-    rss = float(jnp.sum((target - columns @ coef) ** 2))
-    log_lik = (-0.5 * rss - 0.5 * float(jnp.sum(jnp.log(variance)))
-               - 0.5 * residual.size * _LOG_2PI)
-    return log_lik, np.asarray(basis) @ np.asarray(coef)
-
-
-def _noise_log_likelihood(residual: np.ndarray, steps_s, noise: NoiseLevels) -> float:
-    innovation, variance = gauss_markov_innovations(jnp.asarray(residual), steps_s, noise.white,
-                                                    noise.gm, noise.tau_s)
-    return float(-0.5 * jnp.sum(innovation**2 / variance + jnp.log(variance))
-                 - 0.5 * residual.size * _LOG_2PI)
-
-
 def find_unexplained(log: BenchLog, fit: ModelFit, noise: NoiseLevels, steps_s,
                      regs: dict[str, np.ndarray], threshold: float) -> Unexplained | None:
     """Structure the final model leaves: a smooth function of time (FLEXIBLE_TERMS cosines)
@@ -146,12 +129,12 @@ def find_unexplained(log: BenchLog, fit: ModelFit, noise: NoiseLevels, steps_s,
     time_s = np.asarray(log.time_s)
     residual = np.asarray(fit.residual)
     basis = _flexible_basis(time_s)
-    base = _noise_log_likelihood(residual, steps_s, noise)
+    base = noise_log_likelihood(residual, steps_s, noise)
     flexible_noise = noise
     for _ in range(2):
-        _, curve = _whitened_fit(residual, basis, steps_s, flexible_noise)
+        _, curve = basis_fit(residual, basis, steps_s, flexible_noise)
         flexible_noise = estimate_noise(residual - curve, steps_s)
-    log_lik, curve = _whitened_fit(residual, basis, steps_s, flexible_noise)
+    log_lik, curve = basis_fit(residual, basis, steps_s, flexible_noise)
     blocks = max((time_s[-1] - time_s[0]) / FLEXIBLE_BLOCK_S, FLEXIBLE_TERMS + 2.0)
     score = 2.0 * (log_lik - base) - FLEXIBLE_TERMS * math.log(min(blocks, residual.size))
     pinned = noise.tau_s >= TAU_AT_CAP * MAX_NOISE_TAU_S

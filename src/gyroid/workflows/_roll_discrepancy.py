@@ -11,8 +11,8 @@ import numpy as np
 
 from gyroid.inference._checks import CheckReport, fit_checks, point_fit_evidence
 from gyroid.inference._problem import PointEstimate
-from gyroid.inference._roll_fit import roll_point_estimate
-from gyroid.inference._roll_problem import RollDensity, RollProblem
+from gyroid.inference._roll_density import RollDensity
+from gyroid.inference._roll_problem import RollProblem
 from gyroid.io._roll_log import RollLog
 from gyroid.models._roll_effects import ROLL_EFFECTS, resolve_roll_terms, roll_parameter
 from gyroid.workflows._discrepancy_report import (
@@ -38,7 +38,7 @@ def _fit_quality(density: RollDensity, v):
 
 
 def _max_log_likelihood(problem: RollProblem) -> tuple[float, PointEstimate, np.ndarray]:
-    point = roll_point_estimate(problem)
+    point = problem.mode()
     v = problem.density.spread(jnp.asarray(point.u))
     log_lik, residual = _fit_quality(problem.density.full, v)
     return float(log_lik), point, np.asarray(residual)

@@ -1,0 +1,60 @@
+"""One set of noise terms' fit (:class:`NoiseModelFit`): what a
+:class:`~gyroid.inference._noise_problem.NoiseProblem` gives, with the checks of its
+posterior. :func:`~gyroid.inference.fit_noise` averages such fits over the sets of terms a
+log supports."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from gyroid.inference._check_report import CheckReport, FitEvidence
+from gyroid.inference._checks import fit_checks
+from gyroid.inference._noise_terms import term
+from gyroid.inference._posterior import Posterior
+from gyroid.inference._problem import AbstractProblem, PointEstimate
+from gyroid.inference._result import FitResult
+
+#: The checks a noise fit keeps of those every fit has (the others read a drift's residuals).
+POSTERIOR_CHECKS = ("convergence", "point_vs_posterior", "prior_data_conflict")
+
+
+@dataclass(frozen=True, eq=False)
+class NoiseModelFit(FitResult):
+    """One set of noise terms' posterior (log-amplitudes sampled) and its checks."""
+
+    terms: tuple[str, ...]
+    point: PointEstimate
+    posterior: Posterior
+    checks: CheckReport
+
+    def summary(self) -> str:
+        lines = [f"noise terms {', '.join(self.terms)}; posterior mean +/- sd:"]
+        lines += [f"  {name:>4s} = {entry['mean']:.4g} +/- {entry['sd']:.2g} {term(name).unit}"
+                  for name, entry in self.posterior.summary.items()]
+        return "\n".join([*lines, *(f"  {line}" for line in self.checks.lines()),
+                          f"  {self.checks.verdict()}"])
+
+    def to_json(self) -> dict:
+        return {"terms": list(self.terms), "posterior": self.posterior.summary,
+                **self.checks.to_json()}
+
+
+
+def noise_model_result(problem: AbstractProblem, point: PointEstimate,
+                       posterior: Posterior | None) -> NoiseModelFit:
+    """The frozen :class:`NoiseModelFit` of one sampled set of terms, checks first."""
+    if posterior is None:
+        raise ValueError("a noise fit reports posterior intervals: sample it")
+    evidence = FitEvidence(
+        names=problem.names, n_model=len(problem.names), point_u=np.asarray(point.u),
+        point_converged=point.converged, point_message=point.message,
+        priors=problem.priors, reference_sd={}, residuals=None, sigma_given=False,
+        correlated_noise=False, draws_u=problem.to_sampling_host(posterior.draws),
+        summary=posterior.summary, remedies=frozenset({"discrepancy"}))
+    # The checks of residuals and identifiability read a drift fit's residuals and
+    # reference scales, which a noise fit does not have (level_fit and the terms' inclusion
+    # do their work): only the checks of the posterior itself are kept.
+    kept = tuple(c for c in fit_checks(evidence).checks if c.name in POSTERIOR_CHECKS)
+    return NoiseModelFit(problem.terms, point, posterior, CheckReport(kept))
