@@ -247,11 +247,11 @@ def test_under_ieee_noise_the_point_is_the_marginal_mode_the_posterior_centres_o
 
 def test_a_real_allan_variance_the_noise_terms_cannot_describe_is_refused():
     """The MPU6050 logged still with x pointing up: read as independent Haar coefficients,
-    its z axis gave N 44 % above the Allan-slope reading with a 1 % interval and exit 0
-    (the variance at the shortest averaging times has bumps no IEEE term makes). Its
-    dispersion about the model is now measured and the fit refused; the 10-minute run of the
-    same unit scatters as chance allows and its N matches the Allan deviation's -1/2 line read
-    at 1 s (allantools) within 5 %."""
+    its z axis gave N 44 % above the Allan-slope reading with a 1 % interval and exit 0.
+    Its shortest averaging times carry a burst of samples far from their neighbours (rows
+    78 on, 0.5 % of the log): the outlier check names them and refuses the fit (too many
+    to be outliers). The 10-minute run of the same unit scatters as chance allows and its N
+    matches the Allan deviation's -1/2 line read at 1 s (allantools) within 5 %."""
     import allantools
 
     from gyroid.inference import fit_noise
@@ -266,7 +266,8 @@ def test_a_real_allan_variance_the_noise_terms_cannot_describe_is_refused():
 
     bumpy = fit_noise(*rate("set1_unmoved-x-pointing-up", "z"))
     failed = {c.name: c for c in bumpy.checks.failed}
-    assert failed["dispersion"].severity == "error" and not bumpy.trustworthy
+    assert failed["outliers"].severity == "error" and not bumpy.trustworthy
+    assert "row 78" in failed["outliers"].message
     values, step = rate("set2_unmoved-with-x-pointing-forward-10min", "y")
     still = fit_noise(values, step)
     assert still.trustworthy and still.dispersion == 1.0

@@ -257,9 +257,10 @@ def batch(logs, out, workers, scheduler, options) -> None:
 
 
 @cli.command()
-@click.argument("data", type=click.Path(path_type=Path))
+@click.argument("data", nargs=-1, required=True, type=click.Path(path_type=Path))
 @click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
-              help="Folder for noise.json and allan.png (a folder per axis for several).")
+              help="Folder for noise.json and allan.png (a folder per axis for several); "
+                   "for several runs, a folder per run and unit/ (unit.json, unit.png).")
 @click.option("--seed", default=0, show_default=True, type=SEED, help="Random seed.")
 @map_option
 @axes_option
@@ -273,25 +274,38 @@ def batch(logs, out, workers, scheduler, options) -> None:
 def noise(data, out, seed, mappings, axes, instance, static_deg_s) -> None:
     """Identify a static log's noise: angle random walk N, bias instability B, rate random
     walk K, quantisation Q and rate ramp R (IEEE Std 952) with 90 % intervals, averaged over
-    the sets of terms the log supports; terms it cannot resolve get an upper bound. Exit
-    code 3 when a self-check says not to use it."""
-    from gyroid.pipeline._noise_file import noise_file
+    the sets of terms the log supports, beside a Gauss-Markov bias G and a prefilter's
+    deficit F; terms it cannot resolve get an upper bound. Several DATA logs are runs of one
+    unit (or lot): each is fitted, then the unit's terms with the run-to-run spread and the
+    interval a new run should land in. Exit code 3 when a self-check says not to use it."""
+    from gyroid.pipeline._noise_file import noise_file, noise_unit_files
 
-    click.echo(f"fitting the noise of {data} ...", err=True)
-    result = noise_file(data, out, seed=seed, maps=parse_maps(mappings),
-                        axes=parse_axes(axes), instance=instance, static_deg_s=static_deg_s)
+    options = dict(seed=seed, maps=parse_maps(mappings), axes=parse_axes(axes),
+                   instance=instance, static_deg_s=static_deg_s)
+    if len(data) > 1:
+        runs = noise_unit_files(data, out, **options, say=lambda m: click.echo(m, err=True))
+        for axis, unit in runs.unit.results.items():
+            which = f"axis {axis}: " if runs.unit.several else ""
+            click.echo(which + unit.summary().replace("\n", "\n" + which))
+        report_written(runs.unit, out / "unit", ("unit.json", "unit.png"))
+        return
+    click.echo(f"fitting the noise of {data[0]} ...", err=True)
+    result = noise_file(data[0], out, **options)
     kept = result.source.get("static")
     if kept:
         click.echo(f"--static {kept['threshold_deg_s']:g}: kept {kept['rows_kept']} of "
                    f"{kept['rows']} rows in {kept['stretches']} still stretch(es)", err=True)
     for axis, item in result.results.items():
         which = f"axis {axis}: " if result.several else ""
-        for name, entry in item.term_summaries().items():
+        gm = item.gauss_markov()
+        entries = item.term_summaries() | ({"G": gm} if gm is not None else {})
+        for name, entry in entries.items():
+            when = f", correlation time {entry['tau_s']:.3g} s" if name == "G" else ""
             if entry["resolved"]:
                 lo, hi = entry["ci90"]
                 click.echo(f"{which}{name} = {entry['mean']:.4g} [{lo:.4g}, {hi:.4g}] "
-                           f"{entry['unit']} ({entry['process']})")
-            else:
+                           f"{entry['unit']} ({entry['process']}{when})")
+            elif entry["upper_bound_95"] is not None:
                 click.echo(f"{which}{name}: not resolved, below {entry['upper_bound_95']:.3g} "
                            f"{entry['unit']} (95 %; {entry['why']})")
     report_written(result, out, ("noise.json", "allan.png"))

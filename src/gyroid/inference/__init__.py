@@ -26,6 +26,7 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "_noise_terms": ["NOISE_TERMS"],
     "_noise_fit": ["NoiseFit", "fit_noise"],
     "_noise_model_fit": ["NoiseModelFit"],
+    "_noise_unit": ["UnitNoise", "fit_unit_noise"],
     "_pool_fit": ["fit_pool", "pool_estimates", "pool_problem"],
     "_pool_result": ["PoolFit"],
     "_rate_window": ["choose_rate_window"],

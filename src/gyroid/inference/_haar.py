@@ -35,6 +35,9 @@ class HaarStatistics:
     tau0_s: float
     n_samples: int
     segments: int
+    #: The correlation time of the Gauss-Markov term G fitted to these statistics, s (NaN
+    #: before it is chosen: :func:`~gyroid.inference._noise_terms.gauss_markov_time`).
+    gm_tc_s: float = float("nan")
 
     @property
     def tau_s(self) -> np.ndarray:

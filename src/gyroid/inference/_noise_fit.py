@@ -2,12 +2,9 @@
 chooses the terms a static log resolves, samples their posterior and checks it.
 
 Self-checks: the ones every fit has (convergence, point against posterior, prior-data
-conflict), and the fit of each averaging time: a level's Haar coefficients' mean square
-over the model's ``2 AVAR`` is ``chi2(n)/n`` when the model is right; a level whose
-two-sided p-value times the number of levels is below ``LEVEL_P`` with a ratio beyond
-``LEVEL_RATIO`` (or its inverse) is an error (the Allan deviation there is off by more than
-``sqrt(2)``: a process the terms lack, a log that is not static, or a temperature drift),
-a significant but smaller misfit a warning.
+conflict), the outliers found before the Allan statistics (:mod:`gyroid.inference.
+_noise_outliers`), the shortest averaging times a prefilter shapes, and the fit of each
+averaging time alone and of runs of adjacent ones (:mod:`gyroid.inference._noise_levels`).
 
 Overdispersion: when the best set of terms leaves a deviance (over the levels) that
 ``chi2(levels - terms)`` gives a p-value below ``DISPERSION_P``, the Haar coefficients
@@ -24,6 +21,7 @@ Allan variance has bumps at the shortest averaging times.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -33,22 +31,23 @@ from gyroid.inference._check_report import Check, CheckReport
 from gyroid.inference._emcee import Emcee
 from gyroid.inference._fit import fit
 from gyroid.inference._haar import HaarStatistics, haar_statistics
-from gyroid.inference._noise_model_fit import NoiseModelFit
-from gyroid.inference._noise_problem import (
-    NoiseProblem,
-    TermChoice,
-    choose_terms,
-    deviance,
+from gyroid.inference._noise_choice import TermChoice, choose_terms, deviance, gauss_markov_time
+from gyroid.inference._noise_levels import (
+    drop_prefiltered,
+    level_fit,
+    level_runs,
+    prefilter_check,
 )
-from gyroid.inference._noise_terms import NOISE_TERMS, TERM_NAMES, shapes, term
+from gyroid.inference._noise_model_fit import NoiseModelFit
+from gyroid.inference._noise_outliers import remove_outliers
+from gyroid.inference._noise_problem import NoiseProblem
+from gyroid.inference._noise_terms import IEEE_TERMS, TERM_NAMES, shapes, term
 from gyroid.inference._problem import AbstractSampler
 from gyroid.inference._result import FitResult
 
-LEVEL_P = 1e-4
 DISPERSION_P = 1e-3
 #: Beyond this dispersion the terms do not describe the log (an error, not a widening).
 DISPERSION_MAX = 10.0
-LEVEL_RATIO = 2.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -92,35 +91,51 @@ class NoiseFit(FitResult):
         """Each term the log resolves (mean, 90 % interval) or its upper bound, and the
         failed checks."""
         lines = [f"noise of {self.label or 'the log'}; terms (datasheet units):"]
-        for name, entry in self.term_summaries().items():
+        gm = self.gauss_markov()
+        entries = (self.term_summaries() | ({"G": gm} if gm is not None else {})
+                   | {"F": self.prefilter()})
+        for name, entry in entries.items():
+            when = f", correlation time {entry['tau_s']:.3g} s" if name == "G" else ""
             if entry["resolved"]:
                 lo, hi = entry["ci90"]
                 lines.append(f"  {name} = {entry['mean']:.4g} {entry['unit']} "
-                             f"(90 %: {lo:.4g} ... {hi:.4g})")
+                             f"(90 %: {lo:.4g} ... {hi:.4g}{when})")
             elif entry["upper_bound_95"] is not None:
                 lines.append(f"  {name} < {entry['upper_bound_95']:.4g} {entry['unit']} "
-                             "(95 %; not resolved)")
+                             f"(95 %; not resolved{when})")
         return "\n".join([*lines, *(f"  {line}" for line in self.checks.lines()),
                           f"  {self.checks.verdict()}"])
 
     def term_summaries(self) -> dict[str, dict]:
-        """Per term of :data:`NOISE_TERMS`: mean, sd, 90 % interval (or the upper bound of
-        a term the log does not resolve), unit, process, inclusion probability."""
-        out = {}
-        for item in NOISE_TERMS:
-            entry = {"unit": item.unit, "process": item.process,
-                     "inclusion": round(self.choice.inclusion(item.name), 4)}
-            if item.name in self.terms:
-                x = self.draws(item.name)
-                entry |= {"mean": float(x.mean()), "sd": float(x.std(ddof=1)),
-                          "ci90": [float(v) for v in np.quantile(x, [0.05, 0.95])],
-                          "resolved": True}
-            else:
-                entry |= {"mean": None, "sd": None, "ci90": None, "resolved": False,
-                          "upper_bound_95": self.choice.upper_bound_95.get(item.name),
-                          "why": item.unresolved_hint}
-            out[item.name] = entry
-        return out
+        """Per IEEE term (:data:`IEEE_TERMS`): mean, sd, 90 % interval (or the upper bound
+        of a term the log does not resolve), unit, process, inclusion probability."""
+        return {name: self._term_summary(name) for name in IEEE_TERMS}
+
+    def gauss_markov(self) -> dict | None:
+        """The Gauss-Markov bias G as :meth:`term_summaries` gives a term, with its
+        correlation time ``tau_s`` (s, chosen by profile likelihood); None when the log
+        has too few averaging times to try one."""
+        if not np.isfinite(self.stats.gm_tc_s):
+            return None
+        return self._term_summary("G") | {"tau_s": self.stats.gm_tc_s}
+
+    def prefilter(self) -> dict:
+        """The prefilter's deficit F as :meth:`term_summaries` gives a term (an amplitude of
+        quantisation's shape that the Allan variance lies below white noise by)."""
+        return self._term_summary("F")
+
+    def _term_summary(self, name: str) -> dict:
+        item = term(name)
+        entry = {"unit": item.unit, "process": item.process,
+                 "inclusion": round(self.choice.inclusion(name), 4)}
+        if name in self.terms:
+            x = self.draws(name)
+            return entry | {"mean": float(x.mean()), "sd": float(x.std(ddof=1)),
+                            "ci90": [float(v) for v in np.quantile(x, [0.05, 0.95])],
+                            "resolved": True}
+        return entry | {"mean": None, "sd": None, "ci90": None, "resolved": False,
+                        "upper_bound_95": self.choice.upper_bound_95.get(name),
+                        "why": item.unresolved_hint}
 
     def to_json(self) -> dict:
         """``noise.json`` (docs/formats.md section 5)."""
@@ -128,6 +143,8 @@ class NoiseFit(FitResult):
         return {
             "log": self.label,
             "terms": self.term_summaries(),
+            "gauss_markov": self.gauss_markov(),
+            "prefilter": self.prefilter(),
             "model": [{"name": n, "process": term(n).process, "unit": term(n).unit}
                       for n in self.terms],
             "models_averaged": [{"terms": list(m.terms), "weight": round(w, 6),
@@ -153,33 +170,7 @@ class NoiseFit(FitResult):
 def _at(stats: HaarStatistics, tau_s: np.ndarray) -> HaarStatistics:
     m = tau_s / stats.tau0_s
     return HaarStatistics(m, np.ones_like(m), np.ones_like(m), stats.tau0_s, stats.n_samples,
-                          stats.segments)
-
-
-def level_fit(stats: HaarStatistics, model_avar: np.ndarray) -> Check:
-    """Each averaging time's Allan variance against the model's (module docstring)."""
-    from scipy import stats as st
-
-    ratio = stats.avar / model_avar
-    lower = st.chi2.cdf(stats.count * ratio, stats.count)
-    p = np.minimum(1.0, 2.0 * np.minimum(lower, 1.0 - lower) * ratio.size)
-    size = np.maximum(ratio, 1.0 / ratio)
-    significant = p < LEVEL_P
-    worst = int(np.argmax(np.where(significant, size, 0.0))) if significant.any() else int(
-        np.argmax(size))
-    tau = stats.tau_s[worst]
-    if not significant.any():
-        return Check("level_fit", True, "error", float(size[worst]), LEVEL_RATIO,
-                     f"every averaging time's Allan variance fits the model (worst ratio "
-                     f"{ratio[worst]:.2f} at {tau:.3g} s)")
-    severity = "error" if size[worst] > LEVEL_RATIO else "warning"
-    side = "above" if ratio[worst] > 1 else "below"
-    return Check("level_fit", False, severity, float(size[worst]), LEVEL_RATIO,
-                 f"the Allan variance at {tau:.3g} s is {ratio[worst]:.2f} times the model's "
-                 f"({side} it, p {p[worst]:.1g}): a process the noise terms lack, a log that "
-                 "is not static, or a temperature drift; cut the log to a static stretch "
-                 "or remove the drift first (gyroid compensate)",
-                 ("discrepancy",))
+                          stats.segments, stats.gm_tc_s)
 
 
 #: Model-averaged draws kept.
@@ -190,12 +181,15 @@ CHECKED_WEIGHT = 0.05
 
 def fit_noise(rate_deg_h: np.ndarray, sample_s: float, *,
               segments: list[tuple[int, int]] | None = None, seed: int = 0,
-              sampler: AbstractSampler | None = None, label: str = "") -> NoiseFit:
+              sampler: AbstractSampler | None = None, label: str = "",
+              where: Callable[[int], str] | None = None) -> NoiseFit:
     """Fit a static rate log's noise (deg/h every ``sample_s`` seconds; ``segments``: its
     contiguous stretches): every set of terms the log supports sampled and averaged by
     weight, the checks of each set that matters and of the averaged model's fit to every
     averaging time."""
-    stats = haar_statistics(rate_deg_h, sample_s, segments)
+    cleaned, outliers = remove_outliers(rate_deg_h, segments)
+    stats, prefiltered = drop_prefiltered(haar_statistics(cleaned, sample_s, segments))
+    stats = gauss_markov_time(stats)
     choice = choose_terms(stats)
     lack, dof = deviance(stats, choice.best)
     dispersion = lack / dof if dof > 0 and chi2.sf(lack, dof) < DISPERSION_P else 1.0
@@ -209,7 +203,8 @@ def fit_noise(rate_deg_h: np.ndarray, sample_s: float, *,
     sampler = sampler if sampler is not None else Emcee(progress=False)
     models, blocks = [], []
     for k, (names, weight) in enumerate(choice.weights.items()):
-        problem = NoiseProblem.from_statistics(fitted, names, label)
+        problem = NoiseProblem.from_statistics(fitted, names, label,
+                                               choice.argmax.get(names, ()))
         model = fit(problem, sampler=sampler, seed=seed + k)
         models.append((weight, model))
         draws = model.posterior.draws.reshape(-1, len(names))
@@ -224,7 +219,10 @@ def fit_noise(rate_deg_h: np.ndarray, sample_s: float, *,
         if weight >= CHECKED_WEIGHT:
             checks += [replace(c, name=f"{c.name}[{'+'.join(model.terms)}]")
                        for c in model.checks.failed]
+    checks.append(outliers.check(where))
+    checks.append(prefilter_check(prefiltered, sample_s))
     checks.append(level_fit(stats, avar))
+    checks.append(level_runs(stats, avar))
     checks.append(dispersion_check(dispersion, lack, dof))
     return NoiseFit(choice, stats, tuple(models), mixture, CheckReport(tuple(checks)), label,
                     dispersion)

@@ -204,6 +204,55 @@ _MPU_SHA256 = {
 }
 
 
+#: The SMAC group's R data package: six static runs of one ADIS16405 and an MTi-G run with
+#: outliers, as R objects (read with ``rdata``).
+_SMAC_REPO = "SMAC-Group/imudata"
+_SMAC_COMMIT = "eec6e5b627a31a4a1c286e0d1475c6556705b2a6"
+_SMAC_SHA256 = {
+    "adis_16405_imu1": "1eb09074beabd7cfc15b402cb8043b5302f6e4edfd9e4ebfbf8117436f8b9fa9",
+    "adis_16405_imu2": "de95fc0bcf854b3bcbda77e176841dcd4ec389d2676ba814d4f54dcdbe460fc0",
+    "adis_16405_imu3": "aaf972eb6ded35bad4ad2d46c44b0bfefd6665d485aabec4a417fc14259c18af",
+    "adis_16405_imu4": "6f1dd1f5d3fd565ead7ad0d45e0d89d058dc3498cde0c7984702ef89333205d4",
+    "adis_16405_imu5": "4967b52057106ebf0960f81f08fc47ac1bdd96ce842a802b8ee5fceecac8d8ee",
+    "adis_16405_imu6": "58d35eae5c930fba9ae2110d90c14328c4ed29c71d943f757d1b941f412b3115",
+    "cont.imu1": "0c177912a952df1142d847373e3fa7030129d6b42ef1ecad56f507ba3aaf01f6",
+}
+#: The package's sample rate (its objects' ``freq`` attribute), Hz.
+_SMAC_RATE_HZ = 100.0
+
+
+def _r_matrix(path: Path) -> np.ndarray:
+    """The one matrix an R data file holds (rows x columns), as floats."""
+    import warnings
+
+    import rdata
+
+    with warnings.catch_warnings():  # the package's "imu" class has no Python constructor
+        warnings.simplefilter("ignore", UserWarning)
+        objects = rdata.read_rda(str(path))
+    (value,) = objects.values()
+    matrix = np.asarray(value, dtype=float)
+    return matrix.reshape(matrix.shape[0], -1)
+
+
+def _smac(files: dict[str, Path]):
+    out = {}
+    for name in _SMAC_SHA256:
+        matrix = _r_matrix(files[f"smac_adis16405/{name}.rda"])
+        time_s = np.arange(matrix.shape[0]) / _SMAC_RATE_HZ
+        if name.startswith("adis"):
+            out[name] = ({"time_s": time_s, **{f"drift_{a}_deg_h": matrix[:, k] * 3600.0
+                                               for k, a in enumerate("xyz")}},
+                         [f"{name}: ADIS16405 gyro X/Y/Z, deg/s (quantised to 0.05 deg/s) "
+                          "in deg/h; the package's 100 Hz clock"])
+        else:
+            out["mtig_cont_imu1"] = (
+                {"time_s": time_s, "drift_x_deg_h": matrix[:, 0] * RAD_S_TO_DEG_H},
+                ["cont.imu1: Xsens MTi-G x gyro, rad/s in deg/h; the package's 100 Hz "
+                 "clock; contaminated by outliers (the robust wavelet-variance test case)"])
+    return out
+
+
 def _raw(repository: str, commit: str, path: str) -> str:
     return f"https://raw.githubusercontent.com/{repository}/{commit}/{path}"
 
@@ -243,4 +292,16 @@ DATASETS: dict[str, Dataset] = {d.name: d for d in (
               for g, f in _MPU_RUNS for k, kind in enumerate(("gyroscope", "temperature"))),
         _mpu6050, notes="the temperature hardly moves: a temperature coefficient is not "
                         "identifiable from these runs"),
+    Dataset(
+        "smac_imudata",
+        "six 2.78 h static runs at 100 Hz of an ADIS16405 MEMS IMU (probably one unit; gyro "
+        "quantised to 0.05 deg/s, no thermometer) and a 1.4 h Xsens MTi-G x-gyro run at "
+        "100 Hz contaminated by outliers",
+        _SMAC_REPO, _SMAC_COMMIT, "CC BY-NC-SA 4.0 (research use; gyroid ships none of it)",
+        tuple(Source(f"smac_adis16405/{name}.rda",
+                     _raw(_SMAC_REPO, _SMAC_COMMIT, f"data/{name}.rda"), sha)
+              for name, sha in _SMAC_SHA256.items()),
+        _smac, notes="University of Calgary's ADIS16405 runs and the MTi-G run of the robust "
+                     "GMWM papers (Guerrier et al.); the rates' units are the package's "
+                     "(ADIS deg/s, MTi-G rad/s)"),
 )}

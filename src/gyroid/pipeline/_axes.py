@@ -67,10 +67,16 @@ def chosen_axes(table: LogTable, wanted: tuple[str, ...] | None) -> tuple[str | 
 def write_per_axis(out: str | Path, per_axis: PerAxis, **context) -> None:
     """Every axis's files, whole or not at all (``context`` as :func:`reports.write`'s)."""
     with output_dir(out) as stage:
-        if not per_axis.several:
-            write(stage, per_axis.only, **context)
-            return
-        for axis, result in per_axis.results.items():
-            (stage / axis).mkdir()
-            write(stage / axis, result, **context)
-        (stage / "axes.json").write_text(json_text(per_axis.to_json()))
+        write_axes(stage, per_axis, **context)
+
+
+def write_axes(folder: Path, per_axis: PerAxis, **context) -> None:
+    """Every axis's files into ``folder`` (which exists): the one axis's there, or a folder
+    per axis and ``axes.json``."""
+    if not per_axis.several:
+        write(folder, per_axis.only, **context)
+        return
+    for axis, result in per_axis.results.items():
+        (folder / axis).mkdir()
+        write(folder / axis, result, **context)
+    (folder / "axes.json").write_text(json_text(per_axis.to_json()))

@@ -1,19 +1,24 @@
-"""What ``gyroid noise`` does with one log: read it once, fit each gyro axis's noise, write
-the results (:mod:`gyroid.pipeline._axes`)."""
+"""What ``gyroid noise`` does: with one log, read it once, fit each gyro axis's noise, write
+the results (:mod:`gyroid.pipeline._axes`); with several runs of one unit, each run's and
+the unit's (:mod:`gyroid.inference._noise_unit`)."""
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from gyroid.errors import GyroidInputError
 from gyroid.inference._noise_fit import NoiseFit, fit_noise
+from gyroid.inference._noise_unit import UnitNoise, fit_unit_noise
 from gyroid.io._bench_reader import bench_log_from_table
-from gyroid.io._logs import contiguous_segments
+from gyroid.io._logs import contiguous_segments, run_labels
+from gyroid.io._outputs import output_dir
 from gyroid.io._tables import read_log_table, table_source
 from gyroid.io._units import ColumnMap
-from gyroid.pipeline._axes import PerAxis, chosen_axes, write_per_axis
+from gyroid.pipeline._axes import PerAxis, chosen_axes, write_axes, write_per_axis
 
 #: A clock whose steps vary by more than this (relative) is not a sampled rate.
 MAX_STEP_SPREAD = 0.01
@@ -54,6 +59,60 @@ def noise_file(path: str | Path, out: str | Path, *, seed: int = 0,
     """Fit the noise of a static log's axes (``axes``; default every axis it has) and write
     ``noise.json`` and ``allan.png`` per axis to ``out``. ``static_deg_s``: keep only the
     still stretches of a log that moves (:func:`still_rows` over every chosen axis)."""
+    per_axis = noise_fits(path, seed=seed, maps=maps, axes=axes, instance=instance,
+                          static_deg_s=static_deg_s)
+    write_per_axis(out, per_axis)
+    return per_axis
+
+
+@dataclass(frozen=True)
+class UnitRuns:
+    """Several static runs of one unit (or lot): each run's fits (by its label) and the
+    unit's terms per axis (:func:`~gyroid.inference.fit_unit_noise`)."""
+
+    runs: dict[str, PerAxis[NoiseFit]]
+    unit: PerAxis[UnitNoise]
+
+    @property
+    def trustworthy(self) -> bool:
+        return self.unit.trustworthy
+
+
+def noise_unit_files(paths: Sequence[str | Path], out: str | Path, *, seed: int = 0,
+                     maps: tuple[ColumnMap, ...] = (), axes: tuple[str, ...] | None = None,
+                     instance: int | None = None, static_deg_s: float | None = None,
+                     say: Callable[[str], None] = lambda _m: None) -> UnitRuns:
+    """Fit each static run in ``paths`` (as :func:`noise_file`) and the unit behind them,
+    per axis the runs share; write each run's files to ``out/LABEL/`` (labels as
+    :func:`~gyroid.io.run_labels` names runs) and the unit's (``unit.json``, ``unit.png``)
+    to ``out/unit/``, all or nothing."""
+    labels = run_labels([str(p) for p in paths])
+    runs = {}
+    for path, label in zip(paths, labels, strict=True):
+        say(f"fitting the noise of {path} ...")
+        runs[label] = noise_fits(path, seed=seed, maps=maps, axes=axes, instance=instance,
+                                 static_deg_s=static_deg_s)
+    shared = [a for a in next(iter(runs.values())).results
+              if all(a in r.results for r in runs.values())]
+    if not shared:
+        raise GyroidInputError("the runs share no gyro axis: give --axes, or logs of one "
+                               "gyro type")
+    unit = PerAxis({axis: fit_unit_noise([r.results[axis] for r in runs.values()], labels,
+                                         seed=seed) for axis in shared},
+                   {"runs": {label: r.source for label, r in runs.items()}})
+    with output_dir(out) as stage:
+        for label, per_axis in runs.items():
+            (stage / label).mkdir()
+            write_axes(stage / label, per_axis)
+        (stage / "unit").mkdir()
+        write_axes(stage / "unit", unit)
+    return UnitRuns(runs, unit)
+
+
+def noise_fits(path: str | Path, *, seed: int = 0, maps: tuple[ColumnMap, ...] = (),
+               axes: tuple[str, ...] | None = None, instance: int | None = None,
+               static_deg_s: float | None = None) -> PerAxis[NoiseFit]:
+    """The noise fits of a static log's axes (:func:`noise_file`, nothing written)."""
     table = read_log_table(path, maps, instance)
     chosen = chosen_axes(table, axes)
     logs = {axis: bench_log_from_table(table, None, axis=axis) for axis in chosen}
@@ -73,11 +132,12 @@ def noise_file(path: str | Path, out: str | Path, *, seed: int = 0,
                 f"within {static_deg_s:g} deg/s of its median on every axis; raise --static, "
                 "or give a log recorded with the gyro still")
     segments, step = _regular_clock(time_s[keep], table.label)
+    rows = np.flatnonzero(keep)
     results = {axis: fit_noise(np.asarray(log.drift_deg_h)[keep], step, segments=segments,
-                               seed=seed, label=table.label) for axis, log in logs.items()}
-    per_axis = PerAxis(results, source)
-    write_per_axis(out, per_axis)
-    return per_axis
+                               seed=seed, label=table.label,
+                               where=lambda i, log=log: log.where(int(rows[i])))
+               for axis, log in logs.items()}
+    return PerAxis(results, source)
 
 
 def _regular_clock(time_s: np.ndarray, label: str) -> tuple[list[tuple[int, int]], float]:

@@ -10,7 +10,7 @@ __getattr__, __dir__, __all__ = attach(__name__, {
         "magnetic_sweep", "pair_plot", "thermal_run",
     ],
     "_flight": ["dk_distribution", "roll_discrepancy_figure", "roll_fit_figure", "sobol_bars"],
-    "_noise": ["noise_allan_figure"],
+    "_noise": ["noise_allan_figure", "unit_noise_figure"],
     "_papers": ["paper_a_table", "paper_b_lateral", "paper_b_stabiliser"],
     "_style": ["MAX_PLOTTED_POINTS", "STYLE", "moving_mean", "plot_step", "save"],
 })

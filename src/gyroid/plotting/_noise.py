@@ -7,7 +7,8 @@ from matplotlib.figure import Figure
 
 from gyroid.plotting._style import figure_style, subplots
 
-_TERM_STYLES = {"Q": (0, (1, 1)), "N": ":", "B": "--", "K": "-.", "R": (0, (5, 1, 1, 1, 1, 1))}
+_TERM_STYLES = {"Q": (0, (1, 1)), "N": ":", "B": "--", "K": "-.", "R": (0, (5, 1, 1, 1, 1, 1)),
+                "G": (0, (8, 2))}
 
 
 def noise_allan_figure(result) -> Figure:
@@ -32,7 +33,7 @@ def noise_allan_figure(result) -> Figure:
         ax.errorbar(tau, adev, yerr=[adev - lower, upper - adev], fmt="o", ms=3.5,
                     mfc="white", mec="0.0", ecolor="0.3", elinewidth=0.8, capsize=2,
                     label="log (Haar, 68 % interval)")
-        for name in result.terms:
+        for name in (n for n in result.terms if n != "F"):  # F lowers, is no curve
             ax.loglog(grid, np.sqrt(result.term_avar(name, grid)), ls=_TERM_STYLES[name],
                       color="0.35", lw=0.9, label=f"{name}: {_value(result, name)}")
         ax.set_ylim(0.5 * min(adev.min(), low.min()), 2.0 * max(adev.max(), high.max()))
@@ -43,6 +44,34 @@ def noise_allan_figure(result) -> Figure:
 
 
 def _value(result, name: str) -> str:
-    entry = result.term_summaries()[name]
+    entry = result.gauss_markov() if name == "G" else result.term_summaries()[name]
     lo, hi = entry["ci90"]
-    return f"{entry['mean']:.3g} [{lo:.3g}, {hi:.3g}] {entry['unit']}"
+    when = f", {entry['tau_s']:.3g} s" if name == "G" else ""
+    return f"{entry['mean']:.3g} [{lo:.3g}, {hi:.3g}] {entry['unit']}{when}"
+
+
+def unit_noise_figure(result) -> Figure:
+    """A unit's terms over its runs (:class:`~gyroid.inference.UnitNoise`): per pooled
+    term, each run's median and 90 % interval, the unit's median and 90 % interval, and
+    the 90 % interval a new run should land in (shaded)."""
+    names = list(result.terms)
+    with figure_style():
+        fig, axes = subplots(1, len(names), figsize=(3.2 * len(names), 3.4), squeeze=False)
+        for ax, name in zip(axes[0], names, strict=True):
+            item = result.terms[name]
+            y = np.arange(len(item.runs))
+            lo = [m - c[0] for m, c in zip(item.run_median, item.run_ci90, strict=True)]
+            hi = [c[1] - m for m, c in zip(item.run_median, item.run_ci90, strict=True)]
+            ax.axvspan(*item.new_run_ci90, color="0.88", lw=0, label="a new run, 90 %")
+            ax.axvspan(*item.unit_ci90, color="0.65", lw=0, label="the unit, 90 %")
+            ax.axvline(item.unit_median, color="0.0", lw=1.0, ls="--", label="the unit")
+            ax.errorbar(item.run_median, y, xerr=[lo, hi], fmt="o", ms=4, mfc="white",
+                        mec="0.0", ecolor="0.2", capsize=2, label="each run, 90 %")
+            ax.set_yticks(y, list(item.runs), fontsize=7)
+            ax.set_xlabel(f"{name}, {_UNITS.get(name, '')}")
+            ax.set_title(f"{name}: run to run x{item.spread_median:.3g}", fontsize=9)
+        axes[0][0].legend(frameon=False, fontsize=7, loc="best")
+        return fig
+
+
+_UNITS = {"Q": "deg", "N": "deg/sqrt(h)", "B": "deg/h", "K": "deg/h/sqrt(h)", "R": "deg/h^2"}

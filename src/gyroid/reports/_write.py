@@ -16,6 +16,7 @@ from gyroid.io._outputs import json_text
 if TYPE_CHECKING:
     from gyroid.inference._bench_result import BenchFit
     from gyroid.inference._noise_fit import NoiseFit
+    from gyroid.inference._noise_unit import UnitNoise
     from gyroid.inference._pool_result import PoolFit
     from gyroid.inference._roll_result import RollFit
     from gyroid.io._logs import BenchLog
@@ -169,6 +170,15 @@ def _noise(folder: Path, result: NoiseFit) -> list[Path]:
     return [folder / "noise.json", *save(noise_allan_figure(result), folder / "allan")]
 
 
+def _unit_noise(folder: Path, result: UnitNoise) -> list[Path]:
+    """unit.json and unit.png."""
+    from gyroid.plotting import save, unit_noise_figure
+
+    (folder / "unit.json").write_text(json_text(result.to_json()))
+    shown = [folder / "unit.json"]
+    return shown + (save(unit_noise_figure(result), folder / "unit") if result.terms else [])
+
+
 #: The writer of each kind of result, by its class's full name: a command imports only the
 #: figures and storage its own result needs (importing every kind took a second).
 def _writers() -> tuple[tuple[type, Callable[..., list[Path]]], ...]:
@@ -176,6 +186,7 @@ def _writers() -> tuple[tuple[type, Callable[..., list[Path]]], ...]:
     result is written: a result's own module is loaded by then)."""
     from gyroid.inference._bench_result import BenchFit
     from gyroid.inference._noise_fit import NoiseFit
+    from gyroid.inference._noise_unit import UnitNoise
     from gyroid.inference._pool_result import PoolFit
     from gyroid.inference._roll_result import RollFit
     from gyroid.workflows._compensate import Compensation
@@ -187,7 +198,7 @@ def _writers() -> tuple[tuple[type, Callable[..., list[Path]]], ...]:
     return ((BenchFit, _bench_fit), (RollFit, _roll_fit), (PoolFit, _pool_fit),
             (Compensation, _compensation), (Propagation, _propagation),
             (DiscrepancyReport, _discrepancy), (FirmwareExport, _export),
-            (NoiseExport, _export), (NoiseFit, _noise))
+            (NoiseExport, _export), (NoiseFit, _noise), (UnitNoise, _unit_noise))
 
 
 def dk_samples_csv(dk: np.ndarray) -> str:

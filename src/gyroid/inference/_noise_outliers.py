@@ -1,0 +1,108 @@
+"""Outliers in a static rate log, found before its Allan statistics and kept out of them.
+
+Each sample is compared with the median of its ``2 k`` neighbours (``k`` either side, itself
+left out, never across a gap): the slow processes (flicker, a random walk, a Gauss-Markov
+bias of seconds) cancel, white noise and spikes remain. The residuals' robust scale (their
+median absolute deviation, 1.4826 x) sets a threshold at which Gaussian noise would flag
+:data:`FALSE_FLAGS` samples in the whole log (5.6 robust sd for 5 x 10^5 samples). A flagged
+sample is replaced by its neighbours' median, so it adds nothing to N, B or any other term
+(a spike of height ``h`` adds ``h^2 tau0 / tau^2``-shaped variance, which a fit reads as
+quantisation, or lifts N). A few such samples are outliers (a warning naming their rows).
+More than :data:`MAX_OUTLIER_FRACTION` of the log is a heavy-tailed distribution, which a
+Gaussian noise model does not describe whatever is removed: nothing is replaced (replacing
+6 % of a log's samples by medians smooths it and invents correlation at the shortest
+averaging times, measured on the MTi-G run of ``smac_imudata``) and the fit is refused (an
+error).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.ndimage import median_filter
+from scipy.stats import norm
+
+from gyroid.inference._check_report import Check
+
+#: Neighbours either side a sample is compared with.
+NEIGHBOURS = 5
+#: Expected number of samples Gaussian noise would put beyond the threshold, per log.
+FALSE_FLAGS = 0.01
+#: More flagged samples than this fraction of the log: heavy tails, not outliers.
+MAX_OUTLIER_FRACTION = 1e-3
+#: Rows named in a message.
+NAMED_ROWS = 5
+
+
+@dataclass(frozen=True)
+class Outliers:
+    """The samples of a rate log found to be outliers (indices into it), the threshold
+    (robust sd) and the robust scale of the residuals about the neighbours' median (deg/h)."""
+
+    rows: np.ndarray
+    threshold_sd: float
+    scale_deg_h: float
+    n_samples: int
+
+    @property
+    def fraction(self) -> float:
+        return self.rows.size / max(self.n_samples, 1)
+
+    def check(self, where: Callable[[int], str] | None = None) -> Check:
+        """``outliers``: passes with none; a warning naming the rows of a few (replaced by
+        their neighbours' median, so kept out of every term); an error for heavy tails."""
+        k = self.rows.size
+        limit = MAX_OUTLIER_FRACTION
+        if k == 0:
+            return Check("outliers", True, "warning", 0.0, limit,
+                         f"no sample lies beyond {self.threshold_sd:.2g} robust sd of its "
+                         "neighbours' median")
+        named = ", ".join(where(int(r)) if where else f"row {int(r) + 1}"
+                          for r in self.rows[:NAMED_ROWS]) + (", ..." if k > NAMED_ROWS else "")
+        what = (f"{k} sample(s) ({100 * self.fraction:.2g} % of the log) lie beyond "
+                f"{self.threshold_sd:.2g} robust sd ({self.threshold_sd * self.scale_deg_h:.3g} "
+                f"deg/h) of their neighbours' median, where Gaussian noise puts "
+                f"{FALSE_FLAGS:g}: {named}")
+        if self.fraction <= limit:
+            return Check("outliers", False, "warning", self.fraction, limit,
+                         f"{what}; each was replaced by its neighbours' median before the "
+                         "Allan statistics, so none adds to N, B or any other term (check "
+                         "the logger or the sensor at those rows)")
+        return Check("outliers", False, "error", self.fraction, limit,
+                     f"{what}: too many to be outliers, the rate's distribution has heavy "
+                     "tails, which a Gaussian noise model does not describe (the terms shown "
+                     "count them as Gaussian noise: N is the variance's, tails included); "
+                     "find the cause (a damaged logger, vibration, electrical interference) "
+                     "before taking a datasheet value from this log")
+
+
+def remove_outliers(rate_deg_h: np.ndarray, segments: list[tuple[int, int]] | None = None
+                    ) -> tuple[np.ndarray, Outliers]:
+    """The rate with its outliers replaced by their neighbours' median (as it is when they
+    are too many: heavy tails, module docstring), and what was found. ``segments``: the
+    log's contiguous stretches (``[start, stop)``)."""
+    rate = np.asarray(rate_deg_h, dtype=float)
+    segments = segments or [(0, rate.size)]
+    footprint = np.ones(2 * NEIGHBOURS + 1, dtype=bool)
+    footprint[NEIGHBOURS] = False
+    around = np.empty_like(rate)
+    for start, stop in segments:
+        around[start:stop] = median_filter(rate[start:stop], footprint=footprint,
+                                           mode="nearest")
+    residual = rate - around
+    centre = np.median(residual)
+    scale = 1.4826 * float(np.median(np.abs(residual - centre)))
+    if not scale > 0:  # a coarsely quantised rate: the mean absolute deviation's scale
+        scale = float(np.mean(np.abs(residual - centre))) * np.sqrt(np.pi / 2.0)
+    threshold = float(norm.isf(0.5 * FALSE_FLAGS / max(rate.size, 1)))
+    if not scale > 0:
+        return rate, Outliers(np.zeros(0, dtype=int), threshold, 0.0, rate.size)
+    flagged = np.flatnonzero(np.abs(residual - centre) > threshold * scale)
+    found = Outliers(flagged, threshold, scale, rate.size)
+    if found.fraction > MAX_OUTLIER_FRACTION:
+        return rate, found
+    cleaned = rate.copy()
+    cleaned[flagged] = around[flagged]
+    return cleaned, found

@@ -1,0 +1,56 @@
+"""Real static runs (dataset smac_imudata: the SMAC group's R data package, read through
+gyroid's registry from the shared folder of real logs; the project commits none): six
+2.8 h runs of one ADIS16405 and an Xsens MTi-G run with outliers (issue 42)."""
+
+import allantools
+import numpy as np
+import pytest
+
+from gyroid.inference import fit_noise, fit_unit_noise
+from gyroid.io import dataset_logs
+
+SAMPLE_S = 0.01
+
+
+@pytest.fixture(scope="module")
+def smac():
+    return dataset_logs("smac_imudata")
+
+
+def test_the_mtig_run_with_outliers_is_refused_for_its_heavy_tails(smac):
+    """It had exited 0 with B = 44.6 [35.7, 53.8] deg/h where its own Allan deviation at
+    328-1000 s is 5.5-8.8 deg/h (a Gauss-Markov bump at 5-20 s read as flicker) and N from
+    a variance that counts its outliers. Now: refused, the outliers named; the bump is G
+    (correlation time of seconds) and B's bound agrees with the Allan deviation there."""
+    rate = smac["mtig_cont_imu1"][0]["drift_x_deg_h"]
+    fit = fit_noise(rate, SAMPLE_S)
+    failed = {c.name: c for c in fit.checks.failed}
+    assert not fit.trustworthy and failed["outliers"].severity == "error"
+    assert "heavy tails" in failed["outliers"].message
+    gm = fit.gauss_markov()
+    assert gm["resolved"] and 1.0 < gm["tau_s"] < 20.0
+    bound = fit.term_summaries()["B"]
+    assert not bound["resolved"]
+    _, adev, _, _ = allantools.oadev(rate, rate=1.0 / SAMPLE_S, data_type="freq",
+                                     taus=np.array([327.68]))
+    assert bound["upper_bound_95"] * 0.664 < 1.5 * adev[0]  # the floor B would make
+
+
+@pytest.mark.slow
+def test_the_six_adis16405_runs_give_the_unit_with_an_interval_holding_their_spread(smac):
+    """Each run's N has an interval of +/-0.3 % while the runs differ by up to 9 %: the
+    interval describes a run. Pooled, the unit's N and the interval for a new run, which
+    holds every run that the fits trust."""
+    names = [name for name in smac if name.startswith("adis")]
+    fits = [fit_noise(smac[name][0]["drift_x_deg_h"], SAMPLE_S, label=name)
+            for name in names]
+    assert sum(f.trustworthy for f in fits) >= 5
+    unit = fit_unit_noise(fits, names)
+    n = unit.terms["N"]
+    assert unit.trustworthy and n.runs_inside == len(n.runs)
+    widths = [(b - a) / m for (a, b), m in zip(n.run_ci90, n.run_median, strict=True)]
+    assert max(widths) < 0.02 < max(n.run_median) / min(n.run_median) - 1.0
+    assert n.homogeneity_p < 1e-6  # the runs differ by more than their intervals
+    lo, hi = n.new_run_ci90
+    assert lo < min(n.run_median) and max(n.run_median) < hi
+    assert "B" in unit.terms and 20.0 < unit.terms["B"].unit_median < 50.0
