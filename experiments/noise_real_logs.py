@@ -49,6 +49,7 @@ def one(name: str, columns: dict, axis: str, seed: int) -> dict:
             float(time_s[-1] - time_s[0]), "sample_s": float(step),
             "trustworthy": fit.trustworthy, "dispersion": fit.dispersion,
             "failed": [c.name for c in fit.checks.failed],
+            "errors": [c.name for c in fit.checks.failed if c.severity == "error"],
             "gyroid": gyroid_answer, "slope": {t: slope[t] for t in TERMS},
             "allan_variance": {t: package[t] for t in TERMS}}
 

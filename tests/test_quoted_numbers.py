@@ -137,11 +137,10 @@ def test_the_noise_fits_against_the_allan_readings():
                 if name != "K":
                     assert error(grade, name, "gyroid") < error(grade, name, "allan_variance")
     percent = lambda values: f"{min(values):.0f}-{max(values):.0f} %"  # noqa: E731
-    slope_b = sorted(round(100 * error(g, "B", "slope")) for g in order)
-    assert slope_b[0] == slope_b[-1]  # quoted as one number
+    slope_b = percent([100 * error(g, "B", "slope") for g in order])
     package_b = percent([100 * error(g, "B", "allan_variance") for g in order])
     _quoted(f"(B: {percent([100 * error(g, 'B', 'gyroid') for g in order])} against "
-            f"{slope_b[0]} % and {package_b})",
+            f"{slope_b} and {package_b})",
             f"not for K in the {terms['fog']['K']['resolved']} and "
             f"{terms['tactical']['K']['resolved']} logs that resolved it (FOG "
             f"{100 * error('fog', 'K', 'gyroid'):.0f} % against that package's "
@@ -172,17 +171,52 @@ def test_the_mems_thermal_benches_under_the_default_noise_choice():
 def test_the_noise_fits_of_the_real_mpu6050_runs():
     results = _results("noise_real_logs")
     agreement, runs = results["agreement"], results["runs"]
-    refused = [r["dispersion"] for r in runs if not r["trustworthy"]]
+    refused = [r for r in runs if not r["trustworthy"]]
+    scattered = [r["dispersion"] for r in refused if "dispersion" in r["errors"]]
     spread_y = agreement["y"]["spread_max_over_min"]
     _quoted(f"gyroid trusts {agreement['trusted']} of the {agreement['series']} axis-runs",
             "lies within {:.2f}-{:.2f}x of the Allan-slope reading".format(
                 *agreement["N_over_slope"]),
             "{:.2f}-{:.2f}x of the `allan-variance` package's".format(
                 *agreement["N_over_allan_variance"]),
-            f"It refuses {len(refused)}:",
-            f"a dispersion of {min(refused):.0f}-{max(refused):.0f} times",
+            f"It refuses {len(refused)}: in each, more samples lie far from their neighbours",
+            f"{_number_word(len(scattered))} of them also scattering "
+            f"{min(scattered):.0f}-{max(scattered):.0f} times more",
             f"(axis y: {min(spread_y.values()):.2f}-{max(spread_y.values()):.2f}x")
-    assert all(r["failed"].count("dispersion") for r in runs if not r["trustworthy"])
+    assert all("outliers" in r["errors"] for r in refused)
+
+
+def _number_word(n: int) -> str:
+    return {1: "one", 2: "two", 3: "three", 4: "four", 5: "five"}.get(n, str(n))
+
+
+def test_the_noise_of_the_unit_behind_six_real_runs():
+    """The six ADIS16405 runs pooled, and the MTi-G run refused (noise_unit_runs)."""
+    results = _results("noise_unit_runs")
+    units, mtig = results["units"], results["mtig_cont_imu1"]
+    widths = {}
+    for axis in ("x", "y"):
+        n = units[axis]["terms"]["N"]
+        medians = [v["median"] for v in n["runs"].values()]
+        assert n["runs_inside"] == len(medians) == 6 and units[axis]["trustworthy"]
+        lo, hi = n["new_run_ci90"]
+        assert lo < min(medians) and max(medians) < hi
+        widths[axis] = max(50 * (v["ci90"][1] - v["ci90"][0]) / v["median"]
+                           for v in n["runs"].values())
+    x, y = units["x"]["terms"]["N"], units["y"]["terms"]["N"]
+    medians = [v["median"] for v in x["runs"].values()]
+    _quoted(f"+/-{widths['x']:.1f} %",
+            f"{min(medians):.2f}-{max(medians):.2f} deg/sqrt(h)",
+            "the unit's is {:.2f} (90 %: {:.2f}-{:.2f})".format(x["unit_median"],
+                                                                *x["unit_ci90"]),
+            "a new run should read {:.2f}-{:.2f}".format(*x["new_run_ci90"]),
+            "(y: {:.2f}, {:.2f}-{:.2f}, all six)".format(y["unit_median"], *y["new_run_ci90"]))
+    gm = mtig["gauss_markov"]
+    assert not mtig["trustworthy"] and mtig["failed"] == ["outliers"]
+    _quoted(f"is refused ({100 * mtig['outliers']:.1f} % of its samples",
+            f"at 328 s is {mtig['adev_deg_h']['327.68']:.1f} deg/h",
+            f"as G ({gm['mean']:.0f} deg/h, correlation time {gm['tau_s']:.1f} s)",
+            f"B below {mtig['B']['upper_bound_95']:.1f} deg/h")
 
 
 def test_the_streamed_fit_of_a_log_too_long_to_hold():

@@ -51,26 +51,30 @@ def _value(result, name: str) -> str:
 
 
 def unit_noise_figure(result) -> Figure:
-    """A unit's terms over its runs (:class:`~gyroid.inference.UnitNoise`): per pooled
-    term, each run's median and 90 % interval, the unit's median and 90 % interval, and
-    the 90 % interval a new run should land in (shaded)."""
+    """A unit's terms over its runs (:class:`~gyroid.inference.UnitNoise`), one panel per
+    pooled term: each run's median and 90 % interval, the unit's median and 90 % interval,
+    and the 90 % interval a new run should land in (shaded)."""
     names = list(result.terms)
+    heights = [1.0 + 0.3 * len(result.terms[n].runs) for n in names]
     with figure_style():
-        fig, axes = subplots(1, len(names), figsize=(3.2 * len(names), 3.4), squeeze=False)
-        for ax, name in zip(axes[0], names, strict=True):
+        fig, axes = subplots(len(names), 1, figsize=(6.0, sum(heights) + 0.6), squeeze=False,
+                             gridspec_kw={"height_ratios": heights}, layout="constrained")
+        for ax, name in zip(axes[:, 0], names, strict=True):
             item = result.terms[name]
             y = np.arange(len(item.runs))
             lo = [m - c[0] for m, c in zip(item.run_median, item.run_ci90, strict=True)]
             hi = [c[1] - m for m, c in zip(item.run_median, item.run_ci90, strict=True)]
-            ax.axvspan(*item.new_run_ci90, color="0.88", lw=0, label="a new run, 90 %")
-            ax.axvspan(*item.unit_ci90, color="0.65", lw=0, label="the unit, 90 %")
+            ax.axvspan(*item.new_run_ci90, color="0.9", lw=0, label="a new run, 90 %")
+            ax.axvspan(*item.unit_ci90, color="0.7", lw=0, label="the unit, 90 %")
             ax.axvline(item.unit_median, color="0.0", lw=1.0, ls="--", label="the unit")
             ax.errorbar(item.run_median, y, xerr=[lo, hi], fmt="o", ms=4, mfc="white",
                         mec="0.0", ecolor="0.2", capsize=2, label="each run, 90 %")
             ax.set_yticks(y, list(item.runs), fontsize=7)
-            ax.set_xlabel(f"{name}, {_UNITS.get(name, '')}")
-            ax.set_title(f"{name}: run to run x{item.spread_median:.3g}", fontsize=9)
-        axes[0][0].legend(frameon=False, fontsize=7, loc="best")
+            ax.set_ylim(-0.6, len(item.runs) - 0.4)
+            ax.set_xlabel(f"{name}, {_UNITS.get(name, '')} (run to run x{item.spread_median:.3g})")
+        handles, labels = axes[0, 0].get_legend_handles_labels()
+        fig.legend(handles, labels, loc="outside lower center", ncol=4, frameon=False,
+                   fontsize=7)
         return fig
 
 

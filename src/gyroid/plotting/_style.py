@@ -24,11 +24,11 @@ STYLE = {
 }
 
 
-def subplots(*args, figsize: tuple[float, float], **kwargs):
+def subplots(*args, figsize: tuple[float, float], layout: str | None = None, **kwargs):
     """A figure and its axes, as ``pyplot.subplots`` makes them but without pyplot: no
     backend is chosen and no global figure registry is kept (a figure is a plain object,
     freed when dropped, and saved by :func:`save`)."""
-    fig = Figure(figsize=figsize)
+    fig = Figure(figsize=figsize, layout=layout)
     return fig, fig.subplots(*args, **kwargs)
 
 

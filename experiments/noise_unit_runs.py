@@ -1,0 +1,82 @@
+"""Experiment (issue 42): ``gyroid noise`` on the SMAC group's real static runs (dataset
+``smac_imudata``): six 2.78 h runs at 100 Hz of one ADIS16405 (each run's N is known to
++/-0.3 %, the runs differ by up to 9 %: what does the unit have?) and an Xsens MTi-G run
+contaminated by outliers (which had exited 0 with B = 44.6 deg/h where its own Allan
+deviation at 328-1000 s is 5.5-8.8 deg/h).
+
+Per ADIS run and axis: gyroid's fit (trusted or not, why, N and B); per axis, the unit over
+the runs (:func:`gyroid.inference.fit_unit_noise`): its N and B, the interval a new run
+should land in and how many runs it holds. For the MTi-G run: the verdict, the outliers,
+the Gauss-Markov bias, B's bound beside the log's own Allan deviation (allantools).
+
+    GYROID_DATA=../shared/data/real python experiments/noise_unit_runs.py
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import allantools
+import numpy as np
+from _common import results_dir, save_run
+
+import gyroid
+from gyroid.inference import fit_noise, fit_unit_noise
+from gyroid.io import dataset_logs
+
+DATASET = "smac_imudata"
+SAMPLE_S = 0.01
+AXES = ("x", "y", "z")
+
+
+def run_row(name: str, axis: str, fit) -> dict:
+    terms = fit.term_summaries()
+    return {"run": name, "axis": axis, "trustworthy": fit.trustworthy,
+            "failed": [c.name for c in fit.checks.failed],
+            "N": terms["N"], "B": terms["B"], "prefilter": fit.prefilter()["resolved"],
+            "gauss_markov": fit.gauss_markov()["resolved"]}
+
+
+def mtig(rate: np.ndarray, seed: int) -> dict:
+    fit = fit_noise(rate, SAMPLE_S, seed=seed, label="mtig_cont_imu1")
+    failed = {c.name: c for c in fit.checks.failed}
+    taus = np.array([327.68, 655.36, 1000.0])
+    _, adev, _, _ = allantools.oadev(rate, rate=1.0 / SAMPLE_S, data_type="freq", taus=taus)
+    terms = fit.term_summaries()
+    return {"trustworthy": fit.trustworthy, "failed": list(failed),
+            "outliers": failed["outliers"].value if "outliers" in failed else 0.0,
+            "N": terms["N"], "B": terms["B"], "gauss_markov": fit.gauss_markov(),
+            "adev_deg_h": dict(zip(map(float, taus), map(float, adev), strict=True)),
+            "raw_N": float(np.std(rate) * np.sqrt(SAMPLE_S) / 60.0)}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args()
+    gyroid.configure()
+    started = time.time()
+    logs = dataset_logs(DATASET)
+    runs = [name for name in logs if name.startswith("adis")]
+    rows, units = [], {}
+    for axis in AXES:
+        fits = []
+        for k, name in enumerate(runs):
+            fits.append(fit_noise(logs[name][0][f"drift_{axis}_deg_h"], SAMPLE_S,
+                                  seed=args.seed + k, label=name))
+            rows.append(run_row(name, axis, fits[-1]))
+            print(name, axis, rows[-1]["trustworthy"], rows[-1]["N"]["mean"], flush=True)
+        unit = fit_unit_noise(fits, runs, seed=args.seed)
+        units[axis] = unit.to_json()
+        print(unit.summary(), flush=True)
+    contaminated = mtig(logs["mtig_cont_imu1"][0]["drift_x_deg_h"], args.seed)
+    print(contaminated, flush=True)
+    save_run(results_dir("noise_unit_runs"), seed=args.seed,
+             config={"dataset": DATASET, "sample_s": SAMPLE_S, "runs": runs},
+             results={"runs": rows, "units": units, "mtig_cont_imu1": contaminated},
+             started=started)
+
+
+if __name__ == "__main__":
+    main()
