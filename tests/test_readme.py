@@ -92,7 +92,8 @@ def test_the_tour_runs_as_written(tmp_path, monkeypatch):
     too."""
     from gyroid.cli import main
 
-    (tmp_path / "tests").symlink_to(ROOT / "tests")
+    for folder in ("tests", "docs"):  # the repository files the README reads
+        (tmp_path / folder).symlink_to(ROOT / folder)
     monkeypatch.chdir(tmp_path)
     for args, expected in _commands(with_exit=True):
         if args[:1] == ["demo"]:

@@ -271,7 +271,10 @@ def batch(logs, out, workers, scheduler, options) -> None:
                    "is within this of its median on every axis (a few times the 1 s "
                    "average's noise), less 1 s either side of motion, in stretches of 10 s "
                    "or more; what was kept is in axes.json's source.")
-def noise(data, out, seed, mappings, axes, instance, static_deg_s) -> None:
+@click.option("--datasheet", "datasheet", default=None, type=click.Path(path_type=Path),
+              help="A datasheet TOML file (docs/formats.md section 6): each term it gives "
+                   "judged within, above or below the measured interval (noise.json's spec).")
+def noise(data, out, seed, mappings, axes, instance, static_deg_s, datasheet) -> None:
     """Identify a static log's noise: angle random walk N, bias instability B, rate random
     walk K, quantisation Q and rate ramp R (IEEE Std 952) with 90 % intervals, averaged over
     the sets of terms the log supports, beside a Gauss-Markov bias G and a prefilter's
@@ -281,7 +284,7 @@ def noise(data, out, seed, mappings, axes, instance, static_deg_s) -> None:
     from gyroid.pipeline._noise_file import noise_file, noise_unit_files
 
     options = dict(seed=seed, maps=parse_maps(mappings), axes=parse_axes(axes),
-                   instance=instance, static_deg_s=static_deg_s)
+                   instance=instance, static_deg_s=static_deg_s, datasheet=datasheet)
     if len(data) > 1:
         runs = noise_unit_files(data, out, **options, say=lambda m: click.echo(m, err=True))
         for axis, unit in runs.unit.results.items():
@@ -308,4 +311,9 @@ def noise(data, out, seed, mappings, axes, instance, static_deg_s) -> None:
             elif entry["upper_bound_95"] is not None:
                 click.echo(f"{which}{name}: not resolved, below {entry['upper_bound_95']:.3g} "
                            f"{entry['unit']} (95 %; {entry['why']})")
+        for name, verdict in (item.spec or {}).items():
+            lo, hi = verdict["measured"]
+            click.echo(f"{which}{name} against the datasheet's {verdict['datasheet']:.4g} "
+                       f"{verdict['unit']}: {verdict['verdict']} (measured {lo:.4g} ... "
+                       f"{hi:.4g})")
     report_written(result, out, ("noise.json", "allan.png"))

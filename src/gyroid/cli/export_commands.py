@@ -49,3 +49,34 @@ def export(fit_dir, target, out, instance, device_id, topic) -> None:
     if not result.trustworthy:
         report_line("a fit exported is not trustworthy (exit 3): see the lines above")
         raise UntrustworthyResult()
+
+
+@cli.command()
+@click.argument("sheet", type=click.Path(path_type=Path))
+@click.option("--to", "target", required=True,
+              type=click.Choice(["kalibr", "openvins", "json"]),
+              help="kalibr (imu.yaml), openvins (kalibr_imu_chain.yaml) or json (the "
+                   "conversion alone); datasheet.json always.")
+@click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
+              help="Folder for the estimator's file and datasheet.json.")
+@click.option("--rate-hz", "rate_hz", default=None, type=click.FloatRange(min=0.0,
+                                                                           min_open=True),
+              help="The IMU's output rate, Hz (default: the datasheet's rate): the "
+                   "file's update_rate and the discrete-time sds.")
+@click.option("--horizon", "horizon_s", default=100.0, show_default=True,
+              type=click.FloatRange(min=0.0, min_open=True),
+              help="Without a rate_random_walk: the walk reaches B's flicker floor at this "
+                   "averaging time, s.")
+@click.option("--topic", default="/imu0", show_default=True, help="The IMU's ROS topic.")
+def datasheet(sheet, target, out, rate_hz, horizon_s, topic) -> None:
+    """Convert a gyro datasheet (SHEET: a TOML file with a [gyro] table of strings with
+    units, docs/formats.md section 6) into an estimator's noise parameters, printing every
+    step of the derivation."""
+    from gyroid.pipeline._export_file import datasheet_file
+
+    result = datasheet_file(sheet, target, out, rate_hz=rate_hz, horizon_s=horizon_s,
+                            topic=topic)
+    for line in result.derivation:
+        click.echo(line)
+    names = [result.file.file_name] if result.file is not None else []
+    click.echo(f"wrote {', '.join(str(out / n) for n in [*names, 'datasheet.json'])}")

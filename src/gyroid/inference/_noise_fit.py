@@ -66,6 +66,8 @@ class NoiseFit(FitResult):
     #: How many times more the Allan variance scatters about the model than independent
     #: Haar coefficients allow (1: no more than chance); the intervals are its root wider.
     dispersion: float = 1.0
+    #: Per term a datasheet gives, the verdict against it (``gyroid noise --datasheet``).
+    spec: dict | None = None
 
     @property
     def terms(self) -> tuple[str, ...]:
@@ -164,7 +166,7 @@ class NoiseFit(FitResult):
             "bic": self.choice.bic,
             "checks": self.checks.to_json(),
             "trustworthy": self.trustworthy,
-        }
+        } | ({"spec": self.spec} if self.spec is not None else {})
 
 
 def _at(stats: HaarStatistics, tau_s: np.ndarray) -> HaarStatistics:

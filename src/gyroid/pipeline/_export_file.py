@@ -7,9 +7,11 @@ from __future__ import annotations
 from pathlib import Path
 
 from gyroid.errors import GyroidInputError
+from gyroid.io._datasheet import read_datasheet
 from gyroid.io._fitted import FittedDrift, FittedNoise, axes_of, axes_source
 from gyroid.io._outputs import output_dir
 from gyroid.reports._write import write
+from gyroid.workflows._datasheet import HORIZON_S, DatasheetExport, convert_datasheet
 from gyroid.workflows._export import TARGETS, FirmwareExport, axis_polynomial, export_fit
 from gyroid.workflows._noise_export import NOISE_TARGETS, NoiseExport, axis_noise, export_noise
 
@@ -55,3 +57,15 @@ def _has(folder: str | Path, name: str) -> bool:
                                "'gyroid fit' or 'gyroid noise'")
     return (folder / name).exists() or any((d / name).exists() for d in folder.iterdir()
                                            if d.is_dir())
+
+
+def datasheet_file(path: str | Path, target: str, out: str | Path, *,
+                   rate_hz: float | None = None, horizon_s: float = HORIZON_S,
+                   topic: str = "/imu0") -> DatasheetExport:
+    """Convert the datasheet at ``path`` for ``target`` (kalibr, openvins or json) and write
+    the estimator's file and ``datasheet.json`` into ``out``."""
+    result = convert_datasheet(read_datasheet(path), target, rate_hz=rate_hz,
+                               horizon_s=horizon_s, topic=topic)
+    with output_dir(out) as stage:
+        write(stage, result)
+    return result

@@ -5,7 +5,7 @@ the unit's (:mod:`gyroid.inference._noise_unit`)."""
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -14,11 +14,13 @@ from gyroid.errors import GyroidInputError
 from gyroid.inference._noise_fit import NoiseFit, fit_noise
 from gyroid.inference._noise_unit import UnitNoise, fit_unit_noise
 from gyroid.io._bench_reader import bench_log_from_table
+from gyroid.io._datasheet import read_datasheet
 from gyroid.io._logs import contiguous_segments, run_labels
 from gyroid.io._outputs import output_dir
 from gyroid.io._tables import read_log_table, table_source
 from gyroid.io._units import ColumnMap
 from gyroid.pipeline._axes import PerAxis, chosen_axes, write_axes, write_per_axis
+from gyroid.workflows._datasheet import spec_verdicts
 
 #: A clock whose steps vary by more than this (relative) is not a sampled rate.
 MAX_STEP_SPREAD = 0.01
@@ -54,13 +56,14 @@ def still_rows(time_s: np.ndarray, rates_deg_h: list[np.ndarray], threshold_deg_
 
 def noise_file(path: str | Path, out: str | Path, *, seed: int = 0,
                maps: tuple[ColumnMap, ...] = (), axes: tuple[str, ...] | None = None,
-               instance: int | None = None, static_deg_s: float | None = None
-               ) -> PerAxis[NoiseFit]:
+               instance: int | None = None, static_deg_s: float | None = None,
+               datasheet: str | Path | None = None) -> PerAxis[NoiseFit]:
     """Fit the noise of a static log's axes (``axes``; default every axis it has) and write
     ``noise.json`` and ``allan.png`` per axis to ``out``. ``static_deg_s``: keep only the
-    still stretches of a log that moves (:func:`still_rows` over every chosen axis)."""
+    still stretches of a log that moves (:func:`still_rows` over every chosen axis);
+    ``datasheet``: judge each term against it (``noise.json``'s ``spec``)."""
     per_axis = noise_fits(path, seed=seed, maps=maps, axes=axes, instance=instance,
-                          static_deg_s=static_deg_s)
+                          static_deg_s=static_deg_s, datasheet=datasheet)
     write_per_axis(out, per_axis)
     return per_axis
 
@@ -81,6 +84,7 @@ class UnitRuns:
 def noise_unit_files(paths: Sequence[str | Path], out: str | Path, *, seed: int = 0,
                      maps: tuple[ColumnMap, ...] = (), axes: tuple[str, ...] | None = None,
                      instance: int | None = None, static_deg_s: float | None = None,
+                     datasheet: str | Path | None = None,
                      say: Callable[[str], None] = lambda _m: None) -> UnitRuns:
     """Fit each static run in ``paths`` (as :func:`noise_file`) and the unit behind them,
     per axis the runs share; write each run's files to ``out/LABEL/`` (labels as
@@ -91,7 +95,7 @@ def noise_unit_files(paths: Sequence[str | Path], out: str | Path, *, seed: int 
     for path, label in zip(paths, labels, strict=True):
         say(f"fitting the noise of {path} ...")
         runs[label] = noise_fits(path, seed=seed, maps=maps, axes=axes, instance=instance,
-                                 static_deg_s=static_deg_s)
+                                 static_deg_s=static_deg_s, datasheet=datasheet)
     shared = [a for a in next(iter(runs.values())).results
               if all(a in r.results for r in runs.values())]
     if not shared:
@@ -111,8 +115,11 @@ def noise_unit_files(paths: Sequence[str | Path], out: str | Path, *, seed: int 
 
 def noise_fits(path: str | Path, *, seed: int = 0, maps: tuple[ColumnMap, ...] = (),
                axes: tuple[str, ...] | None = None, instance: int | None = None,
-               static_deg_s: float | None = None) -> PerAxis[NoiseFit]:
-    """The noise fits of a static log's axes (:func:`noise_file`, nothing written)."""
+               static_deg_s: float | None = None, datasheet: str | Path | None = None
+               ) -> PerAxis[NoiseFit]:
+    """The noise fits of a static log's axes (:func:`noise_file`, nothing written); with a
+    ``datasheet`` (a TOML file), each fit's verdict per term against it."""
+    sheet = read_datasheet(datasheet) if datasheet is not None else None
     table = read_log_table(path, maps, instance)
     chosen = chosen_axes(table, axes)
     logs = {axis: bench_log_from_table(table, None, axis=axis) for axis in chosen}
@@ -137,6 +144,9 @@ def noise_fits(path: str | Path, *, seed: int = 0, maps: tuple[ColumnMap, ...] =
                                seed=seed, label=table.label,
                                where=lambda i, log=log: log.where(int(rows[i])))
                for axis, log in logs.items()}
+    if sheet is not None:
+        results = {axis: replace(fit, spec=spec_verdicts(fit.term_summaries(), sheet))
+                   for axis, fit in results.items()}
     return PerAxis(results, source)
 
 

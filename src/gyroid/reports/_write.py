@@ -21,6 +21,7 @@ if TYPE_CHECKING:
     from gyroid.inference._roll_result import RollFit
     from gyroid.io._logs import BenchLog
     from gyroid.workflows._compensate import Compensation
+    from gyroid.workflows._datasheet import DatasheetExport
     from gyroid.workflows._discrepancy_report import DiscrepancyReport
     from gyroid.workflows._export import FirmwareExport
     from gyroid.workflows._noise_export import NoiseExport
@@ -170,6 +171,16 @@ def _noise(folder: Path, result: NoiseFit) -> list[Path]:
     return [folder / "noise.json", *save(noise_allan_figure(result), folder / "allan")]
 
 
+def _datasheet(folder: Path, result: DatasheetExport) -> list[Path]:
+    """The estimator's noise file (none for json) and datasheet.json."""
+    written = []
+    if result.file is not None:
+        (folder / result.file.file_name).write_text(result.file.text())
+        written.append(folder / result.file.file_name)
+    (folder / "datasheet.json").write_text(json_text(result.to_json()))
+    return [*written, folder / "datasheet.json"]
+
+
 def _unit_noise(folder: Path, result: UnitNoise) -> list[Path]:
     """unit.json and unit.png."""
     from gyroid.plotting import save, unit_noise_figure
@@ -190,6 +201,7 @@ def _writers() -> tuple[tuple[type, Callable[..., list[Path]]], ...]:
     from gyroid.inference._pool_result import PoolFit
     from gyroid.inference._roll_result import RollFit
     from gyroid.workflows._compensate import Compensation
+    from gyroid.workflows._datasheet import DatasheetExport
     from gyroid.workflows._discrepancy_report import DiscrepancyReport
     from gyroid.workflows._export import FirmwareExport
     from gyroid.workflows._noise_export import NoiseExport
@@ -198,7 +210,8 @@ def _writers() -> tuple[tuple[type, Callable[..., list[Path]]], ...]:
     return ((BenchFit, _bench_fit), (RollFit, _roll_fit), (PoolFit, _pool_fit),
             (Compensation, _compensation), (Propagation, _propagation),
             (DiscrepancyReport, _discrepancy), (FirmwareExport, _export),
-            (NoiseExport, _export), (NoiseFit, _noise), (UnitNoise, _unit_noise))
+            (NoiseExport, _export), (NoiseFit, _noise), (UnitNoise, _unit_noise),
+            (DatasheetExport, _datasheet))
 
 
 def dk_samples_csv(dk: np.ndarray) -> str:

@@ -89,7 +89,7 @@ class NoiseExport:
     comments: tuple[str, ...]
     noise_density: float
     random_walk: float
-    update_rate_hz: float
+    update_rate_hz: float | None
     topic: str
 
     @property
@@ -105,7 +105,8 @@ class NoiseExport:
                 "# accelerometer_noise_density:  # m/s^2/sqrt(Hz): not fitted by gyroid",
                 "# accelerometer_random_walk:  # m/s^3/sqrt(Hz): not fitted by gyroid",
                 f"rostopic: {self.topic}",
-                f"update_rate: {self.update_rate_hz:.6g}  # Hz"]
+                (f"update_rate: {self.update_rate_hz:.6g}  # Hz" if self.update_rate_hz
+                 else "# update_rate:  # Hz: fill in the IMU's rate")]
         if self.target == "kalibr":
             return "\n".join([*head, *body]) + "\n"
         identity = [f"    - [{', '.join('1.0' if i == j else '0.0' for j in range(4))}]"

@@ -1,0 +1,112 @@
+"""Datasheets (issue 44, docs/formats.md section 6): every common unit to IEEE Std 952's
+terms, the estimators' parameters with the derivation, and a measured unit's verdict
+against its datasheet. Expected values are computed here by hand from the definitions."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+from helpers import write_log
+
+from gyroid.cli import main
+from gyroid.inference import fit_noise
+from gyroid.io._datasheet import parse_quantity, read_datasheet
+from gyroid.workflows._datasheet import convert_datasheet, spec_verdicts
+
+RAD = math.pi / 180.0
+
+
+@pytest.mark.parametrize("text", [
+    "0.66 deg/sqrt(h)", "0.66 deg/rt(hr)", "39.6 deg/h/sqrt(Hz)", "0.011 deg/s/sqrt(Hz)",
+    f"{0.011 * RAD!r} rad/s/sqrt(Hz)", "11 mdps/sqrt(Hz)", "0.011 deg/sqrt(s)"])
+def test_the_same_angle_random_walk_in_any_unit_is_the_same_n(text):
+    # 1 deg/sqrt(h) = 1 deg / (60 sqrt(s)): 0.011 deg/s/sqrt(Hz) = 0.011 deg/sqrt(s) = 0.66
+    assert parse_quantity("arw", text).value == pytest.approx(0.66, rel=1e-12)
+
+
+def test_bias_instability_and_rate_random_walk_units():
+    assert parse_quantity("bias_instability", "0.007 deg/s").value == pytest.approx(25.2)
+    assert parse_quantity("bias_instability", "7 mdps").value == pytest.approx(25.2)
+    assert parse_quantity("bias_instability", f"{0.007 * RAD!r} rad/s").value == \
+        pytest.approx(25.2)
+    # 1 deg/s/sqrt(s) = 3600 deg/h per sqrt(h)/60 = 216 000 deg/h/sqrt(h)
+    assert parse_quantity("rate_random_walk", "1e-5 deg/s/sqrt(s)").value == \
+        pytest.approx(2.16)
+    assert parse_quantity("rate_random_walk", f"{1e-5 * RAD!r} rad/s^2/sqrt(Hz)").value == \
+        pytest.approx(2.16)
+
+
+def _sheet(tmp_path, body: str):
+    path = tmp_path / "gyro.toml"
+    path.write_text("[gyro]\n" + body)
+    return path
+
+
+def test_a_datasheet_becomes_kalibr_parameters_with_the_derivation(tmp_path, capsys):
+    path = _sheet(tmp_path, 'noise_density = "0.011 deg/s/sqrt(Hz)"\n'
+                            'bias_instability = "14.5 deg/h"\n'
+                            'rate_random_walk = "0.5 deg/h/sqrt(h)"\nrate = "200 Hz"\n')
+    out = tmp_path / "kalibr"
+    assert main(["datasheet", str(path), "--to", "kalibr", "--out", str(out)]) == 0
+    text = (out / "imu.yaml").read_text()
+    density = 0.011 * RAD  # rad/s/sqrt(Hz): a deg/s density is the same number in rad
+    walk = 0.5 * RAD / 3600.0 / 60.0
+    values = dict(line.split("#")[0].split(":", 1) for line in text.splitlines()
+                  if line and not line.startswith("#"))
+    assert float(values["gyroscope_noise_density"]) == pytest.approx(density, rel=1e-6)
+    assert float(values["gyroscope_random_walk"]) == pytest.approx(walk, rel=1e-6)
+    assert float(values["update_rate"]) == 200.0
+    record = json.loads((out / "datasheet.json").read_text())
+    assert record["datasheet"]["terms"]["N"]["value"] == pytest.approx(0.66)
+    printed = capsys.readouterr().out
+    assert "gyroscope_noise_density = N (pi/180) / 60" in printed
+    assert f"{density * math.sqrt(200.0):.6e} rad/s per sample" in printed
+    assert "no bias-instability term" in printed
+
+
+def test_without_a_walk_the_datasheet_gets_one_that_bounds_its_flicker(tmp_path):
+    sheet = read_datasheet(_sheet(tmp_path, 'arw = "0.3 deg/sqrt(h)"\n'
+                                            'bias_instability = "10 deg/h"\n'))
+    result = convert_datasheet(sheet, "openvins", horizon_s=400.0)
+    k = 0.6643 * 10.0 * 60.0 * math.sqrt(3.0 / 400.0)  # Allan deviation K/60 sqrt(T/3)
+    assert result.random_walk == pytest.approx(k * RAD / 3600.0 / 60.0, rel=1e-3)
+    assert "400 s" in result.walk_from
+    assert "# update_rate:" in result.file.text()  # no rate: left for the user, not invented
+
+
+@pytest.mark.parametrize(("body", "says"), [
+    ('arw = "0.3 deg/h"\n', "mdps/sqrt(hz)"),
+    ('arw = 0.3\n', "give a number and a unit"),
+    ('gyro_noise = "0.3 deg/sqrt(h)"\n', "is not a key gyroid reads"),
+])
+def test_a_bad_datasheet_gets_one_message_naming_the_key_and_the_units(tmp_path, capsys,
+                                                                       body, says):
+    path = _sheet(tmp_path, body)
+    assert main(["datasheet", str(path), "--to", "json", "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert says in err and "Traceback" not in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_measured_unit_is_judged_against_its_datasheet(tmp_path, capsys):
+    rng = np.random.default_rng(9)
+    dt, arw = 0.01, 0.5
+    rate = rng.normal(0.0, 60.0 * arw / math.sqrt(dt), 100_000)
+    fit = fit_noise(rate, dt)
+    terms = fit.term_summaries()
+    half = read_datasheet(_sheet(tmp_path, 'arw = "0.25 deg/sqrt(h)"\n'))
+    same = read_datasheet(_sheet(tmp_path, 'arw = "0.5 deg/sqrt(h)"\n'
+                                           'bias_instability = "100 deg/h"\n'))
+    assert spec_verdicts(terms, half)["N"]["verdict"] == "above"  # twice its datasheet
+    verdicts = spec_verdicts(terms, same)
+    assert verdicts["N"]["verdict"] == "within"
+    assert verdicts["B"]["verdict"] == "below"  # no flicker: under its bound
+    log = write_log(tmp_path / "still.csv", {"time_s": dt * np.arange(rate.size),
+                                             "drift_deg_h": rate})
+    sheet = _sheet(tmp_path, 'arw = "0.25 deg/sqrt(h)"\n')
+    assert main(["noise", str(log), "--datasheet", str(sheet), "--out",
+                 str(tmp_path / "n")]) == 0
+    spec = json.loads((tmp_path / "n" / "noise.json").read_text())["spec"]
+    assert spec["N"]["verdict"] == "above" and spec["N"]["datasheet"] == 0.25
+    assert "N against the datasheet's 0.25 deg/sqrt(h): above" in capsys.readouterr().out
