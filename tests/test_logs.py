@@ -100,6 +100,21 @@ def test_missing_columns_are_named(tmp_path, thermal_columns):
         load_bench_log(write_log(tmp_path / "b2.csv", no_drift), "bias")
 
 
+@pytest.mark.parametrize(("drop", "terms", "units"), [
+    ("drift_deg_h", "bias", ("deg/h", "mdps", "rad/s", "mrad/s", "rad/h")),
+    ("time_s", "bias", ("ms", "ns", "min", "datetime")),
+    ("temperature_C", "thermal", ("degC", "K", "degF")),
+])
+def test_a_missing_column_message_lists_every_unit_map_reads(tmp_path, thermal_columns, drop,
+                                                             terms, units):
+    """Issue 43: the messages had left out mrad/s and datetime, both accepted."""
+    columns = {k: v for k, v in thermal_columns.items() if k != drop}
+    with pytest.raises(GyroidInputError) as error:
+        load_bench_log(write_log(tmp_path / "b.csv", columns), terms)
+    assert all(f"{unit}," in str(error.value) or f"{unit})" in str(error.value)
+               for unit in units), str(error.value)
+
+
 def test_constant_columns_that_leave_a_coefficient_unidentifiable(
     tmp_path, thermal_columns, magnetic_columns
 ):

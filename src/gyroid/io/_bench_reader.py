@@ -18,7 +18,7 @@ from gyroid.io._tables import (
     check_time_increasing,
     read_log_table,
 )
-from gyroid.io._units import AXIS_COLUMN, ColumnMap
+from gyroid.io._units import AXIS_COLUMN, ColumnMap, unit_list
 from gyroid.models._drift import DriftModel
 from gyroid.models._effects import EXTRA_PREFIX
 from gyroid.models._inputs import T0_C
@@ -129,10 +129,10 @@ def _check_shape(table: LogTable) -> None:
 #: What to do when a column every log needs is missing.
 _ADVICE = {
     "time_s": "every log needs the sample time in s; map yours with --map "
-              "time_s=COLUMN[:UNIT] (units s, ms, us, ns, min, h)",
+              f"time_s=COLUMN[:UNIT]{unit_list('time_s')}",
     "drift_deg_h": "gyroid always needs the measured drift (gyro output minus the known "
                    "input rate); map your gyro's column with --map "
-                   "drift_deg_h=COLUMN[:UNIT] (units deg/h, deg/s, mdps, rad/s)",
+                   f"drift_deg_h=COLUMN[:UNIT]{unit_list('drift_deg_h')}",
 }
 
 

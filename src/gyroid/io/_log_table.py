@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from gyroid.errors import GyroidInputError
-from gyroid.io._units import AXIS_COLUMN, ColumnMap, axis_column
+from gyroid.io._units import AXIS_COLUMN, ColumnMap, axis_column, unit_list
 
 
 @dataclass(frozen=True)
@@ -76,8 +76,8 @@ class LogTable:
         source, mapped = self._source(name)
         if source not in self.header:
             raise self.missing(name, advice or (
-                f"add it, map a column of yours onto it with --map {name}=COLUMN[:UNIT], or "
-                "choose terms that do not need it"))
+                f"add it, map a column of yours onto it with --map {name}=COLUMN[:UNIT]"
+                f"{unit_list(name)}, or choose terms that do not need it"))
         values = self._floats(source)
         bad = np.flatnonzero(~np.isfinite(values))
         if bad.size:

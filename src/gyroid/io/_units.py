@@ -50,6 +50,13 @@ def conversions(target: str) -> dict | None:
     return CONVERSIONS.get(target)
 
 
+def unit_list(target: str) -> str:
+    """`` (units a, b, ...)``: every unit ``--map`` converts to a contract column's, for a
+    message; empty for a column without conversions."""
+    table = conversions(target)
+    return f" (units {', '.join(table)})" if table else ""
+
+
 def axis_column(axis: str) -> str:
     return f"drift_{axis}_deg_h"
 
