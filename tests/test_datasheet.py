@@ -110,3 +110,24 @@ def test_a_measured_unit_is_judged_against_its_datasheet(tmp_path, capsys):
     spec = json.loads((tmp_path / "n" / "noise.json").read_text())["spec"]
     assert spec["N"]["verdict"] == "above" and spec["N"]["datasheet"] == 0.25
     assert "N against the datasheet's 0.25 deg/sqrt(h): above" in capsys.readouterr().out
+
+
+def test_an_export_names_the_walk_that_bounds_the_flicker_its_model_leaves_out():
+    """Issue 44: in place of a fixed 10-20x, the walk whose Allan deviation reaches the
+    fitted flicker floor (at B's 95 % upper end) at 100 s, and the derivation written."""
+    from gyroid.io._fitted import FittedNoise
+    from gyroid.workflows._noise_export import axis_noise, export_noise
+
+    terms = {"N": {"resolved": True, "mean": 0.5, "ci90": [0.49, 0.51]},
+             "K": {"resolved": False, "mean": None, "upper_bound_95": 2.0},
+             "B": {"resolved": True, "mean": 10.0, "ci90": [8.0, 12.0]}}
+    tau = np.array([1.0, 10.0, 100.0])
+    fitted = FittedNoise(terms, tau, np.array([30.0, 10.0, 8.0]), 0.01, True)
+    axis = axis_noise(None, fitted)
+    k = 0.6643 * 12.0 * 60.0 * math.sqrt(3.0 / 100.0)  # K/60 sqrt(100/3) = 0.664 B_top
+    assert axis.flicker_walk == pytest.approx(k * RAD / 3600.0 / 60.0, rel=1e-3)
+    result = export_noise({None: axis}, "kalibr", sample_s=0.01)
+    text = result.text()
+    assert "over-bounding the fitted flicker" in text and f"{axis.flicker_walk:.6e}" in text
+    assert f"N (pi/180) / 60 = {0.5 * RAD / 60.0:.6e}" in text
+    assert result.record["axes"]["x"]["flicker_walk"] == axis.flicker_walk

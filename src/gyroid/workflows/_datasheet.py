@@ -24,17 +24,15 @@ from gyroid.io._datasheet import Datasheet
 from gyroid.workflows._noise_export import (
     ARW_TO_SI,
     FILE_NAMES,
+    HORIZON_S,
     NOISE_TARGETS,
     RRW_TO_SI,
     NoiseExport,
+    flicker_walk,
 )
 
 #: ``gyroid datasheet --to``: an estimator's file, or the conversion alone.
 DATASHEET_TARGETS = (*NOISE_TARGETS, "json")
-#: The flicker floor per unit bias instability (IEEE Std 952: ``2 ln 2 / pi`` under a root).
-FLOOR = math.sqrt(2.0 * math.log(2.0) / math.pi)
-#: The horizon at which a walk standing in for flicker reaches its floor, s.
-HORIZON_S = 100.0
 
 
 @dataclass(frozen=True)
@@ -85,7 +83,7 @@ def convert_datasheet(sheet: Datasheet, target: str, *, rate_hz: float | None = 
         k, walk_from = sheet.terms["K"].value, "the datasheet's rate_random_walk"
     elif "B" in sheet.terms:
         b = sheet.terms["B"].value
-        k = FLOOR * b * 60.0 * math.sqrt(3.0 / horizon_s)
+        k = flicker_walk(b, horizon_s)
         walk_from = (f"the walk whose Allan deviation reaches B's flicker floor at "
                      f"{horizon_s:g} s (the datasheet gives no rate_random_walk)")
         lines.append(f"no rate_random_walk: K = 0.664 B 60 sqrt(3 / T) = {k:.6g} "

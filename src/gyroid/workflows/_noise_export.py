@@ -35,6 +35,17 @@ RRW_TO_SI = math.pi / 180.0 / 3600.0 / 60.0
 NOISE_TARGETS = ("kalibr", "openvins")
 FILE_NAMES = {"kalibr": "imu.yaml", "openvins": "kalibr_imu_chain.yaml"}
 LEFT_OUT = ("B", "Q", "R")
+#: The flicker floor per unit bias instability (IEEE Std 952: ``2 ln 2 / pi`` under a root).
+FLOOR = math.sqrt(2.0 * math.log(2.0) / math.pi)
+#: The horizon at which a walk standing in for flicker reaches its floor, s.
+HORIZON_S = 100.0
+
+
+def flicker_walk(b_deg_h: float, horizon_s: float = HORIZON_S) -> float:
+    """The rate random walk (deg/h/sqrt(h)) whose Allan deviation ``K/60 sqrt(tau/3)``
+    reaches the flicker floor ``0.664 B`` at ``horizon_s``: from there on it over-bounds the
+    flicker, below it lies under it."""
+    return FLOOR * b_deg_h * 60.0 * math.sqrt(3.0 / horizon_s)
 
 
 @dataclass(frozen=True)
@@ -52,6 +63,9 @@ class AxisNoise:
     worst_tau_s: float
     left_out: dict[str, float]
     trustworthy: bool
+    #: The walk (rad/s^2/sqrt(Hz)) that over-bounds the fitted flicker from HORIZON_S on, at
+    #: B's 95 % upper end (interval or bound); None without a B.
+    flicker_walk: float | None = None
 
 
 def axis_noise(axis: str | None, fitted: FittedNoise) -> AxisNoise:
@@ -64,9 +78,12 @@ def axis_noise(axis: str | None, fitted: FittedNoise) -> AxisNoise:
     worst = int(np.argmax(ratio))
     left_out = {name: float(fitted.terms[name]["mean"]) for name in LEFT_OUT
                 if fitted.terms.get(name, {}).get("resolved")}
+    b = fitted.terms.get("B", {})
+    b_top = b["ci90"][1] if b.get("resolved") else b.get("upper_bound_95")
+    walk = None if b_top is None else flicker_walk(float(b_top)) * RRW_TO_SI
     return AxisNoise(axis, n_deg * ARW_TO_SI, k_deg * RRW_TO_SI, n_from, k_from,
                      float(max(ratio[worst], 1.0)), float(fitted.tau_s[worst]), left_out,
-                     fitted.trustworthy)
+                     fitted.trustworthy, walk)
 
 
 def _level(terms: dict[str, dict], name: str, axis: str | None) -> tuple[float, str]:
@@ -144,7 +161,8 @@ def _axis_record(a: AxisNoise) -> dict:
     return {"gyroscope_noise_density": a.noise_density, "density_from": a.density_from,
             "gyroscope_random_walk": a.random_walk, "walk_from": a.walk_from,
             "left_out": a.left_out, "understated_by": a.understated_by,
-            "worst_tau_s": a.worst_tau_s, "source_trustworthy": a.trustworthy}
+            "worst_tau_s": a.worst_tau_s, "source_trustworthy": a.trustworthy,
+            "flicker_walk": a.flicker_walk, "flicker_walk_horizon_s": HORIZON_S}
 
 
 def _comments(axes: dict[str | None, AxisNoise]) -> tuple[str, ...]:
@@ -152,6 +170,15 @@ def _comments(axes: dict[str | None, AxisNoise]) -> tuple[str, ...]:
            f"({', '.join(str(a or 'x') for a in axes)}); per axis: export.json beside this file"]
     for axis, a in axes.items():
         name = axis or "x"
+        out.append(f"axis {name}: gyroscope_noise_density = N (pi/180) / 60 = "
+                   f"{a.noise_density:.6e} rad/s/sqrt(Hz); gyroscope_random_walk = K (pi/180) "
+                   f"/ 3600 / 60 = {a.random_walk:.6e} rad/s^2/sqrt(Hz)")
+        if a.flicker_walk is not None:
+            out.append(f"axis {name}: bias instability has no term in this model; the walk "
+                       f"over-bounding the fitted flicker (B's 95 % upper end) from "
+                       f"{HORIZON_S:g} s on is {a.flicker_walk:.6e} rad/s^2/sqrt(Hz): use it "
+                       "for gyroscope_random_walk where the estimator must not be "
+                       "over-confident beyond that (in place of a fixed 10-20x)")
         if a.walk_from != "posterior mean":
             out.append(f"axis {name}: the random walk is the 95 % upper bound: the log is too "
                        "short to resolve it")
