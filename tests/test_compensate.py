@@ -90,6 +90,29 @@ def test_a_log_of_the_same_gyro_sampled_faster_is_predicted_at_its_own_rate(fitt
     assert not predictive(other.log).passed
 
 
+def test_window_means_carry_bands_that_hold_the_measured_means(fitted_short):
+    """compensated_means.csv (contract section 6): the band for each 10-minute mean of a run
+    of the fitted gyro holds it at the nominal rate; the same windows of a unit whose bias
+    differs by 1.5 deg/h fall outside. The band is the model's sd (over posterior draws)
+    and the noise model's sd of such a mean, which white noise sets at its 1/sqrt(n)."""
+    from scipy import stats
+
+    protocol = ThermalProtocol(setpoints_C=(28.0, 34.0, 39.0), soak_min=25.0)
+    new = simulate_thermal_bench(seed=25, protocol=protocol)
+    w = compensate(new.log, fitted_short).window_means
+    inside = ((w["band95_lo_deg_h"] <= w["drift_mean_deg_h"])
+              & (w["drift_mean_deg_h"] <= w["band95_hi_deg_h"]))
+    low, _ = stats.binom(inside.size, 0.95).ppf([0.005, 0.995])
+    assert inside.sum() >= low and inside.size >= 10
+    assert np.all(np.diff(w["t_start_s"]) == pytest.approx(600.0, rel=0.01))
+    assert np.all(w["noise_mean_sd_deg_h"] > 0) and np.all(w["model_mean_sd_deg_h"] > 0)
+    other = simulate_thermal_bench(seed=25, protocol=protocol,
+                                   parameters={**PAPER_A_THERMAL, "w0": 1.5})
+    w = compensate(other.log, fitted_short).window_means
+    assert np.mean((w["drift_mean_deg_h"] < w["band95_lo_deg_h"])
+                   | (w["drift_mean_deg_h"] > w["band95_hi_deg_h"])) > 0.8
+
+
 def test_extrapolation_is_reported(fitted_short):
     fitted = fitted_short
     hot = simulate_thermal_bench(seed=23)  # up to 55 degC; the fit saw 21...40 degC
@@ -120,6 +143,11 @@ def test_cli_writes_the_contract_files(tmp_path, monkeypatch, capsys):
                 "fraction_removed", "allan_before", "allan_after"):
         assert key in summary
     assert (out / "allan.png").exists() and (out / "compensation.png").exists()
+    means = (out / "compensated_means.csv").read_text().splitlines()
+    assert means[0].split(",") == ["t_start_s", "t_end_s", "n_samples", "drift_mean_deg_h",
+                                   "model_mean_deg_h", "model_mean_sd_deg_h",
+                                   "noise_mean_sd_deg_h", "band95_lo_deg_h", "band95_hi_deg_h"]
+    assert len(means) > 2
     assert main(["compensate", str(sim / "bench.csv"), "--fit", str(tmp_path), "--out",
                  str(tmp_path / "x")]) == 2
     # a log whose rows would not fit in the free memory is refused before it is read

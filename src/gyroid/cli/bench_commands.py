@@ -140,10 +140,14 @@ def fit(data, out, options) -> None:
               help="Folder for compensated.csv, compensate.json and figures.")
 @click.option("--seed", default=0, show_default=True, type=SEED,
               help="Seed for choosing posterior draws.")
+@click.option("--window", "window_s", default=600.0, show_default=True,
+              type=click.FloatRange(min=0.0, min_open=True),
+              help="compensated_means.csv: the means over consecutive windows of this many "
+                   "seconds, with the 95 % band for each (model and noise).")
 @map_option
 @axes_option
 @instance_option
-def compensate(data, fit_dir, out, seed, mappings, axes, instance) -> None:
+def compensate(data, fit_dir, out, seed, window_s, mappings, axes, instance) -> None:
     """Compensate a new bench log DATA with a fitted drift model; Allan deviation before and
     after. Every axis a fit of several has (--axes to choose). Exit code 3 when a self-check
     (extrapolation, gain, the predictive check) says not to use it."""
@@ -151,14 +155,14 @@ def compensate(data, fit_dir, out, seed, mappings, axes, instance) -> None:
 
     click.echo(f"compensating {data} with {fit_dir} ...", err=True)
     result = compensate_file(data, fit_dir, out, seed=seed, maps=parse_maps(mappings),
-                             axes=parse_axes(axes), instance=instance)
+                             axes=parse_axes(axes), instance=instance, window_s=window_s)
     for axis, item in result.results.items():
         s = item.summary
         which = f"axis {axis}: " if result.several else ""
         click.echo(f"{which}RMS {s['rms_before_deg_h']:.3g} -> {s['rms_after_deg_h']:.3g} "
                    f"deg/h ({100 * s['fraction_removed']:.0f} % removed)")
-    report_written(result, out, ("compensated.csv", "compensate.json", "compensation.png",
-                                 "allan.png"))
+    report_written(result, out, ("compensated.csv", "compensated_means.csv", "compensate.json",
+                                 "compensation.png", "allan.png"))
 
 
 @cli.command()

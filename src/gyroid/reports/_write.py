@@ -111,13 +111,17 @@ def _pool_fit(folder: Path, result: PoolFit, title: str | None = None,
 
 
 def _compensation(folder: Path, result: Compensation) -> list[Path]:
-    """compensated.csv, compensate.json, compensation.png and allan.png."""
+    """compensated.csv, compensated_means.csv, compensate.json, compensation.png and
+    allan.png."""
     from gyroid.plotting import allan_figure, compensation_figure, save
 
     log = result.log
     write_compensated_csv(folder / "compensated.csv", log, result)
     (folder / "compensate.json").write_text(json_text(result.to_json()))
     written = [folder / "compensated.csv", folder / "compensate.json"]
+    if result.window_means:
+        (folder / "compensated_means.csv").write_text(_table_csv(result.window_means))
+        written.append(folder / "compensated_means.csv")
     written += save(compensation_figure(log.time_s, log.drift_deg_h, result.compensated_deg_h),
                     folder / "compensation")
     written += save(allan_figure(result.adev_before, result.adev_after), folder / "allan")
@@ -212,6 +216,21 @@ def _writers() -> tuple[tuple[type, Callable[..., list[Path]]], ...]:
             (DiscrepancyReport, _discrepancy), (FirmwareExport, _export),
             (NoiseExport, _export), (NoiseFit, _noise), (UnitNoise, _unit_noise),
             (DatasheetExport, _datasheet))
+
+
+def _table_csv(columns: dict[str, np.ndarray]) -> str:
+    """Equal-length columns as CSV (integers as integers, floats to 10 significant digits,
+    NaN as empty)."""
+    names = list(columns)
+    rows = [",".join(names)]
+    for k in range(len(next(iter(columns.values())))):
+        cells = []
+        for name in names:
+            value = columns[name][k]
+            cells.append(str(int(value)) if np.issubdtype(type(value), np.integer) else
+                         "" if not np.isfinite(value) else f"{value:.10g}")
+        rows.append(",".join(cells))
+    return "\n".join(rows) + "\n"
 
 
 def dk_samples_csv(dk: np.ndarray) -> str:

@@ -48,6 +48,9 @@ class Compensation:
     adev_before: AllanDeviation = field(repr=False)
     adev_after: AllanDeviation = field(repr=False)
     checks: CheckReport = field(repr=False)
+    #: Per consecutive window of the log (``compensated_means.csv``): its span and samples,
+    #: the measured and modelled means and the 95 % band for the measured one (deg/h).
+    window_means: dict[str, np.ndarray] = field(repr=False, default_factory=dict)
 
     def __repr__(self) -> str:
         s = self.summary
@@ -102,10 +105,15 @@ def _predict_draws(model: DriftModel, draws, inputs):
     return jax.vmap(lambda theta: model.predict(theta, inputs))(draws)
 
 
-def compensate(log: BenchLog, fitted: FittedDrift, *, max_draws: int = 400, seed: int = 0
-               ) -> Compensation:
+#: ``gyroid compensate --window``'s default, s.
+WINDOW_S = 600.0
+
+
+def compensate(log: BenchLog, fitted: FittedDrift, *, max_draws: int = 400, seed: int = 0,
+               window_s: float = WINDOW_S) -> Compensation:
     """Apply a fit's posterior (``fitted``: ``BenchFit.fitted_drift()``, or a fit's folder
-    read back) to ``log``; rows beyond the ranges the fit saw are flagged."""
+    read back) to ``log``; rows beyond the ranges the fit saw are flagged; the means over
+    consecutive windows of ``window_s`` seconds with their bands (:func:`window_means`)."""
     extra = [name for name in fitted.model.terms if name.startswith(EXTRA_PREFIX)]
     if extra:
         raise GyroidInputError(
@@ -167,7 +175,43 @@ def compensate(log: BenchLog, fitted: FittedDrift, *, max_draws: int = 400, seed
         CheckReport((compensation_predictive(log, fitted, predictions.part_means),
                      units_sanity(log)))
     summary.update(checks.to_json())
-    return Compensation(log, model, sd, compensated, summary, before, after, checks)
+    windows = window_means(log, fitted, predictions.part_means, window_s)
+    return Compensation(log, model, sd, compensated, summary, before, after, checks, windows)
+
+
+
+def window_means(log: BenchLog, fitted: FittedDrift,
+                 draw_part_means: Callable[[np.ndarray, int], np.ndarray], window_s: float
+                 ) -> dict[str, np.ndarray]:
+    """Per consecutive window of ``window_s`` seconds holding samples: its first and last
+    time, samples, the measured drift's mean, the model's mean over posterior draws and its
+    sd, the fit's noise model's sd of such a mean (at this log's sample interval, after the
+    fitted log), and the 95 % band for the measured mean (model and noise, normal). A fit
+    without a noise model (an old folder) has no noise sd or band (NaN)."""
+    time_s = np.asarray(log.time_s)
+    index = np.floor((time_s - time_s[0]) / window_s).astype(int)
+    _, part = np.unique(index, return_inverse=True)
+    n = int(part.max()) + 1
+    counts = np.bincount(part, minlength=n).astype(float)
+    means = draw_part_means(part, n)
+    model_mean, model_sd = means.mean(axis=0), means.std(axis=0, ddof=1) if means.shape[
+        0] > 1 else np.zeros(n)
+    noise_sd = np.full(n, np.nan)
+    if fitted.noise is not None:
+        step = float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
+        sigma = log.sigma_deg_h
+        white = (np.bincount(part, np.asarray(sigma) ** 2, n) / counts**2
+                 if sigma is not None else fitted.noise.white_sd_at(step) ** 2 / counts)
+        noise_sd = np.sqrt(np.diag(fitted.noise.part_covariance(time_s, part, n, step,
+                                                                white)))
+    half = 1.96 * np.sqrt(model_sd**2 + noise_sd**2)
+    return {"t_start_s": np.array([time_s[part == k][0] for k in range(n)]),
+            "t_end_s": np.array([time_s[part == k][-1] for k in range(n)]),
+            "n_samples": counts.astype(int),
+            "drift_mean_deg_h": np.bincount(part, np.asarray(log.drift_deg_h), n) / counts,
+            "model_mean_deg_h": model_mean, "model_mean_sd_deg_h": model_sd,
+            "noise_mean_sd_deg_h": noise_sd, "band95_lo_deg_h": model_mean - half,
+            "band95_hi_deg_h": model_mean + half}
 
 
 #: Rows outside the fitted ranges above this fraction make the compensation an
