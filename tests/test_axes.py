@@ -104,3 +104,25 @@ def test_discrepancy_searches_each_axis(tmp_path):
     for axis in "xyz":
         assert "temperature" in json.loads((out / axis / "discrepancy.json").read_text()
                                            )["added"]
+
+
+@pytest.mark.parametrize(("trusted", "says"), [
+    ({"x": False, "y": False, "z": False}, "axes x, y, z must not be used (exit 3): none of"),
+    ({"x": True, "y": False, "z": True}, "axis y must not be used (exit 3); x, z may"),
+])
+def test_the_multi_axis_verdict_names_the_axes_that_may_be_used(capsys, trusted, says):
+    """Issue 43: 'axes x, y, z must not be used (exit 3); the others may' had been printed
+    when there were no others."""
+    from gyroid.cli.base import report_axes
+    from gyroid.errors import UntrustworthyResult
+    from gyroid.inference import Check, CheckReport
+    from gyroid.pipeline._axes import PerAxis
+
+    class Item:
+        def __init__(self, ok: bool):
+            self.checks = CheckReport((Check("fit", ok, "error", None, None, "a check"),))
+            self.trustworthy = ok
+
+    with pytest.raises(UntrustworthyResult):
+        report_axes(PerAxis({axis: Item(ok) for axis, ok in trusted.items()}, {}))
+    assert says in capsys.readouterr().err

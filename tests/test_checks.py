@@ -357,3 +357,20 @@ def test_a_noise_level_the_log_does_not_resolve_is_not_held_to_its_mode():
     assert not point_vs_posterior(evidence([1.5, -5.0], unresolved)).passed
     resolved = LogNormal(np.exp(-8.0), 10.0)  # the same posterior is then the data's
     assert not point_vs_posterior(evidence([0.1, -5.0], resolved)).passed
+
+
+def test_a_stopped_mode_search_beside_a_converged_sampler_is_said_not_hidden():
+    """Issue 43: a fit printed 'point estimate (NOT converged: ... singular) ... +/- nan' and
+    then 'every error-level self-check passed' with no word on it: the convergence check
+    (which judges the sampler) now says the posterior is the answer."""
+    from dataclasses import replace
+
+    from gyroid.inference._checks import convergence
+    from gyroid.models._priors import Normal
+
+    draws = np.random.default_rng(3).standard_normal((400, 1))
+    evidence = replace(_evidence(draws, [0.0], [Normal(0.0, 1.0)]), point_converged=False,
+                       point_message="the Hessian is singular")
+    check = convergence(evidence)
+    assert check.passed and "the Hessian is singular" in check.message
+    assert "the posterior, not the point estimate, is the answer" in check.message

@@ -235,7 +235,10 @@ def report_axes(result) -> None:
         report_line(f"axis {axis}: {item.checks.verdict()}")
     if not result.trustworthy:
         bad = [axis for axis, item in result.results.items() if not item.trustworthy]
-        report_line(f"axes {', '.join(bad)} must not be used (exit 3); the others may")
+        good = [axis for axis in result.results if axis not in bad]
+        which = f"axis {bad[0]}" if len(bad) == 1 else f"axes {', '.join(bad)}"
+        report_line(f"{which} must not be used (exit 3)"
+                    + (f"; {', '.join(good)} may" if good else ": none of the log's may"))
         raise UntrustworthyResult()
 
 

@@ -121,6 +121,10 @@ def convergence(evidence: FitEvidence) -> Check:
     worst = max(evidence.summary, key=lambda k: evidence.summary[k]["r_hat"])
     if ok:
         message = f"the sampler converged (max r_hat {r_hat:.3f}, min ess_bulk {ess:.0f})"
+        if not evidence.point_converged:  # the screen shows the mode's search as stopped
+            message += (f"; the point estimate's own search stopped "
+                        f"({evidence.point_message}), so its sds may be missing: the "
+                        "posterior, not the point estimate, is the answer")
     else:
         message = (f"the sampler did not converge (r_hat {r_hat:.3f} on {worst}, min ess_bulk "
                    f"{ess:.0f}; wanted <= {MAX_R_HAT} and >= {MIN_ESS:.0f}): the posterior "
