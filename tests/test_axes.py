@@ -75,7 +75,7 @@ def test_an_axis_that_must_not_be_used_is_named_and_the_others_written(tmp_path,
     assert main(["fit", *WHITE, str(log), "--terms", TERMS, "--out", str(out), "--no-progress",
                  "--noise", "white"]) == 3
     err = capsys.readouterr().err
-    assert "axes z must not be used" in err and "axis z:" in err
+    assert "axis z must not be used (exit 3); x, y may" in err and "axis z:" in err
     record = json.loads((out / "axes.json").read_text())["axes"]
     assert record["z"]["exit"] == 3 and record["x"]["exit"] == record["y"]["exit"] == 0
     assert all((out / axis / "fit.json").exists() for axis in "xyz")
