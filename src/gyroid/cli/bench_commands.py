@@ -304,9 +304,7 @@ def noise(data, out, seed, mappings, axes, instance, static_deg_s, datasheet) ->
                    f"{kept['rows']} rows in {kept['stretches']} still stretch(es)", err=True)
     for axis, item in result.results.items():
         which = f"axis {axis}: " if result.several else ""
-        gm = item.gauss_markov()
-        entries = item.term_summaries() | ({"G": gm} if gm is not None else {})
-        for name, entry in entries.items():
+        for name, entry in item.reported_terms().items():
             when = f", correlation time {entry['tau_s']:.3g} s" if name == "G" else ""
             if entry["resolved"]:
                 lo, hi = entry["ci90"]

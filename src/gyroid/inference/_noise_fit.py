@@ -93,10 +93,7 @@ class NoiseFit(FitResult):
         """Each term the log resolves (mean, 90 % interval) or its upper bound, and the
         failed checks."""
         lines = [f"noise of {self.label or 'the log'}; terms (datasheet units):"]
-        gm = self.gauss_markov()
-        entries = (self.term_summaries() | ({"G": gm} if gm is not None else {})
-                   | {"F": self.prefilter()})
-        for name, entry in entries.items():
+        for name, entry in (self.reported_terms() | {"F": self.prefilter()}).items():
             when = f", correlation time {entry['tau_s']:.3g} s" if name == "G" else ""
             if entry["resolved"]:
                 lo, hi = entry["ci90"]
@@ -112,6 +109,12 @@ class NoiseFit(FitResult):
         """Per IEEE term (:data:`IEEE_TERMS`): mean, sd, 90 % interval (or the upper bound
         of a term the log does not resolve), unit, process, inclusion probability."""
         return {name: self._term_summary(name) for name in IEEE_TERMS}
+
+    def reported_terms(self) -> dict[str, dict]:
+        """:meth:`term_summaries` and, when the log had one to try, G
+        (:meth:`gauss_markov`): what the summary and the command line print."""
+        gm = self.gauss_markov()
+        return self.term_summaries() | ({"G": gm} if gm is not None else {})
 
     def gauss_markov(self) -> dict | None:
         """The Gauss-Markov bias G as :meth:`term_summaries` gives a term, with its
