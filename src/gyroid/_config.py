@@ -51,8 +51,11 @@ def use_compilation_cache(folder: str) -> None:
     """Keep every compiled program in ``folder`` (JAX's persistent compilation cache)."""
     import jax
 
+    from gyroid._compile_cache import install
+
     jax.config.update("jax_compilation_cache_dir", folder)
     jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.0)
+    install(folder)  # entries written by rename: processes sharing the folder stay safe
 
 
 #: Environment that keeps a process's computing on one core: XLA's and the BLAS's thread
