@@ -30,7 +30,7 @@ from gyroid.errors import UntrustworthyResult
 
 
 @cli.command()
-@click.argument("bench", type=click.Choice(["thermal", "magnetic"]))
+@click.argument("bench", type=click.Choice(["thermal", "magnetic", "overload"]))
 @click.option(
     "--out",
     "out",
@@ -92,13 +92,16 @@ from gyroid.errors import UntrustworthyResult
 @click.option("--spread", default=0.2, show_default=True, type=float,
               help="With --runs: each coefficient's between-run sd as a fraction of its "
                    "magnitude.")
+@click.option("--orientations", default=None, metavar="+X,-X,...",
+              help="Overload bench: the directions of the specific force the unit dwells "
+                   "in, in order (default: the six-position tumble +X,-X,+Y,-Y,+Z,-Z).")
 def simulate(
     bench, out, seed, overrides, effects, arw, bias_instability, correlation_time, average_s,
-    hours, rate_hz, log_format, runs, spread,
+    hours, rate_hz, log_format, runs, spread, orientations,
 ) -> None:
-    """Simulate paper A's thermal or magnetic bench with known truth (of any length and
-    sample rate with --hours and --rate-hz; a lot of runs with --runs). A thermal log of
-    more than 2 x 10^7 rows is written chunk by chunk, never held whole."""
+    """Simulate paper A's thermal, magnetic or overload bench with known truth (of any
+    length and sample rate with --hours and --rate-hz; a lot of runs with --runs). A thermal
+    log of more than 2 x 10^7 rows is written chunk by chunk, never held whole."""
     from gyroid.pipeline._simulate_file import SimulateOptions, simulate_to_dir
     from gyroid.simulation._bench import preset_parameters
     from gyroid.simulation._noise import GyroNoise
@@ -109,7 +112,9 @@ def simulate(
         noise=GyroNoise(arw_deg_rt_h=arw, bias_instability_deg_h=bias_instability,
                         correlation_time_s=correlation_time),
         seed=seed, hours=hours, rate_hz=rate_hz, average_s=average_s, log_format=log_format,
-        runs=runs, spread=spread)
+        runs=runs, spread=spread,
+        orientations=None if orientations is None else tuple(
+            item.strip().upper() for item in orientations.split(",") if item.strip()))
     click.echo(simulate_to_dir(bench, out, options, say=lambda m: click.echo(m, err=True)))
 
 

@@ -29,7 +29,7 @@ from gyroid.models._derived import (
     temperature_rate_deg_c_per_h,
 )
 from gyroid.models._drift import DriftModel
-from gyroid.models._inputs import FIELD_COLUMNS, T0_C
+from gyroid.models._inputs import ACCEL_COLUMNS, FIELD_COLUMNS, T0_C
 from gyroid.models._prior_scales import (
     PriorBasis,
     choose_priors,
@@ -362,7 +362,8 @@ def _negligible(log: BenchLog | MeansOfBlocks, model: DriftModel, thermometer_va
     every = max(1, rows.n // _THIN_ROWS)
     time_s = np.asarray(rows.time_s)
     thin = BenchLog(columns={k: np.asarray(v)[::every] for k, v in rows.columns.items()
-                             if k in ("time_s", "drift_deg_h", "temperature_C", *FIELD_COLUMNS)
+                             if k in ("time_s", "drift_deg_h", "temperature_C", *FIELD_COLUMNS,
+                                      *ACCEL_COLUMNS)
                              or k in rows.extra_columns},
                     extra_columns=rows.extra_columns)
     try:

@@ -12,6 +12,12 @@ explain all but ``LEFT_FRACTION`` of its variation, the log does not identify th
 coefficient (an error). A staircase of many levels (paper A's coils, a burst log's cooling)
 is excitation: its steps are small, and three explain only part of it; so is a slow ramp
 sampled in bursts.
+
+The overload coefficients are exempt, as the field-change signs are: a tumble test changes the
+specific force in steps by design, and what its orientations leave undetermined is judged
+from the orientations themselves (:mod:`gyroid.models._orientations`, in the
+identifiability check). A tumble's answer assumes the bias does not step when the unit is
+turned; more orientations than coefficients (six for four) leave the residuals a test of it.
 """
 
 from __future__ import annotations
@@ -20,6 +26,7 @@ import numpy as np
 
 from gyroid.inference._check_report import Check
 from gyroid.models._drift import DriftModel
+from gyroid.models._inputs import ACCEL_COLUMNS
 
 #: Steps tried, the jump (a fraction of the regressor's range) that counts as abrupt, and the
 #: share of the regressor's variation that must be left beyond the steps.
@@ -47,8 +54,10 @@ def excitation(model: DriftModel, inputs, time_s: np.ndarray,
     poor, least = [], 1.0
     for j, name in enumerate(names):
         x = design[:, j]
-        if name == "w0" or np.unique(x[: min(x.size, 100_000)]).size <= 3:
-            continue  # the bias, and regressors that are step functions by design (signs)
+        if (name == "w0" or regressor[name] in ACCEL_COLUMNS
+                or np.unique(x[: min(x.size, 100_000)]).size <= 3):
+            continue  # the bias, and regressors that are step functions by design (signs,
+            # orientations)
         left, steps = _left_after_steps(x, gaps)
         least = min(least, left)
         if left < LEFT_FRACTION:

@@ -20,6 +20,9 @@ _UNITS = {
     "Hx_uT": "uT",
     "Hy_uT": "uT",
     "Hz_uT": "uT",
+    "ax_g": "g",
+    "ay_g": "g",
+    "az_g": "g",
     "sigma_deg_h": "deg/h",
 }
 

@@ -11,10 +11,17 @@ import numpy as np
 
 from gyroid.errors import GyroidInputError
 from gyroid.models._derived import HYSTERESIS_DEADBAND_UT, RATE_WINDOW_S
-from gyroid.models._inputs import FIELD_COLUMNS, T0_C, DriftInputs, build_inputs
+from gyroid.models._inputs import (
+    ACCEL_COLUMNS,
+    FIELD_COLUMNS,
+    T0_C,
+    DriftInputs,
+    build_inputs,
+)
 
 #: Columns of a bench log that gyroid reads, in the order it writes them.
-BENCH_COLUMNS = ("time_s", "drift_deg_h", "temperature_C", *FIELD_COLUMNS, "sigma_deg_h")
+BENCH_COLUMNS = ("time_s", "drift_deg_h", "temperature_C", *FIELD_COLUMNS, *ACCEL_COLUMNS,
+                 "sigma_deg_h")
 
 
 @dataclass(frozen=True)

@@ -120,7 +120,8 @@ def check_time_increasing(table: LogTable, time_s: np.ndarray) -> None:
 #: Values beyond these magnitudes are refused as implausible (a unit or parse mistake).
 PLAUSIBLE = {
     "time_s": 1e12, "drift_deg_h": 1e9, "sigma_deg_h": 1e9, "Hx_uT": 1e8, "Hy_uT": 1e8,
-    "Hz_uT": 1e8, "roll_rate_deg_s": 1e7, "gs_rate_deg_s": 1e7, "gs_angle_deg": 1e12,
+    "Hz_uT": 1e8, "ax_g": 1e5, "ay_g": 1e5, "az_g": 1e5, "roll_rate_deg_s": 1e7,
+    "gs_rate_deg_s": 1e7, "gs_angle_deg": 1e12,
 }
 
 

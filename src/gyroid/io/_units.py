@@ -17,6 +17,7 @@ _DEG_H_PER = {"deg/h": 1.0, "dph": 1.0, "deg/s": 3600.0, "dps": 3600.0,
               "mrad/s": 3.6 * 180.0 / math.pi, "deg/min": 60.0, "rad/h": 180.0 / math.pi}
 _UT_PER = {"uT": 1.0, "T": 1e6, "mT": 1e3, "nT": 1e-3, "G": 100.0, "mG": 0.1, "gauss": 100.0}
 _S_PER = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "ns": 1e-9, "min": 60.0, "h": 3600.0}
+_G_PER = {"g": 1.0, "mg": 1e-3, "m/s^2": 1.0 / 9.80665, "m/s2": 1.0 / 9.80665}
 _DEG_PER = {"deg": 1.0, "rad": 180.0 / math.pi, "mrad": 0.18 / math.pi}
 
 
@@ -33,6 +34,7 @@ CONVERSIONS = {
     "sigma_deg_h": _scale(_DEG_H_PER, 1.0),
     "temperature_C": _TEMPERATURE,
     **{name: _scale(_UT_PER, 1.0) for name in ("Hx_uT", "Hy_uT", "Hz_uT")},
+    **{name: _scale(_G_PER, 1.0) for name in ("ax_g", "ay_g", "az_g")},
     "roll_rate_deg_s": _scale(_DEG_H_PER, 3600.0),
     "gs_rate_deg_s": _scale(_DEG_H_PER, 3600.0),
     "gs_angle_deg": _scale(_DEG_PER, 1.0),

@@ -3,6 +3,8 @@
 * relative temperature ``t = T - t0`` (degC);
 * the temperature rate dT/dt (degC/h) from a logged temperature that carries sensor noise;
 * the sign of the last change of each field component (for ``magnetic_hysteresis``);
+* the specific force (g) the overload effects read: the accelerometer averaged over a
+  centred window of ``ACCEL_WINDOW_S``;
 * the first-order-lagged temperature (for ``thermal_lag``), in JAX because its time
   constant is a fitted parameter.
 """
@@ -24,6 +26,21 @@ MAX_WINDOW_SAMPLES = 20_000
 RATE_POLY_DEGREE = 5
 #: Default dead band of the field-change sign detector, uT.
 HYSTERESIS_DEADBAND_UT = 10.0
+#: The overload effects read the accelerometer averaged over a centred window this long, s:
+#: its white noise (about 1 mg per sample on a MEMS unit) would otherwise pass for
+#: variation in g and lend the sensitivities information the orientations do not give.
+ACCEL_WINDOW_S = 10.0
+
+
+def centred_mean(time_s: np.ndarray, values: np.ndarray, window_s: float) -> np.ndarray:
+    """Each sample's mean of ``values`` over the samples within ``window_s / 2`` of it
+    (irregular sampling allowed; O(n log n), by cumulative sums)."""
+    time_s = np.asarray(time_s, dtype=float)
+    values = np.asarray(values, dtype=float)
+    total = np.concatenate([[0.0], np.cumsum(values)])
+    first = np.searchsorted(time_s, time_s - window_s / 2.0, side="left")
+    last = np.searchsorted(time_s, time_s + window_s / 2.0, side="right")
+    return (total[last] - total[first]) / (last - first)
 
 
 def _edge_fit(

@@ -13,7 +13,7 @@ from gyroid.errors import GyroidInputError
 from gyroid.models import _effects as registry
 from gyroid.models._design import row_blocks, rows_of, with_rows
 from gyroid.models._effects import Effect, Parameter, Params
-from gyroid.models._inputs import FIELD_COLUMNS, H0_UT, DriftInputs
+from gyroid.models._inputs import ACCEL_COLUMNS, FIELD_COLUMNS, H0_UT, DriftInputs
 from gyroid.models._terms import resolve_terms
 
 
@@ -47,7 +47,7 @@ class DriftModel(eqx.Module):
     def columns(self) -> tuple[str, ...]:
         """Log columns the selected effects need (besides time and drift)."""
         needed = {c for e in self.effects for c in e.columns}
-        known = ("temperature_C", *FIELD_COLUMNS)
+        known = ("temperature_C", *FIELD_COLUMNS, *ACCEL_COLUMNS)
         return (*(c for c in known if c in needed), *sorted(needed - set(known)))
 
     @property
@@ -72,7 +72,7 @@ class DriftModel(eqx.Module):
 
     def input_ranges(self, inputs: DriftInputs) -> dict[str, list[float]]:
         """The range of every input the model reads (the temperature's level, its rate,
-        field components; only those the terms read) and of the elapsed time, as
+        field and specific-force components; only those the terms read) and of the elapsed time, as
         ``inputs`` has them: [min, max] by name."""
         out = {}
         reads_level = any("temperature_C" in e.columns for e in self.effects
@@ -87,6 +87,10 @@ class DriftModel(eqx.Module):
             if name in self.columns:
                 h = np.asarray(inputs.field_rel[:, k]) * H0_UT
                 out[name] = [float(h.min()), float(h.max())]
+        for k, name in enumerate(ACCEL_COLUMNS):
+            if name in self.columns:
+                a = np.asarray(inputs.accel_g[:, k])
+                out[name] = [float(a.min()), float(a.max())]
         time_h = np.asarray(inputs.time_h)
         out["elapsed_h"] = [float(time_h.min()), float(time_h.max())]
         return out

@@ -6,9 +6,11 @@ and the :class:`~gyroid.models._inputs.DriftInputs`. The drift model, the fits, 
 discrepancy search all read this one registry.
 
 Paper A's effects: ``bias``, ``temperature``, ``temperature_sq``, ``temperature_rate``,
-``magnetic_x``, ``magnetic_y``, ``magnetic_z``. Candidate effects (what the discrepancy
-workflow may find missing): ``thermal_lag``, ``warmup``, ``time_trend``,
-``magnetic_hysteresis``, ``temperature_cubic``, ``bias_step``.
+``magnetic_x/y/z``, and eq. 1's overload ``overload_x/y/z`` (``n_k a_k``) and
+``overload_sq_x/y/z`` (``n_kk a_k^2``), ``a`` the specific force in g. Candidate effects
+(what the discrepancy workflow may find missing; it tries paper A's absent ones too):
+``thermal_lag``, ``warmup``, ``time_trend``, ``magnetic_hysteresis``,
+``temperature_cubic``, ``bias_step``.
 """
 
 from __future__ import annotations
@@ -23,7 +25,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from gyroid.models._derived import lagged_temperature
-from gyroid.models._inputs import FIELD_COLUMNS, DriftInputs
+from gyroid.models._inputs import ACCEL_COLUMNS, FIELD_COLUMNS, DriftInputs
 from gyroid.models._priors import LogNormal, Normal, Prior
 
 Params = Mapping[str, Float[Array, ""]]
@@ -109,6 +111,10 @@ def _column(values: Callable[[DriftInputs], Float[Array, " n"]]):
 
 def _field_column(k: int):
     return lambda x: x.field_rel[:, k : k + 1]
+
+
+def _accel_column(k: int, power: int):
+    return lambda x: x.accel_g[:, k : k + 1] ** power
 
 
 def _thermal_lag(params: Params, x: DriftInputs) -> Float[Array, " n"]:
@@ -221,6 +227,21 @@ EFFECTS: dict[str, Effect] = {
                 paper=True,
                 design=_field_column(k),
             )
+            for k, axis in enumerate("xyz")
+        ),
+        *(
+            Effect(
+                name=f"overload{'_sq' * (power - 1)}_{axis}", signature=f"a{axis}{sq}",
+                formula=(f"n{axis * power} a{axis}{sq}, a{axis} the specific force along "
+                         f"O{axis.upper()} in g"),
+                parameters=(Parameter(
+                    f"n{axis * power}", f"deg/h per g{sq}",
+                    f"{('linear', 'quadratic')[power - 1]} sensitivity to the overload along "
+                    f"O{axis.upper()}", Normal(0.0, 1.0 / power), regressor=ACCEL_COLUMNS[k],
+                    hint=(f"n{axis * power} needs orientations (or a centrifuge) that move "
+                          f"the specific force along O{axis.upper()} independently")),),
+                columns=(ACCEL_COLUMNS[k],), paper=True, design=_accel_column(k, power))
+            for power, sq in ((1, ""), (2, "^2"))
             for k, axis in enumerate("xyz")
         ),
         Effect(

@@ -10,8 +10,10 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from gyroid.models._derived import (
+    ACCEL_WINDOW_S,
     HYSTERESIS_DEADBAND_UT,
     RATE_WINDOW_S,
+    centred_mean,
     field_change_sign,
     temperature_rate_deg_c_per_h,
 )
@@ -22,6 +24,8 @@ T0_C = 21.0
 H0_UT = 100.0
 #: Log columns of the three field projections, in axis order OX, OY, OZ.
 FIELD_COLUMNS = ("Hx_uT", "Hy_uT", "Hz_uT")
+#: Log columns of the specific force along OX, OY, OZ, g (paper A eq. 1's overload).
+ACCEL_COLUMNS = ("ax_g", "ay_g", "az_g")
 
 
 class DriftInputs(eqx.Module):
@@ -44,6 +48,9 @@ class DriftInputs(eqx.Module):
     #: A user's own logged quantities (--extra-columns), each minus its mean: (n, m).
     extra: Float[Array, "n m"] | None = None
     extra_names: tuple[str, ...] = eqx.field(static=True, default=())
+    #: Specific force along OX, OY, OZ, g (the accelerometer averaged over
+    #: ``ACCEL_WINDOW_S``), None for a log without accelerometer columns.
+    accel_g: Float[Array, "n 3"] | None = None
 
     @property
     def n(self) -> int:
@@ -60,10 +67,11 @@ def inputs_from_arrays(
     t0_C: float = T0_C,
     origin_s: float | None = None,
     extra: Mapping[str, np.ndarray] | None = None,
+    accel_g: np.ndarray | None = None,
 ) -> DriftInputs:
     """DriftInputs from given quantities (the simulators' truth, a flight's environment):
     elapsed time from ``origin_s`` (default: the first sample), field (n, 3) in uT (None:
-    a log without field columns)."""
+    a log without field columns), specific force (n, 3) in g as the effects read it."""
     time_s = np.asarray(time_s, dtype=float)
     origin = time_s[0] if origin_s is None else origin_s
     temperature_C = np.asarray(temperature_C, dtype=float)
@@ -81,6 +89,7 @@ def inputs_from_arrays(
         extra=None if not extra else jnp.asarray(np.column_stack(
             [np.asarray(v, dtype=float) - np.mean(v) for v in extra.values()])),
         extra_names=tuple(extra or ()),
+        accel_g=None if accel_g is None else jnp.asarray(accel_g, dtype=float),
     )
 
 
@@ -109,5 +118,12 @@ def build_inputs(
             if name in columns:
                 field[:, k] = np.asarray(columns[name], dtype=float)
                 sign[:, k] = field_change_sign(field[:, k], deadband_uT)
+    accel = None
+    if any(name in columns for name in ACCEL_COLUMNS):
+        accel = np.zeros((n, 3))
+        for k, name in enumerate(ACCEL_COLUMNS):
+            if name in columns:
+                accel[:, k] = centred_mean(time_s, columns[name], ACCEL_WINDOW_S)
     return inputs_from_arrays(time_s, temperature, rate, field, sign, t0_C=t0_C,
-                              extra={name: columns[name] for name in extra_columns})
+                              extra={name: columns[name] for name in extra_columns},
+                              accel_g=accel)

@@ -44,7 +44,7 @@ import numpy as np
 
 from gyroid.errors import GyroidInputError
 from gyroid.models._drift import DriftModel
-from gyroid.models._inputs import FIELD_COLUMNS, DriftInputs
+from gyroid.models._inputs import ACCEL_COLUMNS, FIELD_COLUMNS, DriftInputs
 from gyroid.models._priors import Flat, LogNormal, Normal, Prior
 
 #: How many drift scales a coefficient may move the drift over its span, a priori.
@@ -154,7 +154,10 @@ def reference_sd(model: DriftModel, inputs: DriftInputs, drift_deg_h: np.ndarray
 def identifiability_hints(model: DriftModel, inputs: DriftInputs) -> dict[str, str]:
     """Per coefficient with a regressor: what the log needs to identify it (the registry's
     hint, or that its regressor vary more), with how much the regressor varied here."""
+    from gyroid.models._orientations import unresolved
+
     hints = {}
+    orientation_note = unresolved(model, inputs)
     for p in model.parameters:
         if p.regressor is None and p.hint is None:
             continue
@@ -170,6 +173,10 @@ def identifiability_hints(model: DriftModel, inputs: DriftInputs) -> dict[str, s
             seen = f" (it spans {100 * np.ptp(np.asarray(inputs.field_rel[:, k])):.3g} uT here)"
         elif p.regressor == "time_s":
             seen = f" (this one lasts {np.ptp(np.asarray(inputs.time_h)):.3g} h)"
+        elif p.regressor in ACCEL_COLUMNS or (p.name == "w0" and orientation_note):
+            if orientation_note:  # one sentence for every coefficient it ties together
+                hints[p.name] = orientation_note[0].upper() + orientation_note[1:]
+                continue
         advice = p.hint or f"{p.name} needs a log in which {p.regressor} varies more"
         hints[p.name] = advice + seen
     return hints

@@ -1,7 +1,8 @@
 """``--terms``: presets and effect names to the effects of a drift model (docs/formats.md
 section 2).
 
-``thermal`` and ``magnetic`` are paper A's two models; ``full`` is both. Any registry effect
+``thermal`` and ``magnetic`` are paper A's two models; ``full`` is both; ``overload`` is
+the bias and eq. 1's three linear g-sensitivities. Any registry effect
 (:mod:`gyroid.models._effects`) or a user's column as ``extra:COLUMN`` may be added by name.
 The roll side's terms (:mod:`gyroid.models._roll_effects`) are expanded by the same
 :func:`expand_terms`.
@@ -17,6 +18,7 @@ from gyroid.models._effects import EFFECTS, EXTRA_PREFIX, effect
 PRESETS: dict[str, tuple[str, ...]] = {
     "thermal": ("bias", "temperature", "temperature_sq", "temperature_rate"),
     "magnetic": ("bias", "magnetic_x", "magnetic_y", "magnetic_z"),
+    "overload": ("bias", "overload_x", "overload_y", "overload_z"),
 }
 PRESETS["full"] = PRESETS["thermal"] + PRESETS["magnetic"][1:]
 

@@ -13,7 +13,7 @@ from gyroid.io import _stream
 from gyroid.io._log_writer import write_bench_log
 from gyroid.io._outputs import json_text, output_dir
 from gyroid.models._derived import RATE_WINDOW_S
-from gyroid.plotting import magnetic_sweep, save, thermal_run
+from gyroid.plotting import magnetic_sweep, overload_run, save, thermal_run
 from gyroid.simulation._bench import (
     MagneticProtocol,
     ThermalProtocol,
@@ -22,6 +22,7 @@ from gyroid.simulation._bench import (
 )
 from gyroid.simulation._lot import simulate_lot
 from gyroid.simulation._noise import GyroNoise
+from gyroid.simulation._overload import OverloadProtocol, simulate_overload_bench
 from gyroid.simulation._stream import stream_thermal_bench, thermal_bench_rows
 
 
@@ -42,12 +43,14 @@ class SimulateOptions:
     log_format: str = "csv"
     runs: int = 1
     spread: float = 0.2
+    #: The overload bench's dwell directions (None: the six-position tumble).
+    orientations: tuple[str, ...] | None = None
 
 
 def simulate_to_dir(bench: str, out: Path, options: SimulateOptions,
                     say: Callable[[str], None] = lambda _m: None) -> str:
-    """Simulate ``bench`` ("thermal" or "magnetic") into the folder ``out``; returns what was
-    written, one line. ``say`` receives progress lines."""
+    """Simulate ``bench`` ("thermal", "magnetic" or "overload") into the folder ``out``;
+    returns what was written, one line. ``say`` receives progress lines."""
     o = options
     if o.noise.arw_deg_rt_h < 0 or o.noise.bias_instability_deg_h < 0 \
             or o.noise.correlation_time_s <= 0:
@@ -56,13 +59,21 @@ def simulate_to_dir(bench: str, out: Path, options: SimulateOptions,
         raise GyroidInputError("--hours and --rate-hz must be positive")
     if o.runs < 1:
         raise GyroidInputError("--runs must be at least 1")
+    if bench == "overload" and o.runs > 1:
+        raise GyroidInputError("--runs is for the thermal and magnetic benches")
     if o.runs > 1:
         if o.effects:
             raise GyroidInputError("--effect is for single runs; a lot (--runs) varies the "
                                    "preset's coefficients only")
         return _simulate_lot(bench, out, o)
-    protocol = (ThermalProtocol() if bench == "thermal" else MagneticProtocol()).stretched(
-        o.hours, o.rate_hz)
+    if o.orientations is not None and bench != "overload":
+        raise GyroidInputError("--orientations is for the overload bench")
+    if bench == "overload":
+        protocol = OverloadProtocol(**({"orientations": o.orientations} if o.orientations
+                                       else {})).stretched(o.hours, o.rate_hz)
+    else:
+        protocol = (ThermalProtocol() if bench == "thermal" else MagneticProtocol()).stretched(
+            o.hours, o.rate_hz)
     log_name = f"bench.{o.log_format}"
     # the module's constant read at the call (a test lowers it)
     if bench == "thermal" and thermal_bench_rows(protocol) > _stream.STREAM_ROWS:
@@ -71,7 +82,8 @@ def simulate_to_dir(bench: str, out: Path, options: SimulateOptions,
                 f"--average on a log of {thermal_bench_rows(protocol)} rows: its window "
                 "means are those of a slower log; simulate at a lower --rate-hz with --average")
         return _simulate_streamed(out, log_name, protocol, o, say)
-    simulator = simulate_thermal_bench if bench == "thermal" else simulate_magnetic_bench
+    simulator = {"thermal": simulate_thermal_bench, "magnetic": simulate_magnetic_bench,
+                 "overload": simulate_overload_bench}[bench]
     sim = simulator(parameters=o.parameters, effects=o.effects, noise=o.noise, seed=o.seed,
                     average_s=o.average_s, protocol=protocol, say=say)
     with output_dir(out) as stage:
@@ -81,7 +93,7 @@ def simulate_to_dir(bench: str, out: Path, options: SimulateOptions,
             fig = _thermal_figure(sim.log, None if o.average_s else sim.true_drift_deg_h,
                                   protocol)
         else:
-            fig = magnetic_sweep(sim.log)
+            fig = (magnetic_sweep if bench == "magnetic" else overload_run)(sim.log)
         save(fig, stage / "bench.png")
     return f"wrote {out / log_name} ({sim.log.n} rows) and {out / 'truth.json'}"
 

@@ -7,7 +7,7 @@ from gyroid._lazy import attach
 __getattr__, __dir__, __all__ = attach(__name__, {
     "_bench": [
         "allan_figure", "compensation_figure", "discrepancy_figure", "fit_overview",
-        "magnetic_sweep", "pair_plot", "thermal_run",
+        "magnetic_sweep", "overload_run", "pair_plot", "thermal_run",
     ],
     "_flight": ["dk_distribution", "roll_discrepancy_figure", "roll_fit_figure", "sobol_bars"],
     "_noise": ["noise_allan_figure", "unit_noise_figure"],

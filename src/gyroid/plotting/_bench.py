@@ -7,7 +7,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from gyroid.io._logs import BenchLog
-from gyroid.models._inputs import FIELD_COLUMNS
+from gyroid.models._inputs import ACCEL_COLUMNS, FIELD_COLUMNS
 from gyroid.plotting._style import (
     _break_gaps,
     _every,
@@ -60,6 +60,19 @@ def thermal_run(
 def magnetic_sweep(log: BenchLog, model_deg_h: np.ndarray | None = None) -> Figure:
     """Field projections and drift against time for a Helmholtz sweep log, with a fitted
     model's drift over the data when given. Lines break at gaps (the azimuth turn)."""
+    return _drift_over(log, model_deg_h, FIELD_COLUMNS, "field, uT")
+
+
+def overload_run(log: BenchLog, model_deg_h: np.ndarray | None = None) -> Figure:
+    """Specific force and drift against time for an overload (orientation) log, with a
+    fitted model's drift when given."""
+    return _drift_over(log, model_deg_h, ACCEL_COLUMNS, "specific force, g")
+
+
+def _drift_over(log: BenchLog, model_deg_h: np.ndarray | None, names: tuple[str, ...],
+                ylabel: str) -> Figure:
+    """Drift (top) and three logged components (bottom, solid, dashed, dotted) against
+    time."""
     with figure_style():
         fig, axes = subplots(2, 1, figsize=(6.5, 5.0), sharex=True)
         shown, thinned = _every(log.n)
@@ -72,14 +85,13 @@ def magnetic_sweep(log: BenchLog, model_deg_h: np.ndarray | None = None) -> Figu
         if model_deg_h is not None or thinned:
             axes[0].legend(loc="upper left", frameon=False, ncol=2)
         axes[0].set_ylabel("drift, deg/h")
-        styles = {"Hx_uT": ("-", 1.0), "Hy_uT": ("--", 1.0), "Hz_uT": (":", 1.6)}
-        for name in FIELD_COLUMNS:
+        styles = (("-", 1.0), ("--", 1.0), (":", 1.6))
+        for name, (ls, lw) in zip(names, styles, strict=True):
             if log.has(name):
-                ls, lw = styles[name]
-                field = np.asarray(log.columns[name])[shown]
-                axes[1].plot(h, _break_gaps(hours, field)[1], color="0.0", lw=lw,
+                values = np.asarray(log.columns[name])[shown]
+                axes[1].plot(h, _break_gaps(hours, values)[1], color="0.0", lw=lw,
                              ls=ls, label=name.split("_")[0])
-        axes[1].set_ylabel("field, uT")
+        axes[1].set_ylabel(ylabel)
         axes[1].set_xlabel("time since start, h")
         axes[1].legend(loc="lower center", bbox_to_anchor=(0.5, 1.0), frameon=False, ncol=3)
         fig.align_ylabels(axes)

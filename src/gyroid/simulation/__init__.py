@@ -11,5 +11,6 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "_flight": ["FlightProfile", "SimulatedFlight", "roll_log_text", "simulate_flight"],
     "_lot": ["SimulatedLot", "simulate_lot"],
     "_noise": ["GyroNoise", "gauss_markov"],
+    "_overload": ["OVERLOAD_TRUTH", "OverloadProtocol", "simulate_overload_bench"],
     "_stream": ["StreamedBench", "stream_thermal_bench"],
 })

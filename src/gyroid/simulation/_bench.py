@@ -27,7 +27,7 @@ from gyroid.io._logs import BenchLog
 from gyroid.models._derived import HYSTERESIS_DEADBAND_UT, field_change_sign
 from gyroid.models._drift import DriftModel
 from gyroid.models._effects import EFFECTS, PARAMETERS
-from gyroid.models._inputs import FIELD_COLUMNS, T0_C, inputs_from_arrays
+from gyroid.models._inputs import ACCEL_COLUMNS, FIELD_COLUMNS, T0_C, inputs_from_arrays
 from gyroid.models._terms import PRESETS
 from gyroid.simulation._noise import GyroNoise, rate_noise
 
@@ -35,6 +35,9 @@ from gyroid.simulation._noise import GyroNoise, rate_noise
 PAPER_A_THERMAL = {"w0": 1.197, "w1": -0.108, "w2": 0.004, "wD": 1.997}
 #: Paper A's device 2, test 1, deg/h per 100 uT.
 PAPER_A_DEVICE_2 = {"wx": -0.037, "wy": -0.576, "wz": -0.253}
+#: g-sensitivities of the overload bench's default truth, deg/h per g (paper A gives no
+#: values; FOG-sized, different on each axis).
+OVERLOAD_SENSITIVITIES = {"nx": 0.35, "ny": -0.2, "nz": 0.5}
 
 
 @dataclass(frozen=True)
@@ -210,7 +213,7 @@ def _simulate(
     time_s: np.ndarray,
     temperature_C: np.ndarray,
     rate_C_h: np.ndarray,
-    field_uT: np.ndarray,
+    field_uT: np.ndarray | None,
     terms: tuple[str, ...],
     values: dict[str, float],
     noise: GyroNoise,
@@ -219,12 +222,14 @@ def _simulate(
     protocol: dict,
     average_s: float | None,
     t0_C: float,
+    accel_g: np.ndarray | None = None,
 ) -> SimulatedBench:
     rng = np.random.default_rng(seed)
-    sign = np.column_stack(
+    sign = None if field_uT is None else np.column_stack(
         [field_change_sign(field_uT[:, k], HYSTERESIS_DEADBAND_UT) for k in range(3)]
     )
-    true_inputs = inputs_from_arrays(time_s, temperature_C, rate_C_h, field_uT, sign, t0_C=t0_C)
+    true_inputs = inputs_from_arrays(time_s, temperature_C, rate_C_h, field_uT, sign, t0_C=t0_C,
+                                     accel_g=accel_g)
     model = DriftModel(terms=terms)
     params = {name: jnp.asarray(values[name]) for name in model.parameter_names}
     true_drift = np.asarray(model(params, true_inputs))
@@ -238,8 +243,12 @@ def _simulate(
         "drift_deg_h": true_drift + gyro,
         "temperature_C": temperature_C + thermometer,
     }
-    for k, name in enumerate(FIELD_COLUMNS):
+    for k, name in enumerate(FIELD_COLUMNS if field_uT is not None else ()):
         columns[name] = field_uT[:, k] + magnetometer[:, k]
+    if accel_g is not None:  # drawn last: the other streams stay those of a log without it
+        accelerometer = rng.standard_normal((n, 3)) * noise.accel_noise_g
+        for k, name in enumerate(ACCEL_COLUMNS):
+            columns[name] = accel_g[:, k] + accelerometer[:, k]
     if average_s:
         columns = window_average(columns, average_s)
     truth = truth_record(bench, model, values, noise, sample_s, protocol, average_s, seed, t0_C)
@@ -380,6 +389,6 @@ def simulate_magnetic_bench(
 
 def preset_parameters(preset: str) -> dict[str, float]:
     """Paper A's default truth for a preset's parameters."""
-    values = {**PAPER_A_THERMAL, **PAPER_A_DEVICE_2}
+    values = {**PAPER_A_THERMAL, **PAPER_A_DEVICE_2, **OVERLOAD_SENSITIVITIES}
     names = [p for e in PRESETS[preset] for p in EFFECTS[e].parameter_names]
     return {name: values[name] for name in names}

@@ -21,8 +21,8 @@ class GyroNoise:
     first-order Gauss-Markov process of correlation time ``correlation_time_s`` whose sd is
     ``bias_instability / 0.6174`` (so that its Allan-deviation peak equals it); 0 turns the
     correlated part off.
-    ``temperature_noise_C``, ``field_noise_uT``: white noise of the bench's thermometer and
-    magnetometer readings.
+    ``temperature_noise_C``, ``field_noise_uT``, ``accel_noise_g``: white noise of the
+    bench's thermometer, magnetometer and accelerometer readings.
     """
 
     arw_deg_rt_h: float = 0.005
@@ -30,6 +30,7 @@ class GyroNoise:
     correlation_time_s: float = 300.0
     temperature_noise_C: float = 0.01
     field_noise_uT: float = 0.05
+    accel_noise_g: float = 0.002
 
     def white_sd_deg_h(self, sample_s: float) -> float:
         """Sd of the white part of one sample averaged over ``sample_s`` seconds, deg/h."""

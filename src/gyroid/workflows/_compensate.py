@@ -289,7 +289,7 @@ def compensation_predictive(log: BenchLog, fitted: FittedDrift,
 
 
 def _input_values(name: str, inputs) -> np.ndarray:
-    from gyroid.models._inputs import FIELD_COLUMNS, H0_UT
+    from gyroid.models._inputs import ACCEL_COLUMNS, FIELD_COLUMNS, H0_UT
 
     if name == "temperature_C":
         return np.asarray(inputs.temperature_C)
@@ -297,4 +297,6 @@ def _input_values(name: str, inputs) -> np.ndarray:
         return np.asarray(inputs.rate_C_h)
     if name == "elapsed_h":
         return np.asarray(inputs.time_h)
+    if name in ACCEL_COLUMNS:
+        return np.asarray(inputs.accel_g[:, ACCEL_COLUMNS.index(name)])
     return np.asarray(inputs.field_rel[:, FIELD_COLUMNS.index(name)]) * H0_UT

@@ -31,7 +31,8 @@ REGRESSOR_UNITS = {
     "dT/dt": "degC/h", "d2T/dt2": "degC/h^2", "elapsed time": "h",
     "start-up transient": "exp(-t / 20 min)", "Hx": "H/H0", "Hy": "H/H0", "Hz": "H/H0",
     "sign of the last Hx change": "+/-1", "sign of the last Hy change": "+/-1",
-    "sign of the last Hz change": "+/-1",
+    "sign of the last Hz change": "+/-1", "ax": "g", "ay": "g", "az": "g", "ax^2": "g^2",
+    "ay^2": "g^2", "az^2": "g^2",
 }
 
 
@@ -52,6 +53,9 @@ def regressors(x: DriftInputs) -> dict[str, np.ndarray]:
         out[f"H{axis}"] = np.asarray(x.field_rel[:, k])
         if x.field_sign is not None:
             out[f"sign of the last H{axis} change"] = np.asarray(x.field_sign[:, k])
+    for k, axis in enumerate("xyz" if x.accel_g is not None else ""):
+        out[f"a{axis}"] = np.asarray(x.accel_g[:, k])
+        out[f"a{axis}^2"] = np.asarray(x.accel_g[:, k]) ** 2
     for k, name in enumerate(x.extra_names):
         out[name] = np.asarray(x.extra[:, k])
     return out
@@ -82,7 +86,7 @@ def where_largest(
         if log.has("temperature_C"):
             row["temperature_C"] = float(np.mean(log.columns["temperature_C"][inside]))
             row["dT_dt_C_h"] = float(np.mean(np.asarray(inputs.rate_C_h)[inside]))
-        for c in ("Hx_uT", "Hy_uT", "Hz_uT"):
+        for c in ("Hx_uT", "Hy_uT", "Hz_uT", "ax_g", "ay_g", "az_g"):
             if log.has(c):
                 row[c] = float(np.mean(log.columns[c][inside]))
         out.append(row)
