@@ -93,8 +93,10 @@ def weak_field_log(seed: int, *, hours: float = 4.0) -> tuple[dict[str, np.ndarr
 # ----- native logs written with each format's published layout or its library's writer -------
 def write_ulog(path: Path, instances: list[dict[str, np.ndarray]]) -> Path:
     """A PX4 ULog of ``sensor_gyro`` instances (each: timestamp_sample in us, x, y, z in
-    rad/s, temperature in degC), written byte by byte from the published format: the
-    16-byte header, the flag bits, one format, a subscription per instance, data messages."""
+    rad/s, temperature in degC; with ``accel_time_us`` and ``accel`` (m, 3) m/s^2 also that
+    instance's ``sensor_accel`` on its own clock), written byte by byte from the published
+    format: the 16-byte header, the flag bits, the formats, a subscription per instance and
+    topic, data messages."""
     import struct
 
     def message(kind: bytes, payload: bytes) -> bytes:
@@ -105,25 +107,40 @@ def write_ulog(path: Path, instances: list[dict[str, np.ndarray]]) -> Path:
     out = bytearray(b"ULog\x01\x12\x35" + bytes([1]) + struct.pack("<Q", 0))
     out += message(b"B", bytes(16) + struct.pack("<3Q", 0, 0, 0))
     out += message(b"F", ("sensor_gyro:" + fields).encode())
+    out += message(b"F", ("sensor_accel:" + fields).encode())
     for k in range(len(instances)):
         out += message(b"A", struct.pack("<BH", k, k) + b"sensor_gyro")
-    rows = sorted((int(t), k, i) for k, inst in enumerate(instances)
-                  for i, t in enumerate(inst["timestamp_sample"]))
-    for t, k, i in rows:
+    with_accel = [k for k, inst in enumerate(instances) if "accel_time_us" in inst]
+    for j, k in enumerate(with_accel):  # msg ids after the gyros', multi_id the IMU's
+        out += message(b"A", struct.pack("<BH", k, len(instances) + j) + b"sensor_accel")
+    rows = sorted([(int(t), 0, k, i) for k, inst in enumerate(instances)
+                   for i, t in enumerate(inst["timestamp_sample"])]
+                  + [(int(t), 1, k, i) for k in with_accel
+                     for i, t in enumerate(instances[k]["accel_time_us"])])
+    for t, kind, k, i in rows:
         inst = instances[k]
-        out += message(b"D", struct.pack("<HQQIffff", k, t, t, 1000 + k, inst["x"][i],
-                                         inst["y"][i], inst["z"][i], inst["temperature"][i]))
+        if kind == 0:
+            out += message(b"D", struct.pack("<HQQIffff", k, t, t, 1000 + k, inst["x"][i],
+                                             inst["y"][i], inst["z"][i],
+                                             inst["temperature"][i]))
+        else:
+            a = inst["accel"][i]
+            out += message(b"D", struct.pack("<HQQIffff", len(instances) + with_accel.index(k),
+                                             t, t, 1000 + k, a[0], a[1], a[2],
+                                             inst["temperature"][0]))
     path.write_bytes(bytes(out))
     return path
 
 
 def write_dataflash(path: Path, instances: list[dict[str, np.ndarray]]) -> Path:
-    """An ArduPilot DataFlash log of IMU messages (TimeUS, I, GyrX..Z in rad/s, T in degC),
-    each message packed by pymavlink's own DFFormat and message builder."""
+    """An ArduPilot DataFlash log of IMU messages (TimeUS, I, GyrX..Z in rad/s, AccX..Z in
+    m/s^2 from ``accel`` (n, 3) or 0, 0, -9.80665, T in degC), each message packed by
+    pymavlink's own DFFormat and message builder."""
     from pymavlink import DFReader
 
     fmt_fmt = DFReader.DFFormat(0x80, "FMT", 89, "BBnNZ", "Type,Length,Name,Format,Columns")
-    imu = DFReader.DFFormat(0x40, "IMU", 0, "QBffff", "TimeUS,I,GyrX,GyrY,GyrZ,T")
+    imu = DFReader.DFFormat(0x40, "IMU", 0, "QBfffffff",
+                            "TimeUS,I,GyrX,GyrY,GyrZ,AccX,AccY,AccZ,T")
 
     class Writer:  # what make_format_msgbuf and make_msgbuf read from a reader
         formats = {0x80: fmt_fmt}
@@ -135,14 +152,15 @@ def write_dataflash(path: Path, instances: list[dict[str, np.ndarray]]) -> Path:
                   for i, t in enumerate(inst["timestamp_sample"]))
     for t, k, i in rows:
         inst = instances[k]
+        a = inst["accel"][i] if "accel" in inst else (0.0, 0.0, -9.80665)
         out += DFReader.DFReader_binary.make_msgbuf(writer, imu, [
-            t, k, inst["x"][i], inst["y"][i], inst["z"][i], inst["temperature"][i]])
+            t, k, inst["x"][i], inst["y"][i], inst["z"][i], *a, inst["temperature"][i]])
     path.write_bytes(bytes(out))
     return path
 
 
 def write_rosbag(path: Path, imu: dict[str, np.ndarray], *, ros1: bool = False,
-                 temperature_every: int = 10) -> Path:
+                 temperature_every: int = 10, with_accel: bool = True) -> Path:
     """A ROS 2 bag (MCAP storage when ``path`` ends .mcap... a folder otherwise) or a ROS 1
     bag of ``sensor_msgs/Imu`` on /imu and ``sensor_msgs/Temperature`` on /imu/temperature
     (every ``temperature_every``-th sample), written with rosbags' writers."""
@@ -156,6 +174,8 @@ def write_rosbag(path: Path, imu: dict[str, np.ndarray], *, ros1: bool = False,
     Vector3, Quaternion = store.types["geometry_msgs/msg/Vector3"], store.types[
         "geometry_msgs/msg/Quaternion"]
     zeros = np.zeros(9)
+    # REP 145: -1 first marks "not provided"
+    accel_covariance = zeros if with_accel else np.r_[-1.0, np.zeros(8)]
 
     def header(ns: int, k: int):
         stamp = Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000)
@@ -170,7 +190,7 @@ def write_rosbag(path: Path, imu: dict[str, np.ndarray], *, ros1: bool = False,
             orientation_covariance=zeros, angular_velocity=Vector3(
                 x=float(imu["x"][k]), y=float(imu["y"][k]), z=float(imu["z"][k])),
             angular_velocity_covariance=zeros, linear_acceleration=Vector3(
-                x=0.0, y=0.0, z=9.81), linear_acceleration_covariance=zeros)))
+                x=0.0, y=0.0, z=9.81), linear_acceleration_covariance=accel_covariance)))
         if k % temperature_every == 0:
             messages.append(("/imu/temperature", "sensor_msgs/msg/Temperature", ns,
                              Temperature(header=header(ns, k), temperature=float(

@@ -171,3 +171,31 @@ def test_the_imus_of_one_log_pool_as_runs(tmp_path, capsys):
     assert main(["pool", str(path), "--instances", "0,3", "--axis", "x", "--terms", "bias",
                  "--out", str(tmp_path / "bad")]) == 2
     assert "there is no instance 3" in capsys.readouterr().err
+
+
+def test_native_readers_carry_the_accelerometer_in_g(tmp_path):
+    """Contract section 6: the accelerometer without --map, in g on the gyro's clock (a
+    ULog's sensor_accel on its own clock, interpolated; DataFlash's and ROS's on the gyro's
+    samples); a log without one has no ax_g."""
+    first, second = _imu(5), _imu(6)
+    t_us = second["timestamp_sample"]
+    second["accel_time_us"] = np.arange(t_us[0] - 100_000, t_us[-1] + 300_000, 250_000)
+    tilt = np.linspace(0.0, 1.0, second["accel_time_us"].size)
+    second["accel"] = 9.80665 * np.column_stack([tilt, 0.0 * tilt, -np.sqrt(1 - tilt**2)])
+    path = write_ulog(tmp_path / "log.ulg", [first, second])
+    assert "ax_g" not in read_log_table(path).header
+    table = read_log_table(path, instance=1)
+    stored = second["accel"].astype(np.float32).astype(float) / 9.80665
+    for k, axis in enumerate("xyz"):
+        expected = np.interp(t_us * 1e-6, second["accel_time_us"] * 1e-6, stored[:, k])
+        np.testing.assert_allclose(table.raw[f"a{axis}_g"], expected, atol=1e-6)
+    assert table.picked["accelerometer_stream"] == "sensor_accel"
+
+    dataflash = read_log_table(write_dataflash(tmp_path / "log.bin", [first]))
+    np.testing.assert_allclose(dataflash.raw["az_g"], -1.0, rtol=1e-6)
+    np.testing.assert_allclose(dataflash.raw["ax_g"], 0.0)
+
+    bag = read_log_table(write_rosbag(tmp_path / "bag.mcap", first))
+    np.testing.assert_allclose(bag.raw["az_g"], 9.81 / 9.80665)
+    without = read_log_table(write_rosbag(tmp_path / "bag2.mcap", first, with_accel=False))
+    assert "az_g" not in without.header

@@ -4,12 +4,14 @@ and naming what it picked (docs/formats.md section 5):
 
 * PX4 ULog (``.ulg``, pyulog): topic ``sensor_gyro`` (x, y, z in rad/s, its temperature
   in degC on the same samples, ``timestamp_sample`` or ``timestamp`` in us), one
-  ``multi_id`` per IMU;
+  ``multi_id`` per IMU; the same instance's ``sensor_accel`` (m/s^2) put on the gyro's clock;
 * ArduPilot DataFlash (``.bin``, pymavlink): ``IMU`` messages (GyrX, GyrY, GyrZ in rad/s,
-  ``T`` in degC, ``TimeUS``), the IMU by the field ``I`` (or the older IMU2, IMU3 names);
+  AccX, AccY, AccZ in m/s^2, ``T`` in degC, ``TimeUS``), the IMU by the field ``I`` (or the
+  older IMU2, IMU3 names);
 * ROS 1 bags (``.bag``), ROS 2 bag folders and ``.mcap`` files (rosbags, no ROS install):
-  ``sensor_msgs/Imu`` (``angular_velocity`` in rad/s, ``header.stamp``), one topic per IMU
-  in name order, and a ``sensor_msgs/Temperature`` topic interpolated to the gyro's clock;
+  ``sensor_msgs/Imu`` (``angular_velocity`` in rad/s, ``linear_acceleration`` in m/s^2,
+  ``header.stamp``), one topic per IMU in name order, and a ``sensor_msgs/Temperature``
+  topic interpolated to the gyro's clock;
 * MATLAB ``.mat`` (h5py for v7.3, SciPy for older): every numeric vector a column, a
   matrix's columns ``NAME_1``, ``NAME_2``, ... (MATLAB's order); the units are not in the
   file, so ``--map`` names them.
@@ -65,7 +67,7 @@ def _ulog_streams(path: Path, instance: int) -> ImuStreams:
     from pyulog import ULog
 
     try:
-        ulog = ULog(str(path), ["sensor_gyro"])
+        ulog = ULog(str(path), ["sensor_gyro", "sensor_accel"])
     except Exception as error:  # noqa: BLE001 - pyulog raises many kinds on a bad file
         raise GyroidInputError(f"{path.name}: not a readable ULog file ({error})") from None
     gyros = sorted((d for d in ulog.data_list if d.name == "sensor_gyro"),
@@ -79,8 +81,18 @@ def _ulog_streams(path: Path, instance: int) -> ImuStreams:
               "instances": len(gyros), "clock": clock,
               "device_id": int(np.median(fields["device_id"])) if "device_id" in fields
               else None}
+    accels = {d.multi_id: d for d in ulog.data_list if d.name == "sensor_accel"}
+    accel = accels.get(data.multi_id)
+    accel_time = accel_values = None
+    if accel is not None and all(a in accel.data for a in "xyz"):
+        own = accel.data
+        accel_clock = "timestamp_sample" if "timestamp_sample" in own else "timestamp"
+        accel_time = np.asarray(own[accel_clock], dtype=float) * 1e-6
+        accel_values = np.column_stack([own[a] for a in "xyz"])
+        picked["accelerometer_stream"] = "sensor_accel"
     return ImuStreams(time_s, np.column_stack([fields[a] for a in "xyz"]),
-                      None if temperature is None else time_s, temperature, picked)
+                      None if temperature is None else time_s, temperature, picked,
+                      accel=accel_values, accel_time_s=accel_time)
 
 
 def _dataflash_streams(path: Path, instance: int) -> ImuStreams:
@@ -100,14 +112,16 @@ def _dataflash_streams(path: Path, instance: int) -> ImuStreams:
         which = int(getattr(message, "I", 0)) if kind == "IMU" else names.index(kind)
         rows.setdefault(which, []).append(
             (message.TimeUS, message.GyrX, message.GyrY, message.GyrZ,
-             getattr(message, "T", np.nan)))
+             getattr(message, "T", np.nan), getattr(message, "AccX", np.nan),
+             getattr(message, "AccY", np.nan), getattr(message, "AccZ", np.nan)))
     ids = sorted(rows)
     chosen = _choose(ids, instance, "IMU instances", path)
     values = np.asarray(rows[chosen], dtype=float)
     time_s = values[:, 0] * 1e-6
     picked = {"format": "ArduPilot DataFlash", "stream": "IMU", "instance": chosen,
               "instances": len(ids), "clock": "TimeUS"}
-    return ImuStreams(time_s, values[:, 1:4], time_s, values[:, 4], picked)
+    accel = values[:, 5:8] if np.isfinite(values[:, 5:8]).all() else None
+    return ImuStreams(time_s, values[:, 1:4], time_s, values[:, 4], picked, accel=accel)
 
 
 def _ros_streams(path: Path, instance: int) -> ImuStreams:
@@ -122,12 +136,15 @@ def _ros_streams(path: Path, instance: int) -> ImuStreams:
             temps = sorted((c for c in reader.connections
                             if c.msgtype == "sensor_msgs/msg/Temperature"),
                            key=lambda c: c.topic)
-            gyro, time_s = [], []
+            gyro, accel, time_s, no_accel = [], [], [], False
             for connection, _, raw in reader.messages(connections=[imu]):
                 msg = reader.deserialize(raw, connection.msgtype)
                 time_s.append(msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec)
-                w = msg.angular_velocity
+                w, a = msg.angular_velocity, msg.linear_acceleration
                 gyro.append((w.x, w.y, w.z))
+                accel.append((a.x, a.y, a.z))
+                # REP 145: a covariance's first element -1 means "not provided"
+                no_accel = no_accel or msg.linear_acceleration_covariance[0] == -1
             t_temp, temperature = [], []
             if temps:
                 for connection, _, raw in reader.messages(connections=[temps[0]]):
@@ -141,9 +158,13 @@ def _ros_streams(path: Path, instance: int) -> ImuStreams:
     picked = {"format": "ROS bag", "stream": imu.topic, "instance": instance,
               "instances": len(imus), "clock": "header.stamp",
               "temperature": temps[0].topic if temps else None}
+    accel_values = np.asarray(accel, dtype=float).reshape(-1, 3)
+    # a driver without an accelerometer leaves linear_acceleration all zeros
+    logged = bool(np.any(accel_values != 0.0)) and not no_accel
     return ImuStreams(np.asarray(time_s), np.asarray(gyro, dtype=float).reshape(-1, 3),
                       np.asarray(t_temp) if temps else None,
-                      np.asarray(temperature) if temps else None, picked)
+                      np.asarray(temperature) if temps else None, picked,
+                      accel=accel_values if logged else None)
 
 
 def _read_mat(path: Path) -> LogTable:
