@@ -68,8 +68,10 @@ def csv_layout(path: Path) -> CsvLayout:
         raise GyroidInputError(f"{path.name} is UTF-16 text: save it as UTF-8 (in Excel: "
                                "'CSV UTF-8'), then read it again")
     if b"\x00" in head_bytes[:4096]:
-        raise GyroidInputError(f"{path.name}: not a text file; give a CSV, .csv.gz or .parquet "
-                               "log")
+        raise GyroidInputError(
+            f"{path.name}: not a text file; give a CSV, .csv.gz, .parquet or netCDF (.nc) log, "
+            "or a .ulg, .bin, .bag, .mcap, .db3 or .mat log (a binary file is read by its "
+            "suffix)")
     head = head_bytes.decode("utf-8-sig", errors="replace")
     comments, header_line, header = split_head(head)
     if header is None:

@@ -74,14 +74,15 @@ def _batches(path: Path, maps: tuple[ColumnMap, ...], batch_rows: int):
 def stream_rows(path: str | Path) -> tuple[int, bool] | None:
     """A log's row count if it is a Parquet file (from its footer), or an upper estimate
     of it for a CSV log (:func:`~gyroid.io._csv_reader.csv_rows_bound`), with whether it is
-    exact; None for a native log."""
+    exact; None for a native or netCDF log."""
     from gyroid.io._native import is_native
+    from gyroid.io._netcdf import is_netcdf
 
     path = Path(path)
     exact = parquet_rows(path)
     if exact is not None:
         return exact, True
-    if is_native(path) or not path.is_file():
+    if is_native(path) or is_netcdf(path) or not path.is_file():
         return None
     return csv_rows_bound(path, csv_layout(path)), False
 

@@ -15,16 +15,22 @@ from gyroid.io._csv_reader import arrow_columns, header_names, read_csv, split_h
 from gyroid.io._file_bytes import read_bytes
 from gyroid.io._log_table import LogTable
 from gyroid.io._native import is_native, read_native
+from gyroid.io._netcdf import is_netcdf, read_netcdf
 from gyroid.io._units import ColumnMap
 
 
 def read_log_table(path: str | Path, maps: tuple[ColumnMap, ...] = (),
                    instance: int | None = None) -> LogTable:
-    """Read a log: .csv, .csv.gz, .parquet with ``#`` comment lines and a header row, or a
-    flight-controller, ROS or MATLAB log (:mod:`gyroid.io._native`; ``instance`` picks its
-    IMU)."""
+    """Read a log: .csv, .csv.gz, .parquet with ``#`` comment lines and a header row, a
+    netCDF file (:mod:`gyroid.io._netcdf`), or a flight-controller, ROS or MATLAB log
+    (:mod:`gyroid.io._native`; ``instance`` picks its IMU)."""
 
     path = Path(path)
+    if is_netcdf(path):
+        if instance is not None:
+            raise GyroidInputError(f"--instance is for flight-controller and ROS logs; in "
+                                   f"{path.name} choose the variables with --map")
+        return read_netcdf(path, tuple(maps))
     if is_native(path):
         return replace(read_native(path, instance), maps=tuple(maps))
     if instance is not None:
@@ -79,7 +85,7 @@ def read_header(path: str | Path) -> tuple[str, ...]:
     the first 64 kB of a CSV, gzip or not); errors as :func:`read_log_table`'s."""
 
     path = Path(path)
-    if is_native(path):
+    if is_native(path) or is_netcdf(path):
         return read_log_table(path).header
     if path.suffix.lower() in (".parquet", ".pq"):
         import pyarrow.parquet as pq
