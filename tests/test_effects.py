@@ -51,7 +51,10 @@ def test_resolve_terms_expands_presets_and_refuses_unknown_names():
         "magnetic_z",
         "time_trend",
     )
-    assert resolve_terms("full") == tuple(n for n in EFFECTS if EFFECTS[n].paper)
+    # full is paper A's thermal and magnetic models (contract); eq. 1's overload is its own
+    assert resolve_terms("full") == tuple(n for n in EFFECTS if EFFECTS[n].paper
+                                          and not n.startswith("overload"))
+    assert resolve_terms("overload") == ("bias", "overload_x", "overload_y", "overload_z")
     with pytest.raises(GyroidInputError, match="unknown term 'temprature'"):
         resolve_terms("bias,temprature")
     with pytest.raises(GyroidInputError, match="add temperature"):
@@ -60,7 +63,8 @@ def test_resolve_terms_expands_presets_and_refuses_unknown_names():
 
 @pytest.fixture(scope="module")
 def rich_inputs():
-    """Inputs in which every effect is active: a short thermal run plus a field sweep."""
+    """Inputs in which every effect is active: a short thermal run plus a field sweep and a
+    tumble's specific force."""
     sim = simulate_thermal_bench(
         seed=3, noise=GyroNoise(), protocol=__import__("helpers").SHORT_THERMAL
     )
@@ -69,6 +73,11 @@ def rich_inputs():
     columns = dict(sim.log.columns)
     for name in ("Hx_uT", "Hy_uT", "Hz_uT"):
         columns[name] = np.resize(mag.log.columns[name], n)
+    from gyroid.simulation import OverloadProtocol, simulate_overload_bench
+
+    tumble = simulate_overload_bench(seed=3, protocol=OverloadProtocol(dwell_min=5.0))
+    for name in ("ax_g", "ay_g", "az_g"):
+        columns[name] = np.resize(tumble.log.columns[name], n)
     from gyroid.models import build_inputs
 
     return build_inputs(columns)

@@ -56,9 +56,10 @@ def parse_effects(specs: tuple[str, ...]) -> dict[str, dict[str, float]]:
 def map_option(function):
     return click.option(
         "--map", "mappings", multiple=True, metavar="CONTRACT_COLUMN=LOG_COLUMN[:UNIT]",
-        help="Read a vendor's column as one of gyroid's (docs/formats.md section 1), "
-             "converting its unit, e.g. drift_deg_h=gyro_x:rad/s, temperature_C=temp:K, "
-             "Hx_uT=mag_x:G. Repeatable.")(
+        help="Read a vendor's column (or a netCDF variable, NAME[AXIS]) as one of "
+             "gyroid's (docs/formats.md section 1), converting its unit, e.g. "
+             "drift_deg_h=gyro_x:rad/s, temperature_C=temp:K, Hx_uT=mag_x:G, "
+             "az_g=acc_z:m/s^2. Repeatable.")(
         function)
 
 
