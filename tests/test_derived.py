@@ -163,3 +163,21 @@ def test_rate_window_scores_by_projection_equal_full_least_squares():
         residual = np.linalg.lstsq(design, log.drift_deg_h, rcond=None)[1][0]
         assert scores[window] == pytest.approx(residual, rel=1e-9)
     assert best == min(scores, key=scores.get)
+
+
+def test_temperature_change_sign_follows_a_thermal_cycle():
+    """+1 warming, -1 cooling, 0 before any change beyond the 0.5 degC dead band, through
+    0.05 degC noise; the plain loop's answer on the samples it reads."""
+    from gyroid.models import temperature_change_sign
+
+    time_h = np.linspace(0.0, 6.0, 30_001)
+    temperature = 20.0 + 8.0 * np.sin(2 * np.pi * time_h / 4.0) ** 2
+    noisy = temperature + np.random.default_rng(3).normal(0.0, 0.05, time_h.size)
+    sign = temperature_change_sign(noisy)
+    rising = np.gradient(temperature) > 0
+    settled = (time_h > 0.3) & (np.abs(np.gradient(temperature, time_h)) > 5.0)
+    assert np.all(sign[settled] == np.where(rising, 1.0, -1.0)[settled])
+    assert sign[0] == 0.0
+    every = -(-time_h.size // 20_000)
+    np.testing.assert_array_equal(sign[::every], _schmitt_reference(noisy[::every], 0.5))
+    assert not np.any(temperature_change_sign(np.full(100, 21.0)))

@@ -173,3 +173,48 @@ def test_a_fast_log_is_searched_on_means_with_the_samples_noise_and_penalty(hidd
     assert report.residual_before.size == sim.log.n // 10
     white = sim.truth["noise"]["white_sd_deg_h"]
     assert report.noise.white == pytest.approx(white, rel=0.05)  # ~0.2 % sampling error
+
+
+def test_thermal_hysteresis_is_named_on_a_heating_and_cooling_log():
+    """A bias that differs warming and cooling (issue 43's cool-down -> warm-up split): the
+    search names thermal_hysteresis, not a lag, a trend or a step."""
+    protocol = ThermalProtocol(setpoints_C=(35.0, 50.0), return_to_lab=True, sample_s=5.0)
+    sim = simulate_thermal_bench(protocol=protocol, seed=2,
+                                 effects={"thermal_hysteresis": {"w_hys": 0.3}})
+    report = find_discrepancies(sim.log, "thermal")
+    _check(report, ["thermal_hysteresis"])
+    assert report.steps[0].values["w_hys"] == pytest.approx(0.3, abs=0.08)
+
+
+def test_g_sensitivity_is_found_from_the_bias_alone():
+    from gyroid.simulation import OverloadProtocol, simulate_overload_bench
+
+    sim = simulate_overload_bench(seed=8, protocol=OverloadProtocol(dwell_min=15.0))
+    report = find_discrepancies(sim.log, "bias")
+    assert sorted(report.added) == ["overload_x", "overload_y", "overload_z"]
+    assert report.unexplained is None
+
+
+def test_a_step_on_two_axes_at_once_is_named_as_shared(tmp_path, capsys):
+    """Issue 43: x steps by 1 deg/h at 2 h, z by 0.4 deg/h at the same time, y not at all:
+    the searches are per axis, the step is named as one cause on x and z."""
+    from helpers import SHORT_THERMAL, write_log
+
+    sims = [simulate_thermal_bench(seed=30 + k, protocol=SHORT_THERMAL) for k in range(3)]
+    columns = dict(sims[0].log.columns)
+    del columns["drift_deg_h"]
+    elapsed_h = (columns["time_s"] - columns["time_s"][0]) / 3600.0
+    for k, (axis, size) in enumerate((("x", 1.0), ("y", 0.0), ("z", 0.4))):
+        columns[f"drift_{axis}_deg_h"] = (sims[k].log.columns["drift_deg_h"]
+                                          + size * (elapsed_h >= 2.0))
+    path = write_log(tmp_path / "three.csv", columns)
+    code = main(["discrepancy", str(path), "--terms", "thermal", "--out",
+                 str(tmp_path / "disc")])
+    out = capsys.readouterr().out
+    assert code in (0, 3)
+    axes = json.loads((tmp_path / "disc" / "axes.json").read_text())
+    steps = [c for c in axes["shared"] if c["cause"] == "bias_step"]
+    assert len(steps) == 1 and steps[0]["axes"] == ["x", "z"], axes["shared"]
+    assert steps[0]["time_h"] == pytest.approx(2.0, abs=0.05)
+    assert steps[0]["sizes_deg_h"]["z"] == pytest.approx(0.4, abs=0.12)
+    assert "shared: a bias step at" in out

@@ -218,9 +218,9 @@ def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings, axes
                 ) -> None:
     """Find what the model TERMS misses in DATA, add it, refit, show the gap shrink.
 
-    DATA is a bench log (docs/formats.md section 1; each gyro axis of a log of several) or a
-    roll log (section 4: roll_rate_deg_s, gs_angle_deg), as .csv, .csv.gz or .parquet. Exit
-    code 3 when a self-check of the final model fails."""
+    DATA is a bench log (docs/formats.md section 1; each gyro axis of a log of several, and
+    what several show at once) or a roll log (section 4: roll_rate_deg_s, gs_angle_deg), as
+    .csv, .csv.gz or .parquet. Exit code 3 when a self-check of the final model fails."""
     from gyroid.pipeline._discrepancy_file import discrepancy_file
 
     result = discrepancy_file(data, out, terms, t0_C=t0_C, max_added=max_added,
@@ -230,6 +230,8 @@ def discrepancy(data, terms, out, t0_C, max_added, extra_columns, mappings, axes
     for axis, report in result.results.items():
         for line in report.summary_lines():
             click.echo(f"axis {axis}: {line}" if result.several else line)
+    for cause in result.shared:
+        click.echo(f"shared: {cause['evidence']}")
     report_written(result, out, ("discrepancy.json", "discrepancy.png"))
 
 

@@ -12,9 +12,10 @@ _enable_float64()
 
 __getattr__, __dir__, __all__ = attach(__name__, {
     "_derived": [
-        "HYSTERESIS_DEADBAND_UT", "RATE_WINDOW_S", "field_change_sign", "lagged_temperature",
+        "HYSTERESIS_DEADBAND_UT", "RATE_WINDOW_S", "lagged_temperature",
         "temperature_rate_deg_c_per_h",
     ],
+    "_change_signs": ["field_change_sign", "temperature_change_sign"],
     "_design": ["BLOCK_ROWS", "least_squares_from_r", "row_blocks", "with_rows"],
     "_drift": ["DriftModel"],
     "_effects": [

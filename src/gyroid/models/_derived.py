@@ -2,7 +2,8 @@
 
 * relative temperature ``t = T - t0`` (degC);
 * the temperature rate dT/dt (degC/h) from a logged temperature that carries sensor noise;
-* the sign of the last change of each field component (for ``magnetic_hysteresis``);
+* the sign of the last change of each field component (for ``magnetic_hysteresis``) and
+  of the temperature (for ``thermal_hysteresis``): :mod:`gyroid.models._change_signs`;
 * the specific force (g) the overload effects read: the accelerometer averaged over a
   centred window of ``ACCEL_WINDOW_S``;
 * the first-order-lagged temperature (for ``thermal_lag``), in JAX because its time
@@ -11,7 +12,6 @@
 
 from __future__ import annotations
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
@@ -26,6 +26,11 @@ MAX_WINDOW_SAMPLES = 20_000
 RATE_POLY_DEGREE = 5
 #: Default dead band of the field-change sign detector, uT.
 HYSTERESIS_DEADBAND_UT = 10.0
+#: Dead band of the temperature-change sign detector, degC (thermal_hysteresis): far above
+#: a thermometer's noise, far below a thermal cycle's swing.
+TEMPERATURE_DEADBAND_C = 0.5
+#: The temperature-change sign is found on at most this many evenly spaced samples.
+SIGN_POINTS = 20_000
 #: The overload effects read the accelerometer averaged over a centred window this long, s:
 #: its white noise (about 1 mg per sample on a MEMS unit) would otherwise pass for
 #: variation in g and lend the sensitivities information the orientations do not give.
@@ -318,40 +323,6 @@ def _uniform_operator(n: int, step: float, half: int, degree: int, floors: tuple
     tail, _ = _edge_slopes(identity, x, half, degree, reference, floors[1])
     # the last window read backwards: row n - 1 - i reads column n - 1 - j as tail[i, j]
     out[n - half:, n - width:] = -tail[::-1, ::-1] * scale
-    return out
-
-
-def field_change_sign(
-    field_uT: Float[np.ndarray, " n"], deadband_uT: float = HYSTERESIS_DEADBAND_UT
-) -> Float[np.ndarray, " n"]:
-    """Sign of the last change of a field component: +1 rising, -1 falling, 0 before any.
-
-    A Schmitt-trigger detector: the sign flips only when the field has moved more than
-    ``deadband_uT`` away from its last extreme, so magnetometer noise does not flip it. A
-    field that never spans the dead band has no change (zeros at once); otherwise the
-    detector runs as a compiled scan (sequential by nature; 10^7 samples in well under a
-    second).
-    """
-    field = np.asarray(field_uT, dtype=float)
-    if field.size == 0 or np.ptp(field) <= deadband_uT:
-        return np.zeros(field.size)
-    return np.asarray(_schmitt(jnp.asarray(field), jnp.asarray(float(deadband_uT))))
-
-
-@jax.jit
-def _schmitt(field, deadband):
-    def step(carry, h):
-        state, low, high = carry
-        high = jnp.where(state >= 0.0, jnp.maximum(high, h), high)
-        low = jnp.where(state <= 0.0, jnp.minimum(low, h), low)
-        rise = (state <= 0.0) & (h > low + deadband)
-        fall = ~rise & (state >= 0.0) & (h < high - deadband)
-        state = jnp.where(rise, 1.0, jnp.where(fall, -1.0, state))
-        high = jnp.where(rise, h, high)
-        low = jnp.where(fall, h, low)
-        return (state, low, high), state
-
-    _, out = jax.lax.scan(step, (jnp.zeros(()), field[0], field[0]), field)
     return out
 
 

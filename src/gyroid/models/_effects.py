@@ -19,13 +19,19 @@ import functools
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from gyroid.models._derived import lagged_temperature
 from gyroid.models._inputs import ACCEL_COLUMNS, FIELD_COLUMNS, DriftInputs
+from gyroid.models._nonlinear_effects import (  # noqa: F401  (STEP_GRID: the step's grid)
+    STEP_EDGE_FRACTION,
+    STEP_GRID,
+    bias_step,
+    step_times,
+    thermal_lag,
+    warmup,
+)
 from gyroid.models._priors import LogNormal, Normal, Prior
 
 Params = Mapping[str, Float[Array, ""]]
@@ -115,39 +121,6 @@ def _field_column(k: int):
 
 def _accel_column(k: int, power: int):
     return lambda x: x.accel_g[:, k : k + 1] ** power
-
-
-def _thermal_lag(params: Params, x: DriftInputs) -> Float[Array, " n"]:
-    tau_h = params["tau_lag_min"] / 60.0
-    lagged = lagged_temperature(x.time_h, x.temperature_C, tau_h) - x.t0_C
-    t = x.t_rel
-    zero = jnp.zeros(())
-    w1 = params.get("w1", zero)
-    w2 = params.get("w2", zero)
-    w3 = params.get("w3", zero)
-    return w1 * (lagged - t) + w2 * (lagged**2 - t**2) + w3 * (lagged**3 - t**3)
-
-
-#: A bias step's edge, as a fraction of the log's duration (a logistic, so that its time is
-#: a smooth parameter), and the grid of step times tried, fractions of the duration.
-STEP_EDGE_FRACTION = 1.0 / 200.0
-STEP_GRID = np.linspace(0.01, 0.99, 99)
-
-
-def _bias_step(params: Params, x: DriftInputs) -> Float[Array, " n"]:
-    elapsed = x.time_h - x.time_h[0]
-    edge_h = jnp.maximum(elapsed[-1] * STEP_EDGE_FRACTION, 1e-6)
-    return params["w_step"] * jax.nn.sigmoid((elapsed - params["t_step_h"]) / edge_h)
-
-
-def _step_times(x: DriftInputs) -> np.ndarray:
-    elapsed = np.asarray(x.time_h) - float(np.asarray(x.time_h)[0])
-    return STEP_GRID * max(float(elapsed[-1]), 1e-6)
-
-
-def _warmup(params: Params, x: DriftInputs) -> Float[Array, " n"]:
-    tau_h = params["tau_warmup_min"] / 60.0
-    return params["w_warmup"] * jnp.exp(-x.time_h / tau_h)
 
 
 _MAGNETIC_UNIT = "deg/h per 100 uT"
@@ -262,7 +235,7 @@ EFFECTS: dict[str, Effect] = {
             ),
             columns=("temperature_C",),
             paper=False,
-            nonlinear=_thermal_lag,
+            nonlinear=thermal_lag,
             reads=("w1", "w2", "w3"),
             needs_effects=("temperature",),
         ),
@@ -284,7 +257,7 @@ EFFECTS: dict[str, Effect] = {
             ),
             columns=(),
             paper=False,
-            nonlinear=_warmup,
+            nonlinear=warmup,
         ),
         Effect(
             name="time_trend",
@@ -329,12 +302,25 @@ EFFECTS: dict[str, Effect] = {
             parameters=(
                 Parameter("w_step", "deg/h", "size of the bias step", Normal(0.0, 10.0)),
                 Parameter("t_step_h", "h", "time of the step since the log's start",
-                          LogNormal(5.0, 2.0), positive=True, start_values=_step_times),
+                          LogNormal(5.0, 2.0), positive=True, start_values=step_times),
             ),
             columns=(),
             paper=False,
-            nonlinear=_bias_step,
+            nonlinear=bias_step,
         ),
+        Effect(
+            name="thermal_hysteresis",
+            signature="sign of the last temperature change",
+            formula=("w_hys s_T, s_T = sign of the last temperature change (+1 warming, -1 "
+                     "cooling, 0 before any; 0.5 degC dead band)"),
+            parameters=(Parameter(
+                "w_hys", "deg/h", "half-width of the thermal hysteresis loop (warming "
+                "against cooling at one temperature)", Normal(0.0, 1.0),
+                regressor="temperature_C",
+                hint="w_hys needs a log in which the temperature both rises and falls"),),
+            columns=("temperature_C",), paper=False,
+            design=lambda x: (jnp.zeros((x.n, 1)) if x.temperature_sign is None
+                              else x.temperature_sign[:, None])),
         Effect(
             name="temperature_cubic",
             signature="temperature^3",

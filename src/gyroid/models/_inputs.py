@@ -9,12 +9,12 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from gyroid.models._change_signs import field_change_sign, temperature_change_sign
 from gyroid.models._derived import (
     ACCEL_WINDOW_S,
     HYSTERESIS_DEADBAND_UT,
     RATE_WINDOW_S,
     centred_mean,
-    field_change_sign,
     temperature_rate_deg_c_per_h,
 )
 
@@ -51,6 +51,9 @@ class DriftInputs(eqx.Module):
     #: Specific force along OX, OY, OZ, g (the accelerometer averaged over
     #: ``ACCEL_WINDOW_S``), None for a log without accelerometer columns.
     accel_g: Float[Array, "n 3"] | None = None
+    #: Sign of the last temperature change (+1 warming, -1 cooling, 0 before any), None
+    #: for a log without a thermometer.
+    temperature_sign: Float[Array, " n"] | None = None
 
     @property
     def n(self) -> int:
@@ -68,6 +71,7 @@ def inputs_from_arrays(
     origin_s: float | None = None,
     extra: Mapping[str, np.ndarray] | None = None,
     accel_g: np.ndarray | None = None,
+    temperature_sign: np.ndarray | None = None,
 ) -> DriftInputs:
     """DriftInputs from given quantities (the simulators' truth, a flight's environment):
     elapsed time from ``origin_s`` (default: the first sample), field (n, 3) in uT (None:
@@ -90,6 +94,8 @@ def inputs_from_arrays(
             [np.asarray(v, dtype=float) - np.mean(v) for v in extra.values()])),
         extra_names=tuple(extra or ()),
         accel_g=None if accel_g is None else jnp.asarray(accel_g, dtype=float),
+        temperature_sign=None if temperature_sign is None else jnp.asarray(
+            temperature_sign, dtype=float),
     )
 
 
@@ -108,9 +114,11 @@ def build_inputs(
     if "temperature_C" in columns:
         temperature = np.asarray(columns["temperature_C"], dtype=float)
         rate = temperature_rate_deg_c_per_h(time_s, temperature, rate_window_s)
+        temperature_sign = temperature_change_sign(temperature)
     else:
         temperature = np.full(n, t0_C)
         rate = np.zeros(n)
+        temperature_sign = None
     field = sign = None
     if any(name in columns for name in FIELD_COLUMNS):
         field, sign = np.zeros((n, 3)), np.zeros((n, 3))
@@ -126,4 +134,4 @@ def build_inputs(
                 accel[:, k] = centred_mean(time_s, columns[name], ACCEL_WINDOW_S)
     return inputs_from_arrays(time_s, temperature, rate, field, sign, t0_C=t0_C,
                               extra={name: columns[name] for name in extra_columns},
-                              accel_g=accel)
+                              accel_g=accel, temperature_sign=temperature_sign)

@@ -4,7 +4,7 @@ in ``OUT/AXIS/`` each and ``OUT/axes.json``."""
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Generic, TypeVar
 
@@ -24,6 +24,8 @@ class PerAxis(Generic[R]):
 
     results: dict[str | None, R]
     source: dict[str, object]
+    #: Causes several axes show at once (the discrepancy search's), in ``axes.json``.
+    shared: list[dict] = field(default_factory=list)
 
     @property
     def trustworthy(self) -> bool:
@@ -46,7 +48,7 @@ class PerAxis(Generic[R]):
         return {"axes": {axis: {"trustworthy": result.trustworthy,
                                 "exit": 0 if result.trustworthy else 3, "folder": axis}
                          for axis, result in self.results.items()},
-                "source": self.source}
+                "source": self.source} | ({"shared": self.shared} if self.shared else {})
 
 
 def chosen_axes(table: LogTable, wanted: tuple[str, ...] | None) -> tuple[str | None, ...]:

@@ -17,6 +17,7 @@ from gyroid.pipeline._axes import PerAxis, chosen_axes, write_per_axis
 from gyroid.workflows._discrepancy import find_discrepancies
 from gyroid.workflows._discrepancy_report import DiscrepancyReport
 from gyroid.workflows._roll_discrepancy import find_roll_discrepancies
+from gyroid.workflows._shared_causes import shared_causes
 
 
 def discrepancy_file(path: Path, out: Path, terms: str, *, t0_C: float = T0_C,
@@ -39,7 +40,7 @@ def discrepancy_file(path: Path, out: Path, terms: str, *, t0_C: float = T0_C,
                            remedy="search a part of it (its rows split by time), or on a "
                            "machine with more memory")
         table = read_log_table(path, maps, instance)
-        reports = {}
+        reports, logs = {}, {}
         for axis in chosen_axes(table, axes):
             log = bench_log_from_table(table, terms, extra_columns=extra_columns, axis=axis)
             extra = (f"; extra columns {', '.join(log.extra_columns)}" if log.extra_columns
@@ -48,6 +49,9 @@ def discrepancy_file(path: Path, out: Path, terms: str, *, t0_C: float = T0_C,
             say(f"searching what {terms} misses in {path}{which} ({log.n} rows{extra}) ...")
             reports[axis] = find_discrepancies(log, terms, max_added=max_added, t0_C=t0_C,
                                                progress=say)
-        result = PerAxis(reports, table_source(table))
+            logs[axis] = log
+        if len(reports) > 1:
+            say("  comparing the axes ...")
+        result = PerAxis(reports, table_source(table), shared_causes(reports, logs, t0_C=t0_C))
     write_per_axis(out, result)
     return result

@@ -24,7 +24,8 @@ from scipy.special import erf
 
 from gyroid.errors import GyroidInputError
 from gyroid.io._logs import BenchLog
-from gyroid.models._derived import HYSTERESIS_DEADBAND_UT, field_change_sign
+from gyroid.models._change_signs import field_change_sign, temperature_change_sign
+from gyroid.models._derived import HYSTERESIS_DEADBAND_UT
 from gyroid.models._drift import DriftModel
 from gyroid.models._effects import EFFECTS, PARAMETERS
 from gyroid.models._inputs import ACCEL_COLUMNS, FIELD_COLUMNS, T0_C, inputs_from_arrays
@@ -228,9 +229,19 @@ def _simulate(
     sign = None if field_uT is None else np.column_stack(
         [field_change_sign(field_uT[:, k], HYSTERESIS_DEADBAND_UT) for k in range(3)]
     )
-    true_inputs = inputs_from_arrays(time_s, temperature_C, rate_C_h, field_uT, sign, t0_C=t0_C,
-                                     accel_g=accel_g)
     model = DriftModel(terms=terms)
+    simulated = {"temperature_C", *(FIELD_COLUMNS if field_uT is not None else ()),
+                 *(ACCEL_COLUMNS if accel_g is not None else ())}
+    for name in model.terms:
+        lacking = [c for c in EFFECTS[name].columns if c not in simulated]
+        if lacking:
+            raise GyroidInputError(
+                f"effect {name!r} reads {lacking[0]}, which the {bench} bench does not "
+                "simulate" + ("; simulate the overload bench (gyroid simulate overload)"
+                              if lacking[0] in ACCEL_COLUMNS else ""))
+    true_inputs = inputs_from_arrays(time_s, temperature_C, rate_C_h, field_uT, sign, t0_C=t0_C,
+                                     accel_g=accel_g,
+                                     temperature_sign=temperature_change_sign(temperature_C))
     params = {name: jnp.asarray(values[name]) for name in model.parameter_names}
     true_drift = np.asarray(model(params, true_inputs))
     n = time_s.size

@@ -155,6 +155,35 @@ def find_discrepancies(
     return search.report(found, window)
 
 
+#: The extra column standing for a step at a given time (``step_at_time``).
+STEP_COLUMN = "step_at_given_time"
+
+
+def step_at_time(log: BenchLog, terms: tuple[str, ...], time_h: float, *,
+                 t0_C: float = T0_C) -> tuple[float, float]:
+    """The evidence for a bias step at a time given from outside this log (another axis's
+    step), added to ``terms``: its dBIC (one parameter, its size: the time is not searched,
+    so the penalty is ``log n``) and its size, deg/h; scored as :func:`find_discrepancies`
+    scores candidates."""
+    elapsed_h = (np.asarray(log.time_s) - log.time_s[0]) / 3600.0
+    columns = dict(log.columns) | {STEP_COLUMN: (elapsed_h >= time_h).astype(float)}
+    stepped = BenchLog(columns=columns, source=log.source, comments=log.comments,
+                       extra_columns=(*log.extra_columns, STEP_COLUMN), axis=log.axis)
+    n_samples = log.n
+    sample_s = float(np.median(np.diff(log.time_s))) if log.n > 1 else MEAN_OVER_S
+    per_mean = round(MEAN_OVER_S / sample_s) if sample_s < MEAN_OVER_S / 2 else 1
+    if per_mean > 1:
+        stepped = block_means(stepped, per_mean)
+    model = DriftModel(terms=resolve_terms(terms))
+    inputs = stepped.inputs(t0_C=t0_C, rate_window_s=_choose_rate_window(stepped, model, t0_C))
+    search = _Search(stepped, inputs, per_mean)
+    without = search.trial(model, NoiseLevels(1.0, 1e-6, 300.0))
+    added = search.trial(DriftModel(terms=resolve_terms((*terms, EXTRA_PREFIX + STEP_COLUMN))),
+                         without.fit[1])
+    dbic = 2.0 * (added.log_likelihood - without.log_likelihood) - math.log(n_samples)
+    return dbic, float(added.fit[0].values["w_extra_" + STEP_COLUMN])
+
+
 class _Search:
     """The discrepancy search on one log (or its means): its inputs, the fits it compares,
     the step descriptions and the final report."""

@@ -32,7 +32,7 @@ REGRESSOR_UNITS = {
     "start-up transient": "exp(-t / 20 min)", "Hx": "H/H0", "Hy": "H/H0", "Hz": "H/H0",
     "sign of the last Hx change": "+/-1", "sign of the last Hy change": "+/-1",
     "sign of the last Hz change": "+/-1", "ax": "g", "ay": "g", "az": "g", "ax^2": "g^2",
-    "ay^2": "g^2", "az^2": "g^2",
+    "ay^2": "g^2", "az^2": "g^2", "sign of the last temperature change": "+/-1",
 }
 
 
@@ -53,6 +53,8 @@ def regressors(x: DriftInputs) -> dict[str, np.ndarray]:
         out[f"H{axis}"] = np.asarray(x.field_rel[:, k])
         if x.field_sign is not None:
             out[f"sign of the last H{axis} change"] = np.asarray(x.field_sign[:, k])
+    if x.temperature_sign is not None:
+        out["sign of the last temperature change"] = np.asarray(x.temperature_sign)
     for k, axis in enumerate("xyz" if x.accel_g is not None else ""):
         out[f"a{axis}"] = np.asarray(x.accel_g[:, k])
         out[f"a{axis}^2"] = np.asarray(x.accel_g[:, k]) ** 2
