@@ -1,0 +1,218 @@
+"""Experiment (issue 43): every real log in the registry, held out, gyroid's defaults against
+what a user without gyroid writes, on the same rows.
+
+Each case trains on part of a real log and predicts the rest: its held-out window means
+(means over ``--window`` seconds of the measured drift) against each method's prediction.
+Methods, all fitted on the training rows only:
+
+* gyroid: ``gyroid fit TRAIN --terms TERMS`` with every default (``--noise auto``), then
+  ``gyroid compensate TEST``: its ``compensated_means.csv`` (the predictive band of each
+  window mean: model and noise) and both exit codes (0: the fit or compensation calls itself
+  usable; 3: refused);
+* least squares: ordinary least squares in the same regressors as a script would take them
+  (the bias; with a thermometer, the bias and the temperature), its band the OLS interval of
+  the window mean (model standard error and the residual sd over root n, white noise);
+* cubic: the PX4 recipe (``process_sensor_caldata.py``: a 3rd-order ``numpy.polyfit`` of the
+  rate against the temperature about the range's midpoint; ArduPilot's tempcal fits the same
+  cubic about 35 degC and drops the constant, which its start-up gyro calibration sets, so
+  its prediction of a window mean is this one's), no band.
+
+Cases (``GYROID_DATA`` holds the logs as ``../shared/data/real/``):
+
+* pan_tvac: LSM6DSM in thermal vacuum, 25 bursts; even bursts train, odd test
+  (interpolation in temperature); windows of one burst;
+* astropi_sensehat: 81 h; the first half trains, the second tests; 10-minute windows;
+* mpu6050: the 10-minute run trains, each other run of the unit tests (other orientations
+  and days); 15-second windows, bias and bias + temperature;
+* adis16405: run k trains, run k + 1 tests (k = 1..5), bias only (no thermometer); 10-minute
+  windows.
+
+    python experiments/real_log_study.py
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import math
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+from _common import results_dir, save_run
+
+import gyroid
+from gyroid.cli import main as gyroid_main
+from gyroid.io import dataset_logs
+from gyroid.io._log_writer import write_bench_log
+
+Z95 = 1.959963984540054
+
+
+def _cases() -> list[dict]:
+    """Every case: name, axis, training and test columns (contract names), terms, window."""
+    cases = []
+    pan = dataset_logs("pan_tvac")["pan_tvac"][0]
+    burst = np.concatenate([[0], np.cumsum(np.diff(pan["time_s"]) > 60.0)])
+    for axis in "xyz":
+        cases.append(_case("pan_tvac", axis, pan, burst % 2 == 0, burst % 2 == 1,
+                           "bias,temperature", 60.0))
+    astro = dataset_logs("astropi_sensehat")["astropi_sensehat"][0]
+    half = astro["time_s"] < 0.5 * astro["time_s"][-1]
+    for axis in "xyz":
+        cases.append(_case("astropi_sensehat", axis, astro, half, ~half, "thermal", 600.0))
+    mpu = dataset_logs("mpu6050_sunsided")
+    train_name = "mpu6050_set2_unmoved-with-x-pointing-forward-10min"
+    for name, (columns, _) in mpu.items():
+        if name == train_name:
+            continue
+        for axis in "xyz":
+            for terms in ("bias", "bias,temperature"):
+                train = mpu[train_name][0]
+                cases.append(_case(f"mpu6050 -> {name.removeprefix('mpu6050_')}", axis,
+                                   (train, columns), None, None, terms, 15.0))
+    adis = dataset_logs("smac_imudata")
+    for k in range(1, 6):
+        train, test = adis[f"adis_16405_imu{k}"][0], adis[f"adis_16405_imu{k + 1}"][0]
+        for axis in "xyz":
+            cases.append(_case(f"adis16405 run {k} -> {k + 1}", axis, (train, test), None,
+                               None, "bias", 600.0))
+    return cases
+
+
+def _case(name, axis, columns, train_rows, test_rows, terms, window_s) -> dict:
+    if isinstance(columns, tuple):
+        train, test = (_axis_columns(c, axis) for c in columns)
+    else:
+        both = _axis_columns(columns, axis)
+        train = {k: v[train_rows] for k, v in both.items()}
+        test = {k: v[test_rows] for k, v in both.items()}
+    return {"case": name, "axis": axis, "train": train, "test": test, "terms": terms,
+            "window_s": window_s}
+
+
+def _axis_columns(columns: dict, axis: str) -> dict:
+    out = {"time_s": np.asarray(columns["time_s"], dtype=float),
+           "drift_deg_h": np.asarray(columns[f"drift_{axis}_deg_h"], dtype=float)}
+    if "temperature_C" in columns:
+        out["temperature_C"] = np.asarray(columns["temperature_C"], dtype=float)
+    return out
+
+
+def _windows(time_s: np.ndarray, window_s: float) -> np.ndarray:
+    """Each row's window (consecutive windows of ``window_s`` from the first row), as
+    ``gyroid compensate --window`` forms them."""
+    index = np.floor((time_s - time_s[0]) / window_s).astype(int)
+    return np.unique(index, return_inverse=True)[1]
+
+
+def _peers(case: dict, part: np.ndarray) -> dict:
+    """Least squares and the cubic: each window mean's prediction (and least squares'
+    band)."""
+    train, test = case["train"], case["test"]
+    n = int(part.max()) + 1
+    counts = np.bincount(part, minlength=n)
+    thermal = "temperature" in case["terms"] and "temperature_C" in train
+    design = (np.column_stack([np.ones(train["time_s"].size), train["temperature_C"]])
+              if thermal else np.ones((train["time_s"].size, 1)))
+    new = (np.column_stack([np.ones(test["time_s"].size), test["temperature_C"]])
+           if thermal else np.ones((test["time_s"].size, 1)))
+    beta, *_ = np.linalg.lstsq(design, train["drift_deg_h"], rcond=None)
+    residual = train["drift_deg_h"] - design @ beta
+    sigma2 = float(residual @ residual) / max(1, residual.size - design.shape[1])
+    covariance = sigma2 * np.linalg.inv(design.T @ design)
+    mean_design = np.column_stack([np.bincount(part, new[:, j], n) / counts
+                                   for j in range(new.shape[1])])
+    ls = mean_design @ beta
+    half = Z95 * np.sqrt(np.einsum("ij,jk,ik->i", mean_design, covariance, mean_design)
+                         + sigma2 / counts)
+    out = {"least_squares": (ls, ls - half, ls + half)}
+    if "temperature_C" in train and np.ptp(train["temperature_C"]) > 0:
+        mid = 0.5 * (train["temperature_C"].min() + train["temperature_C"].max())
+        coefficients = np.polyfit(train["temperature_C"] - mid, train["drift_deg_h"], 3)
+        cubic = np.polyval(coefficients, test["temperature_C"] - mid)
+        out["cubic"] = (np.bincount(part, cubic, n) / counts, None, None)
+    return out
+
+
+def one(case: dict, folder: Path, seed: int) -> dict:
+    started = time.time()
+    write_bench_log(folder / "train.csv", case["train"], ())
+    write_bench_log(folder / "test.csv", case["test"], ())
+    fit_code = gyroid_main(["fit", str(folder / "train.csv"), "--terms", case["terms"],
+                            "--out", str(folder / "fit"), "--seed", str(seed)])
+    result = {"case": case["case"], "axis": case["axis"], "terms": case["terms"],
+              "window_s": case["window_s"], "fit_exit": fit_code}
+    test = case["test"]
+    part = _windows(test["time_s"], case["window_s"])
+    n = int(part.max()) + 1
+    measured = np.bincount(part, test["drift_deg_h"], n) / np.bincount(part, minlength=n)
+    methods = _peers(case, part)
+    if fit_code in (0, 3):
+        compensate_code = gyroid_main(
+            ["compensate", str(folder / "test.csv"), "--fit", str(folder / "fit"), "--out",
+             str(folder / "comp"), "--window", str(case["window_s"])])
+        result["compensate_exit"] = compensate_code
+        if compensate_code in (0, 3):
+            rows = list(csv.DictReader(open(folder / "comp" / "compensated_means.csv")))
+            column = {k: np.array([float(r[k]) for r in rows]) for k in rows[0]}
+            assert np.allclose(column["drift_mean_deg_h"], measured, rtol=1e-6, atol=1e-6)
+            methods["gyroid"] = (column["model_mean_deg_h"], column["band95_lo_deg_h"],
+                                 column["band95_hi_deg_h"])
+    result["windows"] = n
+    for method, (predicted, low, high) in methods.items():
+        error = measured - predicted
+        entry = {"rms_deg_h": float(np.sqrt(np.mean(error**2)))}
+        if low is not None and np.all(np.isfinite(low)):
+            entry["band_holds"] = float(np.mean((measured >= low) & (measured <= high)))
+        result[method] = entry
+    result["seconds"] = round(time.time() - started, 1)
+    return result
+
+
+def summarise(runs: list[dict]) -> dict:
+    gyroid_runs = [r for r in runs if "gyroid" in r]
+    trusted = [r for r in gyroid_runs if r["fit_exit"] == 0 and r.get("compensate_exit") == 0]
+    best_peer = [min(r[m]["rms_deg_h"] for m in ("least_squares", "cubic") if m in r)
+                 for r in gyroid_runs]
+    ratio = [r["gyroid"]["rms_deg_h"] / b for r, b in zip(gyroid_runs, best_peer, strict=True)]
+    return {
+        "cases": len(runs),
+        "gyroid_predicted": len(gyroid_runs),
+        "gyroid_trusted": len(trusted),
+        "trusted_holding_80pct": sum(r["gyroid"]["band_holds"] >= 0.8 for r in trusted),
+        "trusted_band_holds_min": min((r["gyroid"]["band_holds"] for r in trusted),
+                                      default=math.nan),
+        "untrusted_band_holds_median": float(np.median(
+            [r["gyroid"]["band_holds"] for r in gyroid_runs if r not in trusted] or [math.nan])),
+        "least_squares_band_holds_median": float(np.median(
+            [r["least_squares"]["band_holds"] for r in runs])),
+        "gyroid_rms_over_best_peer_median": float(np.median(ratio)),
+        "gyroid_no_worse_than_best_peer": sum(x <= 1.0 + 1e-9 for x in ratio),
+        "gyroid_rms_over_best_peer_max": float(max(ratio)),
+    }
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--only", default=None, help="run the cases whose name starts so")
+    args = parser.parse_args()
+    gyroid.configure()
+    started = time.time()
+    runs = []
+    with tempfile.TemporaryDirectory() as scratch:
+        for k, case in enumerate(_cases()):
+            if args.only and not case["case"].startswith(args.only):
+                continue
+            folder = Path(scratch) / f"case_{k:03d}"
+            folder.mkdir()
+            runs.append(one(case, folder, args.seed))
+            print({key: v for key, v in runs[-1].items()}, flush=True)
+    save_run(results_dir("real_log_study"), seed=args.seed, config={"only": args.only},
+             results={"summary": summarise(runs), "runs": runs}, started=started)
+
+
+if __name__ == "__main__":
+    main()
