@@ -18,6 +18,7 @@ from gyroid.inference._excitation import excitation
 from gyroid.inference._plausibility import effect_sizes, units_sanity
 from gyroid.inference._posterior import Posterior
 from gyroid.inference._problem import AbstractProblem, PointEstimate
+from gyroid.inference._rate_estimate import rate_estimate
 from gyroid.inference._residual_checks import outliers_among
 from gyroid.inference._result import FitResult
 from gyroid.inference._storage import inference_data
@@ -300,7 +301,8 @@ def bench_point_checks(problem: AbstractProblem, point: PointEstimate) -> CheckR
         bench_predictive(problem.density, time_s, np.asarray(point.u)),
         units_sanity(samples),
         effect_sizes(problem.model, point.value, problem.inputs,
-                     np.asarray(problem.log.drift_deg_h))))
+                     np.asarray(problem.log.drift_deg_h)),
+        _rate_estimate_check(problem, point, time_s)))
     segments = problem.segments
     if segments is None:
         return checks
@@ -310,6 +312,20 @@ def bench_point_checks(problem: AbstractProblem, point: PointEstimate) -> CheckR
              else point.value.get("sigma_deg_h", segments.within_sd))
     return checks + CheckReport((spikes_within_segments(
         segments, sigma_of_means=sigma, n_means=problem.n),))
+
+
+def _rate_estimate_check(problem: AbstractProblem, point: PointEstimate, time_s: np.ndarray
+                         ) -> Check:
+    """:func:`~gyroid.inference._rate_estimate.rate_estimate` of a bench fit: its dT/dt
+    window, wD at the mode, and a window mean's white noise from the residuals."""
+    window_s = float(problem.density.rate_window_s)
+    wD = point.value.get("wD") if "temperature_rate" in problem.model.terms else None
+    if wD is None or not problem.log.has("temperature_C"):
+        return rate_estimate(time_s, time_s, window_s, None, 0.0)
+    step = float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
+    noise = point.rms_residual / math.sqrt(max(window_s / step, 1.0))
+    return rate_estimate(time_s, np.asarray(problem.log.columns["temperature_C"]), window_s,
+                         float(wD), noise)
 
 
 def spikes_within_segments(samples: SampleDeviations, *, sigma_of_means: float,
