@@ -106,11 +106,19 @@ def test_window_means_carry_bands_that_hold_the_measured_means(fitted_short):
     assert inside.sum() >= low and inside.size >= 10
     assert np.all(np.diff(w["t_start_s"]) == pytest.approx(600.0, rel=0.01))
     assert np.all(w["noise_mean_sd_deg_h"] > 0) and np.all(w["model_mean_sd_deg_h"] > 0)
+    bands = next(c for c in compensate(new.log, fitted_short).checks.checks
+                 if c.name == "window_bands")
+    assert bands.passed, bands.message
     other = simulate_thermal_bench(seed=25, protocol=protocol,
                                    parameters={**PAPER_A_THERMAL, "w0": 1.5})
-    w = compensate(other.log, fitted_short).window_means
+    result = compensate(other.log, fitted_short)
+    w = result.window_means
     assert np.mean((w["drift_mean_deg_h"] < w["band95_lo_deg_h"])
                    | (w["drift_mean_deg_h"] > w["band95_hi_deg_h"])) > 0.8
+    # and the compensation says so itself: it does not call such a log usable
+    bands = next(c for c in result.checks.checks if c.name == "window_bands")
+    assert not bands.passed and bands.severity == "error" and not result.checks.trustworthy
+    assert "+0.3" in bands.message  # the median offset, 1.5 - 1.197 deg/h
 
 
 def test_extrapolation_is_reported(fitted_short):
