@@ -29,12 +29,14 @@ Cases (``GYROID_DATA`` holds the logs as ``../shared/data/real/``):
 A training set shared by several cases is fitted once.
 
     python experiments/real_log_study.py
+    python experiments/real_log_study.py --resummarise  # the summary of the runs on file
 """
 
 from __future__ import annotations
 
 import argparse
 import csv
+import json
 import math
 import tempfile
 import time
@@ -45,7 +47,7 @@ from _common import results_dir, save_run
 
 import gyroid
 from gyroid.cli import main as gyroid_main
-from gyroid.io import dataset_logs
+from gyroid.io import atomic_write_text, dataset_logs, json_text
 from gyroid.io._log_writer import write_bench_log
 
 Z95 = 1.959963984540054
@@ -185,9 +187,13 @@ def summarise(runs: list[dict]) -> dict:
     best_peer = [min(r[m]["rms_deg_h"] for m in ("least_squares", "cubic") if m in r)
                  for r in gyroid_runs]
     ratio = [r["gyroid"]["rms_deg_h"] / b for r, b in zip(gyroid_runs, best_peer, strict=True)]
+    trusted_ratio = [x for r, x in zip(gyroid_runs, ratio, strict=True) if r in trusted]
     return {
         "cases": len(runs),
         "gyroid_predicted": len(gyroid_runs),
+        "trusted_rms_over_best_peer_median": float(np.median(trusted_ratio or [math.nan])),
+        "trusted_rms_over_best_peer_max": float(max(trusted_ratio, default=math.nan)),
+        "trusted_no_worse_than_best_peer": sum(x <= 1.0 + 1e-9 for x in trusted_ratio),
         "gyroid_trusted": len(trusted),
         "trusted_holding_80pct": sum(r["gyroid"]["band_holds"] >= 0.8 for r in trusted),
         "trusted_band_holds_min": min((r["gyroid"]["band_holds"] for r in trusted),
@@ -206,7 +212,16 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--only", default=None, help="run the cases whose name starts so")
+    parser.add_argument("--resummarise", action="store_true",
+                        help="recompute the summary of the results file's runs (no fits)")
     args = parser.parse_args()
+    if args.resummarise:
+        path = results_dir("real_log_study") / "results.json"
+        record = json.loads(path.read_text())
+        record["results"]["summary"] = summarise(record["results"]["runs"])
+        atomic_write_text(path, json_text(record))
+        print(json.dumps(record["results"]["summary"], indent=2))
+        return
     gyroid.configure()
     started = time.time()
     runs, fits = [], {}

@@ -189,3 +189,31 @@ def test_a_clock_effect_beyond_the_fitted_span_is_extrapolation(terms):
                                              input_ranges=ranges))
     flagged = {item["input"] for item in result.summary["extrapolation"]}
     assert ("elapsed_h" in flagged) == (terms != "thermal")
+
+
+def test_window_bands_judge_by_the_stated_correlation():
+    """All windows outside together is likely for errors that share an offset (a walk's
+    level, a run's bias) when the offset is within about two sd, and improbable beyond: the
+    check refuses only the latter (it passes a model that describes the log 99 times in
+    100, whatever its correlation)."""
+    from gyroid.workflows._compensate import window_bands
+
+    n = 20
+    shared, own = 1.0, 0.1  # a common offset's sd and each window's own
+    covariance = shared**2 * np.ones((n, n)) + own**2 * np.eye(n)
+    half = 1.96 * np.sqrt(np.diag(covariance))
+
+    def check(offset):
+        measured = offset + own * np.random.default_rng(0).standard_normal(n)
+        windows = {"drift_mean_deg_h": measured, "model_mean_deg_h": np.zeros(n),
+                   "band95_lo_deg_h": -half, "band95_hi_deg_h": half}
+        return window_bands(windows, covariance, 600.0, seed=1)
+
+    assert check(0.0).passed and "inside their 95 % bands" in check(0.0).message
+    assert check(2.2).passed  # every window outside, p about 0.03
+    assert not check(4.0).passed  # every window outside, p below 1e-3
+    independent = own**2 * np.eye(n)
+    measured = np.r_[np.full(6, 0.5), np.zeros(n - 6)]  # 6 of 20 outside, each alone
+    windows = {"drift_mean_deg_h": measured, "model_mean_deg_h": np.zeros(n),
+               "band95_lo_deg_h": np.full(n, -0.196), "band95_hi_deg_h": np.full(n, 0.196)}
+    assert not window_bands(windows, independent, 600.0).passed

@@ -416,3 +416,22 @@ def _fog_phrases() -> dict[str, str]:
 
 def test_the_fog_benches_under_the_default_noise():
     _quoted(*_fog_phrases().values())
+
+
+def test_real_log_study():
+    results = _results("real_log_study")
+    s = results["summary"]
+    assert s["trusted_holding_80pct"] == s["gyroid_trusted"]  # issue 43's done-means
+    _quoted(f"| gyroid, fit and compensation both usable (exit 0) | {s['gyroid_trusted']} | "
+            f"median {s['trusted_rms_over_best_peer_median']:.3f}, at most "
+            f"{s['trusted_rms_over_best_peer_max']:.3g}; no worse in "
+            f"{s['trusted_no_worse_than_best_peer']} | at least "
+            f"{100 * s['trusted_band_holds_min']:.0f} % in every case |",
+            f"| gyroid, refused (exit 3) | {s['cases'] - s['gyroid_trusted']} | | median "
+            f"{100 * s['untrusted_band_holds_median']:.0f} % |",
+            f"| least squares | {s['cases']} | | median "
+            f"{100 * s['least_squares_band_holds_median']:.0f} % |",
+            f"no worse than the best peer's in {s['gyroid_no_worse_than_best_peer']} and up "
+            f"to {s['gyroid_rms_over_best_peer_max']:.1f}x worse in one",
+            "trains on part of every real log in the registry and predicts the rest's window "
+            "means", f"{s['cases']} cases on every axis")

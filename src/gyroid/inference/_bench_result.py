@@ -27,7 +27,7 @@ from gyroid.io._logs import BenchLog, SampleDeviations, contiguous_segments
 from gyroid.models._design import rows_of
 from gyroid.models._effects import parameter
 from gyroid.models._priors import Prior
-from gyroid.noise._base import NoiseEstimate
+from gyroid.noise._base import NoiseEstimate, predictive_level
 
 
 @dataclass(frozen=True, eq=False)
@@ -160,13 +160,14 @@ class BenchFit(FitResult):
             for e in self.problem.model.effects}}
 
     def noise_estimate(self) -> NoiseEstimate:
-        """The noise model with its levels (posterior means, else the point estimate) and
-        a sample's white sd (deg/h; the median of a log's ``sigma_deg_h`` when it gives
-        them) at the samples' interval (s; not for a fit of segment means)."""
+        """The noise model with its levels (each the root mean square over the posterior,
+        :func:`~gyroid.noise.predictive_level`, else the point estimate) and a sample's
+        white sd (deg/h; the median of a log's ``sigma_deg_h`` when it gives them) at the
+        samples' interval (s; not for a fit of segment means)."""
         names = self.problem.noise_names
         source = (self.posterior.summary if self.posterior is not None else
                   {n: {"mean": self.point.value[n]} for n in names})
-        levels = {n: source[n]["mean"] for n in names}
+        levels = {n: predictive_level(source[n]) for n in names}
         density = self.problem.density
         sample_s = density.step_s / self.problem.block_rows
         if density.sigma is None:

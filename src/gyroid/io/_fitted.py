@@ -18,7 +18,7 @@ from gyroid.io._arviz import read_posterior
 from gyroid.models._derived import RATE_WINDOW_S
 from gyroid.models._drift import DriftModel
 from gyroid.models._inputs import T0_C
-from gyroid.noise._base import NoiseEstimate
+from gyroid.noise._base import NoiseEstimate, predictive_level
 from gyroid.noise._kinds import White, recorded_model
 
 
@@ -180,11 +180,11 @@ def _draws(posterior, name: str, path: Path) -> np.ndarray:
 
 
 def _noise_of(fit: dict) -> NoiseEstimate | None:
-    """The noise model a fit.json records (posterior means, or the point estimate); None
-    when it records none."""
+    """The noise model a fit.json records (each level the root mean square over its
+    posterior, else the point estimate); None when it records none."""
     noise = fit.get("noise", {})
-    levels = {k: v["mean"] for k, v in (noise.get("posterior") or {}).items()} or dict(
-        noise.get("point") or {})
+    levels = {k: predictive_level(v) for k, v in (noise.get("posterior") or {}).items()} or \
+        dict(noise.get("point") or {})
     if not levels and "white_sd_deg_h" not in noise:
         return None
     model = recorded_model(noise)
