@@ -437,3 +437,16 @@ def test_real_log_study():
             f"to {s['gyroid_rms_over_best_peer_max']:.1f}x worse in one",
             "trains on part of every real log in the registry and predicts the rest's window "
             "means", f"{s['cases']} cases on every axis")
+
+
+def test_window_bands_cost():
+    results = _results("window_bands")
+    runs = results["runs"]
+    passed = [r["inside"] for r in runs if r["window_bands"]]
+    refused = [r for r in runs if not r["window_bands"]]
+    assert results["fits_trustworthy"] == results["pairs"]
+    _quoted(f"{len(refused)} of {results['pairs']} refused ("
+            + ", ".join(f"{round(r['inside'] * r['windows'])} of its {r['windows']} windows in "
+                        "band" for r in refused)
+            + f"), the other {len(passed)} held {100 * min(passed):.0f}-"
+              f"{100 * max(passed):.0f} %")
