@@ -45,6 +45,10 @@ def rate_estimate(time_s: np.ndarray, temperature_C: np.ndarray, window_s: float
     if time_s.size < 8 or samples < 12:
         return Check(name, True, "warning", None, DISAGREE_FRACTION,
                      "the window is too short to halve")
+    if step * (time_s.size - 1) < 0.9 * (time_s[-1] - time_s[0]):
+        return Check(name, True, "warning", None, DISAGREE_FRACTION,
+                     "not judged on a log with pauses (the estimator's noise there is not "
+                     "that of evenly spaced samples)")
     full = temperature_rate_deg_c_per_h(time_s, temperature, window_s)
     half = temperature_rate_deg_c_per_h(time_s, temperature, window_s / 2.0)
     second = np.diff(temperature, 2)

@@ -27,10 +27,11 @@ from gyroid.io._logs import BenchLog
 from gyroid.models._change_signs import field_change_sign, temperature_change_sign
 from gyroid.models._derived import HYSTERESIS_DEADBAND_UT
 from gyroid.models._drift import DriftModel
-from gyroid.models._effects import EFFECTS, PARAMETERS
+from gyroid.models._effects import EFFECTS
 from gyroid.models._inputs import ACCEL_COLUMNS, FIELD_COLUMNS, T0_C, inputs_from_arrays
 from gyroid.models._terms import PRESETS
 from gyroid.simulation._noise import GyroNoise, rate_noise
+from gyroid.simulation._truth import resolve_truth, truth_comments, truth_record
 
 #: Paper A's thermal coefficients (w1 negative, wD taken positive: see the package data).
 PAPER_A_THERMAL = {"w0": 1.197, "w1": -0.108, "w2": 0.004, "wD": 1.997}
@@ -168,46 +169,6 @@ class SimulatedBench:
     true_drift_deg_h: np.ndarray = field(repr=False)
 
 
-def resolve_truth(
-    base: Mapping[str, float], effects: Mapping[str, Mapping[str, float]] | None
-) -> tuple[tuple[str, ...], dict[str, float]]:
-    """Effects switched on and their parameter values.
-
-    An effect is on when ``base`` gives all its parameters or ``effects`` names it; values in
-    ``effects`` override ``base``.
-    """
-    requested = dict(effects or {})
-    values = {k: float(v) for k, v in base.items()}
-    for name, params in requested.items():
-        if name not in EFFECTS:
-            raise GyroidInputError(f"unknown effect {name!r}; known: {', '.join(EFFECTS)}")
-        effect = EFFECTS[name]
-        unknown = set(params) - set(effect.parameter_names)
-        if unknown:
-            raise GyroidInputError(
-                f"effect {name!r} has parameters {', '.join(effect.parameter_names)}, "
-                f"not {', '.join(sorted(unknown))}"
-            )
-        values.update({k: float(v) for k, v in params.items()})
-        missing = [p for p in effect.parameter_names if p not in values]
-        if missing:
-            raise GyroidInputError(f"give a value for {missing[0]} of effect {name!r}")
-    terms = tuple(
-        name
-        for name, e in EFFECTS.items()
-        if name in requested or all(p in base for p in e.parameter_names)
-    )
-    used = {p for name in terms for p in EFFECTS[name].parameter_names}
-    stray = sorted(set(values) - used)
-    if stray:
-        raise GyroidInputError(f"parameter {stray[0]!r} belongs to no effect that is switched on")
-    for name in terms:
-        for p in EFFECTS[name].parameters:
-            if p.positive and values[p.name] <= 0:
-                raise GyroidInputError(f"{p.name} must be positive, got {values[p.name]}")
-    return terms, values
-
-
 def _simulate(
     *,
     bench: str,
@@ -232,13 +193,10 @@ def _simulate(
     model = DriftModel(terms=terms)
     simulated = {"temperature_C", *(FIELD_COLUMNS if field_uT is not None else ()),
                  *(ACCEL_COLUMNS if accel_g is not None else ())}
-    for name in model.terms:
-        lacking = [c for c in EFFECTS[name].columns if c not in simulated]
-        if lacking:
-            raise GyroidInputError(
-                f"effect {name!r} reads {lacking[0]}, which the {bench} bench does not "
-                "simulate" + ("; simulate the overload bench (gyroid simulate overload)"
-                              if lacking[0] in ACCEL_COLUMNS else ""))
+    lacking = [(t, c) for t in terms for c in EFFECTS[t].columns if c not in simulated]
+    if lacking:
+        raise GyroidInputError(f"effect {lacking[0][0]!r} reads {lacking[0][1]}, which the "
+                               f"{bench} bench does not simulate; choose a bench that does")
     true_inputs = inputs_from_arrays(time_s, temperature_C, rate_C_h, field_uT, sign, t0_C=t0_C,
                                      accel_g=accel_g,
                                      temperature_sign=temperature_change_sign(temperature_C))
@@ -266,29 +224,6 @@ def _simulate(
     comments = truth_comments(truth)
     log = BenchLog(columns=columns, source=f"<simulated {bench} bench>", comments=comments)
     return SimulatedBench(log=log, truth=truth, true_drift_deg_h=true_drift)
-
-
-def truth_record(bench: str, model: DriftModel, values: Mapping[str, float], noise: GyroNoise,
-                 sample_s: float, protocol: dict, average_s: float | None, seed: int,
-                 t0_C: float) -> dict:
-    """``truth.json`` of a simulated bench log."""
-    return {
-        "bench": bench,
-        "effects": list(model.terms),
-        "parameters": {name: values[name] for name in model.parameter_names},
-        "units": {p: PARAMETERS[p].unit for p in model.parameter_names},
-        "t0_C": t0_C,
-        "noise": noise.as_dict() | {"white_sd_deg_h": noise.white_sd_deg_h(sample_s)},
-        "protocol": protocol,
-        "average_s": average_s,
-        "seed": seed,
-    }
-
-
-def truth_comments(truth: dict) -> tuple[str, str]:
-    """A simulated log's comment lines: what it is and its truth."""
-    return (f"gyroid simulated {truth['bench']} bench, seed {truth['seed']}",
-            "truth: " + ", ".join(f"{k}={v:g}" for k, v in truth["parameters"].items()))
 
 
 def window_average(columns: Mapping[str, np.ndarray], window_s: float) -> dict[str, np.ndarray]:

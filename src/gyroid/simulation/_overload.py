@@ -23,9 +23,9 @@ from gyroid.simulation._bench import (
     PAPER_A_THERMAL,
     SimulatedBench,
     _simulate,
-    resolve_truth,
 )
 from gyroid.simulation._noise import GyroNoise
+from gyroid.simulation._truth import resolve_truth
 
 #: The overload preset's default truth, deg/h and deg/h per g.
 OVERLOAD_TRUTH = {"w0": PAPER_A_THERMAL["w0"], **OVERLOAD_SENSITIVITIES}

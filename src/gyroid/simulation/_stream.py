@@ -27,14 +27,9 @@ from gyroid.io._log_writer import bench_log_writer
 from gyroid.io._logs import BenchLog
 from gyroid.models._drift import DriftModel
 from gyroid.models._inputs import FIELD_COLUMNS, T0_C, inputs_from_arrays
-from gyroid.simulation._bench import (
-    PAPER_A_THERMAL,
-    ThermalProtocol,
-    resolve_truth,
-    truth_comments,
-    truth_record,
-)
+from gyroid.simulation._bench import PAPER_A_THERMAL, ThermalProtocol
 from gyroid.simulation._noise import GM_ADEV_PEAK, GyroNoise
+from gyroid.simulation._truth import resolve_truth, truth_comments, truth_record
 
 #: Rows simulated and written per chunk.
 CHUNK_ROWS = 1 << 20
