@@ -27,6 +27,20 @@ def test_store_round_trip_and_first_writer_kept(tmp_path):
     assert sorted(os.listdir(tmp_path)) == ["k-cache"]
 
 
+def test_a_damaged_or_foreign_entry_is_not_loaded_but_replaced(tmp_path):
+    store = _store(tmp_path)
+    store.put("k", b"program bytes")
+    entry = tmp_path / "k-cache"
+    data = bytearray(entry.read_bytes())
+    data[-3] ^= 0xFF  # one flipped byte: the CRC fails
+    entry.write_bytes(bytes(data))
+    assert store.get("k") is None
+    store.put("k", b"program bytes")
+    assert store.get("k") == b"program bytes"
+    (tmp_path / "j-cache").write_bytes(b"written by JAX's own store")
+    assert store.get("j") is None
+
+
 def test_failed_write_leaves_nothing(tmp_path, monkeypatch):
     store = _store(tmp_path)
 

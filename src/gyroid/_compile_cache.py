@@ -6,8 +6,10 @@ JAX's own file store (``jax._src.lru_cache.LRUCache``, JAX 0.10) writes entries 
 and, without a size limit, takes no lock: two processes compiling the same program write one
 file at once, and a third may load the mixture, which aborts the interpreter in XLA's
 deserialiser (seen as "Fatal Python error: Aborted" under pytest-xdist). Its size-limited
-mode locks, but scans the whole folder on every write. Entries keep JAX's file names, so a
-folder filled by either store serves the other.
+mode locks, but scans the whole folder on every write. Each entry here also carries a
+CRC-32 of its program, checked on every read: an entry that fails it (damaged on disk, or
+written by JAX's own store, which may have left such mixtures behind) is not loaded but
+compiled again and replaced.
 """
 
 from __future__ import annotations
@@ -15,8 +17,24 @@ from __future__ import annotations
 import os
 import pathlib
 import tempfile
+import zlib
 
 _SUFFIX = "-cache"
+#: An entry's first bytes: this mark, then the program's CRC-32 (4 bytes, little-endian).
+_MARK = b"gyroid-jax-1\n"
+
+
+def _sealed(value: bytes) -> bytes:
+    return _MARK + zlib.crc32(value).to_bytes(4, "little") + value
+
+
+def _opened(data: bytes) -> bytes | None:
+    """The program of an entry, or None when it is not one of ours or fails its CRC."""
+    head = len(_MARK) + 4
+    if not data.startswith(_MARK) or len(data) < head:
+        return None
+    value = data[head:]
+    return value if zlib.crc32(value).to_bytes(4, "little") == data[len(_MARK):head] else None
 
 
 def install(folder: str) -> bool:
@@ -45,19 +63,19 @@ def _store_class(base: type) -> type:
 
         def get(self, key: str) -> bytes | None:
             try:
-                return (self._path / f"{key}{_SUFFIX}").read_bytes()
+                return _opened((self._path / f"{key}{_SUFFIX}").read_bytes())
             except FileNotFoundError:
                 return None
 
         def put(self, key: str, value: bytes) -> None:
             target = self._path / f"{key}{_SUFFIX}"
-            if target.exists():
-                return
+            if self.get(key) is not None:
+                return  # a sound entry is kept (JAX's rule); a damaged one is replaced
             handle, temporary = tempfile.mkstemp(dir=self._path, prefix=f".{key}.",
                                                  suffix=".part")
             try:
                 with os.fdopen(handle, "wb") as stream:
-                    stream.write(value)
+                    stream.write(_sealed(value))
                 os.replace(temporary, target)
             except BaseException:
                 if os.path.exists(temporary):
