@@ -119,3 +119,15 @@ def test_a_damaged_netcdf_file_gets_one_clear_message(tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 2 and "broken.nc: not a readable netCDF file" in err
     assert "Traceback" not in err
+
+
+def test_a_clock_without_a_usual_name_is_mapped_with_its_unit(tmp_path):
+    n = 10
+    path = tmp_path / "clock.nc"
+    xr.Dataset({"w": ("rec", np.ones(n), {"units": "deg/s"}),
+                "clock": ("rec", np.arange(n) * 100.0)}).to_netcdf(path)
+    with pytest.raises(GyroidInputError, match="name the clock with --map time_s=VARIABLE"):
+        read_log_table(path)
+    table = read_log_table(path, parse_column_maps(["time_s=clock:ms"]))
+    np.testing.assert_allclose(table.number_column("time_s"), np.arange(n) * 0.1)
+    np.testing.assert_allclose(table.number_column("drift_deg_h"), 3600.0)

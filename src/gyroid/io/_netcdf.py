@@ -54,14 +54,16 @@ def read_netcdf(path: Path, maps: tuple[ColumnMap, ...] = ()) -> LogTable:
     try:
         time_dim, time_name = _time_dimension(dataset, path, maps)
         columns, units, origins = _columns(dataset, time_dim, time_name)
-        time_s = _clock(dataset[time_name], path)
+        clock_unit = next((m.unit for m in maps if m.target == "time_s"), None)
+        time_s = _clock(dataset[time_name], path, clock_unit)
     finally:
         dataset.close()
-    maps = _resolve_maps(maps, columns, units, path)
+    # the clock is decoded here (its map's unit, if any, read above)
+    maps = _resolve_maps(tuple(m for m in maps if m.target != "time_s"), columns, units, path)
     mapped = {m.target for m in maps}
     used = {m.source for m in maps}
     recognised = _recognise({c: u for c, u in units.items() if c not in used}, mapped, path)
-    raw = {"time_s": time_s} if "time_s" not in mapped else {}
+    raw = {"time_s": time_s}
     picked = {"format": "netCDF", "time": f"{time_name} (dimension {time_dim})"}
     for target, (source, unit) in recognised.items():
         raw[target] = conversions(target)[unit](columns[source])
@@ -154,12 +156,15 @@ def _axis_labels(dataset, variable, time_dim: str, width: int) -> list[str | Non
     return [str(k + 1) for k in range(width)]
 
 
-def _clock(variable, path: Path) -> np.ndarray:
+def _clock(variable, path: Path, unit: str | None = None) -> np.ndarray:
     """Seconds from a time variable: CF ``UNIT since DATE`` (seconds since 1970 when the
-    date reads), a plain time unit, or a datetime64 variable."""
+    date reads), a plain time unit (``unit``, a ``--map time_s=VAR:UNIT``'s, else its
+    ``units`` attribute), or a datetime64 variable."""
     values = np.asarray(variable.values)
     if values.dtype.kind == "M":
         return values.astype("datetime64[ns]").astype(np.int64) / 1e9
+    if unit in _SECONDS:
+        return values.astype(float) * _SECONDS[unit]
     unit_text = str(variable.attrs.get("units", "")).strip()
     since = re.fullmatch(r"(\w+)\s+since\s+(.+)", unit_text, flags=re.IGNORECASE)
     if since:
