@@ -313,9 +313,8 @@ def simulate_magnetic_bench(
     time_s, field_uT = protocol.schedule()
     if say is not None:
         say(f"simulating the magnetic bench ({time_s.size} rows) ...")
-    phase = 2.0 * np.pi * time_s / (3600.0 * protocol.wander_period_h)
-    temperature = protocol.lab_C + protocol.temperature_wander_C * np.sin(phase)
-    rate = protocol.temperature_wander_C * np.cos(phase) * 2.0 * np.pi / protocol.wander_period_h
+    temperature, rate = lab_wander(time_s, protocol.lab_C, protocol.temperature_wander_C,
+                                   protocol.wander_period_h)
     return _simulate(
         bench="magnetic",
         time_s=time_s,
@@ -331,6 +330,15 @@ def simulate_magnetic_bench(
         average_s=average_s,
         t0_C=t0_C,
     )
+
+
+def lab_wander(time_s: np.ndarray, lab_C: float, amplitude_C: float, period_h: float
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """A lab's temperature (degC) wandering sinusoidally about ``lab_C`` and its exact rate
+    (degC/h), at ``time_s``: the magnetic and overload benches' thermal background."""
+    phase = 2.0 * np.pi * time_s / (3600.0 * period_h)
+    return (lab_C + amplitude_C * np.sin(phase),
+            amplitude_C * np.cos(phase) * 2.0 * np.pi / period_h)
 
 
 def preset_parameters(preset: str) -> dict[str, float]:

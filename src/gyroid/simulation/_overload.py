@@ -23,6 +23,7 @@ from gyroid.simulation._bench import (
     PAPER_A_THERMAL,
     SimulatedBench,
     _simulate,
+    lab_wander,
 )
 from gyroid.simulation._noise import GyroNoise
 from gyroid.simulation._truth import resolve_truth
@@ -96,9 +97,8 @@ def simulate_overload_bench(
     if say is not None:
         say(f"simulating the overload bench ({time_s.size} rows, orientations "
             f"{', '.join(protocol.orientations)}) ...")
-    phase = 2.0 * np.pi * time_s / (3600.0 * protocol.wander_period_h)
-    temperature = protocol.lab_C + protocol.temperature_wander_C * np.sin(phase)
-    rate = protocol.temperature_wander_C * np.cos(phase) * 2.0 * np.pi / protocol.wander_period_h
+    temperature, rate = lab_wander(time_s, protocol.lab_C, protocol.temperature_wander_C,
+                                   protocol.wander_period_h)
     return _simulate(bench="overload", time_s=time_s, temperature_C=temperature,
                      rate_C_h=rate, field_uT=None, terms=terms, values=values,
                      noise=noise, sample_s=protocol.sample_s, seed=seed,
