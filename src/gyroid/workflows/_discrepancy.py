@@ -20,6 +20,7 @@ greedy loop and the report (shared with roll logs), :mod:`gyroid.workflows._disc
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import jax.numpy as jnp
 import numpy as np
@@ -134,25 +135,31 @@ def find_discrepancies(
     the samples' BIC penalty (``log n`` of the samples) while each fit costs per mean."""
     say = progress or (lambda _msg: None)
     n_samples = log.n
-    step = float(np.median(np.diff(log.time_s))) if log.n > 1 else MEAN_OVER_S
-    per_mean = round(MEAN_OVER_S / step) if step < MEAN_OVER_S / 2 else 1
-    if per_mean > 1:
-        say(f"  searching on means of {per_mean} samples ({per_mean * step:.3g} s) ...")
-        log = block_means(log, per_mean)
     start = DriftModel.from_terms(terms)
-    window = _choose_rate_window(log, start, t0_C)
-    inputs = log.inputs(t0_C=t0_C, rate_window_s=window)
-    start.check_identifiable(inputs, frozenset(log.columns))
-    search = _Search(log, inputs, per_mean)
+    search, window = _search_on(log, start, t0_C, say)
+    start.check_identifiable(search.inputs, frozenset(search.log.columns))
     pool = candidates or tuple(
         [name for name in EFFECTS if name not in start.terms]
-        + [EXTRA_PREFIX + column for column in log.extra_columns])
+        + [EXTRA_PREFIX + column for column in search.log.extra_columns])
     found = add_while_evidence(
         search.trial(start, NoiseLevels(1.0, 1e-6, 300.0)), pool,
         try_adding=search.try_adding, describe=search.describe, n=n_samples,
         threshold=ADD_THRESHOLD, max_added=max_added, progress=say)
     say("  testing the final model against a flexible term ...")
     return search.report(found, window)
+
+
+def _search_on(log: BenchLog, model: DriftModel, t0_C: float,
+               say: Callable[[str], None] = lambda _m: None) -> tuple[_Search, float]:
+    """The search on ``log`` (on means of samples lasting about ``MEAN_OVER_S`` for a fast
+    log) with the rate window chosen for ``model``, and that window (s)."""
+    step = float(np.median(np.diff(log.time_s))) if log.n > 1 else MEAN_OVER_S
+    per_mean = round(MEAN_OVER_S / step) if step < MEAN_OVER_S / 2 else 1
+    if per_mean > 1:
+        say(f"  searching on means of {per_mean} samples ({per_mean * step:.3g} s) ...")
+        log = block_means(log, per_mean)
+    window = _choose_rate_window(log, model, t0_C)
+    return _Search(log, log.inputs(t0_C=t0_C, rate_window_s=window), per_mean), window
 
 
 #: The extra column standing for a step at a given time (``step_at_time``).
@@ -169,18 +176,12 @@ def step_at_time(log: BenchLog, terms: tuple[str, ...], time_h: float, *,
     columns = dict(log.columns) | {STEP_COLUMN: (elapsed_h >= time_h).astype(float)}
     stepped = BenchLog(columns=columns, source=log.source, comments=log.comments,
                        extra_columns=(*log.extra_columns, STEP_COLUMN), axis=log.axis)
-    n_samples = log.n
-    sample_s = float(np.median(np.diff(log.time_s))) if log.n > 1 else MEAN_OVER_S
-    per_mean = round(MEAN_OVER_S / sample_s) if sample_s < MEAN_OVER_S / 2 else 1
-    if per_mean > 1:
-        stepped = block_means(stepped, per_mean)
     model = DriftModel(terms=resolve_terms(terms))
-    inputs = stepped.inputs(t0_C=t0_C, rate_window_s=_choose_rate_window(stepped, model, t0_C))
-    search = _Search(stepped, inputs, per_mean)
+    search, _ = _search_on(stepped, model, t0_C)
     without = search.trial(model, NoiseLevels(1.0, 1e-6, 300.0))
     added = search.trial(DriftModel(terms=resolve_terms((*terms, EXTRA_PREFIX + STEP_COLUMN))),
                          without.fit[1])
-    dbic = 2.0 * (added.log_likelihood - without.log_likelihood) - math.log(n_samples)
+    dbic = 2.0 * (added.log_likelihood - without.log_likelihood) - math.log(log.n)
     return dbic, float(added.fit[0].values["w_extra_" + STEP_COLUMN])
 
 
