@@ -326,7 +326,7 @@ def _rate_estimate_check(problem: AbstractProblem, point: PointEstimate, time_s:
     step = float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
     noise = point.rms_residual / math.sqrt(max(window_s / step, 1.0))
     return rate_estimate(time_s, np.asarray(problem.log.columns["temperature_C"]), window_s,
-                         float(wD), noise)
+                         float(wD), noise, rate_C_h=np.asarray(problem.inputs.rate_C_h))
 
 
 def spikes_within_segments(samples: SampleDeviations, *, sigma_of_means: float,

@@ -31,10 +31,12 @@ DISAGREE_FRACTION = 0.01
 
 
 def rate_estimate(time_s: np.ndarray, temperature_C: np.ndarray, window_s: float,
-                  wD: float | None, drift_noise_deg_h: float) -> Check:
+                  wD: float | None, drift_noise_deg_h: float,
+                  rate_C_h: np.ndarray | None = None) -> Check:
     """The check (see the module docstring); ``wD`` None: the model has no dT/dt term;
     ``drift_noise_deg_h``: the sd of the drift's mean over a window, below which the
-    estimator's error is not worth a word."""
+    estimator's error is not worth a word; ``rate_C_h``: the rate over ``window_s`` when the
+    caller has it (a fit's inputs), else estimated here."""
     name = "rate_estimate"
     if wD is None:
         return Check(name, True, "warning", None, DISAGREE_FRACTION, "no dT/dt term")
@@ -49,7 +51,8 @@ def rate_estimate(time_s: np.ndarray, temperature_C: np.ndarray, window_s: float
         return Check(name, True, "warning", None, DISAGREE_FRACTION,
                      "not judged on a log with pauses (the estimator's noise there is not "
                      "that of evenly spaced samples)")
-    full = temperature_rate_deg_c_per_h(time_s, temperature, window_s)
+    full = (temperature_rate_deg_c_per_h(time_s, temperature, window_s) if rate_C_h is None
+            else np.asarray(rate_C_h, dtype=float))
     half = temperature_rate_deg_c_per_h(time_s, temperature, window_s / 2.0)
     second = np.diff(temperature, 2)
     noise_C = 1.4826 * float(np.median(np.abs(second - np.median(second)))) / math.sqrt(6.0)
