@@ -43,7 +43,7 @@ def fitted_thermal(seed: int):
     from gyroid.simulation import simulate_thermal_bench
 
     sim = simulate_thermal_bench(seed=seed)
-    fit = fit_log(sim.log, "thermal", seed=seed, sampler=Emcee(progress=False))
+    fit = fit_log(sim.log, "thermal", seed=seed, sampler=Emcee(progress=False), noise="white")
     return fit.fitted_drift()
 
 

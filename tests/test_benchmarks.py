@@ -42,7 +42,7 @@ def test_the_bare_script_baseline_fits_the_same_coefficients(tmp_path):
     out = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "bare_thermal_fit.py"),
                           str(path)], capture_output=True, text=True, check=True)
     bare = json.loads(out.stdout.strip().splitlines()[-1])["mean"]
-    ours = fit_log(sim.log, "thermal", sampler=Emcee(progress=False))
+    ours = fit_log(sim.log, "thermal", sampler=Emcee(progress=False), noise="white")
     for name in ("w1", "wD"):
         summary = ours.posterior.summary[name]
         # Different dT/dt estimators: agreement within 3 posterior sd is the claim.

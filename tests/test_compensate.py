@@ -52,7 +52,8 @@ def test_gauss_markov_bias_instability_is_recovered():
 def fitted_short():
     protocol = ThermalProtocol(setpoints_C=(31.0, 35.0, 40.0))
     sim = simulate_thermal_bench(seed=21, protocol=protocol)
-    return fit_log(sim.log, "thermal", seed=1, sampler=Emcee(progress=False)).fitted_drift()
+    return fit_log(sim.log, "thermal", seed=1, sampler=Emcee(progress=False),
+                   noise="white").fitted_drift()
 
 
 def test_compensated_drift_has_the_truths_noise_level(fitted_short):

@@ -156,11 +156,12 @@ def test_the_demo_thermal_bench_passes_white_because_the_thermometer_is_modelled
     # window, was in the residuals. Carried in the likelihood, the same fit passes every
     # check; left out, it still fails, so no threshold moved.
     sim = simulate_thermal_bench(seed=0)
-    carried = fit_log(sim.log, "thermal", seed=0, sampler=Emcee(progress=False))
+    carried = fit_log(sim.log, "thermal", seed=0, sampler=Emcee(progress=False), noise="white")
     assert carried.problem.thermometer_sd_C == pytest.approx(0.01, rel=0.05)
     assert carried.trustworthy, carried.checks.lines()
     for name, truth in sim.truth["parameters"].items():
         summary = carried.posterior.summary[name]
         assert abs(summary["mean"] - truth) < 3.0 * summary["sd"], name
-    plain = fit_log(sim.log, "thermal", seed=0, sample=False, errors_in_variables=False)
+    plain = fit_log(sim.log, "thermal", seed=0, sample=False, errors_in_variables=False,
+                    noise="white")
     assert "residual_whiteness" in {c.name for c in plain.checks.failed}

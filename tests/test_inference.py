@@ -46,7 +46,7 @@ def _exact_gaussian(problem: BenchProblem):
 def test_linear_gaussian_flat_prior_posterior_is_exact():
     theta = {"w0": 1.2, **PAPER_A_DEVICE_2}
     log = _heteroscedastic_magnetic_log(1, theta)
-    result = fit_log(log, "magnetic", flat_prior=True, seed=2, sampler=QUICK)
+    result = fit_log(log, "magnetic", flat_prior=True, seed=2, sampler=QUICK, noise="white")
     mean, covariance = _exact_gaussian(result.problem)
     sd = np.sqrt(np.diag(covariance))
     names = result.model_names
@@ -242,7 +242,8 @@ def test_simulation_based_calibration_known_sigma():
                  "wz": rng.normal(0, 2)}
         log = _heteroscedastic_magnetic_log(1000 + k, truth)
         # The fit's prior must be the one the truth is drawn from: paper A's FOG priors.
-        result = fit_log(log, "magnetic", seed=k, sampler=settings, prior_set="paper_a_fog")
+        result = fit_log(log, "magnetic", seed=k, sampler=settings, prior_set="paper_a_fog",
+                         noise="white")
         for i, name in enumerate(names):
             draws = result.posterior.draws[..., i].reshape(-1)
             ranks[name].append(np.mean(draws < truth[name]))
@@ -260,7 +261,7 @@ def test_recovery_of_paper_a_values(bench):
     else:
         sim, terms = simulate_magnetic_bench(seed=7), "magnetic"
         truth = {"w0": PAPER_A_THERMAL["w0"], **PAPER_A_DEVICE_2}
-    result = fit_log(sim.log, terms, seed=1, sampler=QUICK)
+    result = fit_log(sim.log, terms, seed=1, sampler=QUICK, noise="white")
     outside = 0
     for name, value in truth.items():
         summary = result.posterior.summary[name]
@@ -304,7 +305,7 @@ def test_posterior_predictions_of_a_linear_model_are_its_design_rows_times_the_d
     import jax
 
     sim = simulate_magnetic_bench(seed=3, protocol=SHORT_MAGNETIC)
-    result = fit_log(sim.log, "magnetic", sampler=Emcee(progress=False))
+    result = fit_log(sim.log, "magnetic", sampler=Emcee(progress=False), noise="white")
     fast = result.predict_draws(n_draws=25, seed=4, every=3)
     flat = result.posterior.draws.reshape(-1, len(result.problem.names))
     pick = np.random.default_rng(4).choice(flat.shape[0], size=25, replace=False)
@@ -348,10 +349,28 @@ def test_fit_log_progress_can_be_switched_off(capsys, monkeypatch):
     rng = np.random.default_rng(3)
     log = BenchLog(columns={"time_s": np.arange(500.0),
                             "drift_deg_h": 1.0 + rng.normal(0.0, 0.3, 500)})
-    fit_log(log, "bias", progress=False)
+    fit_log(log, "bias", progress=False, noise="white")
     assert "emcee" not in capsys.readouterr().err
-    fit_log(log, "bias")
+    fit_log(log, "bias", noise="white")
     assert "emcee" in capsys.readouterr().err
+
+
+def test_fit_log_defaults_to_the_command_lines_noise():
+    """A script's fit_log(log, terms) gets what `gyroid fit` gives (issue 42): IEEE 952
+    noise, whose rate random walk widens a temperature slope the walk can mimic, not the
+    white fit that calls it known to the walk's residual spread over sqrt(n)."""
+    rng = np.random.default_rng(11)
+    n = 4000
+    temperature = np.linspace(20.0, 40.0, n)
+    walk = np.cumsum(rng.normal(0.0, 0.05, n))
+    log = BenchLog(columns={"time_s": np.arange(n, dtype=float), "temperature_C": temperature,
+                            "drift_deg_h": 1.0 + 0.1 * (temperature - 21.0) + walk
+                            + rng.normal(0.0, 0.3, n)})
+    default = fit_log(log, "bias,temperature", sample=False)
+    white = fit_log(log, "bias,temperature", sample=False, noise="white")
+    assert default.problem.noise.name == "white+flicker+rw"
+    assert default.noise_choice.startswith("auto")
+    assert default.point.sd["w1"] > 5.0 * white.point.sd["w1"]
 
 
 def test_white_gm_on_block_means_is_the_exact_gaussian_of_the_blocks():

@@ -125,7 +125,7 @@ def test_segment_means_give_a_trusted_fit_of_the_real_log(tmp_path, capsys, pan_
 def test_without_its_spikes_the_bias_wander_alone_makes_it_untrustworthy(pan_log):
     keep = np.ones(pan_log.n, dtype=bool)
     keep[list(SPIKES)] = False
-    result = fit_log(_subset(pan_log, keep), THERMAL, sampler=QUICK)
+    result = fit_log(_subset(pan_log, keep), THERMAL, sampler=QUICK, noise="white")
     failed = {c.name: c for c in result.checks.failed}
     # The whiteness check sees the wander between bursts, and so does the predictive check:
     # held-out stretches of bursts fall outside the per-sample fit's bands.
@@ -144,7 +144,7 @@ def test_held_out_bursts_are_compensated_as_well_as_numpy_least_squares(pan_log)
     burst = _bursts(pan_log)
     train = _subset(pan_log, keep & (burst % 2 == 0))
     test = _subset(pan_log, keep & (burst % 2 == 1))
-    result = fit_log(train, THERMAL, sampler=QUICK)
+    result = fit_log(train, THERMAL, sampler=QUICK, noise="white")
     comp = compensate(test, result.fitted_drift())
     beta = np.linalg.lstsq(_plain_design(train), train.drift_deg_h, rcond=None)[0]
     plain = test.drift_deg_h - _plain_design(test) @ beta
@@ -169,7 +169,7 @@ def test_a_colder_held_out_third_is_flagged_as_extrapolation(pan_log):
     keep[list(SPIKES)] = False
     burst = _bursts(pan_log)
     result = fit_log(_subset(pan_log, keep & (burst < 17)), "bias,temperature",
-                     sampler=QUICK)
+                     sampler=QUICK, noise="white")
     comp = compensate(_subset(pan_log, keep & (burst >= 17)), result.fitted_drift())
     check = {c.name: c for c in comp.checks.checks}["extrapolation"]
     assert not check.passed and check.severity == "error"
