@@ -242,7 +242,8 @@ def test_under_ieee_noise_the_point_is_the_marginal_mode_the_posterior_centres_o
                                                                  problem.n_model:])))
     assert np.all(np.abs(gradient) / curvature < 1e-3)  # a stationary point, in sd units
     mean, _, _ = collapsed._solve(v)
-    np.testing.assert_allclose(point.u[:problem.n_model], np.asarray(mean), rtol=1e-10)
+    # the same arithmetic compiled (the point's) and run op by op (here): rounding apart
+    np.testing.assert_allclose(point.u[:problem.n_model], np.asarray(mean), rtol=1e-8)
     assert point.value["K_deg_h_sqrt_h"] > 10.0  # the walk is there (posterior 33 +/- 7)
 
 

@@ -41,6 +41,7 @@ _PUBLIC = {
     "fit": "gyroid.inference", "AbstractProblem": "gyroid.inference",
     "BenchProblem": "gyroid.inference", "RollProblem": "gyroid.inference",
     "PoolProblem": "gyroid.inference", "Emcee": "gyroid.inference", "Nuts": "gyroid.inference",
+    "Importance": "gyroid.inference",
     "BenchFit": "gyroid.inference", "RollFit": "gyroid.inference", "PoolFit": "gyroid.inference",
     "fit_log": "gyroid.inference", "fit_roll_log": "gyroid.inference",
     "fit_pool": "gyroid.inference",

@@ -147,9 +147,9 @@ def cli() -> None:
 
     Paper A's FOG drift as a sum of named effects (temperature, its rate, magnetic field and
     candidate effects) and paper B's roll-gyro scale-factor correction: simulate benches and
-    flights, fit them (optimistix + emcee), compensate new runs, propagate to the correction
-    coefficient's error, find missing effects, reproduce both papers. Start with
-    `gyroid demo`.
+    flights, fit them (optimistix, then importance sampling or emcee), compensate new runs,
+    propagate to the correction coefficient's error, find missing effects, reproduce both
+    papers. Start with `gyroid demo`.
 
     Every command takes -q/--quiet (only errors, failed self-checks and the verdict) and
     -v/--verbose (its wall time, and an internal error's traceback, as GYROID_DEBUG=1
@@ -291,7 +291,7 @@ def fit_options(function):
     for decorate in reversed((
         terms_option(),
         click.option("--seed", default=0, show_default=True, type=SEED,
-                     help="Random seed of emcee."),
+                     help="Random seed of the sampler."),
         click.option("--noise", default="auto", show_default=True,
                      metavar="|".join(NOISE_CHOICES) + "|DIR",
                      help="Noise model: white; white plus a Gauss-Markov part; IEEE 952's "

@@ -1,7 +1,7 @@
 """Fitting: one abstract problem (:class:`AbstractProblem`) with three final kinds (a bench
 log's drift model, paper B's loop on a roll log, a pooled lot of runs), one :func:`fit`,
-interchangeable samplers (:class:`Emcee`, :class:`Nuts`), frozen results, and the
-self-checks every fit passes through.
+interchangeable samplers (:class:`Importance`, :class:`Emcee`, :class:`Nuts`), frozen
+results, and the self-checks every fit passes through.
 """
 
 from gyroid._lazy import attach
@@ -13,6 +13,7 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "_posterior": ["Posterior", "interval_summary", "summarise_draws"],
     "_emcee": ["Emcee"],
     "_nuts": ["Nuts"],
+    "_importance": ["Importance"],
     "_bench_problem": ["BenchProblem"],
     "_bench_density": ["BenchDensity"],
     "_bench_fit": ["fit_log"],

@@ -10,6 +10,7 @@ from gyroid.inference._bench_problem import BenchProblem
 from gyroid.inference._bench_result import BenchFit
 from gyroid.inference._emcee import Emcee
 from gyroid.inference._fit import fit
+from gyroid.inference._importance import Importance
 from gyroid.inference._problem import AbstractSampler
 from gyroid.io._logs import BenchLog, MeansOfBlocks
 from gyroid.models._drift import DriftModel
@@ -65,7 +66,7 @@ def fit_log(
                                      and not isinstance(kind, Ieee952),
                                      errors_in_variables=errors_in_variables)
 
-    chosen = sampler or Emcee(progress=progress)
+    chosen = sampler or Importance(fallback=Emcee(progress=progress))
     if not (isinstance(noise, str) and noise == "auto"):
         kind = White() if noise is None else noise_model(noise)
         return fit(problem_with(kind), sampler=chosen, seed=seed, sample=sample)

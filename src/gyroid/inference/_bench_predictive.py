@@ -16,7 +16,7 @@ import scipy.linalg
 
 from gyroid.inference._bench_density import BenchDensity
 from gyroid.inference._check_report import Check
-from gyroid.inference._collapsed import collapse
+from gyroid.inference._collapsed import collapse, conditional_solution
 from gyroid.inference._point import point_estimate
 from gyroid.inference._predictive import (
     HeldOut,
@@ -195,8 +195,8 @@ def _collapsed_folds(density: BenchDensity, parts: Stretches, time_s: np.ndarray
     folds = []
     for k in range(int(parts.fold_of.max()) + 1):
         held = parts.fold_of == k
-        collapsed = collapse(density.without_rows(parts.rows_of_fold(k)))
-        mean, factor, _ = collapsed._solve(v)
+        kept = collapse(density.without_rows(parts.rows_of_fold(k)))
+        mean, factor = conditional_solution(kept, v)
         factor = np.asarray(factor)
         covariance = np.linalg.inv(factor @ factor.T)
         x = design_means[held]

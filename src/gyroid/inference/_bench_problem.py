@@ -16,6 +16,7 @@ from gyroid.inference._bench_density import BenchDensity
 from gyroid.inference._bench_result import BenchFit, bench_checks
 from gyroid.inference._check_report import FitEvidence
 from gyroid.inference._emcee import Emcee
+from gyroid.inference._importance import Importance
 from gyroid.inference._point import point_estimate
 from gyroid.inference._problem import AbstractProblem, PointEstimate
 from gyroid.inference._rate_window import choose_rate_window, reads_rate, window_grid
@@ -204,7 +205,7 @@ class BenchProblem(AbstractProblem):
 
     def standardised_residuals(self, u) -> np.ndarray:
         """Residuals over their modelled sd (Kalman innovations under white+gm)."""
-        return np.asarray(self.density.standardised_residuals(jnp.asarray(u)))
+        return np.asarray(_standardised(self.density, jnp.asarray(u)))
 
     # ----- fitting ------------------------------------------------------------------------------
     def mode(self) -> PointEstimate:
@@ -239,8 +240,8 @@ class BenchProblem(AbstractProblem):
             where=log.where,
         )
 
-    def default_sampler(self) -> Emcee:
-        return Emcee()
+    def default_sampler(self) -> Importance:
+        return Importance(fallback=Emcee())
 
     def result(self, point: PointEstimate, posterior, *, seed: int) -> BenchFit:
         return BenchFit(problem=self, point=point, posterior=posterior, seed=seed,
@@ -391,3 +392,9 @@ def _operator_fits(log: BenchLog | MeansOfBlocks, rate_window_s: float | None,
     window = rate_window_s if rate_window_s is not None else float(window_grid(time_s)[0])
     per_row = estimator_grid_size(time_s, window) / max(rows.n, 1)
     return max(1.0, per_row) * min(rows.n, cap) <= MAX_OPERATOR_ROWS
+
+
+@eqx.filter_jit
+def _standardised(density, u):
+    """The standardised residuals, compiled once per log shape (eager: 0.2 s a call)."""
+    return density.standardised_residuals(u)

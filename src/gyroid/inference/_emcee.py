@@ -99,7 +99,7 @@ def _initial_walkers(batch, start: np.ndarray, covariance: np.ndarray, n_walkers
 def _sample(problem: AbstractProblem, point: PointEstimate, settings: Emcee, seed: int
             ) -> Posterior:
     rng = np.random.default_rng(seed)
-    walked = _Walked.of(problem, point, rng)
+    walked = Walked.of(problem, point, rng)
     batch, d = walked.batch, walked.start.size
     n_walkers = settings.n_walkers or max(16 if walked.n_coefficients else 32, 4 * d)
     n_walkers += n_walkers % 2
@@ -164,9 +164,10 @@ def _sample(problem: AbstractProblem, point: PointEstimate, settings: Emcee, see
 
 
 @dataclass(frozen=True)
-class _Walked:
-    """What emcee walks: every parameter (``full`` the identity), or a collapsed problem's
-    noise levels, the coefficients drawn given each kept draw (``full``)."""
+class Walked:
+    """What a sampler walks (emcee) or weighs (:class:`~gyroid.inference.Importance`): every
+    parameter (``full`` the identity), or a collapsed problem's noise levels, the
+    coefficients drawn given each kept draw (``full``)."""
 
     batch: Callable[[np.ndarray], np.ndarray]
     start: np.ndarray
@@ -174,10 +175,13 @@ class _Walked:
     full: Callable[[np.ndarray], np.ndarray]
     joint: Callable[[np.ndarray], np.ndarray] | None = None  # the full log-posterior
     n_coefficients: int = 0  # drawn given the walked noise levels
+    #: conditional draws and joint log-posteriors evaluated this many at a time (emcee: as
+    #: many as half an ensemble of 32 walkers, the memory its own batches already use)
+    chunk: int = 16
 
     @classmethod
-    def of(cls, problem: AbstractProblem, point: PointEstimate, rng: np.random.Generator
-           ) -> _Walked:
+    def of(cls, problem: AbstractProblem, point: PointEstimate, rng: np.random.Generator,
+           chunk: int = 16) -> Walked:
         collapsed = problem.collapsed()
         if collapsed is None:
             # A linear-Gaussian problem's log-posterior runs on the host (NumPy on its
@@ -193,19 +197,19 @@ class _Walked:
         def full(draws: np.ndarray) -> np.ndarray:
             flat = draws.reshape(-1, k)
             z = rng.standard_normal((flat.shape[0], d - k))
-            beta = in_chunks(conditional, np.column_stack([flat, z]), _CHUNK)
+            beta = in_chunks(conditional, np.column_stack([flat, z]), chunk)
             return np.concatenate([beta, flat], axis=1).reshape(*draws.shape[:-1], d)
 
         return cls(problem_batcher(collapsed.log_posterior), point.u[noise],
                    point.covariance_u[np.ix_(noise, noise)], full,
-                   problem_batcher(problem.density.log_posterior), d - k)
+                   problem_batcher(problem.density.log_posterior), d - k, chunk)
 
     def log_posterior(self, draws_u: np.ndarray, walked_lp: np.ndarray) -> np.ndarray:
         """The joint log-posterior of the kept draws (emcee's own where it walked all)."""
         if self.joint is None:
             return walked_lp
         flat = draws_u.reshape(-1, draws_u.shape[-1])
-        return in_chunks(self.joint, flat, _CHUNK).reshape(draws_u.shape[:-1])
+        return in_chunks(self.joint, flat, self.chunk).reshape(draws_u.shape[:-1])
 
     def tau_steps(self, tau: np.ndarray) -> np.ndarray:
         """Autocorrelation times per parameter; a coefficient drawn given the noise levels
@@ -213,11 +217,6 @@ class _Walked:
         if self.joint is None:
             return tau
         return np.concatenate([np.full(self.n_coefficients, float(np.max(tau))), tau])
-
-
-#: Conditional draws and joint log-posteriors evaluated this many at a time: as many as
-#: half an ensemble of 32 walkers, the memory emcee's own batches already use.
-_CHUNK = 16
 
 
 def _progress_bar(show: bool):

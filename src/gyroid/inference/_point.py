@@ -29,7 +29,7 @@ import optimistix as optx
 
 from gyroid.inference._batching import problem_batcher
 from gyroid.inference._bench_density import BenchDensity
-from gyroid.inference._collapsed import collapse
+from gyroid.inference._collapsed import collapse, conditional_solution
 from gyroid.inference._problem import PointEstimate
 from gyroid.inference._starts import grid_points, start_grid
 from gyroid.models._priors import Normal, natural_with_sd
@@ -98,6 +98,14 @@ _marginal_gradient = eqx.filter_jit(jax.grad(_negative_marginal))
 _marginal_value = eqx.filter_jit(_negative_marginal)
 
 
+@eqx.filter_jit
+def _marginal_bfgs(start, collapsed):
+    """BFGS on the collapsed marginal from ``start``, compiled once per log shape (called
+    outside jit, optimistix traced its loop anew on every call: 0.2 s a start)."""
+    return optx.minimise(_negative_marginal, optx.BFGS(rtol=1e-9, atol=1e-9), start,
+                         args=collapsed, max_steps=2000, throw=False)
+
+
 #: The correlated noise levels' extra starts: each raised this many times above its guess.
 RAISED_START = 30.0
 
@@ -116,11 +124,9 @@ def _collapsed_mode(collapsed, u_model: np.ndarray, noise_u: np.ndarray,
     more flicker, where the guess's BFGS stopped): besides the guess, BFGS starts from each
     level of ``correlated`` (indices into the levels) raised :data:`RAISED_START` times,
     and the best of them is the mode."""
-    solver = optx.BFGS(rtol=1e-9, atol=1e-9)
     starts = [jnp.asarray(noise_u)] + [jnp.asarray(noise_u).at[i].add(math.log(RAISED_START))
                                        for i in correlated]
-    solutions = [optx.minimise(_negative_marginal, solver, start, args=collapsed,
-                               max_steps=2000, throw=False) for start in starts]
+    solutions = [_marginal_bfgs(start, collapsed) for start in starts]
     # a candidate counts within 6 prior sds of each level's prior median: far beyond, the
     # filter's arithmetic (a walk's variance 1e30 times the data's) is no likelihood
     loc, scale = np.asarray(collapsed.noise_loc), np.asarray(collapsed.noise_scale)
@@ -137,7 +143,7 @@ def _collapsed_mode(collapsed, u_model: np.ndarray, noise_u: np.ndarray,
                          - np.asarray(_marginal_gradient(v - step * e, collapsed))) / (2 * step)
                         for e in jnp.eye(v.size)])
     hessian = 0.5 * (hessian + hessian.T)
-    mean, factor, _ = collapsed._solve(v)
+    mean, factor = conditional_solution(collapsed, v)
     factor = np.asarray(factor)
     covariance = _block_diag(_inverse(factor @ factor.T), _inverse(hessian))
     converged, message = _message(solution.result)

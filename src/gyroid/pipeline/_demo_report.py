@@ -87,11 +87,12 @@ def _fits_section(report: Report, study: Study) -> None:
     tf, mf = study.fits["thermal"], study.fits["magnetic"]
     magnetic = study.benches["magnetic"]
     report.add(
-        "## 2. Posteriors (optimistix point estimate, emcee, ArviZ diagnostics)", "",
+        "## 2. Posteriors (optimistix point estimate, importance sampling or emcee, ArviZ "
+        "diagnostics)", "",
         f"Thermal model `{','.join(tf.problem.model.terms)}`; noise model "
         f"`{tf.problem.noise.name}` ({tf.noise_choice or 'asked for'}), its levels sampled "
-        f"({_noise_levels(tf)}); {tf.posterior.n_steps} emcee steps x "
-        f"{tf.posterior.draws.shape[0]} walkers; files `thermal/fit/`.{_carried(tf)}", "",
+        f"({_noise_levels(tf)}); sampled by {tf.posterior.method}; files "
+        f"`thermal/fit/`.{_carried(tf)}", "",
         *_fit_table(tf, study.benches["thermal"].truth["parameters"]), "",
         *_check_lines("thermal", tf.checks))
     report.figure("thermal/fit/pair", "Posterior of the thermal coefficients (truth dashed). "

@@ -12,7 +12,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyroid.inference._bench_fit import fit_log
-from gyroid.inference._emcee import Emcee
+from gyroid.inference._importance import Importance
 from gyroid.inference._pool_fit import fit_pool
 from gyroid.io._fitted import FittedDrift
 from gyroid.io._log_writer import bench_log_text
@@ -77,11 +77,11 @@ class Study:
              self.stage / "fig_thermal_run")
 
     def fit(self) -> None:
-        self.echo("[2/6] fitting both benches (optimistix + emcee) ...")
+        self.echo("[2/6] fitting both benches (optimistix + importance sampling) ...")
         for name, terms in (("thermal", "thermal"), ("magnetic", "magnetic")):
             sim = self.benches[name]
             self.fits[name] = fit_log(sim.log, terms, seed=self.seed, noise="auto",
-                                      sampler=Emcee(progress=False))
+                                      sampler=Importance())
             write(self.folder(f"{name}/fit"), self.fits[name], truth=sim.truth["parameters"])
         magnetic, fit = self.benches["magnetic"], self.fits["magnetic"]
         # the model at the point estimate on every logged row (a fit of block means

@@ -14,6 +14,7 @@ from gyroid.inference._bench_fit import fit_log
 from gyroid.inference._bench_problem import IEEE_MAX_ROWS
 from gyroid.inference._bench_result import BenchFit
 from gyroid.inference._emcee import Emcee
+from gyroid.inference._importance import Importance
 from gyroid.io._bench_reader import bench_log_from_table
 from gyroid.io._fitted import FittedNoise, axes_of
 from gyroid.io._log_table import LogTable
@@ -146,7 +147,7 @@ def fit_file(path: str | Path, options: FitOptions, out: str | Path,
                       priors={**noise_priors[axis], **options.priors},
                       prior_set=options.prior_set, t0_C=options.t0_C,
                       rate_window_s=options.rate_window_s,
-                      sampler=Emcee(progress=options.progress),
+                      sampler=Importance(fallback=Emcee(progress=options.progress)),
                       segment_means=options.segment_means)
         if noise_priors[axis]:
             fit = replace(fit, noise_choice=f"asked for: {Ieee952.name}, its N, B and K priors "
