@@ -88,7 +88,7 @@ def fog_log(seed: int, profile: str, white_only: bool = False) -> dict[str, np.n
 
 def one(seed: int, profile: str, noise: str, white_only: bool) -> dict:
     import gyroid
-    from gyroid.inference import Emcee, fit_log
+    from gyroid.inference import Emcee, Importance, fit_log
     from gyroid.io import BenchLog
 
     gyroid.configure()
@@ -96,12 +96,13 @@ def one(seed: int, profile: str, noise: str, white_only: bool) -> dict:
     columns = fog_log(seed, profile, white_only)
     truth = dict(TRUTH, w0=columns.pop("w0_over_the_log"))
     fit = fit_log(BenchLog(columns), "thermal", noise=noise, seed=seed,
-                  sampler=Emcee(progress=False))
+                  sampler=Importance(fallback=Emcee(progress=False)))
     summary = fit.posterior.summary
     z = {name: (summary[name]["mean"] - value) / summary[name]["sd"]
          for name, value in truth.items()}
     return {"seed": seed, "profile": profile, "noise": noise,
             "noise_used": fit.problem.noise.name, "trustworthy": fit.trustworthy,
+            "sampler": fit.posterior.move,
             "failed_errors": [c.name for c in fit.checks.failed if c.severity == "error"],
             "failed_messages": [c.message for c in fit.checks.failed if c.severity == "error"],
             "inside_95": {name: bool(summary[name]["ci95"][0] <= value
