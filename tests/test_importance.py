@@ -2,6 +2,7 @@
 against the exact posterior, computed here by quadrature on a grid of the noise levels."""
 
 import itertools
+import re
 
 import equinox as eqx
 import jax
@@ -11,6 +12,15 @@ import pytest
 from gyroid import BenchLog
 from gyroid.inference import BenchProblem, Emcee, Importance
 from gyroid.inference._batching import in_chunks, problem_batcher
+
+_EXACT = {}
+
+
+def _exact(problem, point):
+    """The quadrature, once per module."""
+    if "value" not in _EXACT:
+        _EXACT["value"] = _quadrature(problem, point)
+    return _EXACT["value"]
 
 
 @pytest.fixture(scope="module")
@@ -77,14 +87,21 @@ def _solved(collapsed, nodes):
 
 
 @pytest.mark.slow
-def test_importance_sampling_reaches_the_exact_posterior(walked_problem):
+@pytest.mark.parametrize(("sampler", "stages"), [
+    (Importance(), {1}),
+    # a first stage far too narrow (a tenth of the mode's covariance): the adapted stages
+    # must find the posterior's tails themselves
+    (Importance(inflation=(0.1,)), {2, 3, 4}),
+])
+def test_importance_sampling_reaches_the_exact_posterior(walked_problem, sampler, stages):
     """Every sampling coordinate's mean within 4.5 Monte-Carlo standard errors of the
     quadrature's (sd / sqrt(ESS)), its sd within 4.5 of the sd's (about sd / sqrt(2 ESS));
     the Pareto k says the weights are reliable; the same seed gives the same draws."""
     problem, point = walked_problem
-    exact_mean, exact_sd = _quadrature(problem, point)
-    posterior = Importance().sample(problem, point, seed=3)
-    assert posterior.move == "psis" and "Pareto k" in posterior.method
+    exact_mean, exact_sd = _exact(problem, point)
+    posterior = sampler.sample(problem, point, seed=3)
+    assert posterior.move == "psis" and "Pareto k" in posterior.method, posterior.method
+    assert int(re.search(r"in (\d+) stage", posterior.method).group(1)) in stages
     u = problem.to_sampling_host(posterior.draws).reshape(-1, len(problem.names))
     for i, name in enumerate(problem.names):
         ess = posterior.summary[name]["ess_bulk"]
@@ -92,7 +109,7 @@ def test_importance_sampling_reaches_the_exact_posterior(walked_problem):
         se = exact_sd[i] / np.sqrt(ess)
         assert abs(u[:, i].mean() - exact_mean[i]) < 4.5 * se, name
         assert abs(u[:, i].std() - exact_sd[i]) < 4.5 * exact_sd[i] / np.sqrt(2.0 * ess), name
-    again = Importance().sample(problem, point, seed=3)
+    again = sampler.sample(problem, point, seed=3)
     np.testing.assert_array_equal(again.draws, posterior.draws)
 
 
@@ -103,7 +120,8 @@ def test_unreliable_weights_go_to_emcee(walked_problem):
     samples instead, as it says."""
     problem, point = walked_problem
     short = Emcee(progress=False, burn_steps=100, chunk_steps=100, max_steps=200)
-    posterior = Importance(inflation=(1e-3,), fallback=short).sample(problem, point, seed=1)
+    posterior = Importance(inflation=(1e-3,), stages=1, fallback=short).sample(problem, point,
+                                                                            seed=1)
     assert posterior.method.startswith("emcee") and posterior.move == "de"
     assert posterior.n_steps == 200
 

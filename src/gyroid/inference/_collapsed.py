@@ -56,7 +56,13 @@ class CollapsedCoefficients(eqx.Module):
         factor = jnp.linalg.cholesky(precision)
         mean = jax.scipy.linalg.cho_solve((factor, True), b)
         log_det = 2.0 * jnp.sum(jnp.log(jnp.diag(factor)))
-        quadratic = a @ a + jnp.sum(self.beta_precision * self.beta_loc**2) - b @ mean
+        # a'a + m0'L0 m0 - b'beta_hat, summed as the residuals' squares: the same number,
+        # without the cancellation that made it thousands below zero where a whitened row is
+        # huge (a random walk's mean constrained with variance 3e-17, far in the tails);
+        # an inexact solution can then only lower the likelihood
+        residual = a - design @ mean
+        quadratic = residual @ residual + jnp.sum(self.beta_precision
+                                                  * (mean - self.beta_loc) ** 2)
         log_lik = (-0.5 * jnp.sum(self.weight * (jnp.log(variance) + _LOG_2PI))
                    - 0.5 * quadratic - 0.5 * log_det + 0.5 * mean.size * _LOG_2PI
                    + self.beta_log_norm)
