@@ -2,7 +2,6 @@
 against the exact posterior, computed here by quadrature on a grid of the noise levels."""
 
 import itertools
-import re
 
 import equinox as eqx
 import jax
@@ -26,7 +25,10 @@ def _exact(problem, point):
 @pytest.fixture(scope="module")
 def walked_problem():
     """A 20-minute log at 1 Hz whose bias walks, fitted with a temperature slope under IEEE
-    952 noise: three noise levels, two coefficients integrated out."""
+    952 noise: three noise levels, two coefficients integrated out. Its posterior is not
+    the mode's Gaussian: B keeps its prior's lower tail against a cliff, and 42 % of log K's
+    mass lies in its prior's tail (the flicker explaining the wander instead), a part that
+    emcee started at the mode missed on two seeds of three."""
     rng = np.random.default_rng(5)
     n = 1200
     temperature = np.linspace(15.0, 35.0, n)
@@ -38,39 +40,33 @@ def walked_problem():
     return problem, problem.mode()
 
 
-def _quadrature(problem, point, per_axis=31, drop=40.0):
+def _quadrature(problem, point):
     """The exact posterior's means and sds of every sampling coordinate: the collapsed
-    marginal of the noise levels summed over a box of the log levels (each axis as far as a
-    slice through the mode falls ``drop`` below its peak: the posterior need not look like
-    the mode's Gaussian, e.g. a level the log does not resolve keeps its prior's lower tail
-    and meets a cliff above), each node carrying the coefficients' exact conditional
-    Gaussian (the law of total variance)."""
+    marginal of the noise levels summed over a grid of the log levels, each node carrying
+    the coefficients' exact conditional Gaussian (the law of total variance). The white
+    level is resolved (1 sd apart within 8 of the mode's); flicker and walk span their
+    priors' +/- 4.5 sds 0.3 apart, fine enough for either level's bump (sds 0.14 and more)
+    wherever it sits: the posterior has one where the walk explains the wander and another
+    where the flicker does."""
     collapsed = problem.collapsed()
-    batch = problem_batcher(collapsed.log_posterior)
     k = int(collapsed.noise_loc.size)
-    d = point.u.size
-    p = d - k
-    centre = np.asarray(point.u)[p:]
-    sd = np.sqrt(np.diag(np.asarray(point.covariance_u))[p:])
-    axes = []
-    for a in range(k):
-        reach = np.linspace(-15.0, 15.0, 121) * sd[a]
-        line = np.tile(centre, (reach.size, 1))
-        line[:, a] += reach
-        lp = np.asarray(batch(line))
-        inside = reach[lp > lp.max() - drop]
-        axes.append(centre[a] + np.linspace(inside.min() - sd[a], inside.max() + sd[a],
-                                            per_axis))
+    p = point.u.size - k
+    white = np.asarray(point.u)[p] + np.linspace(-8.0, 8.0, 17) * np.sqrt(
+        np.asarray(point.covariance_u)[p, p])
+    axes = [white] + [float(collapsed.noise_loc[a]) + np.arange(-13.5, 13.51, 0.3)
+                      for a in (1, 2)]
     nodes = np.array(list(itertools.product(*axes)))
-    log_post = in_chunks(batch, nodes, 512)
+    log_post = in_chunks(problem_batcher(collapsed.log_posterior), nodes, 1024)
     w = np.exp(log_post - log_post.max())
     w /= w.sum()
-    cube = w.reshape((per_axis,) * k)
+    cube = w.reshape([x.size for x in axes])
     for a in range(k):  # the box holds the mass: little of it on any face
         assert np.take(cube, [0, -1], axis=a).sum() < 1e-4
+    live = w > 1e-12 * w.max()  # the conditional Gaussians where the weight is not nil
+    w, nodes = w[live] / w[live].sum(), nodes[live]
     mean_beta, var_beta = [], []
-    for start in range(0, nodes.shape[0], 512):
-        mean_b, factor = _solved(collapsed, nodes[start:start + 512])
+    for start in range(0, nodes.shape[0], 1024):
+        mean_b, factor = _solved(collapsed, nodes[start:start + 1024])
         mean_beta.append(np.asarray(mean_b))
         precision = np.asarray(factor) @ np.swapaxes(np.asarray(factor), 1, 2)
         var_beta.append(np.diagonal(np.linalg.inv(precision), axis1=1, axis2=2))
@@ -87,29 +83,30 @@ def _solved(collapsed, nodes):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("sampler", "stages"), [
-    (Importance(), {1}),
-    # a first stage far too narrow (a tenth of the mode's covariance): the adapted stages
-    # must find the posterior's tails themselves
-    (Importance(inflation=(0.1,)), {2, 3, 4}),
-])
-def test_importance_sampling_reaches_the_exact_posterior(walked_problem, sampler, stages):
+@pytest.mark.parametrize("seed", [3, 4, 5])
+def test_importance_sampling_reaches_the_exact_posterior(walked_problem, seed):
     """Every sampling coordinate's mean within 4.5 Monte-Carlo standard errors of the
-    quadrature's (sd / sqrt(ESS)), its sd within 4.5 of the sd's (about sd / sqrt(2 ESS));
-    the Pareto k says the weights are reliable; the same seed gives the same draws."""
+    quadrature's (sd / sqrt(ESS)), its sd within 4.5 of the sd's; the Pareto k says the
+    weights are reliable; the same seed gives the same draws. (A first stage without the
+    prior-tail parts, or far too narrow, can miss the walk's tail and still report a
+    small k: importance sampling is as good as what its first stage reaches.)"""
     problem, point = walked_problem
     exact_mean, exact_sd = _exact(problem, point)
-    posterior = sampler.sample(problem, point, seed=3)
+    assert exact_sd[-1] > 2.0  # log K reaches into its prior's tail (its bump's sd: 0.14)
+    posterior = Importance().sample(problem, point, seed=seed)
     assert posterior.move == "psis" and "Pareto k" in posterior.method, posterior.method
-    assert int(re.search(r"in (\d+) stage", posterior.method).group(1)) in stages
     u = problem.to_sampling_host(posterior.draws).reshape(-1, len(problem.names))
     for i, name in enumerate(problem.names):
         ess = posterior.summary[name]["ess_bulk"]
         assert ess >= 400, name
         se = exact_sd[i] / np.sqrt(ess)
         assert abs(u[:, i].mean() - exact_mean[i]) < 4.5 * se, name
-        assert abs(u[:, i].std() - exact_sd[i]) < 4.5 * exact_sd[i] / np.sqrt(2.0 * ess), name
-    again = sampler.sample(problem, point, seed=3)
+        # a sample sd's standard error, sd sqrt((kurtosis - 1) / 4n): these marginals are
+        # mixtures of the two parts' (heavier-tailed than a Gaussian's kurtosis of 3)
+        kurtosis = np.mean((u[:, i] - u[:, i].mean()) ** 4) / u[:, i].var() ** 2
+        se_sd = exact_sd[i] * np.sqrt((kurtosis - 1.0) / (4.0 * ess))
+        assert abs(u[:, i].std() - exact_sd[i]) < 4.5 * se_sd, name
+    again = Importance().sample(problem, point, seed=seed)
     np.testing.assert_array_equal(again.draws, posterior.draws)
 
 
