@@ -64,9 +64,10 @@ KERNELS = 200
 
 @dataclass(frozen=True)
 class Importance(AbstractSampler):
-    """Pareto-smoothed importance sampling of a collapsed problem's noise levels from a
-    Student-t about the mode (module docstring); ``fallback`` for any other problem and
-    wherever the smoothed weights are not reliable."""
+    """Pareto-smoothed importance sampling of a collapsed problem's noise levels from
+    Student-t's about the mode and the levels' priors, adapted in stages (module
+    docstring); ``fallback`` for any other problem and wherever the smoothed weights stay
+    unreliable."""
 
     n_draws: int = 4000
     df: float = 4.0  # the proposal's degrees of freedom
