@@ -450,3 +450,17 @@ def test_window_bands_cost():
                         "band" for r in refused)
             + f"), the other {len(passed)} held {100 * min(passed):.0f}-"
               f"{100 * max(passed):.0f} %")
+
+
+def test_sbc_of_the_default_fit():
+    s = _results("sbc_ieee")["summary"]
+    ks = {k: s[k]["ks_pvalue"] for k in ("w1", "N_deg_sqrt_h", "B_deg_h", "K_deg_h_sqrt_h")}
+    cover = {k: 100 * s[k]["coverage"]["90%"] for k in ks}
+    _quoted(f"{s['importance_sampled']} of 200 sampled by importance sampling, "
+            f"{s['trustworthy']} trusted, {s['median_seconds']:.1f} s a fit",
+            "(KS p " + ", ".join(f"{v:.2f}" for v in list(ks.values())[:3])
+            + f" and {ks['K_deg_h_sqrt_h']:.2f};",
+            "intervals cover " + ", ".join(f"{v:g}" for v in list(cover.values())[:3])
+            + f" and {cover['K_deg_h_sqrt_h']:g} %",
+            f"KS p {s['w0']['ks_pvalue']:.3f}, its 50 % and 95 % intervals cover "
+            f"{100 * s['w0']['coverage']['50%']:g} % and {100 * s['w0']['coverage']['95%']:g} %")
