@@ -14,8 +14,12 @@ deg/h/degC, ``N ~ LogNormal(0.005, 0.5)``, ``B ~ LogNormal(0.01, 1)``,
 ``K ~ LogNormal(0.005, 1)``. The samples are a discrete-time version of the model's
 continuous processes (the filter integrates them over each 15-sample block exactly); at
 1 s against blocks of 15 s the two differ by a few per cent in the shortest flicker term.
+``--substeps 10`` simulates the noise ten times finer and reports each sample as the mean
+over its second, as a gyro's integrated output is.
 
     python experiments/sbc_ieee.py --seed 0 --datasets 200 --workers 2
+    python experiments/sbc_ieee.py --seed 0 --datasets 200 --workers 2 --substeps 10 \
+        --results sbc_ieee_substeps
 """
 
 from __future__ import annotations
@@ -54,23 +58,26 @@ def draw_truth(rng: np.random.Generator) -> dict[str, float]:
 
 
 def simulate(truth: dict[str, float], flicker_tau_s, flicker_unit_var: float,
-             rng: np.random.Generator) -> dict[str, np.ndarray]:
+             rng: np.random.Generator, substeps: int = 1) -> dict[str, np.ndarray]:
+    """The log; ``substeps`` > 1 simulates the noise that many times finer and reports each
+    sample as the mean over its step, as a gyro's integrated output is."""
     time_s = np.arange(ROWS) * DT
     temperature = 21.0 + 15.0 * np.sin(2.0 * math.pi * time_s / (ROWS * DT))
-    drift = truth["w0"] + truth["w1"] * (temperature - 21.0)
-    drift = drift + 60.0 * truth["N_deg_sqrt_h"] / math.sqrt(DT) * rng.standard_normal(ROWS)
+    n, dt = ROWS * substeps, DT / substeps
+    noise = 60.0 * truth["N_deg_sqrt_h"] / math.sqrt(dt) * rng.standard_normal(n)
     variance = truth["B_deg_h"] ** 2 * flicker_unit_var
     for tau in flicker_tau_s:
-        phi = math.exp(-DT / tau)
+        phi = math.exp(-dt / tau)
         start = math.sqrt(variance) * rng.standard_normal()
-        steps = math.sqrt(variance * (1.0 - phi**2)) * rng.standard_normal(ROWS)
-        drift = drift + signal.lfilter([1.0], [1.0, -phi], steps, zi=[phi * start])[0]
-    walk = np.cumsum(truth["K_deg_h_sqrt_h"] / 60.0 * math.sqrt(DT) * rng.standard_normal(ROWS))
-    drift = drift + walk - walk.mean()
+        steps = math.sqrt(variance * (1.0 - phi**2)) * rng.standard_normal(n)
+        noise = noise + signal.lfilter([1.0], [1.0, -phi], steps, zi=[phi * start])[0]
+    walk = np.cumsum(truth["K_deg_h_sqrt_h"] / 60.0 * math.sqrt(dt) * rng.standard_normal(n))
+    noise = (noise + walk - walk.mean()).reshape(ROWS, substeps).mean(axis=1)
+    drift = truth["w0"] + truth["w1"] * (temperature - 21.0) + noise
     return {"time_s": time_s, "temperature_C": temperature, "drift_deg_h": drift}
 
 
-def one(seed: int) -> dict:
+def one(seed: int, substeps: int = 1) -> dict:
     import gyroid
     from gyroid.inference import BenchProblem, Emcee, Importance, fit_log
     from gyroid.io import BenchLog
@@ -83,7 +90,7 @@ def one(seed: int) -> dict:
     noise = BenchProblem.from_log(BenchLog(clock), TERMS, noise="white+flicker+rw",
                                   priors=priors()).density.noise
     columns = simulate(truth, np.asarray(noise.flicker_tau_s), float(noise.flicker_unit_var),
-                       rng)
+                       rng, substeps)
     fit = fit_log(BenchLog(columns), TERMS, noise="auto", priors=priors(), seed=seed,
                   sampler=Importance(fallback=Emcee(progress=False)))
     draws = fit.posterior.draws.reshape(-1, len(fit.problem.names))
@@ -98,11 +105,14 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--datasets", type=int, default=200)
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--substeps", type=int, default=1,
+                        help="simulate the noise this many times finer, each sample the mean")
+    parser.add_argument("--results", default="sbc_ieee")
     args = parser.parse_args()
     started = time.time()
     seeds = [args.seed * 100000 + k for k in range(args.datasets)]
     with ProcessPoolExecutor(args.workers) as pool:
-        runs = list(pool.map(one, seeds))
+        runs = list(pool.map(one, seeds, [args.substeps] * len(seeds)))
     names = list(runs[0]["ranks"])
     summary = {}
     for name in names:
@@ -117,8 +127,9 @@ def main() -> None:
     summary["trustworthy"] = sum(r["trustworthy"] for r in runs)
     summary["median_seconds"] = float(np.median([r["seconds"] for r in runs]))
     config = {"datasets": args.datasets, "rows": ROWS, "dt_s": DT, "terms": TERMS,
+              "substeps": args.substeps,
               "priors": {k: repr(v) for k, v in priors().items()}, "workers": args.workers}
-    save_run(results_dir("sbc_ieee"), seed=args.seed, config=config,
+    save_run(results_dir(args.results), seed=args.seed, config=config,
              results={"summary": summary, "runs": runs}, started=started)
 
 
