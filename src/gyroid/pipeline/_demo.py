@@ -67,8 +67,8 @@ def run_demo(out: str | Path, *, seed: int = 0, echo: Callable[[str], None] = pr
 
 
 def _run_in_two_processes(study: Study) -> None:
-    """The discrepancy workflow and the pooled lot in a spawned process, the other steps
-    here, each process on one core (:func:`gyroid._config.one_core_environment`). If no
+    """The discrepancy workflow and the pooled lot in a spawned process on one core
+    (:func:`gyroid._config.one_core_environment`), the other steps here. If no
     second process can be started, or it dies (killed, out of memory), its steps run here;
     if a step here fails, the second process is stopped, not waited for."""
     import jax
@@ -80,12 +80,18 @@ def _run_in_two_processes(study: Study) -> None:
         study.echo(f"no second process ({error}); running every step here ...")
         pool = None
     if pool is not None:
-        with one_core_environment(), pool:
+        with pool:
             study.echo("[4/6] and [6/6] (the discrepancy workflow and the pooled lot) run "
                        "in a second process ...")
             before = set(multiprocessing.active_children())
-            side = pool.submit(_side_steps, study.stage, study.seed, study.size,
-                               jax.config.jax_compilation_cache_dir)
+            # The one-core environment for the child only: it is spawned inside submit and
+            # keeps the environment it started with. Left set while this process compiles,
+            # it put XLA_FLAGS that this process's XLA (started earlier) does not run with
+            # into the keys of the programs it cached, and a process that does run with
+            # them loaded those programs (a segmentation fault under pytest-xdist).
+            with one_core_environment():
+                side = pool.submit(_side_steps, study.stage, study.seed, study.size,
+                                   jax.config.jax_compilation_cache_dir)
             try:
                 for step in main_steps:
                     step()
