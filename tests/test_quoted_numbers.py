@@ -465,3 +465,13 @@ def test_sbc_of_the_default_fit():
             f"cover {', '.join(cover[:4])} and {cover[4]} %",
             f"KS p {point['ks_pvalue']:.3f}; its 50 % and 95 % intervals covered "
             f"{100 * point['coverage']['50%']:g} % and {100 * point['coverage']['95%']:g} %")
+
+
+def test_default_sampler_benchmark():
+    r = json.loads((ROOT / "benchmarks" / "results_default_sampler.json").read_text())
+    assert r["importance"]["trustworthy"] and r["emcee"]["trustworthy"]
+    for name, a in r["importance"]["posterior"].items():  # the same posterior: the means
+        b = r["emcee"]["posterior"][name]  # within 4 Monte-Carlo se of their difference
+        assert abs(a["mean"] - b["mean"]) < 4.0 * b["sd"] * math.sqrt(2.0 / 400.0), name
+    _quoted(f"{r['importance']['median_seconds']:.2f} s a fit, against "
+            f"{r['emcee']['median_seconds']:.2f} s with emcee in the same run")

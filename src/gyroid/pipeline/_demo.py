@@ -87,8 +87,8 @@ def _run_in_two_processes(study: Study) -> None:
             # The one-core environment for the child only: it is spawned inside submit and
             # keeps the environment it started with. Left set while this process compiles,
             # it put XLA_FLAGS that this process's XLA (started earlier) does not run with
-            # into the keys of the programs it cached, and a process that does run with
-            # them loaded those programs (a segmentation fault under pytest-xdist).
+            # into the keys of the programs it cached, for a process that does run with them
+            # to load (the likely cause of a segmentation fault seen under pytest-xdist).
             with one_core_environment():
                 side = pool.submit(_side_steps, study.stage, study.seed, study.size,
                                    jax.config.jax_compilation_cache_dir)
