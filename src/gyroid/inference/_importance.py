@@ -81,10 +81,11 @@ class Importance(AbstractSampler):
     def sample(self, problem: AbstractProblem, point: PointEstimate, *, seed: int = 0,
                progress: Callable[[str], None] | None = None) -> Posterior:
         rng = np.random.default_rng(seed)
-        if problem.collapsed() is None:
+        collapsed = problem.collapsed()
+        if collapsed is None:
             return self.fallback.sample(problem, point, seed=seed, progress=progress)
-        walked = Walked.of(problem, point, rng, chunk=_BATCH)
-        weighted = self._weighted(walked, _prior_tails(problem.collapsed()), rng)
+        walked = Walked.of(problem, point, rng, chunk=_BATCH, collapsed=collapsed)
+        weighted = self._weighted(walked, _prior_tails(collapsed), rng)
         if weighted is None:
             return self.fallback.sample(problem, point, seed=seed, progress=progress)
         return self._posterior(problem, walked, weighted, rng)
@@ -99,12 +100,16 @@ class Importance(AbstractSampler):
             return None
         stages: list = [first]
         draws, log_target = np.zeros((0, walked.start.size)), np.zeros(0)
+        densities: list[np.ndarray] = [np.zeros(0)]  # each stage's log-density at the draws
         for _ in range(self.stages):
             new = stages[-1].draw(self.n_draws, rng)
             draws = np.concatenate([draws, new])
             log_target = np.concatenate([log_target, in_chunks(walked.batch, new, _BATCH)])
-            # every draw weighed against the stages' mixture (deterministic mixture weights)
-            log_proposal = np.logaddexp.reduce([m.log_pdf(draws) for m in stages], axis=0)
+            # every draw weighed against the stages' mixture (deterministic mixture weights);
+            # each stage's density is computed once at each draw
+            densities = [np.concatenate([d, m.log_pdf(new)]) if d.size else m.log_pdf(draws)
+                         for d, m in zip(densities, stages, strict=True)]
+            log_proposal = np.logaddexp.reduce(densities, axis=0)
             weighted = _smoothed(draws, log_target, log_target - log_proposal
                                  - np.log(len(stages)))
             if weighted is None:
@@ -113,6 +118,7 @@ class Importance(AbstractSampler):
                 return weighted
             try:
                 stages.append(Blend((0.5, 0.5), (_kernels(weighted, self.df, rng), first)))
+                densities.append(np.zeros(0))
             except (ValueError, np.linalg.LinAlgError):
                 return None
         return None
