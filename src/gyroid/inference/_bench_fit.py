@@ -39,8 +39,9 @@ def fit_log(
 ) -> BenchFit:
     """Fit ``terms`` to a bench log: :meth:`BenchProblem.from_log` (``rate_window_s=None``
     chooses the dT/dt window from the data), then :func:`~gyroid.inference.fit` (the mode,
-    with ``sample=True`` the posterior by ``sampler``, default emcee with a progress bar
-    unless ``progress=False``, then the self-checks).
+    with ``sample=True`` the posterior by ``sampler``, by default importance sampling where
+    the problem has a collapsed form and its weights are reliable, else emcee with a
+    progress bar unless ``progress=False``; then the self-checks).
 
     ``noise="auto"`` (the default, here as on the command line) is IEEE 952's white +
     flicker + rate random walk (:mod:`gyroid.noise._ieee`), whatever the log: its
