@@ -445,11 +445,11 @@ def test_window_bands_cost():
     passed = [r["inside"] for r in runs if r["window_bands"]]
     refused = [r for r in runs if not r["window_bands"]]
     assert results["fits_trustworthy"] == results["pairs"]
-    _quoted(f"{len(refused)} of {results['pairs']} refused ("
-            + ", ".join(f"{round(r['inside'] * r['windows'])} of its {r['windows']} windows in "
-                        "band" for r in refused)
-            + f"), the other {len(passed)} held {100 * min(passed):.0f}-"
-              f"{100 * max(passed):.0f} %")
+    which = (" (" + ", ".join(f"{round(r['inside'] * r['windows'])} of its {r['windows']} "
+                              "windows in band" for r in refused) + ")") if refused else ""
+    _quoted(f"{len(refused)} of {results['pairs']} refused{which}, the "
+            f"{'other ' if refused else ''}{len(passed)} held {100 * min(passed):.0f}-"
+            f"{100 * max(passed):.0f} %")
 
 
 def test_sbc_of_the_default_fit():
