@@ -110,6 +110,25 @@ def test_importance_sampling_reaches_the_exact_posterior(walked_problem, seed):
     np.testing.assert_array_equal(again.draws, posterior.draws)
 
 
+def test_kept_draws_carry_the_joint_log_posterior(walked_problem):
+    """The kept draws' log-posterior, the marginal's plus the conditional Gaussian's
+    (no further filter pass), is the joint density's own at every draw; and the
+    coefficients given the levels are the exact conditional's draws (standardised by it,
+    each draw by its own levels, standard normal)."""
+    problem, point = walked_problem
+    posterior = Importance().sample(problem, point, seed=7)
+    u = problem.to_sampling_host(posterior.draws).reshape(-1, len(problem.names))
+    joint = in_chunks(problem_batcher(problem.density.log_posterior), u, 250)
+    np.testing.assert_allclose(posterior.log_posterior.reshape(-1), joint, rtol=0, atol=1e-7)
+    p = problem.n_model
+    mean, factor = (np.asarray(a) for a in _solved(problem.collapsed(), u[:, p:]))
+    # P^(1/2)' (beta - beta_hat(v)) per draw: independent standard normals
+    z = np.einsum("nji,nj->ni", factor, u[:, :p] - mean)
+    n = z.shape[0]
+    assert np.all(np.abs(z.mean(axis=0)) < 4.5 / np.sqrt(n)), z.mean(axis=0)
+    assert np.all(np.abs(z.var(axis=0) - 1.0) < 4.5 * np.sqrt(2.0 / n)), z.var(axis=0)
+
+
 def test_unreliable_weights_go_to_emcee(walked_problem):
     """A proposal a thousandth of the mode's covariance misses the posterior's bulk: its
     Pareto k is far above 0.7, and the fallback (emcee, cut short here: on this posterior,

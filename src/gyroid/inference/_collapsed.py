@@ -76,6 +76,13 @@ class CollapsedCoefficients(eqx.Module):
         value = self._solve(v)[2] + log_prior
         return jnp.where(jnp.isfinite(value), value, -jnp.inf)
 
+    def solved(self, v: Float[Array, " k"]) -> Float[Array, " 1+p+p*p"]:
+        """The marginal log-posterior at ``v``, then the coefficients' conditional mean and
+        the Cholesky factor of their precision (row by row): all a draw of the joint
+        posterior needs (:func:`conditional_draws`), from one pass of the filter."""
+        mean, factor, _ = self._solve(v)
+        return jnp.concatenate([self.log_posterior(v)[None], mean, factor.ravel()])
+
     def conditional(self, vz: Float[Array, " k_plus_p"]) -> Float[Array, " p"]:
         """A draw of the coefficients given the noise levels ``vz[:k]``, from standard
         normal deviates ``vz[k:]``: ``beta_hat + P^(-1/2) z``."""
@@ -91,6 +98,22 @@ def conditional_solution(collapsed: CollapsedCoefficients, v: Float[Array, " k"]
     scan was traced and compiled anew on every call: 0.2 s each)."""
     mean, factor, _ = collapsed._solve(v)
     return mean, factor
+
+
+def conditional_draws(solved: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Coefficients drawn given noise levels whose :meth:`CollapsedCoefficients.solved`
+    rows are ``solved`` (m, 1+p+p^2), from standard normal deviates ``z`` (m, p):
+    ``beta_hat + P^(-1/2) z``, and the joint log-posterior of each draw, the marginal's plus
+    the conditional Gaussian's log-density (the joint's factorisation; no further filter
+    pass)."""
+    m, p = z.shape
+    mean = solved[:, 1:1 + p]
+    factor = solved[:, 1 + p:].reshape(m, p, p)
+    beta = mean + np.linalg.solve(np.swapaxes(factor, 1, 2), z[..., None])[..., 0]
+    log_conditional = (-0.5 * np.sum(z**2, axis=1)
+                       + np.sum(np.log(np.diagonal(factor, axis1=1, axis2=2)), axis=1)
+                       - 0.5 * p * _LOG_2PI)
+    return beta, solved[:, 0] + log_conditional
 
 
 def collapse(density) -> CollapsedCoefficients | None:

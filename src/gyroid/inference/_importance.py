@@ -44,8 +44,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from gyroid.inference._batching import in_chunks
+from gyroid.inference._batching import in_chunks, problem_batcher
 from gyroid.inference._checks import MIN_ESS
+from gyroid.inference._collapsed import conditional_draws
 from gyroid.inference._emcee import MAX_STORED_SAMPLES, Emcee, Walked
 from gyroid.inference._posterior import Posterior, summarise_draws
 from gyroid.inference._problem import AbstractProblem, AbstractSampler, PointEstimate
@@ -85,13 +86,15 @@ class Importance(AbstractSampler):
         if collapsed is None:
             return self.fallback.sample(problem, point, seed=seed, progress=progress)
         walked = Walked.of(problem, point, rng, chunk=_BATCH, collapsed=collapsed)
-        weighted = self._weighted(walked, _prior_tails(collapsed), rng)
+        solved = problem_batcher(collapsed.solved)
+        weighted = self._weighted(walked, solved, _prior_tails(collapsed), rng)
         if weighted is None:
             return self.fallback.sample(problem, point, seed=seed, progress=progress)
-        return self._posterior(problem, walked, weighted, rng)
+        return self._posterior(problem, weighted, rng)
 
-    def _weighted(self, walked: Walked, tails: list[tuple[int, float, float]],
-                  rng: np.random.Generator) -> _Weighted | None:
+    def _weighted(self, walked: Walked, solved: Callable[[np.ndarray], np.ndarray],
+                  tails: list[tuple[int, float, float]], rng: np.random.Generator
+                  ) -> _Weighted | None:
         """The proposals, their smoothed log-weights, Pareto k and effective number; None
         when the mode gives no proposal or the weights stay unreliable (module docstring)."""
         try:
@@ -99,19 +102,21 @@ class Importance(AbstractSampler):
         except (ValueError, np.linalg.LinAlgError):
             return None
         stages: list = [first]
-        draws, log_target = np.zeros((0, walked.start.size)), np.zeros(0)
+        draws, rows = np.zeros((0, walked.start.size)), None
         densities: list[np.ndarray] = [np.zeros(0)]  # each stage's log-density at the draws
         for _ in range(self.stages):
             new = stages[-1].draw(self.n_draws, rng)
             draws = np.concatenate([draws, new])
-            log_target = np.concatenate([log_target, in_chunks(walked.batch, new, _BATCH)])
+            # the marginal and the coefficients' conditional at each draw, one filter pass
+            new_rows = in_chunks(solved, new, _BATCH)
+            rows = new_rows if rows is None else np.concatenate([rows, new_rows])
+            log_target = rows[:, 0]
             # every draw weighed against the stages' mixture (deterministic mixture weights);
             # each stage's density is computed once at each draw
             densities = [np.concatenate([d, m.log_pdf(new)]) if d.size else m.log_pdf(draws)
                          for d, m in zip(densities, stages, strict=True)]
             log_proposal = np.logaddexp.reduce(densities, axis=0)
-            weighted = _smoothed(draws, log_target, log_target - log_proposal
-                                 - np.log(len(stages)))
+            weighted = _smoothed(draws, rows, log_target - log_proposal - np.log(len(stages)))
             if weighted is None:
                 return None
             if weighted.pareto_k <= MAX_PARETO_K and weighted.effective >= MIN_ESS:
@@ -140,17 +145,19 @@ class Importance(AbstractSampler):
             components.append((1.0, start, shape))
         return StudentMixture.of(components, self.df)
 
-    def _posterior(self, problem: AbstractProblem, walked: Walked, weighted: _Weighted,
+    def _posterior(self, problem: AbstractProblem, weighted: _Weighted,
                    rng: np.random.Generator) -> Posterior:
         kept = MAX_STORED_SAMPLES - MAX_STORED_SAMPLES % _CHAINS
         index = rng.permutation(_systematic(weighted.weights, kept, rng))
-        noise = weighted.draws[index].reshape(_CHAINS, kept // _CHAINS, -1)
-        draws_u = walked.full(noise)
+        noise = weighted.draws[index]
+        z = rng.standard_normal((kept, len(problem.names) - noise.shape[1]))
+        beta, lp = conditional_draws(weighted.solved[index], z)
+        draws_u = np.concatenate([beta, noise], axis=1).reshape(_CHAINS, kept // _CHAINS, -1)
         natural = problem.to_natural_host(draws_u)
         summary = summarise_draws(natural, problem.names)
         for entry in summary.values():
             entry["ess_bulk"] = min(entry["ess_bulk"], weighted.effective)
-        lp = walked.log_posterior(draws_u, weighted.log_target[index].reshape(_CHAINS, -1))
+        lp = lp.reshape(_CHAINS, -1)
         n = weighted.draws.shape[0]
         return Posterior(
             names=problem.names,
@@ -187,7 +194,7 @@ def _kernels(weighted: _Weighted, df: float, rng: np.random.Generator) -> Kernel
     return Kernels(centres, np.linalg.cholesky(bandwidth**2 * spread), df)
 
 
-def _smoothed(draws: np.ndarray, log_target: np.ndarray, log_weight: np.ndarray
+def _smoothed(draws: np.ndarray, solved: np.ndarray, log_weight: np.ndarray
               ) -> _Weighted | None:
     """Pareto-smoothed, normalised weights (ArviZ's psislw) with their shape k and
     effective number; None when fewer than half the draws have a finite weight."""
@@ -198,13 +205,15 @@ def _smoothed(draws: np.ndarray, log_target: np.ndarray, log_weight: np.ndarray
     smoothed, pareto_k = arviz().psislw(np.where(finite, log_weight, floor))
     w = np.where(finite, np.exp(smoothed - np.max(smoothed)), 0.0)
     w /= w.sum()
-    return _Weighted(draws, log_target, w, float(pareto_k), float(1.0 / np.sum(w**2)))
+    return _Weighted(draws, solved, w, float(pareto_k), float(1.0 / np.sum(w**2)))
 
 
 @dataclass(frozen=True)
 class _Weighted:
     draws: np.ndarray  # (n, k) sampling coordinates of the noise levels
-    log_target: np.ndarray  # (n,) their marginal log-posterior
+    #: (n, 1+p+p^2) their marginal log-posterior, then the coefficients' conditional
+    #: (:meth:`~gyroid.inference._collapsed.CollapsedCoefficients.solved`)
+    solved: np.ndarray
     weights: np.ndarray  # (n,) smoothed, normalised
     pareto_k: float
     effective: float
