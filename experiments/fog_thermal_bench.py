@@ -111,6 +111,10 @@ def one(seed: int, profile: str, noise: str, white_only: bool) -> dict:
             "z": {k: round(v, 3) for k, v in z.items()},
             "sd": {k: summary[k]["sd"] for k in truth},
             "w0_truth": truth["w0"],
+            "rate_window_s": round(float(fit.problem.rate_window_s), 1),
+            "noise_median": {name: float(np.median(fit.posterior.draws[..., i]))
+                             for i, name in enumerate(fit.problem.names)
+                             if name not in truth},
             "seconds": round(time.time() - started, 1)}
 
 

@@ -19,18 +19,17 @@ from gyroid.inference._emcee import Emcee
 from gyroid.inference._importance import Importance
 from gyroid.inference._point import point_estimate
 from gyroid.inference._problem import AbstractProblem, PointEstimate
-from gyroid.inference._rate_window import choose_rate_window, reads_rate, window_grid
+from gyroid.inference._rate_window import choose_rate_window, reads_rate
+from gyroid.inference._rate_window_marginal import marginal_window
+from gyroid.inference._thermometer import thermometer_to_carry
 from gyroid.io._logs import BenchLog, MeansOfBlocks, SampleDeviations, contiguous_segments
 from gyroid.io._logs import segment_means as means_of_segments
 from gyroid.models._derived import (
-    MAX_OPERATOR_ROWS,
-    RATE_POLY_DEGREE,
     RATE_WINDOW_S,
-    estimator_grid_size,
     temperature_rate_deg_c_per_h,
 )
 from gyroid.models._drift import DriftModel
-from gyroid.models._inputs import ACCEL_COLUMNS, FIELD_COLUMNS, T0_C
+from gyroid.models._inputs import T0_C
 from gyroid.models._prior_scales import (
     PriorBasis,
     choose_priors,
@@ -40,10 +39,7 @@ from gyroid.models._prior_scales import (
 )
 from gyroid.models._priors import Prior
 from gyroid.models._rate_error import (
-    rate_coefficient_index,
     rate_error_covariance,
-    thermometer_noise_var,
-    white_level_var,
 )
 from gyroid.noise._base import NoiseModel
 from gyroid.noise._kinds import Ieee952, White, noise_model
@@ -67,6 +63,9 @@ class BenchProblem(AbstractProblem):
     #: The thermometer's white noise, a sample's sd in degC, when it is carried into the
     #: likelihood through dT/dt (errors in variables); 0 otherwise.
     thermometer_sd_C: float = 0.0
+    #: The noise levels' marginal mode found while choosing the dT/dt window (sampling
+    #: coordinates; :mod:`gyroid.inference._rate_window_marginal`): where the mode starts.
+    noise_start: tuple[float, ...] | None = eqx.field(static=True, default=None)
 
     @classmethod
     def from_log(
@@ -95,35 +94,30 @@ class BenchProblem(AbstractProblem):
         (its mean), so that the bias's wander between bursts is the noise the model
         estimates rather than a correlation it ignores; the samples are still checked for
         spikes, which the means would hide. ``fast=False`` keeps the likelihood on the rows
-        (no sufficient statistics), for tests of the fast path. Under ``white+flicker+rw``
-        and ``white+gm`` a log of more than ``max_rows`` rows (default
-        :data:`IEEE_MAX_ROWS`) is fitted as the means of blocks of consecutive samples, at
-        most that many (not with ``segment_means``): the likelihood of the
-        means is exact, a filter pass costs the same whatever the log's length, and a
-        linear model's coefficients lose little (their regressors barely change within a
-        block); the samples are still checked for spikes. A log given as
+        (no sufficient statistics), for tests of the fast path. Under correlated noise a
+        log of more than ``max_rows`` rows (default :data:`IEEE_MAX_ROWS`) is fitted as
+        at most that many means of blocks of consecutive samples (not with
+        ``segment_means``): their likelihood is exact, a filter pass costs the same at any
+        length, and a linear model loses little; the samples are checked for spikes. A log given as
         :class:`~gyroid.io._logs.MeansOfBlocks` (one read as a stream) is fitted as those
         means under any noise model.
 
-        Errors in variables: under white noise, a model that reads dT/dt on a log whose
-        thermometer is noisy (:func:`~gyroid.models._rate_error.thermometer_noise_var`)
-        carries that noise through the rate estimator into the likelihood, as a covariance
-        over the rows (:mod:`gyroid.models._rate_error`); a log of more than ``max_rows``
-        rows is then fitted as block means, as under white+flicker+rw. Not for segment
-        means, nor for a log of bursts, whose rate estimator works on a grid across the
-        gaps too long to write as a matrix, nor where it is negligible
-        (:data:`NEGLIGIBLE_EIV`); ``errors_in_variables=False`` leaves it out (the plain
-        white likelihood)."""
+        Errors in variables: under white noise, a model reading dT/dt on a log whose
+        thermometer is noisy carries that noise through the rate estimator, as a covariance
+        over the rows (:mod:`gyroid.inference._thermometer`; a log of more than
+        ``max_rows`` rows then as block means); ``errors_in_variables=False`` leaves it
+        out. Under correlated noise an automatic window is the marginal likelihood's
+        (:mod:`gyroid.inference._rate_window_marginal`)."""
         noise = White() if noise is None else noise_model(noise)
         cap = IEEE_MAX_ROWS if max_rows is None else max_rows
         model = terms if isinstance(terms, DriftModel) else DriftModel.from_terms(terms)
         thermometer_var = 0.0  # a sample's, degC^2: the thermometer's noise to carry
         if (errors_in_variables and not noise.correlated and not segment_means
                 and reads_rate(model)):
-            thermometer_var = _thermometer_to_carry(log, model, rate_window_s, t0_C, cap)
+            thermometer_var = thermometer_to_carry(log, model, rate_window_s, t0_C, cap)
         log, block_rows, samples = _rows_fitted(log, noise, segment_means,
                                                 carry_thermometer=thermometer_var > 0, cap=cap)
-        inputs = log.inputs(t0_C=t0_C)  # the one set built (10^7 rows: 0.8 GB)
+        base = inputs = log.inputs(t0_C=t0_C)  # the one set built (10^7 rows: 0.8 GB)
         if rate_window_s is None:
             rate_window_s, _ = choose_rate_window(log, model, t0_C=t0_C, inputs=inputs,
                                                   thermometer_var_C2=thermometer_var
@@ -143,12 +137,17 @@ class BenchProblem(AbstractProblem):
             rate_error = rate_error_covariance(np.asarray(log.time_s),
                                                np.asarray(log.columns["temperature_C"]),
                                                rate_window_s, thermometer_var / block_rows)
-        density = BenchDensity.from_log(log, model, chosen, inputs, noise=noise,
-                                        rate_window_s=rate_window_s, fast=fast,
-                                        rows_per_mean=block_rows, rate_error_cov=rate_error)
+
+        def density_at(window_s: float) -> BenchDensity:
+            return BenchDensity.from_log(log, model, chosen,
+                                         _with_rate_window(log, base, window_s), noise=noise,
+                                         rate_window_s=window_s, fast=fast,
+                                         rows_per_mean=block_rows, rate_error_cov=rate_error)
+
+        density, noise_start = _by_marginal(density_at, log, rate_window_s, choice == "auto")
         return cls(density=density, log=log, prior_set=chosen_set, prior_basis=basis,
                    rate_window_choice=choice, block_rows=block_rows, segments=samples,
-                   thermometer_sd_C=math.sqrt(thermometer_var))
+                   thermometer_sd_C=math.sqrt(thermometer_var), noise_start=noise_start)
 
     # ----- description (the density's) -------------------------------------------------------
     @property
@@ -209,7 +208,7 @@ class BenchProblem(AbstractProblem):
 
     # ----- fitting ------------------------------------------------------------------------------
     def mode(self) -> PointEstimate:
-        return point_estimate(self.density)
+        return point_estimate(self.density, noise_start=self.noise_start)
 
     def host_log_posterior(self):
         return self.density.host_log_posterior()
@@ -264,6 +263,24 @@ class BenchProblem(AbstractProblem):
         }
 
 
+def _by_marginal(density_at, log: BenchLog, window_s: float, auto: bool
+                 ) -> tuple[BenchDensity, tuple[float, ...] | None]:
+    """The density at ``window_s`` (s) or, for an automatic window under correlated noise
+    (a collapsed form), at the window of highest marginal likelihood
+    (:mod:`gyroid.inference._rate_window_marginal`), with the noise levels' mode found
+    there."""
+    density = density_at(window_s)
+    if not auto or not density.noise.correlated or not log.has("temperature_C"):
+        return density, None
+    better = marginal_window(density, np.asarray(log.time_s),
+                             np.asarray(log.columns["temperature_C"]), window_s)
+    if better is None:
+        return density, None
+    if better[0] != window_s:
+        density = density_at(better[0])
+    return density, tuple(float(x) for x in better[2])
+
+
 def _rows_fitted(log: BenchLog | MeansOfBlocks, noise: NoiseModel, segment_means: bool, *,
                  carry_thermometer: bool, cap: int
                  ) -> tuple[BenchLog, int, SampleDeviations | None]:
@@ -313,85 +330,6 @@ def _noise_priors(noise: NoiseModel, log: BenchLog, inputs, rows_per_mean: int,
         step = float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
         priors = noise.default_priors(level, step, rows_per_mean)
     return {name: priors[name] for name in noise.names(sigma_known)}
-
-
-def _thermometer_to_carry(log: BenchLog | MeansOfBlocks, model: DriftModel,
-                          rate_window_s: float | None, t0_C: float, cap: int) -> float:
-    """The thermometer's noise to carry in the white likelihood (a sample's variance,
-    degC^2), or 0: none measured, a log of bursts, or negligible."""
-    variance = _thermometer_var(log)
-    if variance > 0 and (not _operator_fits(log, rate_window_s, cap)
-                         or _negligible(log, model, variance, rate_window_s, t0_C)):
-        return 0.0
-    return variance
-
-
-def _thermometer_var(log: BenchLog | MeansOfBlocks) -> float:
-    """The variance of a sample's thermometer noise, degC^2 (0 without a temperature): on
-    the samples, or on a streamed log's block means (not aggregated further: a
-    temperature's curvature dominates over tens of seconds), times the samples per mean."""
-    rows = log.log if isinstance(log, MeansOfBlocks) else log
-    if "temperature_C" not in rows.columns:
-        return 0.0
-    time_s, temperature = np.asarray(rows.time_s), np.asarray(rows.columns["temperature_C"])
-    if isinstance(log, MeansOfBlocks):
-        return log.rows_per_mean * thermometer_noise_var(time_s, temperature, (1,))
-    return thermometer_noise_var(time_s, temperature)
-
-
-#: The thermometer's noise is left out of the likelihood when, at the shortest window the
-#: rate estimator may use, the rate error it causes (times wD) adds less than this fraction
-#: to the variance of the drift's mean over one window.
-NEGLIGIBLE_EIV = 0.01
-#: Rows a log is thinned to for the least-squares wD of that test.
-_THIN_ROWS = 20_000
-
-
-def _negligible(log: BenchLog | MeansOfBlocks, model: DriftModel, thermometer_var: float,
-                rate_window_s: float | None, t0_C: float) -> bool:
-    """Whether the thermometer's noise (``thermometer_var``, a sample's, degC^2) hardly
-    changes the likelihood (:data:`NEGLIGIBLE_EIV`). Over a window of ``N`` samples ``d``
-    seconds apart, white thermometer noise gives the estimated rate an error of variance
-    ``(3600 sT)^2 229.7 / (d^2 N^3)`` (:func:`~gyroid.models.temperature_rate_deg_c_per_h`),
-    common to the window, against the white drift noise ``sigma^2 / N`` of its mean; wD is
-    the least-squares value on the log (thinned), sigma the drift's first differences'
-    robust level. A nonlinear model always carries it."""
-    if not model.is_linear:
-        return False
-    rows = log.log if isinstance(log, MeansOfBlocks) else log
-    per_row = 1 if not isinstance(log, MeansOfBlocks) else log.rows_per_mean
-    every = max(1, rows.n // _THIN_ROWS)
-    time_s = np.asarray(rows.time_s)
-    thin = BenchLog(columns={k: np.asarray(v)[::every] for k, v in rows.columns.items()
-                             if k in ("time_s", "drift_deg_h", "temperature_C", *FIELD_COLUMNS,
-                                      *ACCEL_COLUMNS)
-                             or k in rows.extra_columns},
-                    extra_columns=rows.extra_columns)
-    try:
-        design = np.asarray(model.design(thin.inputs(t0_C=t0_C)))
-    except (KeyError, ValueError):
-        return False
-    y = np.asarray(thin.drift_deg_h)
-    wd = float(np.linalg.lstsq(design, y, rcond=None)[0][rate_coefficient_index(model)])
-    sample_var = per_row * white_level_var(np.asarray(rows.drift_deg_h))
-    step = float(np.median(np.diff(time_s))) / per_row  # a sample's
-    window = rate_window_s if rate_window_s is not None else float(window_grid(time_s)[0])
-    samples = max(window / step, 2.0 * RATE_POLY_DEGREE + 1)
-    rate_var = (3600.0**2 * thermometer_var * 229.7 / (step**2 * samples**3))
-    return wd**2 * rate_var * samples < NEGLIGIBLE_EIV * max(sample_var, 1e-300)
-
-
-def _operator_fits(log: BenchLog | MeansOfBlocks, rate_window_s: float | None,
-                   cap: int) -> bool:
-    """Whether the rate estimator on the rows fitted (at most ``cap`` block means of
-    ``log``; at the shortest window it may use) can be written as a matrix
-    (:func:`~gyroid.models._derived.temperature_rate_operator`): a log of bursts spreads
-    its grid over the gaps."""
-    rows = log.log if isinstance(log, MeansOfBlocks) else log
-    time_s = np.asarray(rows.time_s)
-    window = rate_window_s if rate_window_s is not None else float(window_grid(time_s)[0])
-    per_row = estimator_grid_size(time_s, window) / max(rows.n, 1)
-    return max(1.0, per_row) * min(rows.n, cap) <= MAX_OPERATOR_ROWS
 
 
 @eqx.filter_jit

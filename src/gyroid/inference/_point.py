@@ -110,6 +110,23 @@ def _marginal_bfgs(start, collapsed):
 RAISED_START = 30.0
 
 
+def marginal_mode(collapsed, noise_u: np.ndarray, correlated: tuple[int, ...] = ()):
+    """BFGS on a collapsed problem's marginal from ``noise_u`` and from each level of
+    ``correlated`` raised :data:`RAISED_START` times; the best plausible solution (its
+    levels within 6 prior sds of each prior's median: far beyond, the filter's arithmetic,
+    a walk's variance 1e30 times the data's, is no likelihood) and its log-posterior."""
+    starts = [jnp.asarray(noise_u)] + [jnp.asarray(noise_u).at[i].add(math.log(RAISED_START))
+                                       for i in correlated]
+    solutions = [_marginal_bfgs(start, collapsed) for start in starts]
+    loc, scale = np.asarray(collapsed.noise_loc), np.asarray(collapsed.noise_scale)
+    on = np.asarray(collapsed.noise_on) > 0
+    values = [float(_marginal_value(s.value, collapsed)) for s in solutions]
+    plausible = [i for i, s in enumerate(solutions) if np.isfinite(values[i]) and np.all(
+        ~on | (np.abs(np.asarray(s.value) - loc) <= 6.0 * scale))]
+    best = min(plausible, key=values.__getitem__) if plausible else 0
+    return solutions[best], -values[best]
+
+
 def _collapsed_mode(collapsed, u_model: np.ndarray, noise_u: np.ndarray,
                     correlated: tuple[int, ...] = ()):
     """The mode of a collapsed problem's noise levels (their marginal posterior, the
@@ -124,17 +141,7 @@ def _collapsed_mode(collapsed, u_model: np.ndarray, noise_u: np.ndarray,
     more flicker, where the guess's BFGS stopped): besides the guess, BFGS starts from each
     level of ``correlated`` (indices into the levels) raised :data:`RAISED_START` times,
     and the best of them is the mode."""
-    starts = [jnp.asarray(noise_u)] + [jnp.asarray(noise_u).at[i].add(math.log(RAISED_START))
-                                       for i in correlated]
-    solutions = [_marginal_bfgs(start, collapsed) for start in starts]
-    # a candidate counts within 6 prior sds of each level's prior median: far beyond, the
-    # filter's arithmetic (a walk's variance 1e30 times the data's) is no likelihood
-    loc, scale = np.asarray(collapsed.noise_loc), np.asarray(collapsed.noise_scale)
-    on = np.asarray(collapsed.noise_on) > 0
-    values = [float(_marginal_value(s.value, collapsed)) for s in solutions]
-    plausible = [i for i, s in enumerate(solutions) if np.isfinite(values[i]) and np.all(
-        ~on | (np.abs(np.asarray(s.value) - loc) <= 6.0 * scale))]
-    solution = solutions[min(plausible, key=values.__getitem__) if plausible else 0]
+    solution = marginal_mode(collapsed, noise_u, correlated)[0]
     v = solution.value
     # central differences of the gradient (a few passes) rather than jax.hessian, whose
     # forward-over-reverse pass through the filter's scan took 46 s on the demo's log
@@ -150,6 +157,19 @@ def _collapsed_mode(collapsed, u_model: np.ndarray, noise_u: np.ndarray,
     if not np.all(np.isfinite(np.asarray(mean))):
         return np.concatenate([u_model, np.asarray(v)]), covariance, False, message
     return np.concatenate([np.asarray(mean), np.asarray(v)]), covariance, converged, message
+
+
+def noise_guess(problem: BenchDensity) -> tuple[np.ndarray, tuple[int, ...]]:
+    """The noise model's own guess of its levels (sampling coordinates) from the residuals
+    of a linear model's white-noise mode, and the indices of its correlated levels: where
+    :func:`marginal_mode` starts."""
+    p = problem.n_model
+    theta = _white_start(problem)[:p]
+    residual = np.asarray(problem.drift) - np.asarray(problem.model.design(problem.inputs)) @ theta
+    scale = float(np.sqrt(np.sum(residual**2) / max(residual.size - p, 1)))
+    white = problem.noise.level_names[0]
+    correlated = tuple(i for i, name in enumerate(problem.noise_names) if name != white)
+    return _noise_start(problem, residual, scale)[0], correlated
 
 
 def _message(result) -> tuple[bool, str]:
@@ -246,9 +266,12 @@ def _white_start(problem: BenchDensity) -> np.ndarray:
     return np.concatenate([theta, [math.log(max(scale / problem.row_scale, 1e-300))]])
 
 
-def point_estimate(problem: BenchDensity, *, max_refine: int = 3) -> PointEstimate:
+def point_estimate(problem: BenchDensity, *, max_refine: int = 3,
+                   noise_start: tuple[float, ...] | None = None) -> PointEstimate:
     """Posterior mode and covariance of a bench log's density (see the module
-    docstring)."""
+    docstring); ``noise_start``: a collapsed problem's noise levels at their marginal mode,
+    found already (:func:`marginal_mode`, while choosing the dT/dt window): the only
+    start."""
     if problem.gram is not None:
         return _linear_gaussian(problem)
     if problem.errors_in_variables and problem.model.is_linear:
@@ -304,8 +327,12 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3) -> PointEstima
     if collapsed is not None:
         white = problem.noise.level_names[0]
         correlated = tuple(i for i, name in enumerate(problem.noise_names) if name != white)
-        u, covariance, converged, message = _collapsed_mode(collapsed, u[:p], u[p:],
-                                                            correlated)
+        if noise_start is not None:
+            u, covariance, converged, message = _collapsed_mode(
+                collapsed, u[:p], np.asarray(noise_start), ())
+        else:
+            u, covariance, converged, message = _collapsed_mode(collapsed, u[:p], u[p:],
+                                                                correlated)
     elif problem.noise.correlated or problem.errors_in_variables:
         value, result, hessian = _bfgs(problem, jnp.asarray(u))
         u = np.asarray(value)

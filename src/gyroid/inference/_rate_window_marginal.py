@@ -1,0 +1,76 @@
+"""The dT/dt estimator's window under correlated noise, by the fit's own likelihood.
+
+:func:`~gyroid.inference._rate_window.choose_rate_window` picks the window with the least
+residual sum of squares: the likelihood under white noise, which weighs every row's misfit
+alike. Under correlated noise (IEEE 952's flicker and walk, a Gauss-Markov bias) that
+choice is too long: the smearing of dT/dt over a kink in the temperature (a raised-cosine
+transition's ends, a heater switched) is a slow, hour-scale error, which such a noise model
+takes in as a large random walk, while a shorter window's extra thermometer noise, fast,
+costs little. On a FOG bench with raised-cosine transitions (10 h at 1 Hz, fitted on 36 s
+block means; ``experiments/fog_thermal_bench.py``, seed 0) least squares took 864 s, and
+the fit explained the smearing by a walk of 1.7 deg/h/sqrt(h) (the truth 0.005), its
+coefficients' intervals ten times wider than at 585 s, where the marginal was 164 higher
+and the walk came out at 0.004 (the flicker, at 14 times its truth, still takes in the
+thermometer's noise, which this likelihood does not carry).
+
+So a linear model under correlated noise takes the window whose collapsed marginal
+posterior (the coefficients integrated out, :mod:`gyroid.inference._collapsed`), maximised
+over the noise levels, is highest: among :data:`CANDIDATES` windows spaced geometrically
+from the shortest the estimator allows on the fitted rows (``2 * degree + 1`` of them) up to
+the least-squares choice, tried from the longest down until the marginal falls (two
+windows on a smooth schedule, where the least-squares choice stands). Only the dT/dt
+column changes between windows; the noise levels at each are found as the fit's own mode
+finds them (BFGS from the noise model's guess and from each correlated level raised: the
+marginal has a mode for each way of explaining slow wander, and one start alone compared
+windows on different ones). The same likelihood is then fitted:
+this is the window as a hyperparameter at its marginal maximum (type-II maximum
+likelihood), as least squares is under white noise.
+"""
+
+from __future__ import annotations
+
+import equinox as eqx
+import jax.numpy as jnp
+import numpy as np
+
+from gyroid.inference._collapsed import collapse
+from gyroid.inference._point import marginal_mode, noise_guess
+from gyroid.models._derived import RATE_POLY_DEGREE, temperature_rate_deg_c_per_h
+
+#: Windows compared, the least-squares choice included.
+CANDIDATES = 3
+
+
+def marginal_window(density, time_s: np.ndarray, temperature_C: np.ndarray,
+                    least_squares_s: float
+                    ) -> tuple[float, dict[float, float], np.ndarray] | None:
+    """The window (s) of highest collapsed marginal posterior, that maximum per window
+    tried, and the noise levels there (sampling coordinates: where the fit's mode starts);
+    None where the density has no collapsed form (a white or nonlinear fit) or no shorter
+    window exists."""
+    collapsed = collapse(density)
+    if collapsed is None:
+        return None
+    time_s = np.asarray(time_s, dtype=float)
+    step = float(np.median(np.diff(time_s)))
+    shortest = (2 * RATE_POLY_DEGREE + 1) * step
+    if least_squares_s <= shortest * 1.01:
+        return None
+    windows = np.geomspace(shortest, least_squares_s, CANDIDATES)[::-1]
+    design = density.model.design
+    guess, correlated = noise_guess(density)
+    scores: dict[float, float] = {}
+    levels: dict[float, np.ndarray] = {}
+    for window in windows:
+        rate = temperature_rate_deg_c_per_h(time_s, temperature_C, float(window))
+        inputs = eqx.tree_at(lambda x: x.rate_C_h, density.inputs, jnp.asarray(rate))
+        trial = eqx.tree_at(lambda c: c.columns, collapsed,
+                            jnp.column_stack([density.drift, design(inputs)]))
+        solution, value = marginal_mode(trial, guess, correlated)
+        if scores and value < max(scores.values()):
+            break  # past the maximum: the smearing's cost only falls as the window shortens
+        scores[float(window)], levels[float(window)] = value, np.asarray(solution.value)
+    if not scores or not np.isfinite(max(scores.values())):
+        return None
+    best = max(scores, key=scores.get)
+    return best, scores, levels[best]

@@ -1,0 +1,97 @@
+"""Whether a white fit carries the thermometer's noise through the dT/dt estimator (errors
+in variables, :mod:`gyroid.models._rate_error`), and how much: measured on the log, left
+out where negligible or where the estimator cannot be written as a matrix."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from gyroid.inference._rate_window import window_grid
+from gyroid.io._logs import BenchLog, MeansOfBlocks
+from gyroid.models._derived import MAX_OPERATOR_ROWS, RATE_POLY_DEGREE, estimator_grid_size
+from gyroid.models._drift import DriftModel
+from gyroid.models._inputs import ACCEL_COLUMNS, FIELD_COLUMNS
+from gyroid.models._rate_error import (
+    rate_coefficient_index,
+    thermometer_noise_var,
+    white_level_var,
+)
+
+
+def thermometer_to_carry(log: BenchLog | MeansOfBlocks, model: DriftModel,
+                          rate_window_s: float | None, t0_C: float, cap: int) -> float:
+    """The thermometer's noise to carry in the white likelihood (a sample's variance,
+    degC^2), or 0: none measured, a log of bursts, or negligible."""
+    variance = _thermometer_var(log)
+    if variance > 0 and (not _operator_fits(log, rate_window_s, cap)
+                         or _negligible(log, model, variance, rate_window_s, t0_C)):
+        return 0.0
+    return variance
+
+
+def _thermometer_var(log: BenchLog | MeansOfBlocks) -> float:
+    """The variance of a sample's thermometer noise, degC^2 (0 without a temperature): on
+    the samples, or on a streamed log's block means (not aggregated further: a
+    temperature's curvature dominates over tens of seconds), times the samples per mean."""
+    rows = log.log if isinstance(log, MeansOfBlocks) else log
+    if "temperature_C" not in rows.columns:
+        return 0.0
+    time_s, temperature = np.asarray(rows.time_s), np.asarray(rows.columns["temperature_C"])
+    if isinstance(log, MeansOfBlocks):
+        return log.rows_per_mean * thermometer_noise_var(time_s, temperature, (1,))
+    return thermometer_noise_var(time_s, temperature)
+
+
+#: The thermometer's noise is left out of the likelihood when, at the shortest window the
+#: rate estimator may use, the rate error it causes (times wD) adds less than this fraction
+#: to the variance of the drift's mean over one window.
+NEGLIGIBLE_EIV = 0.01
+#: Rows a log is thinned to for the least-squares wD of that test.
+_THIN_ROWS = 20_000
+
+
+def _negligible(log: BenchLog | MeansOfBlocks, model: DriftModel, thermometer_var: float,
+                rate_window_s: float | None, t0_C: float) -> bool:
+    """Whether the thermometer's noise (``thermometer_var``, a sample's, degC^2) hardly
+    changes the likelihood (:data:`NEGLIGIBLE_EIV`). Over a window of ``N`` samples ``d``
+    seconds apart, white thermometer noise gives the estimated rate an error of variance
+    ``(3600 sT)^2 229.7 / (d^2 N^3)`` (:func:`~gyroid.models.temperature_rate_deg_c_per_h`),
+    common to the window, against the white drift noise ``sigma^2 / N`` of its mean; wD is
+    the least-squares value on the log (thinned), sigma the drift's first differences'
+    robust level. A nonlinear model always carries it."""
+    if not model.is_linear:
+        return False
+    rows = log.log if isinstance(log, MeansOfBlocks) else log
+    per_row = 1 if not isinstance(log, MeansOfBlocks) else log.rows_per_mean
+    every = max(1, rows.n // _THIN_ROWS)
+    time_s = np.asarray(rows.time_s)
+    thin = BenchLog(columns={k: np.asarray(v)[::every] for k, v in rows.columns.items()
+                             if k in ("time_s", "drift_deg_h", "temperature_C", *FIELD_COLUMNS,
+                                      *ACCEL_COLUMNS)
+                             or k in rows.extra_columns},
+                    extra_columns=rows.extra_columns)
+    try:
+        design = np.asarray(model.design(thin.inputs(t0_C=t0_C)))
+    except (KeyError, ValueError):
+        return False
+    y = np.asarray(thin.drift_deg_h)
+    wd = float(np.linalg.lstsq(design, y, rcond=None)[0][rate_coefficient_index(model)])
+    sample_var = per_row * white_level_var(np.asarray(rows.drift_deg_h))
+    step = float(np.median(np.diff(time_s))) / per_row  # a sample's
+    window = rate_window_s if rate_window_s is not None else float(window_grid(time_s)[0])
+    samples = max(window / step, 2.0 * RATE_POLY_DEGREE + 1)
+    rate_var = (3600.0**2 * thermometer_var * 229.7 / (step**2 * samples**3))
+    return wd**2 * rate_var * samples < NEGLIGIBLE_EIV * max(sample_var, 1e-300)
+
+
+def _operator_fits(log: BenchLog | MeansOfBlocks, rate_window_s: float | None,
+                   cap: int) -> bool:
+    """Whether the rate estimator on the rows fitted (at most ``cap`` block means of
+    ``log``; at the shortest window it may use) can be written as a matrix
+    (:func:`~gyroid.models._derived.temperature_rate_operator`): a log of bursts spreads
+    its grid over the gaps."""
+    rows = log.log if isinstance(log, MeansOfBlocks) else log
+    time_s = np.asarray(rows.time_s)
+    window = rate_window_s if rate_window_s is not None else float(window_grid(time_s)[0])
+    per_row = estimator_grid_size(time_s, window) / max(rows.n, 1)
+    return max(1.0, per_row) * min(rows.n, cap) <= MAX_OPERATOR_ROWS
