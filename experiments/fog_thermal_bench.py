@@ -21,6 +21,10 @@ walk's mean over the log (a walk has no level of its own). Two temperature profi
     python experiments/fog_thermal_bench.py --seed 0 --datasets 30 --noise white \
         --results fog_thermal_bench_white --white-only
 
+Each log is fitted twice: by default (the run's ``z``, ``sd``, ``seconds``), and with the
+noise levels pinned at their truths (``z_known_noise``: what the realisation alone does to
+the coefficients, apart from the noise levels' inference; not for ``--white-only``).
+
 ``--white-only`` drops the flicker and the walk (white noise and the thermometer's only):
 what the default costs where there is nothing low-frequency to carry (the posterior sds
 beside ``--noise white``'s on the same logs). ``--workers 2`` runs two processes.
@@ -90,6 +94,7 @@ def one(seed: int, profile: str, noise: str, white_only: bool) -> dict:
     import gyroid
     from gyroid.inference import Emcee, Importance, fit_log
     from gyroid.io import BenchLog
+    from gyroid.models import LogNormal
 
     gyroid.configure()
     started = time.time()
@@ -97,9 +102,17 @@ def one(seed: int, profile: str, noise: str, white_only: bool) -> dict:
     truth = dict(TRUTH, w0=columns.pop("w0_over_the_log"))
     fit = fit_log(BenchLog(columns), "thermal", noise=noise, seed=seed,
                   sampler=Importance(fallback=Emcee(progress=False)))
+    seconds = round(time.time() - started, 1)  # the default fit's alone
     summary = fit.posterior.summary
     z = {name: (summary[name]["mean"] - value) / summary[name]["sd"]
          for name, value in truth.items()}
+    # the same fit with the noise levels pinned at their truths: what the realisation
+    # alone does to the coefficients, apart from the noise levels' inference
+    pinned = {"N_deg_sqrt_h": LogNormal(ARW, 0.01), "B_deg_h": LogNormal(B, 0.01),
+              "K_deg_h_sqrt_h": LogNormal(K, 0.01)}
+    known = (fit_log(BenchLog(columns), "thermal", noise=noise, seed=seed, priors=pinned,
+                     sampler=Importance(fallback=Emcee(progress=False))).posterior.summary
+             if fit.problem.noise.name == "white+flicker+rw" and not white_only else None)
     return {"seed": seed, "profile": profile, "noise": noise,
             "noise_used": fit.problem.noise.name, "trustworthy": fit.trustworthy,
             "sampler": fit.posterior.move,
@@ -109,13 +122,23 @@ def one(seed: int, profile: str, noise: str, white_only: bool) -> dict:
                                      <= summary[name]["ci95"][1])
                           for name, value in truth.items()},
             "z": {k: round(v, 3) for k, v in z.items()},
+            "z_known_noise": None if known is None else {
+                k: round((known[k]["mean"] - v) / known[k]["sd"], 3) for k, v in truth.items()},
             "sd": {k: summary[k]["sd"] for k in truth},
             "w0_truth": truth["w0"],
             "rate_window_s": round(float(fit.problem.rate_window_s), 1),
             "noise_median": {name: float(np.median(fit.posterior.draws[..., i]))
                              for i, name in enumerate(fit.problem.names)
                              if name not in truth},
-            "seconds": round(time.time() - started, 1)}
+            "seconds": seconds}
+
+
+def _known_noise_sd(runs: list[dict], names: list[str]) -> dict[str, float] | None:
+    """The z-scores' sd per coefficient with the noise levels pinned at their truths."""
+    known = [r["z_known_noise"] for r in runs if r["z_known_noise"] is not None]
+    if len(known) < 2:
+        return None
+    return {k: round(float(np.std([z[k] for z in known], ddof=1)), 3) for k in names}
 
 
 def summarise(runs: list[dict]) -> dict:
@@ -133,6 +156,12 @@ def summarise(runs: list[dict]) -> dict:
             "z_sd": {k: round(float(np.std(z[:, i], ddof=1)), 3)
                      for i, k in enumerate(names)},
             "z_mean": {k: round(float(np.mean(z[:, i])), 3) for i, k in enumerate(names)},
+            "z_sd_known_noise": _known_noise_sd(mine, names),
+            "noise_median_over_truth": None if _known_noise_sd(mine, names) is None else {
+                name: round(float(np.median([r["noise_median"][name] / truth for r in mine])),
+                            3)
+                for name, truth in (("N_deg_sqrt_h", ARW), ("B_deg_h", B),
+                                    ("K_deg_h_sqrt_h", K))},
             "inside_95": {k: sum(r["inside_95"][k] for r in mine) for k in names},
             "exit_0_beyond_3_3_sd": sum(any(abs(v) > 3.3 for v in r["z"].values())
                                         for r in passed),
