@@ -225,8 +225,9 @@ def test_pooled_intervals_cover_at_the_nominal_rate():
 
 @pytest.mark.slow
 def test_correlated_runs_are_refused_with_advice_pool_can_follow():
-    """Runs with Gauss-Markov noise: whiteness fails, and the advice names what works
-    (pool has no --noise option)."""
+    """Runs with Gauss-Markov noise: pooled as white noise, whiteness fails and the advice
+    names what works (the command line's hint: --noise auto)."""
+    from gyroid.cli.base import check_lines
     from gyroid.simulation import GyroNoise, simulate_magnetic_bench
 
     noise = GyroNoise(arw_deg_rt_h=0.002, bias_instability_deg_h=0.3, correlation_time_s=600)
@@ -235,9 +236,28 @@ def test_correlated_runs_are_refused_with_advice_pool_can_follow():
     result = fit_pool(logs, ("a", "b", "c"), "magnetic", seed=0)
     check = next(c for c in result.checks.checks if c.name == "residual_whiteness")
     assert not check.passed and check.severity == "error"
-    assert "pooling assumes white noise" in check.message
-    assert "refit with --noise" not in check.message and "noise_model" not in check.remedies
+    assert "noise_model" in check.remedies and "single_fits" in check.remedies
+    assert any("--noise auto" in line for line in check_lines(result.checks, "pool"))
     assert not result.trustworthy
+
+
+@pytest.mark.slow
+def test_the_advice_followed_pools_each_runs_correlated_noise_fit():
+    """The same lot pooled with --noise auto (each run fitted under IEEE 952 noise, its
+    posterior pooled): every run's residual checks pass and the population's intervals
+    widen over the white pool's (15 s)."""
+    from gyroid.simulation import GyroNoise, simulate_magnetic_bench
+
+    noise = GyroNoise(arw_deg_rt_h=0.002, bias_instability_deg_h=0.3, correlation_time_s=600)
+    logs = [simulate_magnetic_bench(protocol=SHORT_MAGNETIC, noise=noise, seed=s).log
+            for s in (1, 2, 3)]
+    result = fit_pool(logs, ("a", "b", "c"), "magnetic", seed=0)
+    followed = fit_pool(logs, ("a", "b", "c"), "magnetic", seed=0, noise="auto")
+    for name in ("goodness_of_fit", "residual_whiteness", "predictive"):
+        assert next(c for c in followed.checks.checks if c.name == name).passed, name
+    assert followed.problem.run_noise == "white+flicker+rw"
+    white_sd, ieee_sd = (r.to_json()["population"]["w0"]["sd"] for r in (result, followed))
+    assert ieee_sd > white_sd
 
 
 @pytest.mark.slow

@@ -498,3 +498,18 @@ def test_default_sampler_benchmark():
         assert abs(a["mean"] - b["mean"]) < 4.0 * b["sd"] * math.sqrt(2.0 / 400.0), name
     _quoted(f"{r['importance']['median_seconds']:.2f} s a fit, against "
             f"{r['emcee']['median_seconds']:.2f} s with emcee in the same run")
+
+
+def test_pooling_a_correlated_lot():
+    """experiments/pool_noise.py: the white pool against --noise auto on one lot."""
+    results = _results("pool_noise")
+    white, auto = results["white"], results["auto"]
+
+    def ps(pool):
+        return ", ".join(f"{pool['cochran_q_p'][k]:.2g}" for k in ("w0", "w1", "w2"))
+
+    assert not white["trustworthy"] and auto["trustworthy"]
+    _quoted(f"its runs' residuals varied {white['whiteness_inflation']:.1f}x as much",
+            f"differ in w0, w1 and w2 (p {ps(white)}, from the white sds)",
+            f"found w0, w1 and w2 consistent (p {ps(auto)}:",
+            f"in {auto['seconds']:.1f} s against {white['seconds']:.1f} s")

@@ -31,13 +31,19 @@ from gyroid.cli.base import (
               help="Burst-sampled logs: pool one row per contiguous segment (its mean), so "
                    "the bias's wander between bursts is each run's noise; the samples are "
                    "still checked for spikes.")
+@click.option("--noise", default="white", show_default=True,
+              type=click.Choice(["white", "auto", "white+flicker+rw", "white+gm"]),
+              help="Each run's noise: white (pooled exactly on sufficient statistics), or a "
+                   "correlated model (auto: IEEE 952's white + flicker + rate random walk, "
+                   "as 'gyroid fit' by default), each run then fitted on its own and its "
+                   "coefficients' posterior pooled.")
 @map_option
 @click.option("--axis", "axis", default=None,
               help="The gyro axis to pool, for logs of several (x, y or z).")
 @click.option("--instances", default=None,
               help="Pool the IMUs of flight-controller, ROS or MATLAB logs as runs: 'all' "
                    "or instance numbers such as 0,1,2 (runs named STEM#N).")
-def pool(logs, terms, out, seed, t0_C, prior_choice, prior_items, segment_means,
+def pool(logs, terms, out, seed, t0_C, prior_choice, prior_items, segment_means, noise,
          mappings, axis, instances) -> None:
     """Pool repeated runs (or units) LOGS of one gyro type: the type's coefficients, the
     run-to-run spread (repeatability), each run's shrunk coefficients and the predictive
@@ -49,7 +55,8 @@ def pool(logs, terms, out, seed, t0_C, prior_choice, prior_items, segment_means,
 
     prior_set, overrides = resolve_prior_option(prior_choice, prior_items)
     result = pool_to_dir(logs, terms, out, seed=seed, prior_set=prior_set, priors=overrides,
-                         t0_C=t0_C, segment_means=segment_means, maps=parse_maps(mappings),
+                         t0_C=t0_C, segment_means=segment_means, noise=noise,
+                         maps=parse_maps(mappings),
                          axis=axis, instances=instances, say=lambda m: click.echo(m, err=True))
     click.echo(result.summary())
     click.echo(f"wrote {out / 'pool.json'}, {out / 'posterior.nc'} and {out / 'forest.png'}")

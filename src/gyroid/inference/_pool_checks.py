@@ -44,8 +44,10 @@ from gyroid.inference._residual_checks import outliers, residual_whiteness
 from gyroid.io._logs import contiguous_segments
 from gyroid.models._priors import Normal
 
-#: What a pooled fit can do about a run's correlated residuals (pooling models white noise).
-POOL_REMEDIES = frozenset({"segment_means", "single_fits", "discrepancy"})
+#: What a pooled fit of white noise can do about a run's correlated residuals: pool each
+#: run's own fit under a correlated noise model (``noise``), pool bursts' means, or fit the
+#: runs one by one.
+POOL_REMEDIES = frozenset({"noise_model", "segment_means", "single_fits", "discrepancy"})
 
 #: Family-wise false-alarm rate of the run-consistency check under the population model.
 RUN_CONSISTENCY_P = 1e-3
@@ -57,7 +59,7 @@ NAMED_RUNS = 3
 
 def combine_runs(per_run: Mapping[str, CheckReport]) -> CheckReport:
     """One check per kind across runs: failed when any run failed it (the worst severity
-    and value), its message naming the runs that failed."""
+    and value), its message naming the runs that failed, with their remedies."""
     kinds: dict[str, list[tuple[str, Check]]] = {}
     for label, report in per_run.items():
         for check in report.checks:
@@ -76,8 +78,10 @@ def combine_runs(per_run: Mapping[str, CheckReport]) -> CheckReport:
         severity = "error" if any(c.severity == "error" for _, c in failed) else "warning"
         named = "; ".join(f"run {label}: {c.message}" for label, c in failed[:NAMED_RUNS])
         more = f"; and {len(failed) - NAMED_RUNS} more run(s)" if len(failed) > NAMED_RUNS else ""
+        remedies = tuple(dict.fromkeys(code for _, c in failed for code in c.remedies))
         combined.append(Check(name, False, severity, value, threshold,
-                              f"{len(failed)} of {len(items)} runs fail: {named}{more}"))
+                              f"{len(failed)} of {len(items)} runs fail: {named}{more}",
+                              remedies))
     return CheckReport(tuple(combined))
 
 
@@ -222,7 +226,8 @@ def pool_checks(problem: AbstractProblem, point: PointEstimate, posterior: Poste
             if np.isfinite(own_sd[:, k]).any() else np.inf
             for k, n in enumerate(problem.coefficient_names)})))
     u_mean = sampled_u.reshape(-1, len(problem.names)).mean(axis=0)
-    per_run = run_checks(problem, u_mean, run_draws.mean(axis=0))
+    per_run = (combine_runs(dict(zip(problem.run_labels, problem.run_reports, strict=True)))
+               if problem.run_reports else run_checks(problem, u_mean, run_draws.mean(axis=0)))
     tau = posterior.draws.reshape(-1, len(problem.names))[:, :p]
     lot = CheckReport((
         run_consistency(leave_one_run_out(problem), problem.run_labels),

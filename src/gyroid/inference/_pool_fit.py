@@ -11,7 +11,9 @@ from collections.abc import Mapping, Sequence
 import numpy as np
 
 from gyroid.errors import GyroidInputError
+from gyroid.inference._bench_fit import fit_log
 from gyroid.inference._bench_problem import BenchProblem
+from gyroid.inference._check_report import CheckReport
 from gyroid.inference._fit import fit
 from gyroid.inference._pool_problem import PoolProblem
 from gyroid.inference._pool_result import PoolFit
@@ -21,7 +23,8 @@ from gyroid.models._drift import DriftModel
 from gyroid.models._inputs import T0_C
 from gyroid.models._prior_scales import reference_sd
 from gyroid.models._priors import Flat, Normal, Prior
-from gyroid.noise._kinds import White
+from gyroid.noise._base import NoiseModel
+from gyroid.noise._kinds import Ieee952, White, noise_model
 
 
 def pool_priors(problems: Sequence[BenchProblem],
@@ -89,12 +92,22 @@ def pool_problem(
     spread_scales: Mapping[str, float] | None = None,
     t0_C: float = T0_C,
     segment_means: bool = False,
+    noise: str | NoiseModel = "white",
+    seed: int = 0,
 ) -> PoolProblem:
     """The pooled problem of ``logs`` (one per run or unit, named by ``labels``) under one
     drift model. ``priors`` overrides population means' priors by name, ``spread_scales``
     the half-normal scales of between-run sds (default: the mean's prior scale).
     ``segment_means=True`` pools burst logs on one row per burst (as a single fit does),
-    the samples still checked for spikes."""
+    the samples still checked for spikes.
+
+    ``noise``: ``white`` pools each run's sufficient statistics under white noise (exact,
+    and right where each run's noise is white at the scales that decide its coefficients);
+    a correlated noise model (``auto`` is IEEE 952's, as a single fit's default) fits each
+    run on its own under it (:func:`~gyroid.inference.fit_log`, ``seed``) and pools their
+    posteriors' means and covariances as Gaussian observations of the runs' coefficients
+    (:func:`pooled_fits`): the run-to-run test then weighs each run by what its own noise
+    leaves known."""
     if len(logs) < 2:
         raise GyroidInputError("pooling needs at least two logs (runs or units of one gyro "
                                "type); for one log use 'gyroid fit'")
@@ -119,6 +132,11 @@ def pool_problem(
             raise GyroidInputError(f"between-run sd scale of {name!r}: give a positive "
                                    f"scale for one of {', '.join(model.parameter_names)}")
         scales[model.parameter_names.index(name)] = scale
+    kind = Ieee952() if noise == "auto" else noise_model(noise)
+    if kind.correlated:
+        return pooled_fits(logs, labels, model, kind, runs, mean_priors=mean_priors,
+                           spread_scales=scales, reference=reference, prior_set=prior_set,
+                           t0_C=t0_C, seed=seed)
     p = len(model.parameter_names)
     own_mean, own_sd = _own_estimates(runs)
     return PoolProblem.from_statistics(
@@ -139,7 +157,42 @@ def fit_pool(logs: Sequence[BenchLog], labels: Sequence[str],
              sampler: AbstractSampler | None = None, **options) -> PoolFit:
     """Pool ``logs`` (:func:`pool_problem`, whose keyword ``options`` it takes) and fit them:
     the mode, NUTS (or ``sampler``), derived draws, the checks."""
-    return fit(pool_problem(logs, labels, terms, **options), sampler=sampler, seed=seed)
+    return fit(pool_problem(logs, labels, terms, seed=seed, **options), sampler=sampler,
+               seed=seed)
+
+
+#: A run's own checks that a pooled fit of the runs' posteriors keeps: those of its
+#: residuals and noise (a single run need not identify every coefficient the lot does).
+RUN_RESIDUAL_CHECKS = frozenset({"goodness_of_fit", "residual_whiteness", "outliers",
+                                 "predictive", "outliers_within_segments"})
+
+
+def pooled_fits(logs: Sequence[BenchLog], labels: Sequence[str], model: DriftModel,
+                noise: NoiseModel, white_runs: Sequence[BenchProblem], *, mean_priors,
+                spread_scales: np.ndarray, reference: np.ndarray, prior_set: str,
+                t0_C: float, seed: int) -> PoolProblem:
+    """Each log fitted on its own under ``noise`` (every other default of ``fit_log``), its
+    coefficients' posterior mean and covariance taken as one Gaussian observation of its
+    run's coefficients (their weakly informative single-fit priors counted once more:
+    negligible where the run identifies a coefficient), pooled by
+    :meth:`PoolProblem.from_estimates`; each run's residual and noise checks kept."""
+    p = len(model.parameter_names)
+    means, covariances, reports = [], [], []
+    for k, log in enumerate(logs):
+        single = fit_log(log, model, noise=noise, seed=seed + k, prior_set=prior_set,
+                         t0_C=t0_C, progress=False)
+        draws = single.posterior.draws.reshape(-1, len(single.posterior.names))[:, :p]
+        means.append(draws.mean(axis=0))
+        covariances.append(np.atleast_2d(np.cov(draws.T)))
+        reports.append(CheckReport(tuple(c for c in single.checks.checks
+                                         if c.name in RUN_RESIDUAL_CHECKS)))
+    means, covariances = np.array(means), np.array(covariances)
+    sds = np.sqrt(np.diagonal(covariances, axis1=1, axis2=2))
+    return PoolProblem.from_estimates(
+        model.parameter_names, tuple(labels), means, covariances, mean_priors=mean_priors,
+        spread_scales=spread_scales, terms=tuple(model.terms), t0_C=t0_C,
+        own_mean=means, own_sd=sds, reference=reference, runs=tuple(white_runs),
+        run_reports=tuple(reports), run_noise=noise.name)
 
 
 def pool_estimates(names: tuple[str, ...], labels: tuple[str, ...], estimates: np.ndarray,

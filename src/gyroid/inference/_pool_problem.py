@@ -197,6 +197,10 @@ class PoolProblem(AbstractProblem):
     own_mean: np.ndarray | None = None
     own_sd: np.ndarray | None = None
     reference: np.ndarray | None = None
+    #: Pooling each run's own fit under correlated noise (``run_noise``, its name): each
+    #: run's residual and noise checks from that fit (``runs`` then only describe the logs).
+    run_reports: tuple = ()
+    run_noise: str = "white"
 
     @classmethod
     def from_statistics(cls, coefficient_names, run_labels, *, gram, solution, rss, n_rows,
@@ -313,6 +317,9 @@ class PoolProblem(AbstractProblem):
             "model": "partially pooled runs: theta_run ~ N(population mean, between_sd**2)",
             "coefficients": ",".join(self.coefficient_names),
             "runs": ",".join(self.run_labels),
+            "run_noise": (self.run_noise if not self.run_reports else
+                          f"{self.run_noise}: each run fitted on its own, its coefficients' "
+                          "posterior mean and covariance pooled"),
             "log_likelihood_note": "log_likelihood holds each run's marginal log-likelihood "
                                    "given the population (its coefficients integrated out): "
                                    "LOO leaves out whole runs",

@@ -22,7 +22,7 @@ from gyroid.reports._write import write
 
 def pool_to_dir(paths: tuple[Path, ...], terms: str, out: Path, *, seed: int = 0,
                 prior_set: str = "default", priors: Mapping[str, Prior] | None = None,
-                t0_C: float = T0_C, segment_means: bool = False,
+                t0_C: float = T0_C, segment_means: bool = False, noise: str = "white",
                 maps: tuple[ColumnMap, ...] = (), axis: str | None = None,
                 instances: str | None = None,
                 say: Callable[[str], None] = lambda _m: None) -> PoolFit:
@@ -30,9 +30,10 @@ def pool_to_dir(paths: tuple[Path, ...], terms: str, out: Path, *, seed: int = 0
     ``pool.json``, ``posterior.nc`` and ``forest.png`` to ``out``."""
     loaded, labels = pool_runs(paths, terms, maps=maps, axis=axis, instances=instances)
     rows = sum(log.n for log in loaded)
-    say(f"pooling {terms} over {len(loaded)} runs ({rows} rows) ...")
+    say(f"pooling {terms} over {len(loaded)} runs ({rows} rows)"
+        + ("" if noise == "white" else f", each fitted under {noise} noise") + " ...")
     result = fit_pool(loaded, labels, terms, seed=seed, prior_set=prior_set, priors=priors,
-                      t0_C=t0_C, segment_means=segment_means)
+                      t0_C=t0_C, segment_means=segment_means, noise=noise)
     with output_dir(out) as stage:
         write(stage, result)
     return result
