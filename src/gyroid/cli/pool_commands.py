@@ -55,7 +55,8 @@ def pool(logs, terms, out, seed, t0_C, prior_choice, prior_items, segment_means,
 
     prior_set, overrides = resolve_prior_option(prior_choice, prior_items)
     result = pool_to_dir(logs, terms, out, seed=seed, prior_set=prior_set, priors=overrides,
-                         t0_C=t0_C, segment_means=segment_means, noise=noise,
+                         t0_C=t0_C, segment_means=segment_means,
+                         noise=None if noise == "white" else noise,
                          maps=parse_maps(mappings),
                          axis=axis, instances=instances, say=lambda m: click.echo(m, err=True))
     click.echo(result.summary())

@@ -47,6 +47,7 @@ from gyroid.inference._problem import AbstractProblem, PointEstimate
 from gyroid.models._inputs import T0_C
 from gyroid.models._priors import Flat as FlatPrior
 from gyroid.models._priors import HalfNormal, LogNormal, Normal
+from gyroid.noise._kinds import White
 
 _LOG_2PI = math.log(2.0 * math.pi)
 #: Prefix of a between-run sd's name (``between_sd_w0``).
@@ -200,7 +201,7 @@ class PoolProblem(AbstractProblem):
     #: Pooling each run's own fit under correlated noise (``run_noise``, its name): each
     #: run's residual and noise checks from that fit (``runs`` then only describe the logs).
     run_reports: tuple = ()
-    run_noise: str = "white"
+    run_noise: str = White.name
 
     @classmethod
     def from_statistics(cls, coefficient_names, run_labels, *, gram, solution, rss, n_rows,
