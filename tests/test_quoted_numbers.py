@@ -513,3 +513,19 @@ def test_pooling_a_correlated_lot():
             f"differ in w0, w1 and w2 (p {ps(white)}, from the white sds)",
             f"found w0, w1 and w2 consistent (p {ps(auto)}:",
             f"in {auto['seconds']:.1f} s against {white['seconds']:.1f} s")
+
+
+def test_the_flicker_and_walk_prior_study():
+    """fog_thermal_bench.py --flicker-walk-median 0.003 on the FOG and white-only logs."""
+    import numpy as np
+
+    fog = _results("fog_thermal_bench_prior_hundredth")
+    smooth = fog["summary"]["smooth"]
+    worst = next(r for r in fog["runs"] if r["seed"] == 25)
+    white = {r["seed"]: r for r in _results("fog_thermal_bench_white_only_white")["runs"]}
+    runs = _results("fog_thermal_bench_white_only_prior_hundredth")["runs"]
+    medians = [float(np.median([r["sd"][k] / white[r["seed"]]["sd"][k] for r in runs]))
+               for k in ("w0", "w1", "w2", "wD")]
+    _quoted(f"sds were {min(medians):.2f}-{max(medians):.2f}x white's",
+            f"w1's z-scores' sd fell only to {smooth['z_sd']['w1']:.2f}",
+            f"seed 25's w1 still lay {abs(worst['z']['w1']):.1f} sd from its truth")
