@@ -529,3 +529,25 @@ def test_the_flicker_and_walk_prior_study():
     _quoted(f"sds were {min(medians):.2f}-{max(medians):.2f}x white's",
             f"w1's z-scores' sd fell only to {smooth['z_sd']['w1']:.2f}",
             f"seed 25's w1 still lay {abs(worst['z']['w1']):.1f} sd from its truth")
+
+
+def test_small_logs_under_the_default_noise():
+    """benchmarks/results_scaling_small_ieee.json: gyroid fit and compensate against the
+    bare scripts, the default fit IEEE 952 noise."""
+    runs = json.loads((ROOT / "benchmarks" / "results_scaling_small_ieee.json").read_text()
+                      )["results"]
+    small, large = runs
+    floor = json.loads((ROOT / "benchmarks" / "results_scaling_small_ieee.json").read_text()
+                       )["imports"]["fit_modules"]["seconds"]
+    white = json.loads((ROOT / "benchmarks" / "results_scaling_small.json").read_text()
+                       )["results"][0]["fit"]["sd"]["w1"]
+    assert "white+flicker+rw" in small["fit"]["noise_choice"]
+    _quoted(f"{small['fit']['seconds']:.1f} s at 10^4 rows and {large['fit']['seconds']:.1f} s "
+            "at 10^5",
+            f"each length's first run {small['fit']['seconds_all'][0]:.1f} s",
+            f"white-noise script's {small['bare']['seconds']:.2f} s and "
+            f"{large['bare']['seconds']:.2f} s",
+            f"against {small['bare_compensate']['seconds']:.2f} s and "
+            f"{large['bare_compensate']['seconds']:.2f} s",
+            f"{floor:.1f} s import floor: {2 * small['bare']['seconds'] + floor:.1f} s",
+            f"an sd of {white:.5f}", f"the default's is {small['fit']['sd']['w1']:.4f}")
