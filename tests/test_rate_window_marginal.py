@@ -49,7 +49,8 @@ def test_the_window_under_ieee_noise_is_the_marginal_likelihoods(bench):
     chosen = BenchProblem.from_log(bench, "thermal", noise="white+flicker+rw",
                                    rate_window_s=None)
     least_squares, _ = choose_rate_window(chosen.log, chosen.model, t0_C=chosen.t0_C)
-    assert chosen.rate_window_choice == "auto"
+    assert chosen.rate_window_choice.startswith("auto: the marginal likelihood's of")
+    assert f"(least squares' {least_squares:.0f} s)" in chosen.rate_window_choice
     assert chosen.rate_window_s < 0.8 * least_squares
     smeared = BenchProblem.from_log(bench, "thermal", noise="white+flicker+rw",
                                     rate_window_s=least_squares)

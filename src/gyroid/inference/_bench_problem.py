@@ -56,7 +56,7 @@ class BenchProblem(AbstractProblem):
     log: BenchLog  # what the model is fitted to (a burst log's segment means when asked)
     prior_set: str
     prior_basis: PriorBasis
-    rate_window_choice: str  # "auto", "given", or why the default was kept
+    rate_window_choice: str  # "auto" (and how), "given", or why the default was kept
     segments: SampleDeviations | None = None
     #: Samples per row of a fit of block means (white+flicker+rw on a long log), else 1.
     block_rows: int = 1
@@ -144,7 +144,7 @@ class BenchProblem(AbstractProblem):
                                          rate_window_s=window_s, fast=fast,
                                          rows_per_mean=block_rows, rate_error_cov=rate_error)
 
-        density, noise_start = _by_marginal(density_at, log, rate_window_s, choice == "auto")
+        density, noise_start, choice = _by_marginal(density_at, log, rate_window_s, choice)
         return cls(density=density, log=log, prior_set=chosen_set, prior_basis=basis,
                    rate_window_choice=choice, block_rows=block_rows, segments=samples,
                    thermometer_sd_C=math.sqrt(thermometer_var), noise_start=noise_start)
@@ -263,22 +263,24 @@ class BenchProblem(AbstractProblem):
         }
 
 
-def _by_marginal(density_at, log: BenchLog, window_s: float, auto: bool
-                 ) -> tuple[BenchDensity, tuple[float, ...] | None]:
-    """The density at ``window_s`` (s) or, for an automatic window under correlated noise
-    (a collapsed form), at the window of highest marginal likelihood
+def _by_marginal(density_at, log: BenchLog, window_s: float, choice: str
+                 ) -> tuple[BenchDensity, tuple[float, ...] | None, str]:
+    """The density at ``window_s`` (s) or, for an automatic window (``choice`` "auto")
+    under correlated noise (a collapsed form), at the window of highest marginal likelihood
     (:mod:`gyroid.inference._rate_window_marginal`), with the noise levels' mode found
-    there."""
+    there; and how the window was chosen."""
     density = density_at(window_s)
-    if not auto or not density.noise.correlated or not log.has("temperature_C"):
-        return density, None
+    if choice != "auto" or not density.noise.correlated or not log.has("temperature_C"):
+        return density, None, choice
     better = marginal_window(density, np.asarray(log.time_s),
                              np.asarray(log.columns["temperature_C"]), window_s)
     if better is None:
-        return density, None
+        return density, None, choice
     if better[0] != window_s:
         density = density_at(better[0])
-    return density, tuple(float(x) for x in better[2])
+    scored = ", ".join(f"{w:.0f}" for w in sorted(better[1]))
+    return density, tuple(float(x) for x in better[2]), (
+        f"auto: the marginal likelihood's of {scored} s (least squares' {window_s:.0f} s)")
 
 
 def _rows_fitted(log: BenchLog | MeansOfBlocks, noise: NoiseModel, segment_means: bool, *,

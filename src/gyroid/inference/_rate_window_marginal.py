@@ -45,9 +45,9 @@ def marginal_window(density, time_s: np.ndarray, temperature_C: np.ndarray,
                     least_squares_s: float
                     ) -> tuple[float, dict[float, float], np.ndarray] | None:
     """The window (s) of highest collapsed marginal posterior, that maximum per window
-    tried, and the noise levels there (sampling coordinates: where the fit's mode starts);
-    None where the density has no collapsed form (a white or nonlinear fit) or no shorter
-    window exists."""
+    tried (the last, lower one included), and the noise levels there (sampling
+    coordinates: where the fit's mode starts); None where the density has no collapsed
+    form (a white or nonlinear fit) or no shorter window exists."""
     collapsed = collapse(density)
     if collapsed is None:
         return None
@@ -67,9 +67,10 @@ def marginal_window(density, time_s: np.ndarray, temperature_C: np.ndarray,
         trial = eqx.tree_at(lambda c: c.columns, collapsed,
                             jnp.column_stack([density.drift, design(inputs)]))
         solution, value = marginal_mode(trial, guess, correlated)
-        if scores and value < max(scores.values()):
-            break  # past the maximum: the smearing's cost only falls as the window shortens
+        falling = bool(scores) and value < max(scores.values())
         scores[float(window)], levels[float(window)] = value, np.asarray(solution.value)
+        if falling:
+            break  # past the maximum: the smearing's cost only falls as the window shortens
     if not scores or not np.isfinite(max(scores.values())):
         return None
     best = max(scores, key=scores.get)
