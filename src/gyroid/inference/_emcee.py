@@ -181,9 +181,8 @@ class Walked:
 
     @classmethod
     def of(cls, problem: AbstractProblem, point: PointEstimate, rng: np.random.Generator,
-           chunk: int = 16, collapsed=None) -> Walked:
-        """``collapsed``: the problem's collapsed form when the caller has built it already."""
-        collapsed = collapsed if collapsed is not None else problem.collapsed()
+           chunk: int = 16) -> Walked:
+        collapsed = problem.collapsed()
         if collapsed is None:
             # A linear-Gaussian problem's log-posterior runs on the host (NumPy on its
             # sufficient statistics): cheaper per emcee step than a call into JAX.

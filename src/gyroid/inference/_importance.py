@@ -47,7 +47,7 @@ import numpy as np
 from gyroid.inference._batching import in_chunks, problem_batcher
 from gyroid.inference._checks import MIN_ESS
 from gyroid.inference._collapsed import conditional_draws
-from gyroid.inference._emcee import MAX_STORED_SAMPLES, Emcee, Walked
+from gyroid.inference._emcee import MAX_STORED_SAMPLES, Emcee
 from gyroid.inference._posterior import Posterior, summarise_draws
 from gyroid.inference._problem import AbstractProblem, AbstractSampler, PointEstimate
 from gyroid.inference._proposals import Blend, Kernels, StudentMixture
@@ -85,24 +85,28 @@ class Importance(AbstractSampler):
         collapsed = problem.collapsed()
         if collapsed is None:
             return self.fallback.sample(problem, point, seed=seed, progress=progress)
-        walked = Walked.of(problem, point, rng, chunk=_BATCH, collapsed=collapsed)
+        # the mode's noise levels and their covariance (a bench density's levels come last)
+        levels = slice(point.u.size - int(collapsed.noise_loc.size), point.u.size)
+        mode = (np.asarray(point.u[levels], dtype=float),
+                np.asarray(point.covariance_u[levels, levels], dtype=float))
         solved = problem_batcher(collapsed.solved)
-        weighted = self._weighted(walked, solved, _prior_tails(collapsed), rng)
+        weighted = self._weighted(mode, solved, _prior_tails(collapsed), rng)
         if weighted is None:
             return self.fallback.sample(problem, point, seed=seed, progress=progress)
         return self._posterior(problem, weighted, rng)
 
-    def _weighted(self, walked: Walked, solved: Callable[[np.ndarray], np.ndarray],
+    def _weighted(self, mode: tuple[np.ndarray, np.ndarray],
+                  solved: Callable[[np.ndarray], np.ndarray],
                   tails: list[tuple[int, float, float]], rng: np.random.Generator
                   ) -> _Weighted | None:
         """The proposals, their smoothed log-weights, Pareto k and effective number; None
         when the mode gives no proposal or the weights stay unreliable (module docstring)."""
         try:
-            first = self._first_stage(walked, tails)
+            first = self._first_stage(*mode, tails)
         except (ValueError, np.linalg.LinAlgError):
             return None
         stages: list = [first]
-        draws, rows = np.zeros((0, walked.start.size)), None
+        draws, rows = np.zeros((0, mode[0].size)), None
         densities: list[np.ndarray] = [np.zeros(0)]  # each stage's log-density at the draws
         for _ in range(self.stages):
             new = stages[-1].draw(self.n_draws, rng)
@@ -128,19 +132,19 @@ class Importance(AbstractSampler):
                 return None
         return None
 
-    def _first_stage(self, walked: Walked, tails: list[tuple[int, float, float]]
+    def _first_stage(self, centre: np.ndarray, covariance: np.ndarray,
+                     tails: list[tuple[int, float, float]]
                      ) -> StudentMixture:
         """Student-t's about the mode and, per noise level with a prior, that level from
         its prior and the others as about the mode."""
-        covariance = np.asarray(walked.covariance, dtype=float)
-        if not np.all(np.isfinite(covariance)) or not np.all(np.isfinite(walked.start)):
+        if not np.all(np.isfinite(covariance)) or not np.all(np.isfinite(centre)):
             raise ValueError("no finite mode")
-        components = [(1.0, walked.start, scale * covariance) for scale in self.inflation]
+        components = [(1.0, centre, scale * covariance) for scale in self.inflation]
         for level, loc, scale in tails:
             shape = self.inflation[0] * covariance
             shape[level, :] = shape[:, level] = 0.0
             shape[level, level] = scale**2
-            start = walked.start.copy()
+            start = centre.copy()
             start[level] = loc
             components.append((1.0, start, shape))
         return StudentMixture.of(components, self.df)

@@ -167,9 +167,14 @@ def noise_guess(problem: BenchDensity) -> tuple[np.ndarray, tuple[int, ...]]:
     theta = _white_start(problem)[:p]
     residual = np.asarray(problem.drift) - np.asarray(problem.model.design(problem.inputs)) @ theta
     scale = float(np.sqrt(np.sum(residual**2) / max(residual.size - p, 1)))
+    return _noise_start(problem, residual, scale)[0], _correlated_levels(problem)
+
+
+def _correlated_levels(problem: BenchDensity) -> tuple[int, ...]:
+    """Indices of the noise levels other than the white one (where the mode's extra
+    starts go)."""
     white = problem.noise.level_names[0]
-    correlated = tuple(i for i, name in enumerate(problem.noise_names) if name != white)
-    return _noise_start(problem, residual, scale)[0], correlated
+    return tuple(i for i, name in enumerate(problem.noise_names) if name != white)
 
 
 def _message(result) -> tuple[bool, str]:
@@ -325,14 +330,12 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3,
         covariance = _block_diag(covariance_model, noise_cov)
     collapsed = collapse(problem)
     if collapsed is not None:
-        white = problem.noise.level_names[0]
-        correlated = tuple(i for i, name in enumerate(problem.noise_names) if name != white)
         if noise_start is not None:
             u, covariance, converged, message = _collapsed_mode(
                 collapsed, u[:p], np.asarray(noise_start), ())
         else:
-            u, covariance, converged, message = _collapsed_mode(collapsed, u[:p], u[p:],
-                                                                correlated)
+            u, covariance, converged, message = _collapsed_mode(
+                collapsed, u[:p], u[p:], _correlated_levels(problem))
     elif problem.noise.correlated or problem.errors_in_variables:
         value, result, hessian = _bfgs(problem, jnp.asarray(u))
         u = np.asarray(value)
