@@ -160,6 +160,10 @@ def test_the_mems_thermal_benches_under_the_default_noise_choice():
     chosen = sum(r["noise_used"] == "white+flicker+rw" for r in runs)
     trusted = counts["fits"] - counts["refused"]
     inside, total = counts["coefficients_inside_95"]
+    seconds = [r["seconds"] for r in runs]
+    worst = max(abs(v) for r in runs for v in r["z"].values())
+    _quoted(f"(binomial 99 % band 70-80; the largest miss {worst:.2f} sd), "
+            f"{min(seconds):.1f}-{max(seconds):.1f} s per")
     _quoted(f"auto chose white+flicker+rw {chosen} of {len(runs)}",
             f"{trusted} of {counts['fits']} fits trusted, {inside} of the {total} coefficients "
             "inside their 95 % intervals",
@@ -412,6 +416,15 @@ def _fog_phrases() -> dict[str, str]:
                           "sampling (its Pareto k below 0.7 on each)")
     else:
         out["sampler"] = f"{samplers.count('psis')} of the {len(samplers)} default fits"
+    rc = [r for r in _results("fog_thermal_bench")["runs"] if r["profile"] == "raised_cosine"]
+    windows = {r["rate_window_s"] for r in rc}
+    if len(windows) == 1:
+        out["raised_window"] = f"marginal likelihood's ({windows.pop():.0f} s on every log)"
+    gaps = [float(m.split(" is ")[1].split(" posterior sd")[0]) for r in rc
+            for m in r["failed_messages"] if "point estimate of B_deg_h" in m]
+    if gaps:
+        out["raised_modes"] = (f"(its B {min(gaps):.0f}-{max(gaps):.0f} posterior sd from the "
+                               "mode's)")
     raised_sd = raised["z_sd"].values()
     out["raised"] = (
         f"On the raised-cosine profile {raised['exit_3']} of {raised['fits']} refused (exit 3)"
