@@ -1,7 +1,7 @@
 """Under correlated noise the dT/dt window is chosen by the fit's own (collapsed marginal)
 likelihood, not by least squares: on a bench whose transitions are raised cosines the
-least-squares window smears dT/dt over their ends, and IEEE 952 noise took that error in
-as a random walk hundreds of times its truth."""
+least-squares window smears dT/dt over their ends. There the thermometer's noise through
+dT/dt, left out of the filter, is taken in as a random walk hundreds of times its truth."""
 
 import math
 
@@ -44,11 +44,12 @@ def bench():
 
 def test_the_window_under_ieee_noise_is_the_marginal_likelihoods(bench):
     """The chosen window is shorter than least squares' and its marginal is far higher;
-    at least squares' the walk's mode is some hundreds of times its truth, at the chosen
-    window within a few times of it; the coefficient intervals narrow with it."""
+    the walk's mode is within a few times its truth at both windows (the thermometer's
+    noise carried by the filter)."""
     chosen = BenchProblem.from_log(bench, "thermal", noise="white+flicker+rw",
                                    rate_window_s=None)
-    least_squares, _ = choose_rate_window(chosen.log, chosen.model, t0_C=chosen.t0_C)
+    least_squares, _ = choose_rate_window(chosen.log, chosen.model, t0_C=chosen.t0_C,
+                                          thermometer_var_C2=chosen.thermometer_sd_C**2)
     assert chosen.rate_window_choice.startswith("auto: the marginal likelihood's of")
     assert f"(least squares' {least_squares:.0f} s)" in chosen.rate_window_choice
     assert chosen.rate_window_s < 0.8 * least_squares
@@ -58,10 +59,24 @@ def test_the_window_under_ieee_noise_is_the_marginal_likelihoods(bench):
                                 np.asarray(smeared.log.columns["temperature_C"]),
                                 least_squares)
     assert scores[float(chosen.rate_window_s)] > scores[least_squares] + 50.0
-    at_chosen, at_least_squares = chosen.mode(), smeared.mode()
-    assert at_least_squares.value["K_deg_h_sqrt_h"] > 30.0 * WALK
-    assert at_chosen.value["K_deg_h_sqrt_h"] < 5.0 * WALK
-    assert at_chosen.sd["w1"] < 0.5 * at_least_squares.sd["w1"]
+    for problem in (chosen, smeared):
+        assert problem.mode().value["K_deg_h_sqrt_h"] < 5.0 * WALK
+
+
+def test_without_the_thermometers_noise_the_walk_takes_it_in(bench):
+    """Left out of the filter, the dT/dt estimator's error from the thermometer's noise
+    (correlated over the window, above the white noise of a block mean here) is taken in
+    as a random walk tens of times its truth, and the coefficients' intervals widen."""
+    carried = BenchProblem.from_log(bench, "thermal", noise="white+flicker+rw",
+                                    rate_window_s=864.0)
+    left_out = BenchProblem.from_log(bench, "thermal", noise="white+flicker+rw",
+                                     rate_window_s=864.0, errors_in_variables=False)
+    assert carried.density.noise.rate_error is not None
+    assert left_out.density.noise.rate_error is None
+    with_it, without = carried.mode(), left_out.mode()
+    assert without.value["K_deg_h_sqrt_h"] > 30.0 * WALK
+    assert with_it.value["K_deg_h_sqrt_h"] < 5.0 * WALK
+    assert with_it.sd["w1"] < 0.5 * without.sd["w1"]
 
 
 def test_a_white_fit_keeps_least_squares_window(bench):

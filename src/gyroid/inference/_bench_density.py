@@ -37,6 +37,7 @@ from gyroid.models._priors import Flat, LogNormal, Normal, Prior, prior_arrays
 from gyroid.models._rate_error import rate_coefficient_index
 from gyroid.noise._base import NoiseModel, RowClock
 from gyroid.noise._kinds import White, noise_model
+from gyroid.noise._rate_error_process import RateErrorProcess
 
 #: Length of the blocks whose summed log-likelihood ArviZ's LOO treats as one observation, s.
 LOO_BLOCK_S = 60.0
@@ -115,13 +116,17 @@ class BenchDensity(eqx.Module):
         fast: bool = True,
         rows_per_mean: int = 1,
         rate_error_cov: np.ndarray | None = None,
+        rate_error: tuple[np.ndarray, float] | None = None,
     ) -> BenchDensity:
         """The density of ``model`` on ``log`` (whose model inputs are ``inputs``) with
         ``priors`` (model parameters, then the noise model's, in sampling order).
         ``rows_per_mean``: samples behind each row (a log of block means);
         ``rate_error_cov``: under white noise, the covariance of the dT/dt error that the
         thermometer's noise causes at the rows, carried into the likelihood (errors in
-        variables)."""
+        variables); ``rate_error``: under correlated noise, that error's autocovariance
+        ((deg/h)^2 at lags of one row, wD^2 times the rate's) and the rows' white variance,
+        carried by the noise model's filter as a process matched to it
+        (:mod:`gyroid.noise._rate_error_process`; the rows then read as block means)."""
         noise = White() if noise is None else noise_model(noise)
         time_s = np.asarray(log.time_s)
         steps = np.diff(time_s)
@@ -140,10 +145,14 @@ class BenchDensity(eqx.Module):
                 raise ValueError("errors in variables: white noise and a model reading dT/dt")
             extra = {"rate_error_cov": jnp.asarray(rate_error_cov),
                      "eiv_index": rate_coefficient_index(model)}
-        if noise.rows_as_means(rows_per_mean):
+        noise = noise.for_log(step, duration)
+        if noise.rows_as_means(rows_per_mean) or rate_error is not None:
             # block means: each row the mean over one step, after a gap (a pause)
-            extra = {"gap_s": jnp.asarray(np.maximum(np.concatenate([[0.0], steps]) - step,
-                                                     0.0))}
+            gap = np.maximum(np.concatenate([[0.0], steps]) - step, 0.0)
+            extra = {"gap_s": jnp.asarray(gap)}
+            if rate_error is not None:
+                noise = noise.with_rate_error(RateErrorProcess.matched(
+                    rate_error[0], step, rate_error[1], np.full(gap.size, step), gap))
         problem = cls(
             model=model,
             inputs=inputs,
@@ -154,7 +163,7 @@ class BenchDensity(eqx.Module):
             prior_loc=jnp.asarray(loc),
             prior_scale=jnp.asarray(scale),
             prior_on=jnp.asarray(on),
-            noise=noise.for_log(step, duration),
+            noise=noise,
             n_blocks=int(block.max()) + 1,
             step_s=step,
             rate_window_s=jnp.asarray(float(rate_window_s)),

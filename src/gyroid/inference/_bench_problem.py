@@ -21,7 +21,7 @@ from gyroid.inference._point import point_estimate
 from gyroid.inference._problem import AbstractProblem, PointEstimate
 from gyroid.inference._rate_window import choose_rate_window, reads_rate
 from gyroid.inference._rate_window_marginal import marginal_window
-from gyroid.inference._thermometer import thermometer_to_carry
+from gyroid.inference._thermometer import rate_error_to_carry, thermometer_to_carry
 from gyroid.io._logs import BenchLog, MeansOfBlocks, SampleDeviations, contiguous_segments
 from gyroid.io._logs import segment_means as means_of_segments
 from gyroid.models._derived import (
@@ -39,7 +39,9 @@ from gyroid.models._prior_scales import (
 )
 from gyroid.models._priors import Prior
 from gyroid.models._rate_error import (
+    estimator_autocovariance,
     rate_error_covariance,
+    white_level_var,
 )
 from gyroid.noise._base import NoiseModel
 from gyroid.noise._kinds import Ieee952, White, noise_model
@@ -63,6 +65,9 @@ class BenchProblem(AbstractProblem):
     #: The thermometer's white noise, a sample's sd in degC, when it is carried into the
     #: likelihood through dT/dt (errors in variables); 0 otherwise.
     thermometer_sd_C: float = 0.0
+    #: Under correlated noise, the wD (deg/h per degC/h, least squares) that scales the
+    #: thermometer's noise the filter carries; 0 when none is carried.
+    rate_error_wd: float = 0.0
     #: The noise levels' marginal mode found while choosing the dT/dt window (sampling
     #: coordinates; :mod:`gyroid.inference._rate_window_marginal`): where the mode starts.
     noise_start: tuple[float, ...] | None = eqx.field(static=True, default=None)
@@ -93,35 +98,33 @@ class BenchProblem(AbstractProblem):
         ``segment_means=True`` fits one row per contiguous segment of a burst-sampled log
         (its mean), so that the bias's wander between bursts is the noise the model
         estimates rather than a correlation it ignores; the samples are still checked for
-        spikes, which the means would hide. ``fast=False`` keeps the likelihood on the rows
-        (no sufficient statistics), for tests of the fast path. Under correlated noise a
-        log of more than ``max_rows`` rows (default :data:`IEEE_MAX_ROWS`) is fitted as
+        spikes, which the means would hide. ``fast=False``: no sufficient statistics (for
+        tests). Under correlated noise a log of more than ``max_rows`` rows (default
+        :data:`IEEE_MAX_ROWS`) is fitted as
         at most that many means of blocks of consecutive samples (not with
-        ``segment_means``): their likelihood is exact, a filter pass costs the same at any
-        length, and a linear model loses little; the samples are checked for spikes. A log given as
-        :class:`~gyroid.io._logs.MeansOfBlocks` (one read as a stream) is fitted as those
-        means under any noise model.
+        ``segment_means``; exact likelihood, a linear model loses little; the samples are
+        checked for spikes). A :class:`~gyroid.io._logs.MeansOfBlocks` (a log read as a
+        stream) is fitted as its means under any noise model.
 
-        Errors in variables: under white noise, a model reading dT/dt on a log whose
-        thermometer is noisy carries that noise through the rate estimator, as a covariance
-        over the rows (:mod:`gyroid.inference._thermometer`; a log of more than
-        ``max_rows`` rows then as block means); ``errors_in_variables=False`` leaves it
-        out. Under correlated noise an automatic window is the marginal likelihood's
-        (:mod:`gyroid.inference._rate_window_marginal`)."""
+        Errors in variables (``errors_in_variables=False``: none): a model reading dT/dt
+        on a log with a noisy thermometer carries that noise through the rate estimator
+        (:mod:`gyroid.inference._thermometer`), under white noise as a covariance over the
+        rows (more than ``max_rows`` rows: block means), under correlated noise as a process
+        of the filter (:mod:`gyroid.noise._rate_error_process`), whose automatic window is
+        the marginal likelihood's (:mod:`gyroid.inference._rate_window_marginal`)."""
         noise = White() if noise is None else noise_model(noise)
         cap = IEEE_MAX_ROWS if max_rows is None else max_rows
         model = terms if isinstance(terms, DriftModel) else DriftModel.from_terms(terms)
-        thermometer_var = 0.0  # a sample's, degC^2: the thermometer's noise to carry
-        if (errors_in_variables and not noise.correlated and not segment_means
-                and reads_rate(model)):
-            thermometer_var = thermometer_to_carry(log, model, rate_window_s, t0_C, cap)
+        # the thermometer's noise to carry (degC^2, a sample's), the filter's wD scaling it
+        thermometer_var, wd = (0.0, 0.0) if segment_means or not errors_in_variables else (
+            _thermometer_carried(log, model, noise, rate_window_s, t0_C, cap))
         log, block_rows, samples = _rows_fitted(log, noise, segment_means,
                                                 carry_thermometer=thermometer_var > 0, cap=cap)
+        thermometer_var_row = thermometer_var / block_rows  # a row's (a block mean's)
         base = inputs = log.inputs(t0_C=t0_C)  # the one set built (10^7 rows: 0.8 GB)
         if rate_window_s is None:
             rate_window_s, _ = choose_rate_window(log, model, t0_C=t0_C, inputs=inputs,
-                                                  thermometer_var_C2=thermometer_var
-                                                  / block_rows)
+                                                  thermometer_var_C2=thermometer_var_row)
             choice = "auto" if reads_rate(model) else "default (the model reads no dT/dt)"
         else:
             choice = "given"
@@ -132,22 +135,24 @@ class BenchProblem(AbstractProblem):
                                       _noise_priors(noise, log, inputs, block_rows, chosen_set,
                                                     log.sigma_deg_h is not None),
                                       prior_set=chosen_set, overrides=priors)
-        rate_error = None
-        if thermometer_var > 0:
-            rate_error = rate_error_covariance(np.asarray(log.time_s),
-                                               np.asarray(log.columns["temperature_C"]),
-                                               rate_window_s, thermometer_var / block_rows)
+        rate_error = (None if noise.correlated or thermometer_var <= 0 else
+                      rate_error_covariance(np.asarray(log.time_s),
+                                            np.asarray(log.columns["temperature_C"]),
+                                            rate_window_s, thermometer_var_row))
 
         def density_at(window_s: float) -> BenchDensity:
             return BenchDensity.from_log(log, model, chosen,
                                          _with_rate_window(log, base, window_s), noise=noise,
                                          rate_window_s=window_s, fast=fast,
-                                         rows_per_mean=block_rows, rate_error_cov=rate_error)
+                                         rows_per_mean=block_rows, rate_error_cov=rate_error,
+                                         rate_error=_carried(log, window_s, wd, thermometer_var_row
+                                                             if noise.correlated else 0.0))
 
         density, noise_start, choice = _by_marginal(density_at, log, rate_window_s, choice)
         return cls(density=density, log=log, prior_set=chosen_set, prior_basis=basis,
                    rate_window_choice=choice, block_rows=block_rows, segments=samples,
-                   thermometer_sd_C=math.sqrt(thermometer_var), noise_start=noise_start)
+                   thermometer_sd_C=math.sqrt(thermometer_var), rate_error_wd=wd,
+                   noise_start=noise_start)
 
     # ----- description (the density's) -------------------------------------------------------
     @property
@@ -281,6 +286,31 @@ def _by_marginal(density_at, log: BenchLog, window_s: float, choice: str
     scored = ", ".join(f"{w:.0f}" for w in sorted(better[1]))
     return density, tuple(float(x) for x in better[2]), (
         f"auto: the marginal likelihood's of {scored} s (least squares' {window_s:.0f} s)")
+
+
+def _thermometer_carried(log: BenchLog | MeansOfBlocks, model: DriftModel, noise: NoiseModel,
+                         rate_window_s: float | None, t0_C: float, cap: int
+                         ) -> tuple[float, float]:
+    """The thermometer's noise a fit carries (a sample's variance, degC^2, or 0) and, under
+    correlated noise, the wD (least squares) that scales it in the filter."""
+    if not reads_rate(model):
+        return 0.0, 0.0
+    if noise.correlated:
+        return rate_error_to_carry(log, model, t0_C)
+    return thermometer_to_carry(log, model, rate_window_s, t0_C, cap), 0.0
+
+
+def _carried(log: BenchLog, window_s: float, wd: float, thermometer_var: float
+             ) -> tuple[np.ndarray, float] | None:
+    """What a correlated-noise filter carries of the thermometer's noise (a row's variance
+    ``thermometer_var``, degC^2; none when 0): the dT/dt error's autocovariance at lags of
+    one row times ``wd**2`` ((deg/h)^2) and the rows' white variance, for the estimator's
+    window ``window_s`` (s)."""
+    if thermometer_var <= 0 or log.n < 2:
+        return None
+    step = float(np.median(np.diff(np.asarray(log.time_s))))
+    return (wd**2 * estimator_autocovariance(window_s, step, thermometer_var),
+            white_level_var(np.asarray(log.drift_deg_h)))
 
 
 def _rows_fitted(log: BenchLog | MeansOfBlocks, noise: NoiseModel, segment_means: bool, *,

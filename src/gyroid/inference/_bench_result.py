@@ -97,9 +97,23 @@ class BenchFit(FitResult):
 
     @property
     def errors_in_variables(self) -> dict | None:
-        """For a white-noise fit that carries the thermometer's noise through the dT/dt
-        estimator: that noise (a sample's sd, degC, measured on the log) and how."""
+        """For a fit that carries the thermometer's noise through the dT/dt estimator: that
+        noise (a sample's sd, degC, measured on the log) and how."""
         problem = self.problem
+        process = getattr(problem.density.noise, "rate_error", None)
+        if process is not None:
+            return {"thermometer_sd_C": problem.thermometer_sd_C,
+                    "wD_fixed": problem.rate_error_wd,
+                    "process": {"sd_deg_h": math.sqrt(process.variance),
+                                "omega_rad_s": process.omega, "quality": process.quality,
+                                "divergence_left": process.divergence
+                                / max(process.divergence_without, 1e-300)},
+                    "how": "the thermometer's white noise, measured by the logged "
+                           "temperature's third differences, passed through the dT/dt "
+                           "estimator and times wD's least-squares value (wD_fixed): one "
+                           "more process of the noise model's filter, a damped oscillator's "
+                           "velocity matched to the estimator's error (divergence_left: "
+                           "the share of the divergence from leaving it out that remains)"}
         if not problem.density.errors_in_variables:
             return None
         return {"thermometer_sd_C": problem.thermometer_sd_C,

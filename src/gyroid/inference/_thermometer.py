@@ -1,6 +1,8 @@
-"""Whether a white fit carries the thermometer's noise through the dT/dt estimator (errors
-in variables, :mod:`gyroid.models._rate_error`), and how much: measured on the log, left
-out where negligible or where the estimator cannot be written as a matrix."""
+"""Whether a fit carries the thermometer's noise through the dT/dt estimator (errors in
+variables, :mod:`gyroid.models._rate_error`), and how much: measured on the log, left out
+where negligible; a white fit also where the estimator cannot be written as a matrix (it
+carries a covariance over the rows), a correlated-noise fit as one more process of its
+filter, with wD at its least-squares value (:mod:`gyroid.noise._rate_error_process`)."""
 
 from __future__ import annotations
 
@@ -29,6 +31,19 @@ def thermometer_to_carry(log: BenchLog | MeansOfBlocks, model: DriftModel,
     return variance
 
 
+def rate_error_to_carry(log: BenchLog | MeansOfBlocks, model: DriftModel, t0_C: float
+                        ) -> tuple[float, float]:
+    """Under correlated noise: the thermometer's noise to carry (a sample's variance,
+    degC^2, or 0) and the wD that scales it (deg/h per degC/h, least squares on the log)."""
+    variance = _thermometer_var(log)
+    if variance <= 0:
+        return 0.0, 0.0
+    wd = _least_squares_rate_coefficient(log, model, t0_C)
+    if wd is None or _negligible(log, model, variance, None, t0_C, wd):
+        return 0.0, 0.0
+    return variance, wd
+
+
 def _thermometer_var(log: BenchLog | MeansOfBlocks) -> float:
     """The variance of a sample's thermometer noise, degC^2 (0 without a temperature): on
     the samples, or on a streamed log's block means (not aggregated further: a
@@ -51,20 +66,36 @@ _THIN_ROWS = 20_000
 
 
 def _negligible(log: BenchLog | MeansOfBlocks, model: DriftModel, thermometer_var: float,
-                rate_window_s: float | None, t0_C: float) -> bool:
+                rate_window_s: float | None, t0_C: float, wd: float | None = None) -> bool:
     """Whether the thermometer's noise (``thermometer_var``, a sample's, degC^2) hardly
     changes the likelihood (:data:`NEGLIGIBLE_EIV`). Over a window of ``N`` samples ``d``
     seconds apart, white thermometer noise gives the estimated rate an error of variance
     ``(3600 sT)^2 229.7 / (d^2 N^3)`` (:func:`~gyroid.models.temperature_rate_deg_c_per_h`),
     common to the window, against the white drift noise ``sigma^2 / N`` of its mean; wD is
     the least-squares value on the log (thinned), sigma the drift's first differences'
-    robust level. A nonlinear model always carries it."""
+    robust level (``wd``: when already known). A nonlinear model always carries it."""
     if not model.is_linear:
+        return False
+    wd = _least_squares_rate_coefficient(log, model, t0_C) if wd is None else wd
+    if wd is None:
         return False
     rows = log.log if isinstance(log, MeansOfBlocks) else log
     per_row = 1 if not isinstance(log, MeansOfBlocks) else log.rows_per_mean
-    every = max(1, rows.n // _THIN_ROWS)
     time_s = np.asarray(rows.time_s)
+    sample_var = per_row * white_level_var(np.asarray(rows.drift_deg_h))
+    step = float(np.median(np.diff(time_s))) / per_row  # a sample's
+    window = rate_window_s if rate_window_s is not None else float(window_grid(time_s)[0])
+    samples = max(window / step, 2.0 * RATE_POLY_DEGREE + 1)
+    rate_var = (3600.0**2 * thermometer_var * 229.7 / (step**2 * samples**3))
+    return wd**2 * rate_var * samples < NEGLIGIBLE_EIV * max(sample_var, 1e-300)
+
+
+def _least_squares_rate_coefficient(log: BenchLog | MeansOfBlocks, model: DriftModel,
+                                    t0_C: float) -> float | None:
+    """wD by least squares on the log (thinned to :data:`_THIN_ROWS` rows; deg/h per
+    degC/h); None where the model's design cannot be built on it."""
+    rows = log.log if isinstance(log, MeansOfBlocks) else log
+    every = max(1, rows.n // _THIN_ROWS)
     thin = BenchLog(columns={k: np.asarray(v)[::every] for k, v in rows.columns.items()
                              if k in ("time_s", "drift_deg_h", "temperature_C", *FIELD_COLUMNS,
                                       *ACCEL_COLUMNS)
@@ -73,15 +104,9 @@ def _negligible(log: BenchLog | MeansOfBlocks, model: DriftModel, thermometer_va
     try:
         design = np.asarray(model.design(thin.inputs(t0_C=t0_C)))
     except (KeyError, ValueError):
-        return False
+        return None
     y = np.asarray(thin.drift_deg_h)
-    wd = float(np.linalg.lstsq(design, y, rcond=None)[0][rate_coefficient_index(model)])
-    sample_var = per_row * white_level_var(np.asarray(rows.drift_deg_h))
-    step = float(np.median(np.diff(time_s))) / per_row  # a sample's
-    window = rate_window_s if rate_window_s is not None else float(window_grid(time_s)[0])
-    samples = max(window / step, 2.0 * RATE_POLY_DEGREE + 1)
-    rate_var = (3600.0**2 * thermometer_var * 229.7 / (step**2 * samples**3))
-    return wd**2 * rate_var * samples < NEGLIGIBLE_EIV * max(sample_var, 1e-300)
+    return float(np.linalg.lstsq(design, y, rcond=None)[0][rate_coefficient_index(model)])
 
 
 def _operator_fits(log: BenchLog | MeansOfBlocks, rate_window_s: float | None,

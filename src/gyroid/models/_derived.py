@@ -124,6 +124,13 @@ def _half_and_degree(window_s: float, step: float, size: int) -> tuple[int, int]
     return half, degree
 
 
+def slope_kernel_weights(window_s: float, step_s: float) -> np.ndarray:
+    """The interior estimator's weights on ``2 half + 1`` samples ``step_s`` apart (degC/h
+    per degC): the rate at a window's centre is their dot product with its temperatures."""
+    half, degree = _half_and_degree(window_s, step_s, 2**62)
+    return _slope_kernel(half, degree)[1] / (half * step_s / 3600.0)
+
+
 def _local_polynomial_slope(values: np.ndarray, half: int, degree: int, step: float,
                             floors: tuple[int, int] | None = None
                             ) -> tuple[np.ndarray, tuple[int, int]]:

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from gyroid.models._derived import temperature_rate_operator
+from gyroid.models._derived import slope_kernel_weights, temperature_rate_operator
 from gyroid.models._drift import DriftModel
 
 #: Rows are aggregated by these factors when the thermometer's noise is measured on the
@@ -91,6 +91,15 @@ def rate_error_covariance(time_s: np.ndarray, temperature_C: np.ndarray, window_
     :data:`~gyroid.models._derived.MAX_OPERATOR_ROWS` rows)."""
     operator = temperature_rate_operator(time_s, temperature_C, window_s)
     return noise_var_C2 * (operator @ operator.T)
+
+
+def estimator_autocovariance(window_s: float, step_s: float, noise_var_C2: float
+                             ) -> np.ndarray:
+    """The interior autocovariance of the dT/dt estimator's error ((degC/h)^2 at lags 0, 1,
+    ... rows) on rows ``step_s`` apart, for white thermometer noise of ``noise_var_C2`` per
+    row: the differentiating kernel correlated with itself (zero beyond two half-windows)."""
+    weights = slope_kernel_weights(window_s, step_s)
+    return noise_var_C2 * np.correlate(weights, weights, mode="full")[weights.size - 1:]
 
 
 def rate_coefficient_index(model: DriftModel) -> int:

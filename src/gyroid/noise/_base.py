@@ -72,6 +72,13 @@ class NoiseModel(eqx.Module):
         del step_s, duration_s
         return self
 
+    def with_rate_error(self, process) -> NoiseModel:
+        """This model carrying the thermometer's noise through the dT/dt estimator as one
+        more process of its filter (:class:`~gyroid.noise._rate_error_process.
+        RateErrorProcess`, set up on the log's rows read as block means)."""
+        raise ValueError(f"the {self.name} noise model carries the thermometer's noise in "
+                         "its own way (errors in variables: a covariance over the rows)")
+
     @abc.abstractmethod
     def default_priors(self, level_deg_h: float, step_s: float, rows_per_mean: int
                        ) -> dict[str, Prior]:

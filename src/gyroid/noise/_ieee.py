@@ -40,6 +40,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from gyroid.noise._rate_error_process import RateErrorProcess
+
 #: Gauss-Markov processes summed into the flicker.
 FLICKER_PROCESSES = 6
 
@@ -99,11 +101,14 @@ def ieee_innovations(
     flicker_unit_var: Float[Array, ""],
     update: Float[Array, " n"] | None = None,
     centred: bool = True,
+    rate_error: RateErrorProcess | None = None,
 ) -> tuple[Float[Array, "n ..."], Float[Array, " n"]]:
     """Innovations of the block means ``observed`` (trailing columns filtered alike) and
     their variances, under white noise of per-block variance ``white_var`` ((deg/h)^2) plus
     flicker of level ``bias_instability`` (B, deg/h) plus a rate random walk ``walk`` (K,
-    deg/h/sqrt(h)). Rows with ``update == 0`` are predicted through, not learnt from.
+    deg/h/sqrt(h)), plus ``rate_error``: the thermometer's noise through the dT/dt estimator
+    (:mod:`gyroid.noise._rate_error_process`, set up on these blocks), or None. Rows with
+    ``update == 0`` are predicted through, not learnt from.
 
     ``centred``: the walk diffuse at the start and averaging zero over the blocks (module
     docstring); the first row learnt from then carries the constraint's innovation.
@@ -116,33 +121,63 @@ def ieee_innovations(
     r = white_var + jnp.sum(qmm, axis=1)
     update = jnp.ones_like(span_s) if update is None else update
     j = flicker_tau_s.size
+    start_var = jnp.concatenate([jnp.full((j,), variance), jnp.zeros(1)])
+    if centred:
+        # the walk's running weighted mean over the log: each block's share of it times
+        # the walk's block mean (module docstring)
+        weight = span_s / jnp.sum(span_s)
+        phi = jnp.concatenate([phi, jnp.ones_like(weight)[:, None]], axis=1)
+        c = jnp.concatenate([c, jnp.zeros_like(weight)[:, None]], axis=1)
+        qxx = jnp.concatenate([qxx, (weight**2 * qmm[:, j])[:, None]], axis=1)
+        qxm = jnp.concatenate([qxm, (weight * qmm[:, j])[:, None]], axis=1)
+        start_var = jnp.concatenate([start_var, jnp.zeros(1)])
+    f = jax.vmap(jnp.diag)(phi)
+    q = jax.vmap(jnp.diag)(qxx)
+    start = jnp.diag(start_var)
+    if centred:
+        a = j + 1
+        f = f.at[:, a, j].set(weight)
+        q = q.at[:, a, j].set(weight * qxm[:, j]).at[:, j, a].set(weight * qxm[:, j])
+    if rate_error is not None:
+        f, q, c, qxm, start = _with_process(f, q, c, qxm, start, rate_error)
+        r = r + rate_error.mean_noise
     if not centred:
-        return _anchored(observed, phi, c, qxx, qxm, r, update, variance, j)
-    weight = span_s / jnp.sum(span_s)  # each block's share of the log's mean
-    walk_qmm, walk_qxm = qmm[:, j], qxm[:, j]
-    n_states = j + 2  # flicker, walk, the walk's running weighted mean
-    a = j + 1  # the running mean's index
-    zero = jnp.zeros_like(span_s)[:, None]
-    phi = jnp.concatenate([phi, zero + 1.0], axis=1)
-    c = jnp.concatenate([c, zero], axis=1)
-    q_diag = jnp.concatenate([qxx, (weight**2 * walk_qmm)[:, None]], axis=1)
-    q_xm = jnp.concatenate([qxm, (weight * walk_qmm)[:, None]], axis=1)
-    start_var = jnp.concatenate([jnp.full(flicker_tau_s.shape, variance), jnp.zeros(2)])
+        return _anchored(observed, f, c, q, qxm, r, update, start)
+    return _centred(observed, f, c, q, qxm, r, update, start, j)
+
+
+def _with_process(f, q, c, qxm, start, process: RateErrorProcess):
+    """The block filter's system with the rate error's two states appended."""
+    n, s = c.shape
+    k = s + process.stationary.shape[0]
+
+    def grow(m, block):
+        out = jnp.zeros((n, k, k)).at[:, :s, :s].set(m)
+        return out.at[:, s:, s:].set(block)
+
+    start = jnp.zeros((k, k)).at[:s, :s].set(start).at[s:, s:].set(process.stationary)
+    return (grow(f, process.transition), grow(q, process.state_noise),
+            jnp.concatenate([c, process.to_mean], axis=1),
+            jnp.concatenate([qxm, process.cross_noise], axis=1), start)
+
+
+def _centred(observed, f, c, q, qxm, r, update, start_cov, j):
+    """The block filter with the walk (state ``j``) diffuse at the start and its running
+    mean (state ``j + 1``) observed as zero at the end (module docstring)."""
+    a = j + 1
+    n_states = c.shape[1]
     start_d = jnp.zeros(n_states).at[j].set(1.0)  # the diffuse level's coefficients
 
     def step(carry, row):
         mean, cov, d, pending = carry  # states at the previous block's end; d: of the level
-        y, phi_k, c_k, qd_k, qxm_k, r_k, u_k, m_k, wq_k = row
-        # transition: diagonal, and the running mean adds m_k times the walk's block mean
-        f = jnp.diag(phi_k).at[a, j].set(m_k)
-        q = jnp.diag(qd_k).at[a, j].set(m_k * wq_k).at[j, a].set(m_k * wq_k)
+        y, f_k, c_k, q_k, qxm_k, r_k, u_k = row
         pc = cov @ c_k
         s_mm = c_k @ pc + r_k
-        s_xm = f @ pc + qxm_k
-        s_xx = f @ cov @ f.T + q
+        s_xm = f_k @ pc + qxm_k
+        s_xx = f_k @ cov @ f_k.T + q_k
         innovation = y - jnp.tensordot(c_k, mean, axes=1)
-        predicted = jnp.tensordot(f, mean, axes=1)
-        d_next = f @ d  # the level's coefficients in the predicted states
+        predicted = jnp.tensordot(f_k, mean, axes=1)
+        d_next = f_k @ d  # the level's coefficients in the predicted states
         # the first row learnt from reveals the diffuse level (the exact initial filter:
         # its own likelihood term is the constraint's, set after the scan)
         reveal = pending * u_k
@@ -155,10 +190,9 @@ def ieee_innovations(
         d = (1.0 - reveal) * d_next
         return (mean, cov, d, pending * (1.0 - u_k)), (innovation, s_mm)
 
-    start = (jnp.zeros((n_states, *observed.shape[1:])), jnp.diag(start_var), start_d,
-             jnp.ones(()))
+    start = (jnp.zeros((n_states, *observed.shape[1:])), start_cov, start_d, jnp.ones(()))
     (mean, cov, _, _), (innovation, total) = jax.lax.scan(
-        step, start, (observed, phi, c, q_diag, q_xm, r, update, weight, walk_qxm))
+        step, start, (observed, f, c, q, qxm, r, update))
     # the walk's weighted mean over the log, observed as zero
     first = jnp.argmax(update > 0)
     innovation = innovation.at[first].set(-mean[a])
@@ -166,27 +200,25 @@ def ieee_innovations(
     return innovation, total
 
 
-def _anchored(observed, phi, c, qxx, qxm, r, update, variance, j):
+def _anchored(observed, f, c, q, qxm, r, update, start_cov):
     """The block filter with the walk from zero at the first block (``centred=False``)."""
-    n_states = j + 1
-    start_var = jnp.concatenate([jnp.full((j,), variance), jnp.zeros(1)])
+    n_states = c.shape[1]
 
     def step(carry, row):
         mean, cov = carry  # of the states at the previous block's end
-        y, phi_k, c_k, qxx_k, qxm_k, r_k, u_k = row
+        y, f_k, c_k, q_k, qxm_k, r_k, u_k = row
         pc = cov @ c_k
         s_mm = c_k @ pc + r_k
-        s_xm = phi_k * pc + qxm_k
-        s_xx = phi_k[:, None] * cov * phi_k[None, :] + jnp.diag(qxx_k)
+        s_xm = f_k @ pc + qxm_k
+        s_xx = f_k @ cov @ f_k.T + q_k
         innovation = y - jnp.tensordot(c_k, mean, axes=1)
         gain = u_k * s_xm / s_mm
-        mean = phi_k.reshape((-1,) + (1,) * (y.ndim)) * mean + jnp.tensordot(
-            gain, innovation, axes=0)
+        mean = jnp.tensordot(f_k, mean, axes=1) + jnp.tensordot(gain, innovation, axes=0)
         cov = s_xx - u_k * jnp.outer(s_xm, s_xm) / s_mm
         return (mean, cov), (innovation, s_mm)
 
-    start = (jnp.zeros((n_states, *observed.shape[1:])), jnp.diag(start_var))
-    _, (innovation, total) = jax.lax.scan(step, start, (observed, phi, c, qxx, qxm, r, update))
+    start = (jnp.zeros((n_states, *observed.shape[1:])), start_cov)
+    _, (innovation, total) = jax.lax.scan(step, start, (observed, f, c, q, qxm, r, update))
     return innovation, total
 
 

@@ -27,6 +27,7 @@ from gyroid.models._priors import LogNormal
 from gyroid.noise._base import NoiseModel
 from gyroid.noise._ieee import flicker_times, ieee_innovations, ieee_part_covariance
 from gyroid.noise._kalman import gauss_markov_innovations, gauss_markov_mean_covariance
+from gyroid.noise._rate_error_process import RateErrorProcess
 
 _WHITE_UNITS = {"sigma_deg_h": "deg/h"}
 #: Paper A's FOG white level prior (a sample's sd, deg/h; a density on log x).
@@ -72,7 +73,10 @@ class White(NoiseModel):
 
 
 class GaussMarkov(NoiseModel):
-    """White noise plus a stationary first-order Gauss-Markov bias."""
+    """White noise plus a stationary first-order Gauss-Markov bias; with ``rate_error``, the
+    thermometer's noise through dT/dt too (rows then read as block means)."""
+
+    rate_error: RateErrorProcess | None = None
 
     name: ClassVar[str] = "white+gm"
     level_names: ClassVar[tuple[str, ...]] = ("sigma_deg_h", "sigma_gm_deg_h", "tau_gm_s")
@@ -95,7 +99,10 @@ class GaussMarkov(NoiseModel):
         return values["sigma_deg_h"] * row_scale
 
     def rows_as_means(self, rows_per_mean):
-        return rows_per_mean > 1
+        return rows_per_mean > 1 or self.rate_error is not None
+
+    def with_rate_error(self, process):
+        return GaussMarkov(rate_error=process)
 
     def known_white(self, sigma):
         return jnp.median(sigma)  # the filter takes one white level
@@ -121,7 +128,7 @@ class GaussMarkov(NoiseModel):
                                 jnp.broadcast_to(white**2, span.shape),
                                 values["sigma_gm_deg_h"], jnp.zeros(()),
                                 jnp.reshape(values["tau_gm_s"], (1,)), 1.0, clock.weight,
-                                centred=False)
+                                centred=False, rate_error=self.rate_error)
 
     def part_covariance(self, time_s, part, n_parts, step_s, white_var, values, *,
                         block_means=False, after_s=None):
@@ -129,7 +136,8 @@ class GaussMarkov(NoiseModel):
         if block_means:
             return white + ieee_part_covariance(
                 time_s, part, n_parts, step_s, np.zeros(n_parts), values["sigma_gm_deg_h"],
-                0.0, (np.array([values["tau_gm_s"]]), 1.0))
+                0.0, (np.array([values["tau_gm_s"]]), 1.0)) + _rate_error_parts(
+                self.rate_error, part, n_parts, after_s)
         return white + gauss_markov_mean_covariance(time_s, part, n_parts,
                                                     values["sigma_gm_deg_h"],
                                                     values["tau_gm_s"])
@@ -142,6 +150,8 @@ class Ieee952(NoiseModel):
 
     flicker_tau_s: Float[Array, " j"] | None = None
     flicker_unit_var: float = 0.0
+    #: The thermometer's noise through dT/dt, carried by the filter (or None).
+    rate_error: RateErrorProcess | None = None
 
     name: ClassVar[str] = "white+flicker+rw"
     level_names: ClassVar[tuple[str, ...]] = ("N_deg_sqrt_h", "B_deg_h", "K_deg_h_sqrt_h")
@@ -156,7 +166,12 @@ class Ieee952(NoiseModel):
 
     def for_log(self, step_s, duration_s):
         taus, unit = flicker_times(step_s, duration_s + step_s)
-        return Ieee952(flicker_tau_s=jnp.asarray(taus), flicker_unit_var=unit)
+        return Ieee952(flicker_tau_s=jnp.asarray(taus), flicker_unit_var=unit,
+                       rate_error=self.rate_error)
+
+    def with_rate_error(self, process):
+        return Ieee952(flicker_tau_s=self.flicker_tau_s,
+                       flicker_unit_var=self.flicker_unit_var, rate_error=process)
 
     def default_priors(self, level_deg_h, step_s, rows_per_mean):
         """N about the log's white density; B and K with medians a thousandth of it (deg/h,
@@ -194,13 +209,33 @@ class Ieee952(NoiseModel):
         gap = jnp.zeros_like(span) if clock.gap_s is None else clock.gap_s
         return ieee_innovations(observed, span, gap, jnp.broadcast_to(white**2, span.shape),
                                 values["B_deg_h"], values["K_deg_h_sqrt_h"],
-                                self.flicker_tau_s, self.flicker_unit_var, clock.weight)
+                                self.flicker_tau_s, self.flicker_unit_var, clock.weight,
+                                rate_error=self.rate_error)
 
     def part_covariance(self, time_s, part, n_parts, step_s, white_var, values, *,
                         block_means=False, after_s=None):
         return ieee_part_covariance(time_s, part, n_parts, step_s, white_var,
                                     values["B_deg_h"], values["K_deg_h_sqrt_h"],
-                                    after_s=after_s)
+                                    after_s=after_s) + _rate_error_parts(
+            self.rate_error, part, n_parts, after_s)
+
+
+def _rate_error_parts(process: RateErrorProcess | None, part: np.ndarray, n_parts: int,
+                      after_s: float | None) -> np.ndarray | float:
+    """The covariance of parts' means of the fitted log's rows (``part``: each row's) that
+    a carried rate error adds; 0 without one, and for a new log (``after_s``: its
+    thermometer is not the fitted log's)."""
+    if process is None or after_s is not None:
+        return 0.0
+    rows = np.asarray(part)
+    if rows.size != process.mean_noise.shape[0]:
+        raise ValueError("the rate error's covariance is of the fitted log's rows: "
+                         f"{process.mean_noise.shape[0]} rows, not {rows.size}")
+    kept = rows >= 0
+    counts = np.bincount(rows[kept], minlength=n_parts).astype(float)
+    average = np.zeros((n_parts, rows.size))
+    average[rows[kept], np.flatnonzero(kept)] = 1.0 / counts[rows[kept]]
+    return average @ process.row_covariance() @ average.T
 
 
 #: The noise models ``--noise`` offers, by name.
