@@ -53,9 +53,9 @@ def _blocks(rng, n):
 
 def _process(span, gap, variance=0.004, omega=0.015, quality=1.6):
     system = block_system(span, gap, variance, omega, quality)
-    return RateErrorProcess(**{k: jnp.asarray(v) for k, v in system.items()},
-                            variance=variance, omega=omega, quality=quality,
-                            divergence=0.0, divergence_without=0.0)
+    scalars = {"variance": variance, "omega": omega, "quality": quality, "divergence": 0.0,
+               "divergence_without": 0.0}
+    return RateErrorProcess(**{k: jnp.asarray(v) for k, v in (system | scalars).items()})
 
 
 def _log_likelihood(y, span, gap, white, b, k, taus, unit, process, centred=True):

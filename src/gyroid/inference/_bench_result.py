@@ -104,10 +104,11 @@ class BenchFit(FitResult):
         if process is not None:
             return {"thermometer_sd_C": problem.thermometer_sd_C,
                     "wD_fixed": problem.rate_error_wd,
-                    "process": {"sd_deg_h": math.sqrt(process.variance),
-                                "omega_rad_s": process.omega, "quality": process.quality,
-                                "divergence_left": process.divergence
-                                / max(process.divergence_without, 1e-300)},
+                    "process": {"sd_deg_h": math.sqrt(float(process.variance)),
+                                "omega_rad_s": float(process.omega),
+                                "quality": float(process.quality),
+                                "divergence_left": float(process.divergence)
+                                / max(float(process.divergence_without), 1e-300)},
                     "how": "the thermometer's white noise, measured by the logged "
                            "temperature's third differences, passed through the dT/dt "
                            "estimator and times wD's least-squares value (wD_fixed): one "

@@ -18,7 +18,7 @@ al. 2017's SHO term): two states, no power at zero frequency, a damped oscillati
 autocovariance. Its mean over a block is exact, ``(x(end) - x(start)) / L``. Its three
 parameters (the rate error's variance, ``omega``, ``Q``) are those whose Gaussian is
 closest to the estimator's (Kullback-Leibler, per block mean, with the log's white noise
-beside it): on paper A's benches the matched process leaves 2-4 % of the divergence that
+beside it): on paper A's benches the matched process leaves 3-5 % of the divergence that
 ignoring the error leaves. The parameters are fixed for the log (the thermometer's level is
 measured on it, wD is its least-squares value), not sampled.
 """
@@ -132,11 +132,12 @@ class RateErrorProcess(eqx.Module):
     mean_noise: Float[Array, " n"]
     cross_noise: Float[Array, "n 2"]
     stationary: Float[Array, "2 2"]
-    variance: float = eqx.field(static=True)
-    omega: float = eqx.field(static=True)
-    quality: float = eqx.field(static=True)
-    divergence: float = eqx.field(static=True)
-    divergence_without: float = eqx.field(static=True)
+    # arrays, not static floats: logs of one shape share one compilation
+    variance: Float[Array, ""]
+    omega: Float[Array, ""]
+    quality: Float[Array, ""]
+    divergence: Float[Array, ""]
+    divergence_without: Float[Array, ""]
 
     @classmethod
     def matched(cls, autocovariance: np.ndarray, step_s: float, white_var: float,
@@ -146,8 +147,9 @@ class RateErrorProcess(eqx.Module):
         spans ``span_s`` after gaps ``gap_s`` (s)."""
         variance, omega, quality, left, without = match(autocovariance, step_s, white_var)
         system = block_system(span_s, gap_s, variance, omega, quality)
-        return cls(**{k: jnp.asarray(v) for k, v in system.items()}, variance=variance,
-                   omega=omega, quality=quality, divergence=left, divergence_without=without)
+        scalars = {"variance": variance, "omega": omega, "quality": quality,
+                   "divergence": left, "divergence_without": without}
+        return cls(**{k: jnp.asarray(v) for k, v in (system | scalars).items()})
 
     def row_covariance(self) -> np.ndarray:
         """The covariance of the process's block means over the log's blocks, dense
