@@ -55,9 +55,10 @@ def test_the_window_under_ieee_noise_is_the_marginal_likelihoods(bench):
     assert chosen.rate_window_s < 0.8 * least_squares
     smeared = BenchProblem.from_log(bench, "thermal", noise="white+flicker+rw",
                                     rate_window_s=least_squares)
-    _, scores, _ = marginal_window(smeared.density, np.asarray(smeared.log.time_s),
-                                np.asarray(smeared.log.columns["temperature_C"]),
-                                least_squares)
+    _, scores, _ = marginal_window(
+        lambda w: BenchProblem.from_log(bench, "thermal", noise="white+flicker+rw",
+                                        rate_window_s=w).density, least_squares,
+        float(np.median(np.diff(np.asarray(smeared.log.time_s)))))
     assert scores[float(chosen.rate_window_s)] > scores[least_squares] + 50.0
     for problem in (chosen, smeared):
         assert problem.mode().value["K_deg_h_sqrt_h"] < 5.0 * WALK
@@ -82,6 +83,4 @@ def test_without_the_thermometers_noise_the_walk_takes_it_in(bench):
 def test_a_white_fit_keeps_least_squares_window(bench):
     """White noise has no collapsed form: the least-squares window stands."""
     white = BenchProblem.from_log(bench, "thermal", noise="white", rate_window_s=None)
-    assert marginal_window(white.density, np.asarray(white.log.time_s),
-                           np.asarray(white.log.columns["temperature_C"]),
-                           white.rate_window_s) is None
+    assert marginal_window(lambda w: white.density, white.rate_window_s, 1.0) is None

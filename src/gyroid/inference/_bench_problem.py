@@ -274,15 +274,20 @@ def _by_marginal(density_at, log: BenchLog, window_s: float, choice: str
     under correlated noise (a collapsed form), at the window of highest marginal likelihood
     (:mod:`gyroid.inference._rate_window_marginal`), with the noise levels' mode found
     there; and how the window was chosen."""
-    density = density_at(window_s)
+    built: dict[float, BenchDensity] = {}
+
+    def at(window: float) -> BenchDensity:
+        if window not in built:
+            built[window] = density_at(window)
+        return built[window]
+
+    density = at(window_s)
     if choice != "auto" or not density.noise.correlated or not log.has("temperature_C"):
         return density, None, choice
-    better = marginal_window(density, np.asarray(log.time_s),
-                             np.asarray(log.columns["temperature_C"]), window_s)
+    better = marginal_window(at, window_s, float(np.median(np.diff(np.asarray(log.time_s)))))
     if better is None:
         return density, None, choice
-    if better[0] != window_s:
-        density = density_at(better[0])
+    density = at(better[0])
     scored = ", ".join(f"{w:.0f}" for w in sorted(better[1]))
     return density, tuple(float(x) for x in better[2]), (
         f"auto: the marginal likelihood's of {scored} s (least squares' {window_s:.0f} s)")

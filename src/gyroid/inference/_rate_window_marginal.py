@@ -29,43 +29,38 @@ likelihood), as least squares is under white noise.
 
 from __future__ import annotations
 
-import equinox as eqx
-import jax.numpy as jnp
+from collections.abc import Callable
+
 import numpy as np
 
 from gyroid.inference._collapsed import collapse
 from gyroid.inference._point import marginal_mode, noise_guess
-from gyroid.models._derived import RATE_POLY_DEGREE, temperature_rate_deg_c_per_h
+from gyroid.models._derived import RATE_POLY_DEGREE
 
 #: Windows compared, the least-squares choice included.
 CANDIDATES = 3
 
 
-def marginal_window(density, time_s: np.ndarray, temperature_C: np.ndarray,
-                    least_squares_s: float
-                    ) -> tuple[float, dict[float, float], np.ndarray] | None:
+def marginal_window(density_at: Callable[[float], object], least_squares_s: float,
+                    step_s: float) -> tuple[float, dict[float, float], np.ndarray] | None:
     """The window (s) of highest collapsed marginal posterior, that maximum per window
     tried (the last, lower one included), and the noise levels there (sampling
     coordinates: where the fit's mode starts); None where the density has no collapsed
-    form (a white or nonlinear fit) or no shorter window exists."""
-    collapsed = collapse(density)
+    form (a white or nonlinear fit) or no shorter window exists. ``density_at``: the
+    bench density at a window (s; its dT/dt, and the thermometer's noise through it when
+    carried, are the window's); ``step_s``: the rows' median step."""
+    collapsed = collapse(density_at(least_squares_s))
     if collapsed is None:
         return None
-    time_s = np.asarray(time_s, dtype=float)
-    step = float(np.median(np.diff(time_s)))
-    shortest = (2 * RATE_POLY_DEGREE + 1) * step
+    shortest = (2 * RATE_POLY_DEGREE + 1) * step_s
     if least_squares_s <= shortest * 1.01:
         return None
     windows = np.geomspace(shortest, least_squares_s, CANDIDATES)[::-1]
-    design = density.model.design
-    guess, correlated = noise_guess(density)
+    guess, correlated = noise_guess(collapsed.density)
     scores: dict[float, float] = {}
     levels: dict[float, np.ndarray] = {}
     for window in windows:
-        rate = temperature_rate_deg_c_per_h(time_s, temperature_C, float(window))
-        inputs = eqx.tree_at(lambda x: x.rate_C_h, density.inputs, jnp.asarray(rate))
-        trial = eqx.tree_at(lambda c: c.columns, collapsed,
-                            jnp.column_stack([density.drift, design(inputs)]))
+        trial = collapsed if window == least_squares_s else collapse(density_at(float(window)))
         solution, value = marginal_mode(trial, guess, correlated)
         falling = bool(scores) and value < max(scores.values())
         scores[float(window)], levels[float(window)] = value, np.asarray(solution.value)

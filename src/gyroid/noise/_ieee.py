@@ -131,37 +131,51 @@ def ieee_innovations(
         qxx = jnp.concatenate([qxx, (weight**2 * qmm[:, j])[:, None]], axis=1)
         qxm = jnp.concatenate([qxm, (weight * qmm[:, j])[:, None]], axis=1)
         start_var = jnp.concatenate([start_var, jnp.zeros(1)])
-    f = jax.vmap(jnp.diag)(phi)
     q = jax.vmap(jnp.diag)(qxx)
     start = jnp.diag(start_var)
+    link = None  # the transition's one entry off its diagonal: the running mean's
     if centred:
         a = j + 1
-        f = f.at[:, a, j].set(weight)
+        link = weight
         q = q.at[:, a, j].set(weight * qxm[:, j]).at[:, j, a].set(weight * qxm[:, j])
+    block = None
     if rate_error is not None:
-        f, q, c, qxm, start = _with_process(f, q, c, qxm, start, rate_error)
+        phi, q, c, qxm, start = _with_process(phi, q, c, qxm, start, rate_error)
+        block = rate_error.transition
         r = r + rate_error.mean_noise
+    transition = (phi, link, block)
     if not centred:
-        return _anchored(observed, f, c, q, qxm, r, update, start)
-    return _centred(observed, f, c, q, qxm, r, update, start, j)
+        return _anchored(observed, transition, c, q, qxm, r, update, start)
+    return _centred(observed, transition, c, q, qxm, r, update, start, j)
 
 
-def _with_process(f, q, c, qxm, start, process: RateErrorProcess):
-    """The block filter's system with the rate error's two states appended."""
+def _with_process(phi, q, c, qxm, start, process: RateErrorProcess):
+    """The block filter's system with the rate error's two states appended (their
+    transition, a 2 x 2 block, is applied apart: :func:`_transit`)."""
     n, s = c.shape
     k = s + process.stationary.shape[0]
-
-    def grow(m, block):
-        out = jnp.zeros((n, k, k)).at[:, :s, :s].set(m)
-        return out.at[:, s:, s:].set(block)
-
+    grown = jnp.zeros((n, k, k)).at[:, :s, :s].set(q).at[:, s:, s:].set(process.state_noise)
     start = jnp.zeros((k, k)).at[:s, :s].set(start).at[s:, s:].set(process.stationary)
-    return (grow(f, process.transition), grow(q, process.state_noise),
+    return (jnp.concatenate([phi, jnp.zeros((n, k - s))], axis=1), grown,
             jnp.concatenate([c, process.to_mean], axis=1),
             jnp.concatenate([qxm, process.cross_noise], axis=1), start)
 
 
-def _centred(observed, f, c, q, qxm, r, update, start_cov, j):
+def _transit(transition, m, j):
+    """The transition applied to ``m`` along its leading (state) axis: a diagonal, the
+    running mean's link (state ``j + 1`` gains ``link`` times state ``j``) and the rate
+    error's 2 x 2 block on the last two states; O(states) where a dense product is
+    O(states^2) per column (the filter's ``F P F'`` was its cost)."""
+    diag, link, block = transition
+    out = diag.reshape((-1,) + (1,) * (m.ndim - 1)) * m
+    if link is not None:
+        out = out.at[j + 1].add(link * m[j])
+    if block is not None:
+        out = out.at[-2:].set(jnp.tensordot(block, m[-2:], axes=1))
+    return out
+
+
+def _centred(observed, transition, c, q, qxm, r, update, start_cov, j):
     """The block filter with the walk (state ``j``) diffuse at the start and its running
     mean (state ``j + 1``) observed as zero at the end (module docstring)."""
     a = j + 1
@@ -173,11 +187,11 @@ def _centred(observed, f, c, q, qxm, r, update, start_cov, j):
         y, f_k, c_k, q_k, qxm_k, r_k, u_k = row
         pc = cov @ c_k
         s_mm = c_k @ pc + r_k
-        s_xm = f_k @ pc + qxm_k
-        s_xx = f_k @ cov @ f_k.T + q_k
+        s_xm = _transit(f_k, pc, j) + qxm_k
+        s_xx = _transit(f_k, _transit(f_k, cov, j).T, j) + q_k
         innovation = y - jnp.tensordot(c_k, mean, axes=1)
-        predicted = jnp.tensordot(f_k, mean, axes=1)
-        d_next = f_k @ d  # the level's coefficients in the predicted states
+        predicted = _transit(f_k, mean, j)
+        d_next = _transit(f_k, d, j)  # the level's coefficients in the predicted states
         # the first row learnt from reveals the diffuse level (the exact initial filter:
         # its own likelihood term is the constraint's, set after the scan)
         reveal = pending * u_k
@@ -192,7 +206,7 @@ def _centred(observed, f, c, q, qxm, r, update, start_cov, j):
 
     start = (jnp.zeros((n_states, *observed.shape[1:])), start_cov, start_d, jnp.ones(()))
     (mean, cov, _, _), (innovation, total) = jax.lax.scan(
-        step, start, (observed, f, c, q, qxm, r, update))
+        step, start, (observed, transition, c, q, qxm, r, update))
     # the walk's weighted mean over the log, observed as zero
     first = jnp.argmax(update > 0)
     innovation = innovation.at[first].set(-mean[a])
@@ -200,7 +214,7 @@ def _centred(observed, f, c, q, qxm, r, update, start_cov, j):
     return innovation, total
 
 
-def _anchored(observed, f, c, q, qxm, r, update, start_cov):
+def _anchored(observed, transition, c, q, qxm, r, update, start_cov):
     """The block filter with the walk from zero at the first block (``centred=False``)."""
     n_states = c.shape[1]
 
@@ -209,16 +223,17 @@ def _anchored(observed, f, c, q, qxm, r, update, start_cov):
         y, f_k, c_k, q_k, qxm_k, r_k, u_k = row
         pc = cov @ c_k
         s_mm = c_k @ pc + r_k
-        s_xm = f_k @ pc + qxm_k
-        s_xx = f_k @ cov @ f_k.T + q_k
+        s_xm = _transit(f_k, pc, -1) + qxm_k
+        s_xx = _transit(f_k, _transit(f_k, cov, -1).T, -1) + q_k
         innovation = y - jnp.tensordot(c_k, mean, axes=1)
         gain = u_k * s_xm / s_mm
-        mean = jnp.tensordot(f_k, mean, axes=1) + jnp.tensordot(gain, innovation, axes=0)
+        mean = _transit(f_k, mean, -1) + jnp.tensordot(gain, innovation, axes=0)
         cov = s_xx - u_k * jnp.outer(s_xm, s_xm) / s_mm
         return (mean, cov), (innovation, s_mm)
 
     start = (jnp.zeros((n_states, *observed.shape[1:])), start_cov)
-    _, (innovation, total) = jax.lax.scan(step, start, (observed, f, c, q, qxm, r, update))
+    _, (innovation, total) = jax.lax.scan(step, start, (observed, transition, c, q, qxm, r,
+                                                         update))
     return innovation, total
 
 
