@@ -408,7 +408,7 @@ def _fog_phrases() -> dict[str, str]:
         f"{ratio['K_deg_h_sqrt_h']:.2f} of their truths (medians over the {n} logs; N's at "
         f"{ratio['N_deg_sqrt_h']:.2f})")
     raised_ratio = raised["noise_median_over_truth"]
-    out["raised_noise"] = (f"(B's median at {raised_ratio['B_deg_h']:.0f}x its truth, N's at "
+    out["raised_noise"] = (f"(B's median {raised_ratio['B_deg_h']:.2f}x its truth, N's "
                            f"{raised_ratio['N_deg_sqrt_h']:.2f}x")
     samplers = [r["sampler"] for r in _results("fog_thermal_bench")["runs"]]
     if all(m == "psis" for m in samplers):
@@ -417,20 +417,24 @@ def _fog_phrases() -> dict[str, str]:
     else:
         out["sampler"] = f"{samplers.count('psis')} of the {len(samplers)} default fits"
     rc = [r for r in _results("fog_thermal_bench")["runs"] if r["profile"] == "raised_cosine"]
-    windows = {r["rate_window_s"] for r in rc}
-    if len(windows) == 1:
-        out["raised_window"] = f"marginal likelihood's ({windows.pop():.0f} s on every log)"
+    windows = sorted({r["rate_window_s"] for r in rc})
+    out["raised_window"] = (f"The window is the marginal likelihood's ({windows[0]:.0f}-"
+                            f"{windows[-1]:.0f} s" if len(windows) > 1 else
+                            f"marginal likelihood's ({windows[0]:.0f} s on every log)")
     gaps = [float(m.split(" is ")[1].split(" posterior sd")[0]) for r in rc
             for m in r["failed_messages"] if "point estimate of B_deg_h" in m]
     if gaps:
         out["raised_modes"] = (f"(its B {min(gaps):.0f}-{max(gaps):.0f} posterior sd from the "
                                "mode's)")
-    raised_sd = raised["z_sd"].values()
+    raised_sd, raised_in = raised["z_sd"].values(), raised["inside_95"]
+    beyond = raised["exit_0_beyond_3_3_sd"]
     out["raised"] = (
-        f"On the raised-cosine profile {raised['exit_3']} of {raised['fits']} refused (exit 3)"
-        f" and every coefficient of all {raised['fits']} lay inside its 95 % interval, the "
-        f"intervals far wider than needed (z-scores' sd {min(raised_sd):.2f}-"
-        f"{max(raised_sd):.2f})")
+        f"On the raised-cosine profile {raised['exit_3']} of {raised['fits']} refused (exit 3);"
+        f" their intervals held the truths {raised_in['w0']}, {raised_in['w1']}, "
+        f"{raised_in['w2']} and {raised_in['wD']} times of {raised['fits']}, the z-scores' sd "
+        f"{min(raised_sd):.2f}-{max(raised_sd):.2f}, and "
+        f"{'no' if beyond == 0 else beyond} trusted fit{'' if beyond < 2 else 's'} had a "
+        "truth more than 3.3 sd away")
     default = _results("fog_thermal_bench_white_only")["runs"]
     white = {r["seed"]: r for r in _results("fog_thermal_bench_white_only_white")["runs"]}
     ratios = {k: [r["sd"][k] / white[r["seed"]]["sd"][k] for r in default]
