@@ -442,10 +442,16 @@ def _fog_phrases() -> dict[str, str]:
     medians = [float(np.median(v)) for v in ratios.values()]
     largest = max(max(v) for v in ratios.values())
     trusted = sum(r["trustworthy"] for r in default)
+    only = _results("fog_thermal_bench_white_only")["summary"]["smooth"]
     out["white_only"] = (
         f"the default's posterior sds were {min(medians):.2f}-{max(medians):.2f}x "
         f"`--noise white`'s (medians per coefficient over {len(default)} seeds; at most "
-        f"{largest:.2f}x), {trusted} of {len(default)} default fits trusted")
+        f"{largest:.2f}x), {trusted} of {len(default)} default fits trusted, and their truths "
+        f"inside every 95 % interval (a z-scores' sd of {min(only['z_sd'].values()):.2f}-"
+        f"{max(only['z_sd'].values()):.2f}: the intervals are conservative; re-run on "
+        f"2026-11-27 with the thermometer's noise carried, a median "
+        f"{only['median_seconds']:.0f} s a fit")
+    assert all(v == len(default) for v in only["inside_95"].values())
     white_seconds = _results("fog_thermal_bench_white_only_white")["summary"]["smooth"][
         "median_seconds"]
     out["seconds"] = (f"a median {smooth['median_seconds']:.0f} s with two such fits running "

@@ -14,6 +14,8 @@ import pytest
 from scipy import stats
 from scipy.linalg import toeplitz
 
+from gyroid.inference import BenchProblem
+from gyroid.io import BenchLog
 from gyroid.models._rate_error import estimator_autocovariance
 from gyroid.noise._ieee import flicker_times, ieee_innovations, ieee_mean_covariance
 from gyroid.noise._rate_error_process import (
@@ -128,3 +130,50 @@ def test_the_divergence_of_a_process_from_itself_is_zero():
     target = estimator_autocovariance(600.0, 10.0, 1e-3)
     assert divergence_per_block(target, target, 1e-4) == pytest.approx(0.0, abs=1e-12)
     assert divergence_per_block(target, np.zeros(1), 1e-4) > 0.0
+
+
+def _noisy_thermometer_bench(seed: int, hours: float = 4.0) -> BenchLog:
+    """Paper A's thermal coefficients on raised-cosine transitions of 1 h at 1 Hz, white
+    noise and a 0.01 degC thermometer (written here)."""
+    rng = np.random.default_rng(seed)
+    time_s = np.arange(hours * 3600.0)
+    h = time_s / 3600.0
+    s = np.clip(h - 1.0, 0.0, 1.0)
+    temperature = 21.0 + 20.0 * 0.5 * (1.0 - np.cos(math.pi * s))
+    rate = np.where((s > 0) & (s < 1), 10.0 * math.pi * np.sin(math.pi * s), 0.0)
+    t = temperature - 21.0
+    drift = 1.197 - 0.108 * t + 0.004 * t**2 + 1.997 * rate + rng.normal(0.0, 0.3, h.size)
+    return BenchLog(columns={"time_s": time_s, "drift_deg_h": drift,
+                             "temperature_C": temperature + rng.normal(0.0, 0.01, h.size)})
+
+
+@pytest.mark.parametrize("noise", ["white+flicker+rw", "white+gm"])
+def test_every_correlated_noise_model_carries_the_thermometer(noise):
+    """Both correlated noise models carry the process (wD at its least-squares value,
+    within 1 % of the truth here), the predictive check's covariance of parts adds its
+    parts' means, and a new log's (compensation) does not: its thermometer is not the
+    fitted log's."""
+    log = _noisy_thermometer_bench(0)
+    carried = BenchProblem.from_log(log, "thermal", noise=noise, rate_window_s=600.0)
+    left_out = BenchProblem.from_log(log, "thermal", noise=noise, rate_window_s=600.0,
+                                     errors_in_variables=False)
+    process = carried.density.noise.rate_error
+    assert process is not None and left_out.density.noise.rate_error is None
+    assert carried.rate_error_wd == pytest.approx(1.997, rel=0.01)
+    assert carried.thermometer_sd_C == pytest.approx(0.01, rel=0.1)
+    n = carried.density.n
+    part = np.arange(n) // 10
+    values = dict(zip(carried.noise_names, (0.3, 0.01, 600.0) if noise == "white+gm"
+                      else (0.005, 0.01, 0.005), strict=True))
+    time_s = np.asarray(carried.log.time_s)
+    args = (time_s, part, part.max() + 1, carried.density.step_s, np.full(part.max() + 1, 0.01),
+            values)
+    with_it = carried.density.noise.part_covariance(*args, block_means=True)
+    without = left_out.density.noise.part_covariance(*args, block_means=True)
+    average = np.zeros((part.max() + 1, n))
+    average[part, np.arange(n)] = 0.1
+    np.testing.assert_allclose(with_it - without,
+                               average @ process.row_covariance() @ average.T, atol=1e-15)
+    after = carried.density.noise.part_covariance(*args, block_means=True, after_s=3600.0)
+    np.testing.assert_allclose(after, left_out.density.noise.part_covariance(
+        *args, block_means=True, after_s=3600.0))
