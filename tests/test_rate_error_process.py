@@ -177,3 +177,14 @@ def test_every_correlated_noise_model_carries_the_thermometer(noise):
     after = carried.density.noise.part_covariance(*args, block_means=True, after_s=3600.0)
     np.testing.assert_allclose(after, left_out.density.noise.part_covariance(
         *args, block_means=True, after_s=3600.0))
+
+
+def test_a_log_of_bursts_carries_none():
+    """The estimator differentiates a log of bursts on a grid across its gaps: its error
+    is not the rows' kernel, and nothing is carried (as under white noise)."""
+    log = _noisy_thermometer_bench(1)
+    kept = (np.asarray(log.time_s) % 300.0) < 60.0
+    bursts = BenchLog(columns={k: np.asarray(v)[kept] for k, v in log.columns.items()})
+    problem = BenchProblem.from_log(bursts, "thermal", noise="white+flicker+rw",
+                                    rate_window_s=600.0)
+    assert problem.thermometer_sd_C > 0 and problem.density.noise.rate_error is None

@@ -26,6 +26,7 @@ from gyroid.io._logs import BenchLog, MeansOfBlocks, SampleDeviations, contiguou
 from gyroid.io._logs import segment_means as means_of_segments
 from gyroid.models._derived import (
     RATE_WINDOW_S,
+    estimator_grid_size,
     temperature_rate_deg_c_per_h,
 )
 from gyroid.models._drift import DriftModel
@@ -310,10 +311,13 @@ def _carried(log: BenchLog, window_s: float, wd: float, thermometer_var: float
     """What a correlated-noise filter carries of the thermometer's noise (a row's variance
     ``thermometer_var``, degC^2; none when 0): the dT/dt error's autocovariance at lags of
     one row times ``wd**2`` ((deg/h)^2) and the rows' white variance, for the estimator's
-    window ``window_s`` (s)."""
-    if thermometer_var <= 0 or log.n < 2:
+    window ``window_s`` (s). None for a log of bursts (whose estimator differentiates on a
+    grid across the gaps, a kernel not the rows')."""
+    time_s = np.asarray(log.time_s)
+    if (thermometer_var <= 0 or log.n < 2
+            or estimator_grid_size(time_s, window_s) > 1.05 * log.n):
         return None
-    step = float(np.median(np.diff(np.asarray(log.time_s))))
+    step = float(np.median(np.diff(time_s)))
     return (wd**2 * estimator_autocovariance(window_s, step, thermometer_var),
             white_level_var(np.asarray(log.drift_deg_h)))
 
