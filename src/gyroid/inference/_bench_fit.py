@@ -56,7 +56,7 @@ def fit_log(
 
     ``log`` may be a log already reduced to block means (:class:`MeansOfBlocks`, as a log
     too long to hold is read: :func:`gyroid.io.stream_block_means`).
-    ``errors_in_variables=False`` leaves the thermometer's noise in dT/dt out of the white
+    ``errors_in_variables=False`` leaves the thermometer's noise in dT/dt out of the
     likelihood (:meth:`BenchProblem.from_log`)."""
     def problem_with(kind: NoiseModel) -> BenchProblem:
         # IEEE noise reads a log of bursts as it is: its flicker and walk are the wander

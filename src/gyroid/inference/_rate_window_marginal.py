@@ -6,20 +6,22 @@ alike. Under correlated noise (IEEE 952's flicker and walk, a Gauss-Markov bias)
 choice is too long: the smearing of dT/dt over a kink in the temperature (a raised-cosine
 transition's ends, a heater switched) is a slow, hour-scale error, which such a noise model
 takes in as a large random walk, while a shorter window's extra thermometer noise, fast,
-costs little. On a FOG bench with raised-cosine transitions (10 h at 1 Hz, fitted on 36 s
-block means; ``experiments/fog_thermal_bench.py``, seed 0) least squares took 864 s, and
-the fit explained the smearing by a walk of 1.7 deg/h/sqrt(h) (the truth 0.005), its
-coefficients' intervals ten times wider than at 585 s, where the marginal was 164 higher
-and the walk came out at 0.004 (the flicker, at 14 times its truth, still takes in the
-thermometer's noise, which this likelihood does not carry).
+costs little (its thermometer noise is carried, :mod:`gyroid.noise._rate_error_process`).
+On a FOG bench with raised-cosine transitions (10 h at 1 Hz, fitted on 36 s block means;
+``experiments/fog_thermal_bench.py``) least squares takes 864 s, and the marginal
+prefers 396-585 s, by more than 50 on one such log (``tests/test_rate_window_marginal.py``).
+Each window is scored with its own density (its dT/dt, and the thermometer's noise
+through it): scored with least squares' window's thermometer process, one seed's search
+had found a mode with flicker 11x its truth, 12 nats below the right one, and the fit
+then refused.
 
 So a linear model under correlated noise takes the window whose collapsed marginal
 posterior (the coefficients integrated out, :mod:`gyroid.inference._collapsed`), maximised
 over the noise levels, is highest: among :data:`CANDIDATES` windows spaced geometrically
 from the shortest the estimator allows on the fitted rows (``2 * degree + 1`` of them) up to
 the least-squares choice, tried from the longest down until the marginal falls (two
-windows on a smooth schedule, where the least-squares choice stands). Only the dT/dt
-column changes between windows; the noise levels at each are found as the fit's own mode
+windows on a smooth schedule, where the least-squares choice stands). The noise levels at
+each window are found as the fit's own mode
 finds them (BFGS from the noise model's guess and from each correlated level raised: the
 marginal has a mode for each way of explaining slow wander, and one start alone compared
 windows on different ones). The same likelihood is then fitted:
