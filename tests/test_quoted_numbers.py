@@ -351,7 +351,7 @@ def test_the_white_gm_calibration_is_the_results_file():
     results = _results("white_gm_calibration")
     inside = results["inside_90"]
     others = [v for k, v in inside.items() if k != "wD"]
-    _quoted(f"wD's posterior sat {results['z_mean']['wD']:.2f} sd above its truth on average "
+    _quoted(f"wD's posterior sits {results['z_mean']['wD']:.2f} sd above its truth on average "
             f"({inside['wD']} of {results['datasets']} inside its 90 % interval, the other "
             f"coefficients and noise levels {min(others)}-{max(others)} of "
             f"{results['datasets']}; all {results['trustworthy']} fits trusted themselves)")
