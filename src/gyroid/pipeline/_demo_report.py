@@ -69,10 +69,17 @@ def _benches_section(report: Report, study: Study) -> None:
 
 
 def _carried(fit) -> str:
-    """What the white likelihood carries of the thermometer's noise, if anything."""
+    """What the likelihood carries of the thermometer's noise, if anything."""
     carried = fit.errors_in_variables
     if carried is None:
         return ""
+    if "process" in carried:  # under correlated noise: a process of the filter
+        return (f" The likelihood carries the thermometer's noise "
+                f"({carried['thermometer_sd_C']:.3f} degC, measured on the log) through the "
+                f"dT/dt estimator's {fit.problem.rate_window_s:.0f} s window, times wD's "
+                f"least-squares value ({carried['wD_fixed']:.3g}), as two more states of the "
+                "noise model's filter (errors in variables): left out, the flicker and the "
+                "walk would take it in and widen every interval.")
     means = fit.block_means
     rows = (f" It is fitted on {means['means']} means of {means['rows_per_mean']} samples, "
             "over which that covariance is held." if means else "")
