@@ -302,7 +302,7 @@ def _thermometer_carried(log: BenchLog | MeansOfBlocks, model: DriftModel, noise
     if not reads_rate(model):
         return 0.0, 0.0
     if noise.correlated:
-        return rate_error_to_carry(log, model, t0_C)
+        return rate_error_to_carry(log, model, t0_C, cap)
     return thermometer_to_carry(log, model, rate_window_s, t0_C, cap), 0.0
 
 

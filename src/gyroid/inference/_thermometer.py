@@ -31,12 +31,15 @@ def thermometer_to_carry(log: BenchLog | MeansOfBlocks, model: DriftModel,
     return variance
 
 
-def rate_error_to_carry(log: BenchLog | MeansOfBlocks, model: DriftModel, t0_C: float
-                        ) -> tuple[float, float]:
+def rate_error_to_carry(log: BenchLog | MeansOfBlocks, model: DriftModel, t0_C: float,
+                        cap: int) -> tuple[float, float]:
     """Under correlated noise: the thermometer's noise to carry (a sample's variance,
-    degC^2, or 0) and the wD that scales it (deg/h per degC/h, least squares on the log)."""
+    degC^2, or 0) and the wD that scales it (deg/h per degC/h, least squares on the log).
+    None from a log of bursts, as under white noise: its estimator differentiates on a grid
+    across the gaps, and the window's choice, which reads the estimator as a matrix when the
+    noise is carried, cannot (a real burst log, PAN's: 875 rows on a grid of 52 158)."""
     variance = _thermometer_var(log)
-    if variance <= 0:
+    if variance <= 0 or not _operator_fits(log, None, cap):
         return 0.0, 0.0
     wd = _least_squares_rate_coefficient(log, model, t0_C)
     if wd is None or _negligible(log, model, variance, None, t0_C, wd):
