@@ -1,9 +1,11 @@
 """The README's commands hang together: every file or folder a command reads is in the
 repository or written by an earlier command's --out, and every command and option exists."""
 
-import glob
+import json
 import re
 import shlex
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -85,21 +87,35 @@ def test_every_repository_path_the_readme_and_docs_name_exists():
     assert not missing, f"the README names paths that are not in the repository: {missing}"
 
 
+#: The tour, run in a fresh interpreter (argv: a JSON list of [args, expected exit]): a
+#: command that kills its process fails this test instead of the pytest-xdist worker.
+_TOUR = r"""
+import glob, json, re, sys
+from gyroid.cli import main
+for args, expected in json.loads(sys.argv[1]):
+    # the shell would expand a glob such as runs/lot/run_*/bench.csv
+    expanded = [m for w in args for m in (sorted(glob.glob(w)) if "*" in w else [w])]
+    code = main(expanded)
+    if code != expected:
+        sys.exit(f"gyroid {' '.join(args)}: exit {code}, the README says {expected}")
+for block in re.findall(r"```python\n(.*?)```", open(sys.argv[2]).read(), flags=re.S):
+    exec(compile(block, "README.md", "exec"), {})
+"""
+
+
 @pytest.mark.slow
-def test_the_tour_runs_as_written(tmp_path, monkeypatch):
+def test_the_tour_runs_as_written(tmp_path):
     """Every README command, top to bottom, in a fresh folder, with the exit code the README
     announces for it (``# exit 3``: a self-check refuses the result); the Python block
-    too."""
-    from gyroid.cli import main
-
+    too. In its own interpreter: a worker that had run other tests aborted inside XLA
+    while (de)serialising a cached program, three times in one day, and pytest-xdist then
+    hung; here such a crash is this test's failure, with its output."""
     for folder in ("tests", "docs"):  # the repository files the README reads
         (tmp_path / folder).symlink_to(ROOT / folder)
-    monkeypatch.chdir(tmp_path)
-    for args, expected in _commands(with_exit=True):
-        if args[:1] == ["demo"]:
-            continue  # the first set-up command; test_demo covers it
-        # The shell would expand a glob such as runs/lot/run_*/bench.csv.
-        expanded = [m for w in args for m in (sorted(glob.glob(w)) if "*" in w else [w])]
-        assert main(expanded) == expected, f"gyroid {' '.join(args)}"
-    for block in re.findall(r"```python\n(.*?)```", README, flags=re.S):
-        exec(compile(block, "README.md", "exec"), {})
+    commands = [[args, expected] for args, expected in _commands(with_exit=True)
+                if args[:1] != ["demo"]]  # the first set-up command; test_demo covers it
+    done = subprocess.run([sys.executable, "-c", _TOUR, json.dumps(commands),
+                           str(ROOT / "README.md")], cwd=tmp_path, capture_output=True,
+                          text=True)
+    assert done.returncode == 0, (f"exit {done.returncode}\n{done.stdout[-3000:]}\n"
+                                  f"{done.stderr[-3000:]}")
