@@ -30,6 +30,7 @@ from gyroid.inference._whitened_fit import NoiseLevels, held_out_solution
 from gyroid.io._logs import contiguous_segments
 from gyroid.models._drift import DriftModel
 from gyroid.models._inputs import DriftInputs
+from gyroid.noise._base import parts_mean_covariance
 from gyroid.noise._kalman import gauss_markov_mean_covariance
 from gyroid.noise._kinds import GaussMarkov
 
@@ -283,9 +284,7 @@ def _noise_covariance(density: BenchDensity, values: dict, parts: Stretches,
                                                density.step_s, white, white_levels,
                                                block_means=density.gap_s is not None)
     if density.errors_in_variables:  # wD^2 times the parts' means of the rate error
-        average = np.zeros((parts.n_parts, density.n))
-        average[parts.part, np.arange(density.n)] = 1.0 / counts[parts.part]
         wd = values[density.names[density.eiv_index]]
-        covariance = covariance + wd**2 * (average @ np.asarray(density.rate_error_cov)
-                                           @ average.T)
+        covariance = covariance + wd**2 * parts_mean_covariance(density.rate_error_cov,
+                                                                parts.part, parts.n_parts)
     return covariance

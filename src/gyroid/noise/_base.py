@@ -128,6 +128,19 @@ class NoiseModel(eqx.Module):
         the fitted log's mean."""
 
 
+def parts_mean_covariance(row_covariance: np.ndarray, part: np.ndarray, n_parts: int
+                          ) -> np.ndarray:
+    """The covariance of parts' means given the rows' covariance ``row_covariance``
+    (``part``: each row's part, -1 for none): ``A C A'``, ``A`` averaging each part's
+    rows."""
+    rows = np.asarray(part)
+    kept = rows >= 0
+    counts = np.bincount(rows[kept], minlength=n_parts).astype(float)
+    average = np.zeros((n_parts, rows.size))
+    average[rows[kept], np.flatnonzero(kept)] = 1.0 / counts[rows[kept]]
+    return average @ np.asarray(row_covariance) @ average.T
+
+
 def predictive_level(summary: Mapping) -> float:
     """A noise level for predicting new data from its posterior ``summary`` (``mean`` and,
     from a posterior, ``sd``): the root mean square ``sqrt(mean^2 + sd^2)``. Every noise

@@ -24,7 +24,7 @@ from jaxtyping import Array, Float
 
 from gyroid.errors import GyroidInputError
 from gyroid.models._priors import LogNormal
-from gyroid.noise._base import NoiseModel
+from gyroid.noise._base import NoiseModel, parts_mean_covariance
 from gyroid.noise._ieee import flicker_times, ieee_innovations, ieee_part_covariance
 from gyroid.noise._kalman import gauss_markov_innovations, gauss_markov_mean_covariance
 from gyroid.noise._rate_error_process import RateErrorProcess
@@ -231,11 +231,7 @@ def _rate_error_parts(process: RateErrorProcess | None, part: np.ndarray, n_part
     if rows.size != process.mean_noise.shape[0]:
         raise ValueError("the rate error's covariance is of the fitted log's rows: "
                          f"{process.mean_noise.shape[0]} rows, not {rows.size}")
-    kept = rows >= 0
-    counts = np.bincount(rows[kept], minlength=n_parts).astype(float)
-    average = np.zeros((n_parts, rows.size))
-    average[rows[kept], np.flatnonzero(kept)] = 1.0 / counts[rows[kept]]
-    return average @ process.row_covariance() @ average.T
+    return parts_mean_covariance(process.row_covariance(), rows, n_parts)
 
 
 #: The noise models ``--noise`` offers, by name.
