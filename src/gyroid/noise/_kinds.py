@@ -74,7 +74,8 @@ class White(NoiseModel):
 
 class GaussMarkov(NoiseModel):
     """White noise plus a stationary first-order Gauss-Markov bias; with ``rate_error``, the
-    thermometer's noise through dT/dt too (rows then read as block means)."""
+    thermometer's noise through dT/dt too (its density reads the rows as block means then:
+    :meth:`~gyroid.inference._bench_density.BenchDensity.from_log`)."""
 
     rate_error: RateErrorProcess | None = None
 
@@ -99,7 +100,7 @@ class GaussMarkov(NoiseModel):
         return values["sigma_deg_h"] * row_scale
 
     def rows_as_means(self, rows_per_mean):
-        return rows_per_mean > 1 or self.rate_error is not None
+        return rows_per_mean > 1
 
     def with_rate_error(self, process):
         return GaussMarkov(rate_error=process)
