@@ -24,6 +24,17 @@ SHORT_MAGNETIC = MagneticProtocol(dwell_s=60.0, sample_s=5.0, turn_gap_s=100.0)
 WHITE = ("--noise", "white")
 
 
+def random_blocks(rng: np.random.Generator, n: int, *, span_s: tuple[float, float],
+                  longest_gap_s: float) -> tuple[np.ndarray, ...]:
+    """``n`` blocks of spans drawn from ``span_s`` (s), a fifth of them after a pause of up
+    to ``longest_gap_s``: spans, gaps, starts and ends (s), the first block at 0."""
+    span = rng.uniform(*span_s, n)
+    gap = np.where(rng.random(n) < 0.2, rng.uniform(0.0, longest_gap_s, n), 0.0)
+    gap[0] = 0.0
+    start = np.cumsum(np.concatenate([[0.0], span[:-1]]) + gap)
+    return span, gap, start, start + span
+
+
 def write_log(path: Path, columns: dict[str, np.ndarray]) -> Path:
     path.write_text(bench_log_text(columns))
     return path

@@ -10,6 +10,7 @@ import math
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import random_blocks
 from scipy import integrate, stats
 
 from gyroid.inference import BenchProblem, fit_log
@@ -23,11 +24,7 @@ from gyroid.noise._ieee import (
 
 
 def _blocks(rng, n):
-    span = rng.uniform(0.5, 30.0, n)
-    gap = np.where(rng.random(n) < 0.2, rng.uniform(0.0, 100.0, n), 0.0)
-    gap[0] = 0.0
-    start = np.cumsum(np.concatenate([[0.0], span[:-1]]) + gap)
-    return span, gap, start, start + span
+    return random_blocks(rng, n, span_s=(0.5, 30.0), longest_gap_s=100.0)
 
 
 def _centred_covariance(start, end, white, b, k, taus, unit, span):

@@ -11,6 +11,7 @@ import math
 import jax.numpy as jnp
 import numpy as np
 import pytest
+from helpers import random_blocks
 from scipy import stats
 from scipy.linalg import toeplitz
 
@@ -46,11 +47,7 @@ def _velocity_mean_covariance(start, end, variance, omega, quality):
 
 
 def _blocks(rng, n):
-    span = rng.uniform(20.0, 40.0, n)
-    gap = np.where(rng.random(n) < 0.2, rng.uniform(0.0, 300.0, n), 0.0)
-    gap[0] = 0.0
-    start = np.cumsum(np.concatenate([[0.0], span[:-1]]) + gap)
-    return span, gap, start, start + span
+    return random_blocks(rng, n, span_s=(20.0, 40.0), longest_gap_s=300.0)
 
 
 def _process(span, gap, variance=0.004, omega=0.015, quality=1.6):
