@@ -536,6 +536,9 @@ def test_pooling_a_correlated_lot():
             f"differ in w0, w1 and w2 (p {ps(white)}, from the white sds)",
             f"found w0, w1 and w2 consistent (p {ps(auto)}:",
             f"in {auto['seconds']:.1f} s against {white['seconds']:.1f} s")
+    assert "residual_whiteness" in auto["failed"]
+    _quoted(f"their blocks varying {auto['whiteness_inflation']:.1f}x as much as the noise "
+            "model allows")
 
 
 def test_the_flicker_and_walk_prior_study():
@@ -554,6 +557,13 @@ def test_the_flicker_and_walk_prior_study():
             f"seed 25's w1 still lay {abs(worst['z']['w1']):.1f} sd from its truth")
 
 
+def test_the_default_sampler_benchmark():
+    """benchmarks/results_default_sampler.json: the default fit against emcee."""
+    result = json.loads((ROOT / "benchmarks" / "results_default_sampler.json").read_text())
+    _quoted(f"{result['importance']['median_seconds']:.2f} s a fit, against "
+            f"{result['emcee']['median_seconds']:.2f} s with emcee in the same run")
+
+
 def test_small_logs_under_the_default_noise():
     """benchmarks/results_scaling_small_ieee.json: gyroid fit and compensate against the
     bare scripts, the default fit IEEE 952 noise."""
@@ -570,7 +580,9 @@ def test_small_logs_under_the_default_noise():
             f"each length's first run {small['fit']['seconds_all'][0]:.1f} s",
             f"white-noise script's {small['bare']['seconds']:.2f} s and "
             f"{large['bare']['seconds']:.2f} s",
-            f"against {small['bare_compensate']['seconds']:.2f} s and "
+            f"`gyroid compensate` {small['compensate']['seconds']:.1f} s and "
+            f"{large['compensate']['seconds']:.1f} s, against "
+            f"{small['bare_compensate']['seconds']:.2f} s and "
             f"{large['bare_compensate']['seconds']:.2f} s",
             f"{floor:.1f} s import floor: {2 * small['bare']['seconds'] + floor:.1f} s",
             f"an sd of {white:.5f}", f"the default's is {small['fit']['sd']['w1']:.4f}")
