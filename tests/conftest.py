@@ -33,3 +33,14 @@ def pytest_sessionfinish(session, exitstatus):
 
     gc.callbacks[:] = [c for c in gc.callbacks
                        if getattr(c, "__name__", "") != "_xla_gc_callback"]
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _room_for_programs():
+    """After each module, drop the compiled programs if the worker holds more than half of
+    its memory-mapping limit (:mod:`gyroid._compiled_programs`): a worker running hundreds
+    of tests compiles thousands of programs, and the fits' own check covers only fits."""
+    yield
+    from gyroid._compiled_programs import release_if_crowded
+
+    release_if_crowded()

@@ -11,6 +11,7 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
+from gyroid._compiled_programs import release_if_crowded
 from gyroid.errors import GyroidInputError
 from gyroid.inference._bench_density import BenchDensity
 from gyroid.inference._bench_result import BenchFit, bench_checks
@@ -113,6 +114,7 @@ class BenchProblem(AbstractProblem):
         rows (more than ``max_rows`` rows: block means), under correlated noise as a process
         of the filter (:mod:`gyroid.noise._rate_error_process`), whose automatic window is
         the marginal likelihood's (:mod:`gyroid.inference._rate_window_marginal`)."""
+        release_if_crowded()  # the build compiles most of a fit's programs
         noise = White() if noise is None else noise_model(noise)
         cap = IEEE_MAX_ROWS if max_rows is None else max_rows
         model = terms if isinstance(terms, DriftModel) else DriftModel.from_terms(terms)

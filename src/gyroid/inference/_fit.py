@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+from gyroid._compiled_programs import release_if_crowded
 from gyroid.inference._problem import AbstractProblem, AbstractSampler
 
 
@@ -15,6 +16,7 @@ def fit(problem: AbstractProblem, *, sampler: AbstractSampler | None = None, see
     self-checks are computed before it is built (a frozen result of the problem's kind:
     :class:`~gyroid.inference.BenchFit`, :class:`~gyroid.inference.RollFit` or
     :class:`~gyroid.inference.PoolFit`). ``progress`` receives plain progress lines."""
+    release_if_crowded()  # a long loop of fits must not exhaust the process's mappings
     point = problem.mode()
     posterior = None
     if sample:

@@ -18,6 +18,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from gyroid._compiled_programs import release_if_crowded
 from gyroid.errors import GyroidInputError
 from gyroid.inference._checks import Check, CheckReport, fit_verdict
 from gyroid.inference._plausibility import units_sanity
@@ -120,6 +121,7 @@ def compensate(log: BenchLog, fitted: FittedDrift, *, max_draws: int = 400, seed
             f"the fit has {', '.join(extra)}: such a term is linear in its column's deviation "
             "from the fitted log's own mean, which a new log does not share, so it cannot "
             "compensate another run; refit without it (it is for finding causes)")
+    release_if_crowded()
     inputs = log.inputs(t0_C=fitted.t0_C, rate_window_s=fitted.rate_window_s)
     rng = np.random.default_rng(seed)
     draws = fitted.draws

@@ -17,6 +17,7 @@ from typing import Any
 
 import numpy as np
 
+from gyroid._compiled_programs import release_if_crowded
 from gyroid.inference._checks import CheckReport
 
 #: Two candidates scoring within this of each other are interchangeable on the log.
@@ -114,6 +115,7 @@ def add_while_evidence(
     skipped: dict[str, str] = {}
     ambiguous: list[dict] = []
     while len(steps) < max_added:
+        release_if_crowded()  # each round compiles its candidates' programs
         scores: dict[str, float] = {}
         trials: dict[str, Trial] = {}
         for name in candidates:

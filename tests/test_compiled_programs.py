@@ -1,0 +1,62 @@
+"""A process that compiles many programs drops them before it exhausts its memory mappings
+(XLA aborts the interpreter when it cannot map a program: pytest workers and research loops
+over logs of many shapes reached Linux's limit)."""
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+import gyroid
+from gyroid import _compiled_programs as programs
+
+pytestmark = pytest.mark.skipif(programs.mapping_limit() is None,
+                                reason="no memory-mapping limit to read (not Linux)")
+
+
+@jax.jit
+def _program(x):
+    return jnp.cumsum(jnp.sin(x) @ x.T, axis=0)
+
+
+def _compile_shapes(count: int) -> None:
+    for n in range(2, 2 + count):
+        _program(jnp.ones((n, 3))).block_until_ready()
+
+
+def test_a_crowded_process_drops_its_compiled_programs(monkeypatch):
+    _compile_shapes(40)
+    assert _program._cache_size() >= 40
+    before = programs.mapping_count()
+    monkeypatch.setattr(programs, "mapping_limit", lambda: before)  # past half of it
+    assert programs.release_if_crowded()
+    assert _program._cache_size() == 0
+    # each compiled program held at least a mapping (about 6 for one this small)
+    assert programs.mapping_count() <= before - 40
+
+
+def test_an_uncrowded_process_keeps_them(monkeypatch):
+    _compile_shapes(5)
+    held = _program._cache_size()
+    monkeypatch.setattr(programs, "mapping_limit", lambda: 10 * programs.mapping_count())
+    assert not programs.release_if_crowded()
+    assert _program._cache_size() == held
+
+
+def test_without_a_limit_nothing_is_dropped(monkeypatch):
+    _compile_shapes(3)
+    monkeypatch.setattr(programs, "mapping_limit", lambda: None)
+    assert not programs.release_if_crowded()
+    assert _program._cache_size() >= 3
+
+
+def test_a_fit_looks_before_it_compiles(monkeypatch):
+    """fit_log (the bench problem's build and fit()) checks the process's mappings."""
+    _compile_shapes(3)
+    rng = np.random.default_rng(0)
+    log = gyroid.BenchLog({"time_s": np.arange(600.0),
+                           "drift_deg_h": 1.0 + rng.normal(0.0, 0.5, 600)})
+    monkeypatch.setattr(programs, "mapping_limit", lambda: 2)
+    gyroid.fit_log(log, "bias", noise="white", sample=False, progress=False)
+    # dropped before the fit compiled its own: none of this test's programs is left
+    assert _program._cache_size() == 0
