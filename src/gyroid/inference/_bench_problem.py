@@ -102,10 +102,9 @@ class BenchProblem(AbstractProblem):
         estimates rather than a correlation it ignores; the samples are still checked for
         spikes, which the means would hide. ``fast=False``: no sufficient statistics (for
         tests). Under correlated noise a log of more than ``max_rows`` rows (default
-        :data:`IEEE_MAX_ROWS`) is fitted as
-        at most that many means of blocks of consecutive samples (not with
-        ``segment_means``; exact likelihood, a linear model loses little; the samples are
-        checked for spikes). A :class:`~gyroid.io._logs.MeansOfBlocks` (a log read as a
+        :data:`IEEE_MAX_ROWS`) is fitted as at most that many means of blocks of consecutive
+        samples (not with ``segment_means``; exact likelihood, a linear model loses little;
+        the samples are checked for spikes). A :class:`~gyroid.io._logs.MeansOfBlocks` (a log read as a
         stream) is fitted as its means under any noise model.
 
         Errors in variables (``errors_in_variables=False``: none): a model reading dT/dt
