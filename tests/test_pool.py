@@ -15,6 +15,7 @@ from gyroid.inference import PoolProblem, fit_pool
 from gyroid.io import run_labels
 from gyroid.models import LogNormal, Normal
 from gyroid.papers import magnetic_repeatability, repeatability_json
+from gyroid.pipeline._compensate_file import fitted_axes
 from gyroid.simulation import MagneticProtocol, simulate_lot
 
 SHORT_MAGNETIC = MagneticProtocol(dwell_s=60.0, sample_s=5.0, turn_gap_s=100.0)
@@ -166,10 +167,18 @@ def test_cli_pool_and_compensation_with_the_new_run_predictive(tmp_path, capsys)
     comp = json.loads((out / "compensate.json").read_text())
     assert comp["model_source"] == "pool: predictive for a new run"
     rows = np.genfromtxt(out / "compensated.csv", delimiter=",", names=True)
-    w0_sd = record["new_run_predictive"]["w0"]["sd"]
-    # At zero field the modelled drift is w0: its sd is the predictive's (400 draws: 5 %).
+    # At zero field the modelled drift is w0: its sd is that of the new-run predictive's
+    # draws compensation used (400 of them, chosen by its seed, 0). Not the pool's sd of
+    # all its draws: with four runs the predictive is heavy-tailed, and 400 draws' sd
+    # strayed 25 % from it on one machine's numerics.
+    fitted = fitted_axes(pool_dir)[None]
+    draws = fitted.draws[np.random.default_rng(0).choice(fitted.draws.shape[0], 400,
+                                                         replace=False)]
+    w0_sd = np.std(draws[:, fitted.model.parameter_names.index("w0")])
+    assert w0_sd == pytest.approx(record["new_run_predictive"]["w0"]["sd"], rel=0.5)
     quiet = np.abs(rows["Hx_uT"]) + np.abs(rows["Hy_uT"]) + np.abs(rows["Hz_uT"]) < 1.0
-    assert np.median(rows["drift_model_sd_deg_h"][quiet]) == pytest.approx(w0_sd, rel=0.15)
+    # less than 1 uT of 50 adds at most a few per cent of the field terms' spread
+    assert np.median(rows["drift_model_sd_deg_h"][quiet]) == pytest.approx(w0_sd, rel=0.03)
 
 
 @pytest.mark.slow

@@ -107,9 +107,9 @@ for block in re.findall(r"```python\n(.*?)```", open(sys.argv[2]).read(), flags=
 def test_the_tour_runs_as_written(tmp_path):
     """Every README command, top to bottom, in a fresh folder, with the exit code the README
     announces for it (``# exit 3``: a self-check refuses the result); the Python block
-    too. In its own interpreter: a worker that had run other tests aborted inside XLA
-    while (de)serialising a cached program, three times in one day, and pytest-xdist then
-    hung; here such a crash is this test's failure, with its output."""
+    too. In its own interpreter, as a user runs it (and so that a crash is this test's
+    failure, with its output: workers that had run other tests used to abort inside XLA
+    when they ran out of memory mappings, :mod:`gyroid._compiled_programs`)."""
     for folder in ("tests", "docs"):  # the repository files the README reads
         (tmp_path / folder).symlink_to(ROOT / folder)
     commands = [[args, expected] for args, expected in _commands(with_exit=True)

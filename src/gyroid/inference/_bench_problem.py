@@ -104,8 +104,8 @@ class BenchProblem(AbstractProblem):
         tests). Under correlated noise a log of more than ``max_rows`` rows (default
         :data:`IEEE_MAX_ROWS`) is fitted as at most that many means of blocks of consecutive
         samples (not with ``segment_means``; exact likelihood, a linear model loses little;
-        the samples are checked for spikes). A :class:`~gyroid.io._logs.MeansOfBlocks` (a log read as a
-        stream) is fitted as its means under any noise model.
+        the samples are checked for spikes). A :class:`~gyroid.io._logs.MeansOfBlocks` (a
+        log read as a stream) is fitted as its means under any noise model.
 
         Errors in variables (``errors_in_variables=False``: none): a model reading dT/dt
         on a log with a noisy thermometer carries that noise through the rate estimator
