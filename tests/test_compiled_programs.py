@@ -60,3 +60,53 @@ def test_a_fit_looks_before_it_compiles(monkeypatch):
     gyroid.fit_log(log, "bias", noise="white", sample=False, progress=False)
     # dropped before the fit compiled its own: none of this test's programs is left
     assert _program._cache_size() == 0
+
+
+_NEAR_THE_LIMIT = r"""
+import mmap, sys
+import jax, jax.numpy as jnp
+from gyroid import _compiled_programs as programs
+
+jax.jit(lambda x: x + 1.0)(jnp.ones(2)).block_until_ready()  # XLA's own mappings first
+# the process left with room for some 13 programs of ~117 mappings each
+room = 1500
+filled = [mmap.mmap(-1, 4096)
+          for _ in range(programs.mapping_limit() - programs.mapping_count() - room)]
+
+
+def body(x):
+    for k in range(30):  # some 30 kernels: ~117 mappings once compiled
+        x = jnp.sort(x * (k + 1.0), axis=0) @ x.T + jnp.cumsum(x, axis=k % 2)
+    return x
+
+
+program = jax.jit(body)
+for n in range(3, 28):  # 25 shapes, 25 programs
+    if sys.argv[1] == "guarded":
+        programs.release_if_crowded()
+    program(jnp.ones((n, n))).block_until_ready()
+print("all 25 compiled")
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.skipif((programs.mapping_limit() or 0) > 300_000,
+                    reason="a mapping limit too high to fill in a test")
+def test_near_the_limit_a_process_aborts_unless_it_drops_its_programs():
+    """The failure itself, in a child process left with room for ~13 programs: compiling
+    25 without dropping any aborts the interpreter inside XLA (SIGABRT, as the test
+    workers and the loops over logs did); checking before each, as every fit does, it
+    compiles all 25."""
+    import subprocess
+    import sys
+
+    def run(arm: str) -> subprocess.CompletedProcess:
+        return subprocess.run([sys.executable, "-c", _NEAR_THE_LIMIT, arm],
+                              capture_output=True, text=True, timeout=600)
+
+    unguarded = run("unguarded")
+    assert unguarded.returncode != 0 and "all 25 compiled" not in unguarded.stdout
+    assert "allocate" in unguarded.stderr.lower(), unguarded.stderr[-2000:]
+    guarded = run("guarded")
+    assert guarded.returncode == 0, guarded.stderr[-2000:]
+    assert "all 25 compiled" in guarded.stdout
