@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 from scipy.stats import multivariate_normal
 
+from gyroid import BenchLog
 from gyroid.cli import main
 from gyroid.errors import GyroidInputError
-from gyroid.inference import PoolProblem, fit_pool
+from gyroid.inference import PoolProblem, fit_log, fit_pool
 from gyroid.io import run_labels
 from gyroid.models import LogNormal, Normal
 from gyroid.papers import magnetic_repeatability, repeatability_json
@@ -291,6 +292,25 @@ def test_burst_logs_pool_on_segment_means(tmp_path):
     for name, value in truth.items():
         lo, hi = means["population"][name]["ci95"]
         assert lo < value < hi, (name, value, lo, hi)
+
+
+@pytest.mark.slow
+def test_segment_means_reach_each_runs_correlated_noise_fit():
+    """Under a correlated noise model each run is fitted on its own, on its bursts' means
+    when asked: `--segment-means --noise auto` used to fit the samples and write
+    segment_means false, the request dropped without a word."""
+    from helpers import mems_burst_log
+
+    logs = [BenchLog(columns=mems_burst_log(seed, hours=1.0, wander_deg_h=40.0)[0])
+            for seed in (1, 2)]
+    terms = "bias,temperature"
+    result = fit_pool(logs, ("a", "b"), terms, seed=0, noise="white+flicker+rw",
+                      segment_means=True)
+    assert result.to_json()["segment_means"] is True
+    alone = fit_log(logs[0], terms, noise="white+flicker+rw", seed=0, segment_means=True,
+                    progress=False)
+    mean = alone.posterior.draws.reshape(-1, len(alone.posterior.names))[:, :2].mean(axis=0)
+    np.testing.assert_allclose(result.problem.own_mean[0], mean, rtol=1e-12)
 
 
 @pytest.mark.slow

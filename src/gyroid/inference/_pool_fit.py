@@ -136,7 +136,7 @@ def pool_problem(
     if kind.correlated:
         return pooled_fits(logs, labels, model, kind, runs, mean_priors=mean_priors,
                            spread_scales=scales, reference=reference, prior_set=prior_set,
-                           t0_C=t0_C, seed=seed)
+                           t0_C=t0_C, seed=seed, segment_means=segment_means)
     p = len(model.parameter_names)
     own_mean, own_sd = _own_estimates(runs)
     return PoolProblem.from_statistics(
@@ -170,8 +170,9 @@ RUN_RESIDUAL_CHECKS = frozenset({"goodness_of_fit", "residual_whiteness", "outli
 def pooled_fits(logs: Sequence[BenchLog], labels: Sequence[str], model: DriftModel,
                 noise: NoiseModel, white_runs: Sequence[BenchProblem], *, mean_priors,
                 spread_scales: np.ndarray, reference: np.ndarray, prior_set: str,
-                t0_C: float, seed: int) -> PoolProblem:
-    """Each log fitted on its own under ``noise`` (every other default of ``fit_log``), its
+                t0_C: float, seed: int, segment_means: bool = False) -> PoolProblem:
+    """Each log fitted on its own under ``noise`` (on its segments' means with
+    ``segment_means``; every other default of ``fit_log``), its
     coefficients' posterior mean and covariance taken as one Gaussian observation of its
     run's coefficients (their weakly informative single-fit priors counted once more:
     negligible where the run identifies a coefficient), pooled by
@@ -180,7 +181,7 @@ def pooled_fits(logs: Sequence[BenchLog], labels: Sequence[str], model: DriftMod
     means, covariances, reports = [], [], []
     for k, log in enumerate(logs):
         single = fit_log(log, model, noise=noise, seed=seed + k, prior_set=prior_set,
-                         t0_C=t0_C, progress=False)
+                         t0_C=t0_C, segment_means=segment_means, progress=False)
         draws = single.posterior.draws.reshape(-1, len(single.posterior.names))[:, :p]
         means.append(draws.mean(axis=0))
         covariances.append(np.atleast_2d(np.cov(draws.T)))
@@ -192,7 +193,7 @@ def pooled_fits(logs: Sequence[BenchLog], labels: Sequence[str], model: DriftMod
         model.parameter_names, tuple(labels), means, covariances, mean_priors=mean_priors,
         spread_scales=spread_scales, terms=tuple(model.terms), t0_C=t0_C,
         own_mean=means, own_sd=sds, reference=reference, runs=tuple(white_runs),
-        run_reports=tuple(reports), run_noise=noise.name)
+        run_reports=tuple(reports), run_noise=noise.name, segment_means=segment_means)
 
 
 def pool_estimates(names: tuple[str, ...], labels: tuple[str, ...], estimates: np.ndarray,
