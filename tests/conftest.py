@@ -29,11 +29,9 @@ def pytest_configure(config):
     if hasattr(config, "workerinput") or not isinstance(workers, int) or workers < 1:
         return
     if workers >= (os.cpu_count() or 1):
-        from gyroid._config import ONE_CORE_ENVIRONMENT
+        from gyroid._config import use_one_core
 
-        for name, value in ONE_CORE_ENVIRONMENT.items():
-            own = os.environ.get(name) if name == "XLA_FLAGS" else None
-            os.environ[name] = f"{value} {own}" if own else value
+        use_one_core()
 
 
 @pytest.fixture(autouse=True, scope="session")

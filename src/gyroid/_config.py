@@ -69,16 +69,22 @@ ONE_CORE_ENVIRONMENT = {
 }
 
 
+def use_one_core() -> None:
+    """Set :data:`ONE_CORE_ENVIRONMENT` in ``os.environ`` (the user's own ``XLA_FLAGS`` kept
+    after gyroid's, so that they win), for the processes started after; it also reaches
+    this process's XLA if JAX has not computed anything yet."""
+    for name, value in ONE_CORE_ENVIRONMENT.items():
+        own = os.environ.get(name) if name == "XLA_FLAGS" else None
+        os.environ[name] = f"{value} {own}" if own else value
+
+
 @contextmanager
 def one_core_environment() -> Iterator[None]:
-    """``os.environ`` with :data:`ONE_CORE_ENVIRONMENT` (the user's own ``XLA_FLAGS`` kept
-    after gyroid's, so that they win) for the processes started inside; restored after.
-    It also reaches this process's XLA if JAX has not computed anything yet."""
+    """:func:`use_one_core` for the processes started inside; ``os.environ`` restored
+    after."""
     saved = {name: os.environ.get(name) for name in ONE_CORE_ENVIRONMENT}
     try:
-        for name, value in ONE_CORE_ENVIRONMENT.items():
-            own = saved[name] if name == "XLA_FLAGS" else None
-            os.environ[name] = f"{value} {own}" if own else value
+        use_one_core()
         yield
     finally:
         for name, value in saved.items():
