@@ -586,3 +586,20 @@ def test_small_logs_under_the_default_noise():
             f"{large['bare_compensate']['seconds']:.2f} s",
             f"{floor:.1f} s import floor: {2 * small['bare']['seconds'] + floor:.1f} s",
             f"an sd of {white:.5f}", f"the default's is {small['fit']['sd']['w1']:.4f}")
+
+
+def test_the_pooled_fog_lots():
+    """experiments/results/pool_fog_lots: the white pool's false alarms against the
+    default's on lots whose runs do not differ."""
+    summary = _results("pool_fog_lots")["summary"]
+    white, auto = summary["white"], summary["auto"]
+    alarms = white["false_alarms_p_below_0_01"]
+    _quoted(f"the white pool trusted {white['trusted']} of {summary['lots']} and each of those "
+            f"{white['trusted_with_a_false_alarm']} said the runs differ",
+            f"({alarms['w1']}, {alarms['w2']} and {alarms['wD']} such false alarms of "
+            f"{summary['lots']} lots)",
+            f"the default trusted {auto['trusted']} of {summary['lots']} with "
+            f"{sum(auto['false_alarms_p_below_0_01'].values())} false alarms of "
+            f"{3 * summary['lots']} tests")
+    assert all(v == summary["lots"] for v in (*white["covered95"].values(),
+                                              *auto["covered95"].values()))

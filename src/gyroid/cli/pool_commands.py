@@ -31,12 +31,13 @@ from gyroid.cli.base import (
               help="Burst-sampled logs: pool one row per contiguous segment (its mean), so "
                    "the bias's wander between bursts is each run's noise; the samples are "
                    "still checked for spikes.")
-@click.option("--noise", default="white", show_default=True,
-              type=click.Choice(["white", "auto", "white+flicker+rw", "white+gm"]),
-              help="Each run's noise: white (pooled exactly on sufficient statistics), or a "
-                   "correlated model (auto: IEEE 952's white + flicker + rate random walk, "
-                   "as 'gyroid fit' by default), each run then fitted on its own and its "
-                   "coefficients' posterior pooled.")
+@click.option("--noise", default="auto", show_default=True,
+              type=click.Choice(["auto", "white", "white+flicker+rw", "white+gm"]),
+              help="Each run's noise: a correlated model (auto: IEEE 952's white + flicker "
+                   "+ rate random walk, as 'gyroid fit' by default), each run fitted on its "
+                   "own and its coefficients' posterior pooled; or white, pooled exactly on "
+                   "sufficient statistics (right only where the runs' noise is white at "
+                   "hours, which no check can see).")
 @map_option
 @click.option("--axis", "axis", default=None,
               help="The gyro axis to pool, for logs of several (x, y or z).")
@@ -56,7 +57,7 @@ def pool(logs, terms, out, seed, t0_C, prior_choice, prior_items, segment_means,
     prior_set, overrides = resolve_prior_option(prior_choice, prior_items)
     result = pool_to_dir(logs, terms, out, seed=seed, prior_set=prior_set, priors=overrides,
                          t0_C=t0_C, segment_means=segment_means,
-                         noise=None if noise == "white" else noise,
+                         noise=noise,
                          maps=parse_maps(mappings),
                          axis=axis, instances=instances, say=lambda m: click.echo(m, err=True))
     click.echo(result.summary())

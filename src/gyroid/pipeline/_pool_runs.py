@@ -17,22 +17,25 @@ from gyroid.io._tables import read_log_table
 from gyroid.io._units import ColumnMap
 from gyroid.models._inputs import T0_C
 from gyroid.models._priors import Prior
+from gyroid.noise._kinds import noise_model
 from gyroid.reports._write import write
 
 
 def pool_to_dir(paths: tuple[Path, ...], terms: str, out: Path, *, seed: int = 0,
                 prior_set: str = "default", priors: Mapping[str, Prior] | None = None,
-                t0_C: float = T0_C, segment_means: bool = False, noise: str | None = None,
+                t0_C: float = T0_C, segment_means: bool = False, noise: str = "auto",
                 maps: tuple[ColumnMap, ...] = (), axis: str | None = None,
                 instances: str | None = None,
                 say: Callable[[str], None] = lambda _m: None) -> PoolFit:
     """Pool ``terms`` over the runs read from ``paths`` (:func:`pool_runs`) and write
-    ``pool.json``, ``posterior.nc`` and ``forest.png`` to ``out``; ``noise``: None (white),
-    or the noise model each run is fitted under before pooling (:func:`fit_pool`)."""
+    ``pool.json``, ``posterior.nc`` and ``forest.png`` to ``out``; ``noise``: the noise model
+    each run is fitted under before pooling, or ``white`` (:func:`fit_pool`)."""
     loaded, labels = pool_runs(paths, terms, maps=maps, axis=axis, instances=instances)
     rows = sum(log.n for log in loaded)
+    exact = noise != "auto" and not noise_model(noise).correlated
     say(f"pooling {terms} over {len(loaded)} runs ({rows} rows)"
-        + ("" if noise is None else f", each fitted under {noise} noise") + " ...")
+        + (", white noise on their sufficient statistics" if exact
+           else f", each fitted under {noise} noise") + " ...")
     result = fit_pool(loaded, labels, terms, seed=seed, prior_set=prior_set, priors=priors,
                       t0_C=t0_C, segment_means=segment_means, noise=noise)
     with output_dir(out) as stage:
