@@ -29,6 +29,12 @@ the coefficients, apart from the noise levels' inference; not for ``--white-only
 default (median a thousandth of the log's white density: 3e-4 here): a study of what the
 priors trade between logs with a FOG's flicker and walk and logs without.
 
+``--static-hours H`` first simulates the same gyro at rest for H hours (the same white
+noise, flicker and walk, an independent realisation, a constant temperature), fits its
+noise as ``gyroid noise`` does and fits the bench with IEEE noise priors from that fit, as
+``gyroid fit --noise DIR`` does (paper A's bench would record such a run): what a measured
+noise buys where a 10 h thermal log cannot tell a FOG's flicker from none.
+
 ``--white-only`` drops the flicker and the walk (white noise and the thermometer's only):
 what the default costs where there is nothing low-frequency to carry (the posterior sds
 beside ``--noise white``'s on the same logs). ``--workers 2`` runs two processes.
@@ -94,8 +100,33 @@ def fog_log(seed: int, profile: str, white_only: bool = False) -> dict[str, np.n
             "w0_over_the_log": TRUTH["w0"] + float(walk.mean())}
 
 
+def static_log(seed: int, hours: float) -> np.ndarray:
+    """The gyro at rest at a constant temperature: paper A's bias plus the bench's white
+    noise, flicker and walk (deg/h at 1 Hz; its own random stream)."""
+    rng = np.random.default_rng([seed, 7, 42])
+    dt = 1.0 / RATE_HZ
+    n = int(hours * 3600 * RATE_HZ)
+    return (TRUTH["w0"] + rng.normal(0.0, 60.0 * ARW / math.sqrt(dt), n)
+            + flicker_noise(rng, n, dt, B)
+            + np.cumsum(rng.normal(0.0, K / 60.0 * math.sqrt(dt), n)))
+
+
+def measured_noise_priors(seed: int, hours: float) -> tuple[dict, dict]:
+    """IEEE noise priors from ``gyroid noise``'s fit of :func:`static_log` (as ``gyroid fit
+    --noise DIR`` makes them), and what that fit found (terms' means and intervals)."""
+    from gyroid.inference import fit_noise
+    from gyroid.models._prior_scales import priors_from_noise
+
+    fitted = fit_noise(static_log(seed, hours), 1.0 / RATE_HZ, seed=seed)
+    terms = fitted.term_summaries()
+    found = {k: {"mean": terms[k].get("mean"), "ci90": terms[k].get("ci90"),
+                 "resolved": terms[k].get("resolved")} for k in ("N", "B", "K")}
+    return priors_from_noise(terms), {"trustworthy": fitted.trustworthy, "terms": found}
+
+
 def one(seed: int, profile: str, noise: str, white_only: bool,
-        flicker_walk_median: float | None = None) -> dict:
+        flicker_walk_median: float | None = None, static_hours: float | None = None
+        ) -> dict:
     import gyroid
     from gyroid.inference import Emcee, Importance, fit_log
     from gyroid.io import BenchLog
@@ -107,6 +138,10 @@ def one(seed: int, profile: str, noise: str, white_only: bool,
     truth = dict(TRUTH, w0=columns.pop("w0_over_the_log"))
     chosen = None if flicker_walk_median is None else {
         name: LogNormal(flicker_walk_median, 3.0) for name in ("B_deg_h", "K_deg_h_sqrt_h")}
+    static = None
+    if static_hours:
+        chosen, static = measured_noise_priors(seed, static_hours)
+        noise = "white+flicker+rw"  # the noise model whose priors those are
     fit = fit_log(BenchLog(columns), "thermal", noise=noise, seed=seed, priors=chosen,
                   sampler=Importance(fallback=Emcee(progress=False)))
     seconds = round(time.time() - started, 1)  # the default fit's alone
@@ -119,7 +154,8 @@ def one(seed: int, profile: str, noise: str, white_only: bool,
               "K_deg_h_sqrt_h": LogNormal(K, 0.01)}
     known = (fit_log(BenchLog(columns), "thermal", noise=noise, seed=seed, priors=pinned,
                      sampler=Importance(fallback=Emcee(progress=False))).posterior.summary
-             if fit.problem.noise.name == "white+flicker+rw" and not white_only else None)
+             if fit.problem.noise.name == "white+flicker+rw" and not white_only
+             and not static_hours else None)
     return {"seed": seed, "profile": profile, "noise": noise,
             "noise_used": fit.problem.noise.name, "trustworthy": fit.trustworthy,
             "sampler": fit.posterior.move,
@@ -137,6 +173,7 @@ def one(seed: int, profile: str, noise: str, white_only: bool,
             "noise_median": {name: float(np.median(fit.posterior.draws[..., i]))
                              for i, name in enumerate(fit.problem.names)
                              if name not in truth},
+            "static_noise_fit": static,
             "seconds": seconds}
 
 
@@ -191,10 +228,14 @@ def main() -> None:
                         help="B's and K's prior median (deg/h, deg/h/sqrt(h); log-sd 3) "
                              "instead of gyroid's default (a thousandth of the white "
                              "density): a study of the priors")
+    parser.add_argument("--static-hours", type=float, default=None,
+                        help="fit with IEEE noise priors from a noise fit of this many "
+                             "hours of the same gyro at rest (module docstring)")
     parser.add_argument("--results", default="fog_thermal_bench")
     args = parser.parse_args()
     started = time.time()
-    jobs = [(args.seed + k, profile, args.noise, args.white_only, args.flicker_walk_median)
+    jobs = [(args.seed + k, profile, args.noise, args.white_only, args.flicker_walk_median,
+             args.static_hours)
             for profile in args.profiles.split(",") for k in range(args.datasets)]
     with ProcessPoolExecutor(args.workers) as pool:
         runs = []
@@ -206,7 +247,8 @@ def main() -> None:
                      "bias_instability": B, "rate_random_walk": K,
                      "thermometer_sd_C": THERMOMETER_SD_C, "white_only": args.white_only,
                      "noise": args.noise, "datasets": args.datasets,
-                     "flicker_walk_median": args.flicker_walk_median},
+                     "flicker_walk_median": args.flicker_walk_median,
+                     "static_hours": args.static_hours},
              results={"summary": summarise(runs), "runs": runs}, started=started)
 
 

@@ -603,3 +603,21 @@ def test_the_pooled_fog_lots():
             f"{3 * summary['lots']} tests")
     assert all(v == summary["lots"] for v in (*white["covered95"].values(),
                                               *auto["covered95"].values()))
+
+
+def test_the_fog_benches_with_a_measured_noise():
+    """experiments/results/fog_thermal_bench_static_40h: the bench fitted with noise priors
+    from 40 h of the gyro at rest."""
+    runs = _results("fog_thermal_bench_static_40h")["runs"]
+    resolved = {t: sum(r["static_noise_fit"]["terms"][t]["resolved"] for r in runs)
+                for t in ("B", "K")}
+    summary = _results("fog_thermal_bench_static_40h")["summary"]["smooth"]
+    inside = summary["inside_95"]
+    worst = next(r for r in runs if r["seed"] == 25)["z"]["w1"]
+    _quoted(f"resolved B in {resolved['B']} of {len(runs)} runs and K in {resolved['K']}",
+            f"trusted {summary['fits'] - summary['exit_3']} of {summary['fits']}, held the "
+            f"truths {inside['w0']}, {inside['w1']}, {inside['w2']} and {inside['wD']} times",
+            f"(z-scores' sd {min(summary['z_sd'].values()):.2f}-"
+            f"{max(summary['z_sd'].values()):.2f}, w1's {summary['z_sd']['w1']:.2f})",
+            f"w1 still lay {abs(worst):.1f} sd away (exit 0)")
+    assert summary["exit_0_beyond_3_3_sd"] == 1

@@ -17,7 +17,7 @@ from gyroid.io._tables import read_log_table
 from gyroid.io._units import ColumnMap
 from gyroid.models._inputs import T0_C
 from gyroid.models._priors import Prior
-from gyroid.noise._kinds import noise_model
+from gyroid.noise._kinds import Ieee952, noise_model
 from gyroid.reports._write import write
 
 
@@ -32,10 +32,10 @@ def pool_to_dir(paths: tuple[Path, ...], terms: str, out: Path, *, seed: int = 0
     each run is fitted under before pooling, or ``white`` (:func:`fit_pool`)."""
     loaded, labels = pool_runs(paths, terms, maps=maps, axis=axis, instances=instances)
     rows = sum(log.n for log in loaded)
-    exact = noise != "auto" and not noise_model(noise).correlated
+    kind = Ieee952() if noise == "auto" else noise_model(noise)
     say(f"pooling {terms} over {len(loaded)} runs ({rows} rows)"
-        + (", white noise on their sufficient statistics" if exact
-           else f", each fitted under {noise} noise") + " ...")
+        + (f", each fitted under {kind.name} noise" if kind.correlated
+           else ", white noise on their sufficient statistics") + " ...")
     result = fit_pool(loaded, labels, terms, seed=seed, prior_set=prior_set, priors=priors,
                       t0_C=t0_C, segment_means=segment_means, noise=noise)
     with output_dir(out) as stage:
