@@ -86,7 +86,8 @@ def test_population_mean_integrates_out_exactly_and_its_conditional_is_exact():
 @pytest.mark.slow
 def test_pooled_lot_recovers_the_population_and_its_spread():
     lot = simulate_lot("magnetic", 8, seed=4, spread=0.2, hours=SHORT_MAGNETIC.duration_s / 3600)
-    result = fit_pool([r.log for r in lot.runs], lot.labels, "magnetic", seed=2)
+    # the simulator's noise is white: the exact white pool is the right model
+    result = fit_pool([r.log for r in lot.runs], lot.labels, "magnetic", seed=2, noise="white")
     record = result.to_json()
     assert result.trustworthy, result.checks.lines()
     for name, truth in lot.population_mean.items():
@@ -114,7 +115,7 @@ def test_a_run_from_another_population_is_named():
     odd = dict(lot.runs[0].truth["parameters"])
     odd["wy"] = lot.population_mean["wy"] + 3.0  # 50 between-run sds away
     logs[3] = simulate_magnetic_bench(parameters=odd, protocol=SHORT_MAGNETIC, seed=77).log
-    result = fit_pool(logs, lot.labels, "magnetic", seed=0)
+    result = fit_pool(logs, lot.labels, "magnetic", seed=0, noise="white")  # white runs
     check = next(c for c in result.checks.checks if c.name == "run_consistency")
     assert not check.passed and check.severity == "error"
     assert "run_04" in check.message
@@ -326,12 +327,14 @@ def test_segment_means_reach_each_runs_correlated_noise_fit():
 def test_cli_pool_of_thermal_runs_whose_thermometer_is_noisy(tmp_path):
     """A lot of thermal runs with a noisy thermometer pools (exit 0 or 3): each run's fit
     had carried the thermometer's noise, which left it without the sufficient statistics
-    the pooled algebra reads, and `gyroid pool --terms thermal` ended in an IndexError."""
+    the pooled algebra reads, and `gyroid pool --terms thermal` ended in an IndexError
+    (the white pool's path, then the default)."""
     lot_dir, pool_dir = tmp_path / "lot", tmp_path / "pool"
     assert main(["simulate", "thermal", "--runs", "3", "--hours", "2", "--out", str(lot_dir),
                  "--seed", "3"]) == 0
     logs = [str(lot_dir / f"run_0{k}" / "bench.csv") for k in (1, 2, 3)]
-    code = main(["pool", *logs, "--terms", "thermal", "--out", str(pool_dir), "--seed", "1"])
+    code = main(["pool", *logs, "--terms", "thermal", "--noise", "white", "--out",
+                 str(pool_dir), "--seed", "1"])
     record = json.loads((pool_dir / "pool.json").read_text())
     assert code == (0 if record["trustworthy"] else 3)
     assert set(record["population"]) == {"w0", "w1", "w2", "wD"}
