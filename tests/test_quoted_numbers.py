@@ -237,8 +237,10 @@ def test_the_streamed_fit_of_a_log_too_long_to_hold():
         worst = max(worst, *(abs(fit["mean"][k] - v) / fit["sd"][k]
                              for k, v in PAPER_A_THERMAL.items()))
     assert [row["rows"] for row in rows] == [21_000_000, 100_000_000]
-    _quoted("White noise on the means passed its checks, and the four coefficients lie "
-            f"within {math.ceil(10 * worst) / 10:.1f} posterior sd of the truths")
+    assert all("white+flicker+rw" in row["fit_streamed"]["noise_choice"] for row in rows)
+    _quoted("Under the default's IEEE 952 noise on the means every check passed, and the "
+            f"four coefficients lie within {math.ceil(10 * worst) / 10:.1f} posterior sd of "
+            "the truths")
     long, short = rows[1], rows[0]
     _quoted(f"chunk by chunk in {long['simulate_streamed']['seconds']:.0f} s and "
             f"{long['simulate_streamed']['peak_mb'] / 1000:.1f} GB",
