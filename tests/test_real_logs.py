@@ -278,6 +278,7 @@ def test_a_real_allan_variance_the_noise_terms_cannot_describe_is_refused():
     assert still.term_summaries()["N"]["mean"] == pytest.approx(adev[0] / 60.0, rel=0.05)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("terms", ["bias", "bias,temperature"])
 def test_the_mpu6050s_later_blocks_are_in_its_bands_or_the_fit_is_refused(tmp_path, mpu_folder,
                                                                         terms):
