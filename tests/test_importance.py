@@ -150,3 +150,20 @@ def test_a_problem_without_a_collapsed_form_goes_to_emcee():
     problem = BenchProblem.from_log(log, "bias", noise="white")
     posterior = Importance().sample(problem, problem.mode(), seed=0)
     assert posterior.method.startswith("emcee")
+
+
+def test_stored_block_log_likelihoods_need_one_filter_pass_per_noise_level(walked_problem):
+    """posterior.nc's block log-likelihoods of an importance posterior, computed with one
+    filter pass per distinct noise level (its draws repeat them) and the filter's linearity,
+    equal the density's own ``log_likelihood_blocks`` at every draw."""
+    from gyroid.inference._storage import block_log_likelihood
+
+    problem, point = walked_problem
+    posterior = Importance().sample(problem, point, seed=3)
+    fast = block_log_likelihood(problem, posterior)
+    flat = np.asarray(problem.to_sampling_host(
+        posterior.draws.reshape(-1, posterior.draws.shape[-1])))
+    levels = np.unique(flat[:, problem.n_model:], axis=0).shape[0]
+    assert levels < flat.shape[0]  # the saving: repeated levels
+    direct = in_chunks(problem_batcher(problem.density.log_likelihood_blocks), flat, 256)
+    np.testing.assert_allclose(fast.reshape(direct.shape), direct, rtol=1e-9, atol=1e-9)

@@ -68,6 +68,13 @@ class CollapsedCoefficients(eqx.Module):
                    + self.beta_log_norm)
         return mean, factor, log_lik
 
+    def filtered(self, v: Float[Array, " k"]) -> Float[Array, "n 2+p"]:
+        """Every column's innovations at the levels ``v``, then their variances: the
+        innovations of any coefficients' residual follow without another filter pass (the
+        filter is linear in what it filters: the drift's less the design's times them)."""
+        innovation, variance = self._innovations(v)
+        return jnp.column_stack([innovation, variance])
+
     def log_posterior(self, v: Float[Array, " k"]) -> Float[Array, ""]:
         """The noise levels' marginal log-posterior (coefficients integrated out)."""
         r = self.noise_on * (v - self.noise_loc) / self.noise_scale

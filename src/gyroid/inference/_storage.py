@@ -3,6 +3,7 @@ for any problem."""
 
 from __future__ import annotations
 
+import math
 import warnings
 
 import numpy as np
@@ -11,6 +12,8 @@ from gyroid.inference._batching import in_chunks, problem_batcher
 from gyroid.inference._posterior import Posterior
 from gyroid.inference._problem import AbstractProblem
 from gyroid.io._arviz import arviz
+
+_LOG_2PI = math.log(2.0 * math.pi)
 
 
 def inference_data(problem: AbstractProblem, posterior: Posterior, *,
@@ -47,5 +50,32 @@ def block_log_likelihood(problem: AbstractProblem, posterior: Posterior, chunk: 
     """The problem's block log-likelihoods at every draw: (chains, draws, blocks)."""
     walkers, draws, d = posterior.draws.shape
     flat = np.asarray(problem.to_sampling_host(posterior.draws.reshape(-1, d)))
+    collapsed = problem.collapsed()
+    if collapsed is not None and not collapsed.density.errors_in_variables:
+        return _by_noise_level(collapsed, flat, chunk).reshape(walkers, draws, -1)
     blocks = problem_batcher(problem.density.log_likelihood_blocks)
     return in_chunks(blocks, flat, chunk).reshape(walkers, draws, -1)
+
+
+def _by_noise_level(collapsed, flat: np.ndarray, chunk: int) -> np.ndarray:
+    """:meth:`log_likelihood_blocks` of a linear model under correlated noise at the draws
+    ``flat`` (coefficients, then noise levels, sampling coordinates), one filter pass per
+    distinct noise level (an importance posterior repeats them) instead of one per draw:
+    the residual's innovations are the drift's less the design's times the coefficients.
+    The same numbers to rounding (tests/test_importance.py)."""
+    density = collapsed.density
+    p = density.n_model
+    levels, which = np.unique(flat[:, p:], axis=0, return_inverse=True)
+    filtered = in_chunks(problem_batcher(collapsed.filtered), levels, chunk)  # (u, n, 2+p)
+    weight = np.asarray(collapsed.weight)
+    member = np.zeros((weight.size, int(density.n_blocks)))
+    member[np.arange(weight.size), np.asarray(density.block)] = 1.0
+    out = np.empty((flat.shape[0], member.shape[1]))
+    for start in range(0, flat.shape[0], chunk):
+        rows = slice(start, start + chunk)
+        own = filtered[which[rows]]
+        innovation = own[..., 0] - np.einsum("mnp,mp->mn", own[..., 1:1 + p], flat[rows, :p])
+        variance = own[..., -1]
+        log_lik = -0.5 * (innovation**2 / variance + np.log(variance) + _LOG_2PI)
+        out[rows] = (log_lik * weight) @ member
+    return out
