@@ -238,7 +238,7 @@ def _pool_section(report: Report, study: Study) -> None:
                "repeatability, each run's coefficients shrunk towards the population, and "
                "the predictive for a new run, which `gyroid compensate --fit POOL` uses for "
                "a unit that was never tested. Six simulated magnetic runs (files `pool/`, "
-               "truth in `pool/lot.json`):", "",
+               f"truth in `pool/lot.json`; the runs' noise {record['run_noise']}):", "",
                "| coefficient | true mean | population mean +/- sd | true between-run sd | "
                "between-run sd (95 %) | new run +/- sd |", "|---|---|---|---|---|---|")
     for name in pooled.coefficient_names:
