@@ -108,8 +108,8 @@ def pool_problem(
     the run-to-run test then weighs each run by what its own noise leaves known. ``white``
     pools each run's sufficient statistics under white noise (exact, and right only where
     each run's noise is white at the scales that decide its coefficients, which its
-    whiteness check cannot see at hours: on lots of three 10 h FOG runs with identical
-    coefficients it said they differ at p < 0.01 in 5 of 10 lots it trusted;
+    whiteness check cannot see at hours: of 10 lots of three 10 h FOG runs with identical
+    coefficients it trusted 5, each saying the runs differ at p < 0.01;
     ``experiments/pool_fog_lots.py``)."""
     if len(logs) < 2:
         raise GyroidInputError("pooling needs at least two logs (runs or units of one gyro "
