@@ -149,7 +149,9 @@ def test_cli_pool_and_compensation_with_the_new_run_predictive(tmp_path, capsys)
     truth = json.loads((lot_dir / "lot.json").read_text())
     assert truth["runs"] == ["run_01", "run_02", "run_03", "run_04"]
     logs = [str(lot_dir / r / "bench.csv") for r in truth["runs"]]
+    capsys.readouterr()
     code = main(["pool", *logs, "--terms", "magnetic", "--out", str(pool_dir), "--seed", "1"])
+    assert "run_02 fitted (2 of 4)" in capsys.readouterr().err  # each run's fit is heard of
     record = json.loads((pool_dir / "pool.json").read_text())
     assert code == (0 if record["trustworthy"] else 3)
     for key in ("terms", "runs", "population", "between_run_sd", "per_run",

@@ -6,7 +6,7 @@ the next run. The model is :mod:`gyroid.inference._pool_problem`; the result
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -94,6 +94,7 @@ def pool_problem(
     segment_means: bool = False,
     noise: str | NoiseModel = "auto",
     seed: int = 0,
+    progress: Callable[[str], None] | None = None,
 ) -> PoolProblem:
     """The pooled problem of ``logs`` (one per run or unit, named by ``labels``) under one
     drift model. ``priors`` overrides population means' priors by name, ``spread_scales``
@@ -110,7 +111,7 @@ def pool_problem(
     each run's noise is white at the scales that decide its coefficients, which its
     whiteness check cannot see at hours: of 10 lots of three 10 h FOG runs with identical
     coefficients it trusted 5, each saying the runs differ at p < 0.01;
-    ``experiments/pool_fog_lots.py``)."""
+    ``experiments/pool_fog_lots.py``). ``progress`` hears of each run fitted."""
     if len(logs) < 2:
         raise GyroidInputError("pooling needs at least two logs (runs or units of one gyro "
                                "type); for one log use 'gyroid fit'")
@@ -139,7 +140,8 @@ def pool_problem(
     if kind.correlated:
         return pooled_fits(logs, labels, model, kind, runs, mean_priors=mean_priors,
                            spread_scales=scales, reference=reference, prior_set=prior_set,
-                           t0_C=t0_C, seed=seed, segment_means=segment_means)
+                           t0_C=t0_C, seed=seed, segment_means=segment_means,
+                           progress=progress)
     p = len(model.parameter_names)
     own_mean, own_sd = _own_estimates(runs)
     return PoolProblem.from_statistics(
@@ -173,7 +175,8 @@ RUN_RESIDUAL_CHECKS = frozenset({"goodness_of_fit", "residual_whiteness", "outli
 def pooled_fits(logs: Sequence[BenchLog], labels: Sequence[str], model: DriftModel,
                 noise: NoiseModel, white_runs: Sequence[BenchProblem], *, mean_priors,
                 spread_scales: np.ndarray, reference: np.ndarray, prior_set: str,
-                t0_C: float, seed: int, segment_means: bool = False) -> PoolProblem:
+                t0_C: float, seed: int, segment_means: bool = False,
+                progress: Callable[[str], None] | None = None) -> PoolProblem:
     """Each log fitted on its own under ``noise`` (on its segments' means with
     ``segment_means``; every other default of ``fit_log``), its
     coefficients' posterior mean and covariance taken as one Gaussian observation of its
@@ -190,6 +193,8 @@ def pooled_fits(logs: Sequence[BenchLog], labels: Sequence[str], model: DriftMod
         covariances.append(np.atleast_2d(np.cov(draws.T)))
         reports.append(CheckReport(tuple(c for c in single.checks.checks
                                          if c.name in RUN_RESIDUAL_CHECKS)))
+        if progress is not None:
+            progress(f"  {labels[k]} fitted ({k + 1} of {len(logs)})")
     means, covariances = np.array(means), np.array(covariances)
     sds = np.sqrt(np.diagonal(covariances, axis1=1, axis2=2))
     return PoolProblem.from_estimates(

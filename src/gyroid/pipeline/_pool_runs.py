@@ -37,7 +37,7 @@ def pool_to_dir(paths: tuple[Path, ...], terms: str, out: Path, *, seed: int = 0
         + (f", each fitted under {kind.name} noise" if kind.correlated
            else ", white noise on their sufficient statistics") + " ...")
     result = fit_pool(loaded, labels, terms, seed=seed, prior_set=prior_set, priors=priors,
-                      t0_C=t0_C, segment_means=segment_means, noise=noise)
+                      t0_C=t0_C, segment_means=segment_means, noise=noise, progress=say)
     with output_dir(out) as stage:
         write(stage, result)
     return result
