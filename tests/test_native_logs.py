@@ -154,13 +154,14 @@ def test_a_damaged_native_log_gets_one_clear_message(tmp_path, capsys, name, con
 def test_the_imus_of_one_log_pool_as_runs(tmp_path, capsys):
     """Three gyros of one type in one ULog, each with its own bias and the type's 2 deg/h
     per degC: pooled as runs STEM#N of one axis, the type's temperature coefficient is
-    recovered and the three biases differ."""
+    recovered and the three biases differ. (Their noise is white, and pooled as such: the
+    subject here is reading the instances.)"""
     biases = (40.0, 65.0, 15.0)
     instances = [_imu(10 + k, n=600, bias_deg_h=(b, 0.0, 0.0)) for k, b in enumerate(biases)]
     path = write_ulog(tmp_path / "three.ulg", instances)
     out = tmp_path / "pool"
     assert main(["pool", str(path), "--instances", "all", "--axis", "x", "--terms",
-                 "bias,temperature", "--out", str(out)]) == 0
+                 "bias,temperature", "--noise", "white", "--out", str(out)]) == 0
     record = json.loads((out / "pool.json").read_text())
     assert record["runs"] == ["three#0", "three#1", "three#2"]
     lo, hi = record["population"]["w1"]["ci95"]
