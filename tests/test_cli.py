@@ -127,7 +127,7 @@ def test_reduced_demo_writes_a_report_whose_figures_exist(tmp_path):
 
     out = tmp_path / "demo"
     report = run_demo(out, seed=1, echo=lambda _m: None,
-                      size=DemoSize(propagate_draws=200, sobol_samples=100))
+                      size=DemoSize(propagate_draws=200, sobol_samples=100, lot_runs=3))
     text = report.read_text()
     figures = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", text)
     assert len(figures) >= 5

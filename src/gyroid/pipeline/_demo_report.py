@@ -237,7 +237,8 @@ def _pool_section(report: Report, study: Study) -> None:
                "coefficients (population mean), the run-to-run spread a datasheet calls "
                "repeatability, each run's coefficients shrunk towards the population, and "
                "the predictive for a new run, which `gyroid compensate --fit POOL` uses for "
-               "a unit that was never tested. Six simulated magnetic runs (files `pool/`, "
+               f"a unit that was never tested. {len(lot.runs)} simulated magnetic runs "
+               "(files `pool/`, "
                f"truth in `pool/lot.json`; the runs' noise {record['run_noise']}):", "",
                "| coefficient | true mean | population mean +/- sd | true between-run sd | "
                "between-run sd (95 %) | new run +/- sd |", "|---|---|---|---|---|---|")

@@ -45,6 +45,7 @@ class DemoSize:
     propagate_draws: int = 2000
     sobol_samples: int = 1000
     discrepancy: bool = True
+    lot_runs: int = 6  # runs of the pooled lot
 
 
 @dataclass
@@ -126,10 +127,11 @@ class Study:
         self.results["reproduction"] = write_reproduction(self.folder("reproduce"))
 
     def pool(self) -> None:
-        self.echo("[6/6] pooling a lot of six magnetic runs ...")
-        lot = simulate_lot("magnetic", 6, seed=self.seed + 4, hours=0.5)
+        runs = self.size.lot_runs
+        self.echo(f"[6/6] pooling a lot of {runs} magnetic runs ...")
+        lot = simulate_lot("magnetic", runs, seed=self.seed + 4, hours=0.5)
         pooled = fit_pool([r.log for r in lot.runs], lot.labels, "magnetic", seed=self.seed)
-        write(self.folder("pool"), pooled, title="Six simulated magnetic runs pooled",
+        write(self.folder("pool"), pooled, title=f"{runs} simulated magnetic runs pooled",
               truth=lot.truth())
         (self.stage / "pool" / "lot.json").write_text(json_text(lot.truth()))
         self.results["lot"], self.results["pooled"] = lot, pooled
