@@ -136,7 +136,7 @@ def pool_problem(
             raise GyroidInputError(f"between-run sd scale of {name!r}: give a positive "
                                    f"scale for one of {', '.join(model.parameter_names)}")
         scales[model.parameter_names.index(name)] = scale
-    kind = Ieee952() if noise == "auto" else noise_model(noise)
+    kind = run_noise_model(noise)
     if kind.correlated:
         return pooled_fits(logs, labels, model, kind, runs, mean_priors=mean_priors,
                            spread_scales=scales, reference=reference, prior_set=prior_set,
@@ -155,6 +155,12 @@ def pool_problem(
         noise_priors=[q.priors[p] if not q.sigma_known else None for q in runs],
         runs=runs, terms=tuple(model.terms), t0_C=t0_C, segment_means=segment_means,
         own_mean=own_mean, own_sd=own_sd, reference=reference)
+
+
+def run_noise_model(noise: str | NoiseModel) -> NoiseModel:
+    """The noise model a pool fits each run under: ``auto`` is IEEE 952's (as a single
+    fit's default), any other name or model itself."""
+    return Ieee952() if noise == "auto" else noise_model(noise)
 
 
 def fit_pool(logs: Sequence[BenchLog], labels: Sequence[str],
