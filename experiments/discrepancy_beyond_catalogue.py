@@ -65,7 +65,7 @@ def _outcome(report) -> dict:
             "unexplained": report.unexplained is not None,
             "unexplained_score": None if report.unexplained is None
             else report.unexplained.score,
-            "tau_at_cap": bool(report.unexplained and report.unexplained.noise_tau_at_cap)}
+            "noise_too_slow": bool(report.unexplained and report.unexplained.noise_too_slow)}
 
 
 def main() -> None:

@@ -97,8 +97,8 @@ def test_cli_writes_the_contract_json(tmp_path):
 def test_where_reports_whole_windows_only():
     """The last samples of a log join the last window: no window of a few samples at the end
     (whose mean is mostly noise) can top the list."""
-    from gyroid.inference import NoiseLevels
     from gyroid.workflows import where_largest as _where
+    from gyroid.workflows._discrepancy_report import NoiseLevels
 
     sim = simulate_magnetic_bench(seed=3)
     log = sim.log
@@ -122,7 +122,7 @@ def test_a_step_outside_the_catalogue_is_reported_unexplained():
     report = find_discrepancies(sim.log, "thermal",
                                 candidates=tuple(c for c in CANDIDATES if c != "bias_step"))
     assert report.unexplained is not None
-    assert report.unexplained.noise_tau_at_cap or report.unexplained.score > 10
+    assert report.unexplained.noise_too_slow or report.unexplained.score > 10
 
 
 def _pressure_log(tmp_path):

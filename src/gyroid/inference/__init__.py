@@ -41,5 +41,4 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     ],
     "_batching": ["problem_batcher"],
     "_starts": ["START_MULTIPLES", "grid_points", "start_grid"],
-    "_whitened_fit": ["NoiseLevels"],
 })

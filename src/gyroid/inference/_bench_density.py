@@ -35,7 +35,7 @@ from gyroid.models._drift import DriftModel
 from gyroid.models._inputs import DriftInputs
 from gyroid.models._priors import Flat, LogNormal, Normal, Prior, prior_arrays
 from gyroid.models._rate_error import rate_coefficient_index
-from gyroid.noise._base import NoiseModel, RowClock
+from gyroid.noise._base import NoiseModel, RowFilter
 from gyroid.noise._kinds import White, noise_model
 from gyroid.noise._rate_error_process import RateErrorProcess
 
@@ -217,9 +217,11 @@ class BenchDensity(eqx.Module):
         return self.noise.names(self.sigma is not None)
 
     @property
-    def clock(self) -> RowClock:
-        """Where the rows sit in time, as the noise model's filter reads them."""
-        return RowClock(self.steps_s, self.step_s, self.gap_s, self.weight)
+    def row_filter(self) -> RowFilter:
+        """The noise model on these rows (what the likelihood and its collapsed form
+        filter with)."""
+        return RowFilter(self.noise, self.steps_s, self.sigma, self.gap_s, self.weight,
+                         step_s=self.step_s, row_scale=self.row_scale)
 
     @property
     def names(self) -> tuple[str, ...]:
@@ -269,13 +271,8 @@ class BenchDensity(eqx.Module):
         return self.levels_of(u[self.n_model :])
 
     def levels_of(self, noise_u: Float[Array, " k"]):
-        """The white sd a row's likelihood uses (deg/h; per row or one) and every noise
-        level by name (natural units), from the noise levels' sampling coordinates (logs)."""
-        values = dict(zip(self.noise_names, jnp.exp(noise_u), strict=True))
-        if self.sigma is not None:
-            return self.noise.known_white(self.sigma), values
-        return self.noise.row_white_sd(values, step_s=self.step_s,
-                                       row_scale=self.row_scale), values
+        """:meth:`~gyroid.noise.RowFilter.levels_of` on these rows."""
+        return self.row_filter.levels_of(noise_u)
 
     def log_likelihood_rows(self, u: Float[Array, " d"]) -> Float[Array, " n"]:
         """Log-likelihood of each row (for white+gm: of its innovation); 0 for a row left
@@ -350,7 +347,7 @@ class BenchDensity(eqx.Module):
         """Innovations of the residual (or of columns) and their variances under the noise
         model (None for independent rows); a row left out (weight 0) is predicted through,
         not learnt from."""
-        return self.noise.innovations(residual, white, values, self.clock)
+        return self.row_filter.innovations(residual, white, values)
 
     def log_likelihood(self, u: Float[Array, " d"]) -> Float[Array, ""]:
         """Total log-likelihood (the sufficient-statistics path where it applies)."""

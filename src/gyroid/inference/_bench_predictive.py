@@ -3,20 +3,23 @@ out, the drift model refitted on the rest, the fold's part means predicted.
 
 A linear model with white noise is refitted in closed form from per-part sums (one pass
 over the design in blocks of rows, whatever the log's length); any other model by its
-posterior mode with the fold's rows masked (:meth:`BenchDensity.without_rows`). A
-whitened least-squares fit with its noise levels and time constants fixed (the discrepancy
-search's) is refitted by generalised least squares, the Kalman filter predicting through
-the fold (:func:`whitened_predictive`)."""
+posterior mode with the fold's rows masked (:meth:`BenchDensity.without_rows`)."""
 
 from __future__ import annotations
 
+import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 import scipy.linalg
 
 from gyroid.inference._bench_density import BenchDensity
 from gyroid.inference._check_report import Check
-from gyroid.inference._collapsed import collapse, conditional_solution
+from gyroid.inference._collapsed import (
+    collapse,
+    conditional_solution,
+    model_columns,
+    split_parameters,
+)
 from gyroid.inference._point import point_estimate
 from gyroid.inference._predictive import (
     HeldOut,
@@ -26,13 +29,8 @@ from gyroid.inference._predictive import (
     predictive_check,
     stretches,
 )
-from gyroid.inference._whitened_fit import NoiseLevels, held_out_solution
 from gyroid.io._logs import contiguous_segments
-from gyroid.models._drift import DriftModel
-from gyroid.models._inputs import DriftInputs
 from gyroid.noise._base import parts_mean_covariance
-from gyroid.noise._kalman import gauss_markov_mean_covariance
-from gyroid.noise._kinds import GaussMarkov
 
 
 def bench_predictive(density: BenchDensity, time_s: np.ndarray,
@@ -59,9 +57,8 @@ def bench_held_out(density: BenchDensity, time_s: np.ndarray,
         folds = _linear_folds(density, parts)
     elif point_u is not None and density.eiv_x is not None:
         folds = _eiv_folds(density, parts, time_s, np.asarray(point_u))
-    elif point_u is not None and collapse(density) is not None:
-        folds = _collapsed_folds(density, parts, time_s,
-                                 np.asarray(point_u)[density.n_model:])
+    elif point_u is not None and density.noise.correlated:
+        folds = _collapsed_folds(density, parts, time_s, np.asarray(point_u))
     else:
         folds = _refit_folds(density, parts, time_s)
     return folds, _part_seconds(parts, time_s)
@@ -71,47 +68,6 @@ def _part_seconds(parts: Stretches, time_s: np.ndarray) -> float | None:
     """The median part's duration, s (None for parts of one instant)."""
     durations = [np.ptp(time_s[parts.part == s]) for s in range(parts.n_parts)]
     return float(np.median(durations)) or None
-
-
-def whitened_predictive(model: DriftModel, inputs: DriftInputs, drift: np.ndarray,
-                        time_s: np.ndarray, values: dict[str, float], noise: NoiseLevels
-                        ) -> Check:
-    """The predictive check of a whitened least-squares fit under white + Gauss-Markov noise
-    (``noise``), its real coefficients refitted per fold with its time constants
-    (``values``' positive parameters) and noise levels held: a fold then costs one Kalman
-    pass. Holding them at the full fit's values leaves their uncertainty out of the bands,
-    which can only make the check stricter."""
-    import jax.numpy as jnp
-
-    time_s = np.asarray(time_s)
-    segments = tuple(contiguous_segments(time_s))
-    parts = stretches(time_s.size, segments if len(segments) > 1 else None)
-    if parts is None:
-        return predictive_check(None)
-    positive_u = jnp.asarray([np.log(values[p.name]) for p in model.parameters if p.positive],
-                             dtype=float)
-    steps_s = jnp.asarray(np.concatenate([[np.median(np.diff(time_s))], np.diff(time_s)]))
-    levels = (jnp.asarray(noise.white), jnp.asarray(noise.gm), jnp.asarray(noise.tau_s))
-    observed = part_means(np.asarray(drift), parts.part, parts.n_parts)
-    counts = np.bincount(parts.part, minlength=parts.n_parts).astype(float)
-    noise_cov = np.diag(noise.white**2 / counts) + gauss_markov_mean_covariance(
-        time_s, parts.part, parts.n_parts, noise.gm, noise.tau_s)
-    folds = []
-    for k in range(int(parts.fold_of.max()) + 1):
-        held = parts.fold_of == k
-        weight = jnp.asarray(~parts.rows_of_fold(k), dtype=float)
-        predicted, covariance, design = held_out_solution(
-            model, inputs, jnp.asarray(drift), positive_u, steps_s, levels, weight)
-        design = np.asarray(design)
-        jacobian = np.column_stack([part_means(design[:, i], parts.part, parts.n_parts)
-                                    for i in range(design.shape[1])])[held]
-        folds.append(HeldOut(
-            observed=observed[held],
-            predicted=part_means(np.asarray(predicted), parts.part, parts.n_parts)[held],
-            covariance=jacobian @ np.asarray(covariance) @ jacobian.T
-            + noise_cov[np.ix_(held, held)], counts=counts[held]))
-    return predictive_check(folds, part_s=_part_seconds(parts, time_s),
-                            remedies=GaussMarkov.remedies)
 
 
 def _part_sums(density: BenchDensity, parts: Stretches) -> dict[str, np.ndarray]:
@@ -178,33 +134,47 @@ def _linear_folds(density: BenchDensity, parts: Stretches) -> list[HeldOut]:
 
 
 def _collapsed_folds(density: BenchDensity, parts: Stretches, time_s: np.ndarray,
-                     noise_u: np.ndarray) -> list[HeldOut]:
-    """Refits of a linear model under correlated noise with its noise levels held at the
-    full fit's: each fold's coefficients are their exact Gaussian posterior given those
-    levels (:mod:`gyroid.inference._collapsed`, the filter predicting through the fold).
-    Holding the levels leaves their uncertainty out of the bands, which can only make the
-    check stricter."""
+                     point_u: np.ndarray) -> list[HeldOut]:
+    """Refits of a model under correlated noise, linear in its real coefficients given its
+    positive ones, with its noise levels and positive parameters held at the full fit's
+    mode ``point_u``: each fold's coefficients are their exact Gaussian posterior given
+    those (:mod:`gyroid.inference._collapsed`, the filter predicting through the fold).
+    Holding them leaves their uncertainty out of the bands, which can only make the check
+    stricter."""
+    real, positive = split_parameters(density)
     p = density.n_model
-    observed = part_means(np.asarray(density.drift), parts.part, parts.n_parts)
+    drift = np.asarray(density.drift)
+    observed = part_means(drift, parts.part, parts.n_parts)
     counts = np.bincount(parts.part, minlength=parts.n_parts).astype(float)
-    design = np.asarray(density.model.design(density.inputs))
+    if positive.size:
+        columns = _model_columns(density, jnp.asarray(point_u[positive]))
+        offset, design = drift - np.asarray(columns[:, 0]), np.asarray(columns[:, 1:])
+    else:
+        columns, offset = None, np.zeros_like(drift)
+        design = np.asarray(density.model.design(density.inputs))
+    offset_means = part_means(offset, parts.part, parts.n_parts)
     design_means = np.column_stack([part_means(design[:, i], parts.part, parts.n_parts)
-                                    for i in range(p)])
-    v = jnp.asarray(noise_u)
-    values = dict(zip(density.noise_names, np.exp(noise_u), strict=True))
+                                    for i in range(real.size)])
+    v = jnp.asarray(point_u[p:])
+    values = dict(zip(density.noise_names, np.exp(point_u[p:]), strict=True))
     noise_cov = _noise_covariance(density, values, parts, time_s)
     folds = []
     for k in range(int(parts.fold_of.max()) + 1):
         held = parts.fold_of == k
-        kept = collapse(density.without_rows(parts.rows_of_fold(k)))
+        kept = collapse(density.without_rows(parts.rows_of_fold(k)), columns,
+                        None if columns is None else real)
         mean, factor = conditional_solution(kept, v)
         factor = np.asarray(factor)
         covariance = np.linalg.inv(factor @ factor.T)
         x = design_means[held]
-        folds.append(HeldOut(observed=observed[held], predicted=x @ np.asarray(mean),
+        folds.append(HeldOut(observed=observed[held],
+                             predicted=offset_means[held] + x @ np.asarray(mean),
                              covariance=x @ covariance @ x.T + noise_cov[np.ix_(held, held)],
                              counts=counts[held]))
     return folds
+
+
+_model_columns = eqx.filter_jit(model_columns)
 
 
 def _eiv_folds(density: BenchDensity, parts: Stretches, time_s: np.ndarray,

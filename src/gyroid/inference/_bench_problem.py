@@ -19,6 +19,7 @@ from gyroid.inference._check_report import FitEvidence
 from gyroid.inference._emcee import Emcee
 from gyroid.inference._importance import Importance
 from gyroid.inference._point import point_estimate
+from gyroid.inference._point_profiled import collapsed_log_likelihood
 from gyroid.inference._problem import AbstractProblem, PointEstimate
 from gyroid.inference._rate_window import choose_rate_window, reads_rate
 from gyroid.inference._rate_window_marginal import marginal_window
@@ -217,6 +218,13 @@ class BenchProblem(AbstractProblem):
     def mode(self) -> PointEstimate:
         return point_estimate(self.density, noise_start=self.noise_start)
 
+    def log_likelihood(self, u) -> float:
+        """The log-likelihood at sampling coordinates ``u`` (under correlated noise from the
+        collapsed form's filter: one compilation for every model of as many coefficients)."""
+        if self.noise.correlated and not self.density.errors_in_variables:
+            return collapsed_log_likelihood(self.density, u)
+        return float(_log_likelihood(self.density, jnp.asarray(u)))
+
     def host_log_posterior(self):
         return self.density.host_log_posterior()
 
@@ -372,6 +380,11 @@ def _noise_priors(noise: NoiseModel, log: BenchLog, inputs, rows_per_mean: int,
         step = float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
         priors = noise.default_priors(level, step, rows_per_mean)
     return {name: priors[name] for name in noise.names(sigma_known)}
+
+
+@eqx.filter_jit
+def _log_likelihood(density, u):
+    return density.log_likelihood(u)
 
 
 @eqx.filter_jit

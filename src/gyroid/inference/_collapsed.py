@@ -26,6 +26,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from gyroid.noise._base import RowFilter
+
 _LOG_2PI = math.log(2.0 * math.pi)
 
 
@@ -34,7 +36,9 @@ class CollapsedCoefficients(eqx.Module):
     posterior of its coefficients (module docstring); built by :func:`collapse`."""
 
     columns: Float[Array, "n 1+p"]  # the drift, then the design's columns
-    density: eqx.Module  # the BenchDensity: its noise model and filter
+    #: The density's noise model on its rows (no drift model: candidates' fits on one log's
+    #: rows with as many coefficients share every compiled program).
+    row_filter: RowFilter
     weight: Float[Array, " n"]
     beta_loc: Float[Array, " p"]
     beta_precision: Float[Array, " p"]  # 1/scale^2 of a normal prior, 0 for a flat one
@@ -45,7 +49,7 @@ class CollapsedCoefficients(eqx.Module):
 
     def _innovations(self, v: Float[Array, " k"]):
         """Every column filtered by the density's own noise model at the levels ``v``."""
-        return self.density.innovations(self.columns, *self.density.levels_of(v))
+        return self.row_filter.innovations(self.columns, *self.row_filter.levels_of(v))
 
     def _solve(self, v: Float[Array, " k"]):
         innovation, variance = self._innovations(v)
@@ -67,6 +71,15 @@ class CollapsedCoefficients(eqx.Module):
                    - 0.5 * quadratic - 0.5 * log_det + 0.5 * mean.size * _LOG_2PI
                    + self.beta_log_norm)
         return mean, factor, log_lik
+
+    def log_likelihood(self, u: Float[Array, " p_plus_k"]) -> Float[Array, ""]:
+        """The log-likelihood at sampling coordinates ``u`` (coefficients, then noise
+        levels): the density's, from this form's filter."""
+        p = self.beta_loc.size
+        innovation, variance = self._innovations(u[p:])
+        residual = innovation[:, 0] - innovation[:, 1:] @ u[:p]
+        return -0.5 * jnp.sum(self.weight * (residual**2 / variance + jnp.log(variance)
+                                             + _LOG_2PI))
 
     def filtered(self, v: Float[Array, " k"]) -> Float[Array, "n 2+p"]:
         """Every column's innovations at the levels ``v``, then their variances: the
@@ -98,6 +111,30 @@ class CollapsedCoefficients(eqx.Module):
         return mean + jax.scipy.linalg.solve_triangular(factor.T, vz[k:], lower=False)
 
 
+#: A collapsed form's columns are padded to a multiple of this where its mode is found
+#: (zero columns with unit normal priors change no value): models of 1 to 8 coefficients
+#: on one log's rows (a discrepancy search's candidates) then share every compiled program.
+PAD_COLUMNS = 8
+
+
+def padded(collapsed: CollapsedCoefficients) -> CollapsedCoefficients:
+    """``collapsed`` with zero columns to a multiple of :data:`PAD_COLUMNS` coefficients,
+    each with a standard normal prior: every marginal value, and the first coefficients'
+    conditional mean and covariance, are the same (a zero column's coefficient is its
+    prior, independent of the rest, and its normal constant cancels)."""
+    r = collapsed.beta_loc.size
+    extra = -(-max(r, 1) // PAD_COLUMNS) * PAD_COLUMNS - r
+    if extra == 0:
+        return collapsed
+    rows = collapsed.columns.shape[0]
+    return eqx.tree_at(
+        lambda c: (c.columns, c.beta_loc, c.beta_precision, c.beta_log_norm), collapsed,
+        (jnp.concatenate([collapsed.columns, jnp.zeros((rows, extra))], axis=1),
+         jnp.concatenate([collapsed.beta_loc, jnp.zeros(extra)]),
+         jnp.concatenate([collapsed.beta_precision, jnp.ones(extra)]),
+         collapsed.beta_log_norm - 0.5 * extra * _LOG_2PI))
+
+
 @eqx.filter_jit
 def conditional_solution(collapsed: CollapsedCoefficients, v: Float[Array, " k"]):
     """The coefficients' conditional mean and the Cholesky factor of their precision given
@@ -123,27 +160,57 @@ def conditional_draws(solved: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np
     return beta, solved[:, 0] + log_conditional
 
 
-def collapse(density) -> CollapsedCoefficients | None:
+def split_parameters(density) -> tuple[np.ndarray, np.ndarray]:
+    """The indices of a density's real model parameters and of its positive ones (time
+    constants, a step's time: entered through their logs)."""
+    positive = np.array([q.positive for q in density.model.parameters], dtype=bool)
+    return np.flatnonzero(~positive), np.flatnonzero(positive)
+
+
+def model_columns(density, u_positive: Float[Array, " q"]) -> Float[Array, "n 1+r"]:
+    """The drift less the model at zero real coefficients, then the model's derivatives in
+    them (exact: every effect is linear in its real coefficients), at positive parameters
+    ``u_positive`` (logs): what :func:`collapse` integrates the coefficients out of."""
+    real, positive = split_parameters(density)
+    n_noise = len(density.noise_names)
+
+    def predict(values):
+        u = jnp.zeros(density.n_model).at[real].set(values).at[positive].set(u_positive)
+        return density.predict(jnp.concatenate([u, jnp.zeros(n_noise)]))
+
+    zero = jnp.zeros(real.size)
+    return jnp.column_stack([density.drift - predict(zero), jax.jacfwd(predict)(zero)])
+
+
+def collapse(density, columns: Float[Array, "n 1+r"] | None = None,
+             real: np.ndarray | None = None) -> CollapsedCoefficients | None:
     """The collapsed form of a :class:`~gyroid.inference._bench_density.BenchDensity`: a
     linear model (every coefficient real) under a correlated noise model; None
-    otherwise."""
+    otherwise. With ``columns`` (the drift less the model at zero real coefficients, then
+    the model's derivatives in them) and ``real`` (their indices among the model's
+    parameters), the form for given positive parameters of any model linear in its real
+    ones (traceable: :mod:`gyroid.inference._point_profiled`)."""
     model = density.model
-    p = density.n_model
-    if not density.noise.correlated or not model.is_linear or any(
-            q.positive for q in model.parameters):
+    if not density.noise.correlated:
         return None
-    loc, scale, on = (np.asarray(a, dtype=float) for a in (
+    if columns is None:
+        if not model.is_linear or any(q.positive for q in model.parameters):
+            return None
+        columns = jnp.column_stack([density.drift, model.design(density.inputs)])
+        real = np.arange(density.n_model)
+    p = density.n_model
+    loc, scale, on = (jnp.asarray(a, dtype=float) for a in (
         density.prior_loc, density.prior_scale, density.prior_on))
-    normal = on[:p] > 0
-    safe = np.where(normal, scale[:p], 1.0)
-    precision = np.where(normal, 1.0 / safe**2, 0.0)
-    log_norm = -float(np.sum(np.where(normal, np.log(safe) + 0.5 * _LOG_2PI, 0.0)))
+    normal = on[real] > 0
+    safe = jnp.where(normal, scale[real], 1.0)
+    precision = jnp.where(normal, 1.0 / safe**2, 0.0)
+    log_norm = -jnp.sum(jnp.where(normal, jnp.log(safe) + 0.5 * _LOG_2PI, 0.0))
     weight = (jnp.ones_like(density.drift) if density.weight is None
               else jnp.asarray(density.weight))
     return CollapsedCoefficients(
-        columns=jnp.column_stack([density.drift, model.design(density.inputs)]),
-        density=density,
+        columns=columns,
+        row_filter=density.row_filter,
         weight=weight,
-        beta_loc=jnp.asarray(loc[:p]), beta_precision=jnp.asarray(precision),
-        beta_log_norm=jnp.asarray(log_norm), noise_loc=jnp.asarray(loc[p:]),
-        noise_scale=jnp.asarray(scale[p:]), noise_on=jnp.asarray(on[p:]))
+        beta_loc=loc[real], beta_precision=precision,
+        beta_log_norm=log_norm, noise_loc=loc[p:],
+        noise_scale=scale[p:], noise_on=on[p:])

@@ -1,20 +1,21 @@
 """A bench problem's mode with optimistix: the posterior mode and its Gaussian covariance.
 
-1. For given positive parameters (time constants) every drift effect is linear in the
-   real parameters, so those are solved exactly (variable projection); the grid of
-   :mod:`gyroid.inference._starts` over the time constants gives the starting values
-   (several starts where the model is nonlinear).
-2. Levenberg-Marquardt (optimistix) on the noise-weighted residuals plus standardised prior
-   residuals, from the best starts; the white-noise level, when unknown, is the residual
-   RMS with ``n - p`` degrees of freedom.
-3. With a correlated noise model (``white+gm``, or white noise with the thermometer's
-   noise carried through dT/dt), BFGS on the full log-posterior.
-
-A model linear in its parameters with white noise needs none of this: its mode and
-covariance follow in closed form from the sufficient statistics (``_linear_gaussian``).
+* A model linear in its parameters with white noise: closed form from the sufficient
+  statistics (``_linear_gaussian``).
+* A linear model under correlated noise: its coefficients integrated out, the noise
+  levels' marginal mode (:mod:`gyroid.inference._marginal_mode`); with positive parameters
+  too (time constants, a step's time), those profiled (:mod:`gyroid.inference.
+  _point_profiled`).
+* Otherwise (white noise, or white noise with the thermometer's noise carried through
+  dT/dt): for given positive parameters every drift effect is linear in the real ones, so
+  those are solved exactly (variable projection) from the grid of
+  :mod:`gyroid.inference._starts`; then Levenberg-Marquardt (optimistix) on the
+  noise-weighted residuals plus standardised prior residuals from the best starts (the
+  white level, when unknown, the residual RMS with ``n - p`` degrees of freedom); with the
+  thermometer's noise carried, BFGS on the full log-posterior.
 
 The covariance is the Gauss-Newton ``(J'J)^-1`` of the weighted residuals at the optimum
-(exact for a linear model), or the inverse Hessian of the log-posterior (``white+gm``).
+(exact for a linear model), or the inverse Hessian of the log-posterior.
 """
 
 from __future__ import annotations
@@ -29,7 +30,14 @@ import optimistix as optx
 
 from gyroid.inference._batching import problem_batcher
 from gyroid.inference._bench_density import BenchDensity
-from gyroid.inference._collapsed import collapse, conditional_solution
+from gyroid.inference._collapsed import collapse
+from gyroid.inference._marginal_mode import (
+    block_diag,
+    collapsed_mode,
+    safe_inverse,
+    solver_message,
+)
+from gyroid.inference._point_profiled import profiled_mode
 from gyroid.inference._problem import PointEstimate
 from gyroid.inference._starts import grid_points, start_grid
 from gyroid.models._priors import Normal, natural_with_sd
@@ -90,75 +98,6 @@ def _bfgs(problem: BenchDensity, u0: jax.Array):
     return solution.value, solution.result, hessian
 
 
-def _negative_marginal(v: jax.Array, collapsed) -> jax.Array:
-    return -collapsed.log_posterior(v)
-
-
-_marginal_gradient = eqx.filter_jit(jax.grad(_negative_marginal))
-_marginal_value = eqx.filter_jit(_negative_marginal)
-
-
-@eqx.filter_jit
-def _marginal_bfgs(start, collapsed):
-    """BFGS on the collapsed marginal from ``start``, compiled once per log shape (called
-    outside jit, optimistix traced its loop anew on every call: 0.2 s a start)."""
-    return optx.minimise(_negative_marginal, optx.BFGS(rtol=1e-9, atol=1e-9), start,
-                         args=collapsed, max_steps=2000, throw=False)
-
-
-#: The correlated noise levels' extra starts: each raised this many times above its guess.
-RAISED_START = 30.0
-
-
-def marginal_mode(collapsed, noise_u: np.ndarray, correlated: tuple[int, ...] = ()):
-    """BFGS on a collapsed problem's marginal from ``noise_u`` and from each level of
-    ``correlated`` raised :data:`RAISED_START` times; the best plausible solution (its
-    levels within 6 prior sds of each prior's median: far beyond, the filter's arithmetic,
-    a walk's variance 1e30 times the data's, is no likelihood) and its log-posterior."""
-    starts = [jnp.asarray(noise_u)] + [jnp.asarray(noise_u).at[i].add(math.log(RAISED_START))
-                                       for i in correlated]
-    solutions = [_marginal_bfgs(start, collapsed) for start in starts]
-    loc, scale = np.asarray(collapsed.noise_loc), np.asarray(collapsed.noise_scale)
-    on = np.asarray(collapsed.noise_on) > 0
-    values = [float(_marginal_value(s.value, collapsed)) for s in solutions]
-    plausible = [i for i, s in enumerate(solutions) if np.isfinite(values[i]) and np.all(
-        ~on | (np.abs(np.asarray(s.value) - loc) <= 6.0 * scale))]
-    best = min(plausible, key=values.__getitem__) if plausible else 0
-    return solutions[best], -values[best]
-
-
-def _collapsed_mode(collapsed, u_model: np.ndarray, noise_u: np.ndarray,
-                    correlated: tuple[int, ...] = ()):
-    """The mode of a collapsed problem's noise levels (their marginal posterior, the
-    coefficients integrated out) and the coefficients' conditional mean there: the point
-    the sampled posterior is centred on. The joint mode's noise levels are biased low
-    wherever the coefficients can absorb the noise (a random walk's level, say), which the
-    point-against-posterior check would then flag. Covariance: the coefficients'
-    conditional one beside the levels' inverse Hessian.
-
-    The marginal can have a mode for each way of explaining slow wander (flicker or a random
-    walk: a real log's, 33 +/- 7 deg/h/sqrt(h) of walk, had a second mode with none and
-    more flicker, where the guess's BFGS stopped): besides the guess, BFGS starts from each
-    level of ``correlated`` (indices into the levels) raised :data:`RAISED_START` times,
-    and the best of them is the mode."""
-    solution = marginal_mode(collapsed, noise_u, correlated)[0]
-    v = solution.value
-    # central differences of the gradient (a few passes) rather than jax.hessian, whose
-    # forward-over-reverse pass through the filter's scan took 46 s on the demo's log
-    step = 1e-4
-    hessian = np.stack([(np.asarray(_marginal_gradient(v + step * e, collapsed))
-                         - np.asarray(_marginal_gradient(v - step * e, collapsed))) / (2 * step)
-                        for e in jnp.eye(v.size)])
-    hessian = 0.5 * (hessian + hessian.T)
-    mean, factor = conditional_solution(collapsed, v)
-    factor = np.asarray(factor)
-    covariance = _block_diag(_inverse(factor @ factor.T), _inverse(hessian))
-    converged, message = _message(solution.result)
-    if not np.all(np.isfinite(np.asarray(mean))):
-        return np.concatenate([u_model, np.asarray(v)]), covariance, False, message
-    return np.concatenate([np.asarray(mean), np.asarray(v)]), covariance, converged, message
-
-
 def noise_guess(problem: BenchDensity) -> tuple[np.ndarray, tuple[int, ...]]:
     """The noise model's own guess of its levels (sampling coordinates) from the residuals
     of a linear model's white-noise mode, and the indices of its correlated levels: where
@@ -175,12 +114,6 @@ def _correlated_levels(problem: BenchDensity) -> tuple[int, ...]:
     starts go)."""
     white = problem.noise.level_names[0]
     return tuple(i for i, name in enumerate(problem.noise_names) if name != white)
-
-
-def _message(result) -> tuple[bool, str]:
-    ok = bool(result == optx.RESULTS.successful)
-    text = optx.RESULTS[result].split("\n")[0] if not ok else "converged"
-    return ok, text
 
 
 def _starts(problem: BenchDensity) -> list[np.ndarray]:
@@ -207,7 +140,7 @@ def _linear_gaussian(problem: BenchDensity) -> PointEstimate:
     if problem.noise_names:
         noise_u = np.array([math.log(scale / problem.row_scale)])  # a sample's sd
         u = np.concatenate([theta, noise_u])
-        cov = _block_diag(covariance, np.array([[1.0 / (2.0 * max(n - p, 1))]]))
+        cov = block_diag(covariance, np.array([[1.0 / (2.0 * max(n - p, 1))]]))
     x, sd = natural_with_sd(u, cov, problem.positive)
     # One compiled call (shared by logs of this shape), not op-by-op JAX on every row.
     prediction = np.asarray(problem_batcher(problem.predict)(u[None, :]))[0]
@@ -282,8 +215,16 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3,
     if problem.errors_in_variables and problem.model.is_linear:
         # a linear model carrying the thermometer: BFGS from its white mode (NumPy)
         value, result, hessian = _bfgs(problem, jnp.asarray(_white_start(problem)))
-        return _point(problem, np.asarray(value), _inverse(np.asarray(hessian)),
-                      *_message(result), n_starts=1)
+        return _point(problem, np.asarray(value), safe_inverse(np.asarray(hessian)),
+                      *solver_message(result), n_starts=1)
+    collapsed = collapse(problem)
+    if collapsed is not None:  # a linear model under correlated noise: its marginal's mode
+        guess, correlated = noise_guess(problem)
+        start, raised = ((guess, correlated) if noise_start is None
+                         else (np.asarray(noise_start), ()))
+        u, covariance, converged, message = collapsed_mode(
+            collapsed, _white_start(problem)[:problem.n_model], start, raised)
+        return _point(problem, u, covariance, converged, message, n_starts=1 + len(raised))
     n, p = problem.n_observed, problem.n_model
     known = problem.sigma is not None and not problem.noise.correlated
     weights = 1.0 / problem.sigma if known else jnp.ones(problem.n)
@@ -296,6 +237,8 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3,
     candidates.sort(key=lambda c: c[0] if math.isfinite(c[0]) else math.inf)
     best_rss = candidates[0][0]
     scale = 1.0 if known else math.sqrt(best_rss / max(n - p, 1))
+    if problem.noise.correlated and not problem.errors_in_variables:
+        return _profiled(problem, candidates[0][1], scale, len(candidates))
     refined = []
     for _, start in candidates[: max_refine if len(candidates) > 1 else 1]:
         value, result, objective, jacobian = _levenberg_marquardt(
@@ -304,7 +247,7 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3,
         refined.append((float(objective), np.asarray(value), result, np.asarray(jacobian)))
     refined.sort(key=lambda r: r[0] if math.isfinite(r[0]) else math.inf)
     _, u_model, result, jacobian = refined[0]
-    converged, message = _message(result)
+    converged, message = solver_message(result)
     padded = jnp.concatenate([jnp.asarray(u_model), jnp.zeros(len(problem.noise_names))])
     residual = np.asarray(problem.drift) - np.asarray(problem.predict(padded))
     if problem.weight is not None:
@@ -320,28 +263,35 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3,
             problem, jnp.asarray(u_model), weights / scale
         )
         u_model, jacobian = np.asarray(value), np.asarray(jacobian)
-        converged, message = _message(result)
-    covariance_model = _inverse(jacobian.T @ jacobian)
+        converged, message = solver_message(result)
+    covariance_model = safe_inverse(jacobian.T @ jacobian)
     u = u_model
     covariance = covariance_model
     if problem.noise_names:
         noise_u, noise_cov = _noise_start(problem, residual, scale)
         u = np.concatenate([u_model, noise_u])
-        covariance = _block_diag(covariance_model, noise_cov)
-    collapsed = collapse(problem)
-    if collapsed is not None:
-        if noise_start is not None:
-            u, covariance, converged, message = _collapsed_mode(
-                collapsed, u[:p], np.asarray(noise_start), ())
-        else:
-            u, covariance, converged, message = _collapsed_mode(
-                collapsed, u[:p], u[p:], _correlated_levels(problem))
-    elif problem.noise.correlated or problem.errors_in_variables:
+        covariance = block_diag(covariance_model, noise_cov)
+    if problem.noise.correlated or problem.errors_in_variables:
         value, result, hessian = _bfgs(problem, jnp.asarray(u))
         u = np.asarray(value)
-        converged, message = _message(result)
-        covariance = _inverse(np.asarray(hessian))
+        converged, message = solver_message(result)
+        covariance = safe_inverse(np.asarray(hessian))
     return _point(problem, u, covariance, converged, message, n_starts=len(candidates))
+
+
+def _profiled(problem: BenchDensity, u_model: np.ndarray, scale: float, n_starts: int
+              ) -> PointEstimate:
+    """The mode of a model linear in its real coefficients given its positive ones, under
+    correlated noise: those profiled, these integrated out
+    (:func:`~gyroid.inference._point_profiled.profiled_mode`), the noise levels guessed from
+    the residual of the best white start ``u_model`` (rows' sd ``scale``)."""
+    padded = jnp.concatenate([jnp.asarray(u_model), jnp.zeros(len(problem.noise_names))])
+    residual = np.asarray(problem.drift) - np.asarray(problem.predict(padded))
+    if problem.weight is not None:
+        residual = residual[np.asarray(problem.weight) > 0]
+    u, covariance, converged, message = profiled_mode(
+        problem, _noise_start(problem, residual, scale)[0], _correlated_levels(problem))
+    return _point(problem, u, covariance, converged, message, n_starts=n_starts)
 
 
 def _point(problem: BenchDensity, u: np.ndarray, covariance: np.ndarray, converged: bool,
@@ -375,17 +325,3 @@ def _noise_start(problem: BenchDensity, residual: np.ndarray, white: float):
     names = problem.noise_names
     return (np.log(np.maximum([start[k] for k in names], 1e-12)),
             np.diag([variances[k] for k in names]))
-
-
-def _inverse(matrix: np.ndarray) -> np.ndarray:
-    try:
-        return np.linalg.inv(matrix)
-    except np.linalg.LinAlgError:
-        return np.full_like(matrix, np.nan)
-
-
-def _block_diag(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    out = np.zeros((a.shape[0] + b.shape[0],) * 2)
-    out[: a.shape[0], : a.shape[0]] = a
-    out[a.shape[0] :, a.shape[0] :] = b
-    return out

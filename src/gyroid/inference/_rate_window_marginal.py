@@ -36,7 +36,8 @@ from collections.abc import Callable
 import numpy as np
 
 from gyroid.inference._collapsed import collapse
-from gyroid.inference._point import marginal_mode, noise_guess
+from gyroid.inference._marginal_mode import marginal_mode
+from gyroid.inference._point import noise_guess
 from gyroid.models._derived import RATE_POLY_DEGREE
 
 #: Windows compared, the least-squares choice included.
@@ -51,14 +52,15 @@ def marginal_window(density_at: Callable[[float], object], least_squares_s: floa
     form (a white or nonlinear fit) or no shorter window exists. ``density_at``: the
     bench density at a window (s; its dT/dt, and the thermometer's noise through it when
     carried, are the window's); ``step_s``: the rows' median step."""
-    collapsed = collapse(density_at(least_squares_s))
+    density = density_at(least_squares_s)
+    collapsed = collapse(density)
     if collapsed is None:
         return None
     shortest = (2 * RATE_POLY_DEGREE + 1) * step_s
     if least_squares_s <= shortest * 1.01:
         return None
     windows = np.geomspace(shortest, least_squares_s, CANDIDATES)[::-1]
-    guess, correlated = noise_guess(collapsed.density)
+    guess, correlated = noise_guess(density)
     scores: dict[float, float] = {}
     levels: dict[float, np.ndarray] = {}
     for window in windows:

@@ -15,8 +15,8 @@ grid, and refines the best points locally:
 * real parameters start at zero (the profile solves them exactly).
 
 :func:`gyroid.inference._point.point_estimate` (optimistix's Levenberg-Marquardt on the
-posterior) and :func:`gyroid.inference._whitened_fit.fit_whitened` (a bounded simplex on the
-whitened profile) both start here.
+posterior, for every bench problem, the discrepancy search's candidates included) starts
+here.
 """
 
 from __future__ import annotations

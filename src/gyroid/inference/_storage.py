@@ -51,19 +51,19 @@ def block_log_likelihood(problem: AbstractProblem, posterior: Posterior, chunk: 
     walkers, draws, d = posterior.draws.shape
     flat = np.asarray(problem.to_sampling_host(posterior.draws.reshape(-1, d)))
     collapsed = problem.collapsed()
-    if collapsed is not None and not collapsed.density.errors_in_variables:
-        return _by_noise_level(collapsed, flat, chunk).reshape(walkers, draws, -1)
+    if collapsed is not None and not problem.density.errors_in_variables:
+        return _by_noise_level(problem.density, collapsed, flat, chunk).reshape(
+            walkers, draws, -1)
     blocks = problem_batcher(problem.density.log_likelihood_blocks)
     return in_chunks(blocks, flat, chunk).reshape(walkers, draws, -1)
 
 
-def _by_noise_level(collapsed, flat: np.ndarray, chunk: int) -> np.ndarray:
+def _by_noise_level(density, collapsed, flat: np.ndarray, chunk: int) -> np.ndarray:
     """:meth:`log_likelihood_blocks` of a linear model under correlated noise at the draws
     ``flat`` (coefficients, then noise levels, sampling coordinates), one filter pass per
     distinct noise level (an importance posterior repeats them) instead of one per draw:
     the residual's innovations are the drift's less the design's times the coefficients.
     The same numbers to rounding (tests/test_importance.py)."""
-    density = collapsed.density
     p = density.n_model
     levels, which = np.unique(flat[:, p:], axis=0, return_inverse=True)
     filtered = in_chunks(problem_batcher(collapsed.filtered), levels, chunk)  # (u, n, 2+p)

@@ -6,7 +6,7 @@ priors, likelihood (the filters live here) and the covariance of parts' means; a
 from gyroid._lazy import attach
 
 __getattr__, __dir__, __all__ = attach(__name__, {
-    "_base": ["NoiseEstimate", "NoiseModel", "RowClock", "predictive_level"],
+    "_base": ["NoiseEstimate", "NoiseModel", "RowClock", "RowFilter", "predictive_level"],
     "_kinds": ["GaussMarkov", "Ieee952", "NOISE_MODELS", "White", "noise_model",
                "recorded_model"],
 })

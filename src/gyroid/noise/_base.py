@@ -21,6 +21,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import equinox as eqx
+import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
@@ -126,6 +127,44 @@ class NoiseModel(eqx.Module):
         ``after_s``, the parts are of a new log that follows the fitted one (of that span,
         s): a level the model lets wander without bound (a random walk) has moved since
         the fitted log's mean."""
+
+
+class RowFilter(eqx.Module):
+    """A noise model set on a log's rows: from its levels' sampling coordinates (logs) to
+    each row's white sd and the levels by name, and the innovations of what it filters.
+    It holds no drift model, so fits of different models to the same rows (a discrepancy
+    search's candidates) share its compiled programs."""
+
+    noise: NoiseModel
+    steps_s: Float[Array, " n"]
+    sigma: Float[Array, " n"] | None = None  # the log's own sd of each row, deg/h
+    gap_s: Float[Array, " n"] | None = None
+    weight: Float[Array, " n"] | None = None
+    step_s: float = eqx.field(static=True, default=1.0)
+    #: A row's white sd per sample's (1/sqrt(m) for the mean of m samples).
+    row_scale: float = eqx.field(static=True, default=1.0)
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """The sampled levels' names."""
+        return self.noise.names(self.sigma is not None)
+
+    @property
+    def clock(self) -> RowClock:
+        return RowClock(self.steps_s, self.step_s, self.gap_s, self.weight)
+
+    def levels_of(self, noise_u: Float[Array, " k"]):
+        """The white sd a row's likelihood uses (deg/h; per row or one) and every level by
+        name (natural units), from the levels' sampling coordinates ``noise_u``."""
+        values = dict(zip(self.names, jnp.exp(noise_u), strict=True))
+        if self.sigma is not None:
+            return self.noise.known_white(self.sigma), values
+        return self.noise.row_white_sd(values, step_s=self.step_s,
+                                       row_scale=self.row_scale), values
+
+    def innovations(self, observed, white, values: Mapping):
+        """:meth:`NoiseModel.innovations` on these rows (None for independent rows)."""
+        return self.noise.innovations(observed, white, values, self.clock)
 
 
 def parts_mean_covariance(row_covariance: np.ndarray, part: np.ndarray, n_parts: int

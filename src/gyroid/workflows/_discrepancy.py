@@ -1,45 +1,50 @@
 """The discrepancy workflow: where does a model disagree with a log, which missing effect
 explains it, and how much does adding it close the gap?
 
-Evidence. Every comparison uses the exact Gaussian likelihood under a white + Gauss-Markov
-noise model (:func:`gyroid.noise._kalman.gauss_markov_innovations`), so slowly wandering noise
-(bias instability) is not mistaken for an effect. A candidate effect is scored by the BIC
+Evidence. Every candidate model is a :class:`~gyroid.inference.BenchProblem` under a white +
+Gauss-Markov noise model (:class:`~gyroid.noise.GaussMarkov`, flat priors on the effects'
+coefficients) and is fitted by the problem's own mode-finder, so slowly wandering noise
+(bias instability) is not mistaken for an effect; the log-likelihood compared is the
+problem's at that mode (a long log's rows are read as the exact block means of its
+noise model). A candidate effect is scored by the BIC
 difference ``dBIC = 2 (logL_with - logL_without) - k log n`` (``k`` its parameters, ``n``
 rows), the large-sample (Laplace) approximation to twice the log Bayes factor. A candidate
 is added when ``dBIC > 10`` ("very strong" on the Kass-Raftery scale: a Bayes factor above
-150 after paying for the extra parameters). Each model's noise levels are re-estimated from
-its own residuals (alternating with the fit), so an effect is not hidden by a noise model
-that has absorbed it. Two candidates whose scores are within ``AMBIGUITY_DBIC`` of each other
-(a Bayes factor below 20) are reported as interchangeable on this log.
+150 after paying for the extra parameters). Each model's noise levels are its own mode's, so
+an effect is not hidden by a noise model fitted without it. Two candidates whose scores are
+within ``AMBIGUITY_DBIC`` of each other (a Bayes factor below 20) are reported as
+interchangeable on this log.
 
-Where the pieces live: the fits compared, :mod:`gyroid.inference._whitened_fit`; where and with what
-the residuals disagree, and the "unexplained" test, :mod:`gyroid.workflows._residual_structure`; the
-greedy loop and the report (shared with roll logs), :mod:`gyroid.workflows._discrepancy_report`.
+Where the pieces live: the fits compared, :class:`~gyroid.inference.BenchProblem`; where and
+with what the residuals disagree, and the "unexplained" test's reading,
+:mod:`gyroid.workflows._residual_structure`; the greedy loop and the report (shared with roll
+logs), :mod:`gyroid.workflows._discrepancy_report`.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import dataclass
 
 import jax.numpy as jnp
 import numpy as np
 
 from gyroid.errors import GyroidInputError
-from gyroid.inference._bench_predictive import whitened_predictive
-from gyroid.inference._checks import Check, CheckReport, fit_checks, point_fit_evidence
-from gyroid.inference._excitation import excitation
+from gyroid.inference._bench_problem import BenchProblem
+from gyroid.inference._bench_result import bench_checks
+from gyroid.inference._problem import PointEstimate
 from gyroid.inference._rate_window import choose_rate_window
-from gyroid.inference._whitened_fit import ModelFit, NoiseLevels, fit_with_noise
-from gyroid.io._logs import BenchLog, block_means, contiguous_segments
+from gyroid.io._logs import BenchLog, block_means
 from gyroid.models import _effects as registry
 from gyroid.models._drift import DriftModel
 from gyroid.models._effects import EFFECTS, EXTRA_PREFIX, parameter
 from gyroid.models._inputs import T0_C, DriftInputs
 from gyroid.models._terms import resolve_terms
-from gyroid.noise._kalman import gauss_markov_innovations
+from gyroid.noise._kinds import GaussMarkov
 from gyroid.workflows._discrepancy_report import (
     DiscrepancyReport,
+    NoiseLevels,
     Search,
     Step,
     Trial,
@@ -50,6 +55,7 @@ from gyroid.workflows._residual_structure import (
     correlations,
     explaining_regressor,
     find_unexplained,
+    flexible_columns,
     regressors,
     where_largest,
 )
@@ -88,19 +94,6 @@ def _choose_rate_window(log: BenchLog, model: DriftModel, t0_C: float) -> float:
     return choose_rate_window(log, model, t0_C=t0_C, grid=np.asarray(RATE_WINDOWS_S))[0]
 
 
-def _final_checks(log: BenchLog, fit: ModelFit, noise: NoiseLevels, steps_s) -> CheckReport:
-    """The self-checks of the final model: its innovations under the estimated noise."""
-    innovation, variance = gauss_markov_innovations(
-        jnp.asarray(fit.residual), steps_s, noise.white, noise.gm, noise.tau_s)
-    names = tuple(fit.values)
-    evidence = point_fit_evidence(
-        names, len(names), np.asarray(list(fit.values.values())),
-        np.asarray(innovation / jnp.sqrt(variance)), correlated_noise=True,
-        message="whitened least squares", segments=tuple(contiguous_segments(log.time_s)),
-        where=log.where)
-    return fit_checks(evidence)
-
-
 def _motion(column: str) -> bool:
     """A column that records motion (an accelerometer's), by its name."""
     name = column.lower()
@@ -136,34 +129,39 @@ def find_discrepancies(
     say = progress or (lambda _msg: None)
     n_samples = log.n
     start = DriftModel.from_terms(terms)
-    search, window = _search_on(log, start, t0_C, say)
+    search = _search_on(log, start, t0_C, say)
     start.check_identifiable(search.inputs, frozenset(search.log.columns))
     pool = candidates or tuple(
         [name for name in EFFECTS if name not in start.terms]
         + [EXTRA_PREFIX + column for column in search.log.extra_columns])
     found = add_while_evidence(
-        search.trial(start, NoiseLevels(1.0, 1e-6, 300.0)), pool,
-        try_adding=search.try_adding, describe=search.describe, n=n_samples,
-        threshold=ADD_THRESHOLD, max_added=max_added, progress=say)
+        search.trial(start), pool, try_adding=search.try_adding, describe=search.describe,
+        n=n_samples, threshold=ADD_THRESHOLD, max_added=max_added, progress=say)
     say("  testing the final model against a flexible term ...")
-    return search.report(found, window)
+    return search.report(found)
 
 
 def _search_on(log: BenchLog, model: DriftModel, t0_C: float,
-               say: Callable[[str], None] = lambda _m: None) -> tuple[_Search, float]:
+               say: Callable[[str], None] = lambda _m: None) -> _Search:
     """The search on ``log`` (on means of samples lasting about ``MEAN_OVER_S`` for a fast
-    log) with the rate window chosen for ``model``, and that window (s)."""
+    log) with the rate window chosen for ``model``."""
     step = float(np.median(np.diff(log.time_s))) if log.n > 1 else MEAN_OVER_S
     per_mean = round(MEAN_OVER_S / step) if step < MEAN_OVER_S / 2 else 1
     if per_mean > 1:
         say(f"  searching on means of {per_mean} samples ({per_mean * step:.3g} s) ...")
         log = block_means(log, per_mean)
-    window = _choose_rate_window(log, model, t0_C)
-    return _Search(log, log.inputs(t0_C=t0_C, rate_window_s=window), per_mean), window
+    return _Search(log, per_mean, _choose_rate_window(log, model, t0_C), t0_C)
 
 
 #: The extra column standing for a step at a given time (``step_at_time``).
 STEP_COLUMN = "step_at_given_time"
+
+
+def _with_columns(log: BenchLog, extra: dict[str, np.ndarray]) -> BenchLog:
+    """``log`` with further extra columns (candidates' regressors)."""
+    return BenchLog(columns=dict(log.columns) | extra, source=log.source,
+                    comments=log.comments, extra_columns=(*log.extra_columns, *extra),
+                    axis=log.axis)
 
 
 def step_at_time(log: BenchLog, terms: tuple[str, ...], time_h: float, *,
@@ -173,45 +171,87 @@ def step_at_time(log: BenchLog, terms: tuple[str, ...], time_h: float, *,
     so the penalty is ``log n``) and its size, deg/h; scored as :func:`find_discrepancies`
     scores candidates."""
     elapsed_h = (np.asarray(log.time_s) - log.time_s[0]) / 3600.0
-    columns = dict(log.columns) | {STEP_COLUMN: (elapsed_h >= time_h).astype(float)}
-    stepped = BenchLog(columns=columns, source=log.source, comments=log.comments,
-                       extra_columns=(*log.extra_columns, STEP_COLUMN), axis=log.axis)
+    stepped = _with_columns(log, {STEP_COLUMN: (elapsed_h >= time_h).astype(float)})
     model = DriftModel(terms=resolve_terms(terms))
-    search, _ = _search_on(stepped, model, t0_C)
-    without = search.trial(model, NoiseLevels(1.0, 1e-6, 300.0))
-    added = search.trial(DriftModel(terms=resolve_terms((*terms, EXTRA_PREFIX + STEP_COLUMN))),
-                         without.fit[1])
+    search = _search_on(stepped, model, t0_C)
+    without = search.trial(model)
+    added = search.trial(DriftModel(terms=resolve_terms((*terms, EXTRA_PREFIX + STEP_COLUMN))))
     dbic = 2.0 * (added.log_likelihood - without.log_likelihood) - math.log(log.n)
-    return dbic, float(added.fit[0].values["w_extra_" + STEP_COLUMN])
+    return dbic, float(added.fit.values["w_extra_" + STEP_COLUMN])
+
+
+@dataclass(frozen=True)
+class SearchFit:
+    """A candidate model fitted by its problem: the mode, its values (natural units), the
+    residual on the search's rows (deg/h) and its RMS, and the noise levels there."""
+
+    problem: BenchProblem
+    point: PointEstimate
+    values: dict[str, float]
+    residual: np.ndarray
+    noise: NoiseLevels
+
+    @property
+    def rms(self) -> float:
+        return float(np.sqrt(np.mean(self.residual**2)))
 
 
 class _Search:
     """The discrepancy search on one log (or its means): its inputs, the fits it compares,
     the step descriptions and the final report."""
 
-    def __init__(self, log: BenchLog, inputs: DriftInputs, per_mean: int) -> None:
-        self.log, self.inputs, self.per_mean = log, inputs, per_mean
-        time_s = np.asarray(log.time_s)
-        self.time_s = time_s
-        self.steps_s = jnp.asarray(np.concatenate([[np.median(np.diff(time_s))],
-                                                   np.diff(time_s)]))
+    def __init__(self, log: BenchLog, per_mean: int, window_s: float, t0_C: float) -> None:
+        self.log, self.per_mean, self.window_s, self.t0_C = log, per_mean, window_s, t0_C
+        self.inputs = log.inputs(t0_C=t0_C, rate_window_s=window_s)
+        self.time_s = np.asarray(log.time_s)
         self.y = np.asarray(log.drift_deg_h)
-        self.regs = regressors(inputs)
+        self.regs = regressors(self.inputs)
         self.of_means = f" (of {per_mean}-sample means)" if per_mean > 1 else ""
 
-    def trial(self, model: DriftModel, noise: NoiseLevels) -> Trial:
-        fit, new_noise = fit_with_noise(model, self.inputs, self.y, self.steps_s, noise)
-        return Trial(model.terms, fit.log_likelihood, fit.n_parameters, (fit, new_noise))
+    def fit(self, model: DriftModel, log: BenchLog | None = None) -> SearchFit:
+        """``model`` fitted to the search's log (or to ``log``, the same rows with more
+        columns) by its problem under white + Gauss-Markov noise, flat coefficient
+        priors."""
+        log = self.log if log is None else log
+        problem = BenchProblem.from_log(log, model, noise=GaussMarkov(), prior_set="flat",
+                                        t0_C=self.t0_C, rate_window_s=self.window_s,
+                                        errors_in_variables=False)
+        point = problem.mode()
+        values = {name: point.value[name] for name in model.parameter_names}
+        inputs = self.inputs if log is self.log else log.inputs(
+            t0_C=self.t0_C, rate_window_s=self.window_s)
+        theta = jnp.asarray([values[name] for name in model.parameter_names])
+        residual = self.y - np.asarray(model.predict(theta, inputs))
+        noise = NoiseLevels(point.value["sigma_deg_h"], point.value["sigma_gm_deg_h"],
+                            point.value["tau_gm_s"])
+        return SearchFit(problem, point, values, residual, noise)
+
+    def trial(self, model: DriftModel) -> Trial:
+        fit = self.fit(model)
+        return Trial(model.terms, fit.problem.log_likelihood(fit.point.u),
+                     len(model.parameters), fit)
 
     def try_adding(self, current: Trial, name: str) -> Trial | str:
         reason = _applicable(name, current.terms, self.log, self.inputs)
         if reason:
             return reason
-        return self.trial(DriftModel(terms=resolve_terms((*current.terms, name))),
-                          current.fit[1])
+        return self.trial(DriftModel(terms=resolve_terms((*current.terms, name))))
+
+    def flexible_gain(self, final: Trial) -> tuple[float, np.ndarray]:
+        """Twice the log-likelihood the flexible term (:func:`~gyroid.workflows.
+        _residual_structure.flexible_columns`) adds to the final model, and its fitted
+        curve on the search's rows, deg/h."""
+        columns = flexible_columns(self.time_s)
+        names = tuple(EXTRA_PREFIX + name for name in columns)
+        model = DriftModel(terms=resolve_terms((*final.terms, *names)))
+        flexible = self.fit(model, _with_columns(self.log, columns))
+        curve = sum(flexible.values["w_extra_" + name] * values
+                    for name, values in columns.items())
+        gain = flexible.problem.log_likelihood(flexible.point.u) - final.log_likelihood
+        return 2.0 * gain, np.asarray(curve)
 
     def describe(self, best, current, chosen, scores, rivals) -> Step:
-        before, after = current.fit[0], chosen.fit[0]
+        before, after = current.fit, chosen.fit
         effect = registry.effect(best)
         regressor, r = explaining_regressor(before.residual, before.residual - after.residual,
                                              self.regs, self.time_s, effect.signature)
@@ -232,50 +272,40 @@ class _Search:
                            for name, value in size.items())
         evidence = (
             f"{follows}; adding {best} ({fitted}) cuts the RMS{self.of_means} from "
-            f"{before.rms_ols:#.3g} to {after.rms_ols:#.3g} deg/h; dBIC = {scores[best]:.1f} "
+            f"{before.rms:#.3g} to {after.rms:#.3g} deg/h; dBIC = {scores[best]:.1f} "
             f"(threshold {ADD_THRESHOLD:g})"
             + (f"; nearly interchangeable here with {', '.join(rivals)}" if rivals else "")
             + ("; it is a function of time alone, so it says when, not why: on a longer log "
                "it may prove a stand-in for a slow cause" if effect.reads_only_clock else "")
         )
-        return Step(best, evidence, before.rms_ols, after.rms_ols, scores[best], scores, rivals,
+        return Step(best, evidence, before.rms, after.rms, scores[best], scores, rivals,
                     regressor, r, size)
 
-    def _predictive(self, fit: ModelFit, noise: NoiseLevels) -> Check:
-        """The final model's predictive check under the search's noise model (each
-        held-out stretch refitted by whitened least squares, the noise held)."""
-        return whitened_predictive(DriftModel(terms=fit.terms), self.inputs,
-                                   self.y, self.time_s, fit.values,
-                                   noise)
-
-    def report(self, found: Search, window: float) -> DiscrepancyReport:
-        baseline_fit = found.baseline.fit[0]
-        fit_now, noise = found.final.fit
+    def report(self, found: Search) -> DiscrepancyReport:
+        baseline, final = found.baseline.fit, found.final.fit
+        noise = final.noise
         return DiscrepancyReport(
             log_kind="bench",
-            unexplained=find_unexplained(self.log, fit_now, noise, self.steps_s, self.regs,
-                                         ADD_THRESHOLD),
-            checks=_final_checks(self.log, fit_now, noise, self.steps_s) + CheckReport((
-                excitation(DriftModel(terms=found.final.terms), self.inputs, self.time_s,
-                           tuple(contiguous_segments(self.time_s))),
-                self._predictive(fit_now, noise))),
+            unexplained=find_unexplained(self.time_s, final.residual, noise, self.regs,
+                                         ADD_THRESHOLD, self.flexible_gain(found.final)),
+            # the final model's own problem's self-checks, as a fit of it would run them
+            checks=bench_checks(final.problem, final.point, None),
             baseline_terms=found.baseline.terms,
             final_terms=found.final.terms,
             steps=found.steps,
-            rms_baseline=baseline_fit.rms_ols,
-            rms_final=min(fit_now.rms_ols, baseline_fit.rms_ols),
+            rms_baseline=baseline.rms,
+            rms_final=min(final.rms, baseline.rms),
             rms_unit="deg/h" + self.of_means,
             threshold_dbic=ADD_THRESHOLD,
-            rate_window_s=window,
+            rate_window_s=self.window_s,
             # The noise of one sample (a mean's white noise is a sample's over sqrt(n)).
             noise=NoiseLevels(noise.white * math.sqrt(self.per_mean), noise.gm, noise.tau_s),
-            where=where_largest(self.time_s, baseline_fit.residual, self.inputs, noise,
-                                self.log),
-            lines_up_with=correlations(baseline_fit.residual, self.regs),
+            where=where_largest(self.time_s, baseline.residual, self.inputs, noise, self.log),
+            lines_up_with=correlations(baseline.residual, self.regs),
             ambiguous=found.ambiguous,
-            residual_before=baseline_fit.residual,
-            residual_after=fit_now.residual,
+            residual_before=baseline.residual,
+            residual_after=final.residual,
             time_s=self.time_s,
             skipped=found.skipped,
-            regressor=_plotted_regressor(found.steps, self.regs, baseline_fit.residual),
+            regressor=_plotted_regressor(found.steps, self.regs, baseline.residual),
         )

@@ -3,8 +3,8 @@
 :func:`add_while_evidence` is the one greedy search: every candidate effect not yet in the
 model is fitted, scored by ``dBIC = 2 (logL_with - logL_without) - k log n``, and the best
 is added while it beats the threshold; candidates within ``AMBIGUITY_DBIC`` of the best
-are reported as interchangeable. What a fit is (whitened least squares of a drift model on
-a bench log, the Kalman likelihood of paper B's loop on a roll log) is the caller's.
+are reported as interchangeable. What a fit is (a bench problem's mode under white +
+Gauss-Markov noise, the Kalman likelihood of paper B's loop on a roll log) is the caller's.
 :class:`DiscrepancyReport` is what both kinds of log produce (``discrepancy.json``).
 """
 
@@ -22,6 +22,18 @@ from gyroid.inference._checks import CheckReport
 
 #: Two candidates scoring within this of each other are interchangeable on the log.
 AMBIGUITY_DBIC = 6.0
+
+
+@dataclass(frozen=True)
+class NoiseLevels:
+    """A bench search's white + Gauss-Markov noise: sds in deg/h, correlation time in s."""
+
+    white: float
+    gm: float
+    tau_s: float
+
+    def as_dict(self) -> dict[str, float]:
+        return {"sigma_deg_h": self.white, "sigma_gm_deg_h": self.gm, "tau_gm_s": self.tau_s}
 
 
 @dataclass(frozen=True)
@@ -75,12 +87,12 @@ class Unexplained:
     score: float | None  # dBIC of a flexible term over the final model; None if not fitted
     where: list[list[float]]  # [[t_start_h, t_end_h], ...]
     lines_up_with: str | None
-    noise_tau_at_cap: bool = False
+    noise_too_slow: bool = False
     flexible_terms: int | None = None
 
     def to_json(self) -> dict:
         return {"evidence": self.evidence, "score": self.score, "where": self.where,
-                "lines_up_with": self.lines_up_with, "noise_tau_at_cap": self.noise_tau_at_cap,
+                "lines_up_with": self.lines_up_with, "noise_too_slow": self.noise_too_slow,
                 "flexible_terms": self.flexible_terms}
 
 

@@ -10,19 +10,9 @@ import math
 
 import numpy as np
 
-from gyroid.inference._whitened_fit import (
-    MAX_NOISE_TAU_S,
-    ModelFit,
-    NoiseLevels,
-    basis_fit,
-    estimate_noise,
-    noise_log_likelihood,
-)
 from gyroid.io._logs import BenchLog
 from gyroid.models._inputs import DriftInputs
-from gyroid.workflows._discrepancy_report import (
-    Unexplained,
-)
+from gyroid.workflows._discrepancy_report import NoiseLevels, Unexplained
 
 _LOG_2PI = math.log(2.0 * math.pi)
 
@@ -116,42 +106,42 @@ FLEXIBLE_TERMS = 12
 FLEXIBLE_BLOCK_S = 60.0
 
 
-#: The noise model's correlation time counts as pinned at its cap above this fraction.
-TAU_AT_CAP = 0.98
+#: A Gauss-Markov correlation time above this, s, is slow structure being called noise: a
+#: FOG's bias instability sits at seconds to tens of minutes, and a process as slow as the
+#: log is indistinguishable from a slow effect (a trend, a warm-up).
+SLOW_NOISE_TAU_S = 1800.0
 
 
-def _flexible_basis(time_s: np.ndarray) -> np.ndarray:
+def flexible_columns(time_s: np.ndarray) -> dict[str, np.ndarray]:
+    """The flexible term's columns by name: cos(k pi tau), k = 1..FLEXIBLE_TERMS, tau the
+    elapsed time over the log's span (0 to 1)."""
     tau = (time_s - time_s[0]) / max(float(time_s[-1] - time_s[0]), 1e-9)
-    return np.cos(np.pi * np.outer(tau, np.arange(1, FLEXIBLE_TERMS + 1)))
+    return {f"flexible_cos_{k}": np.cos(np.pi * k * tau)
+            for k in range(1, FLEXIBLE_TERMS + 1)}
 
 
-def find_unexplained(log: BenchLog, fit: ModelFit, noise: NoiseLevels, steps_s,
-                     regs: dict[str, np.ndarray], threshold: float) -> Unexplained | None:
-    """Structure the final model leaves: a smooth function of time (FLEXIBLE_TERMS cosines)
-    against the final residual, the noise re-estimated with it, scored by dBIC on the
-    candidates' scale. None unless it beats ``threshold``; then where it is, what it
-    lines up with, and whether the noise model had run into its correlation-time cap (slow
-    structure taken for noise)."""
-    time_s = np.asarray(log.time_s)
-    residual = np.asarray(fit.residual)
-    basis = _flexible_basis(time_s)
-    base = noise_log_likelihood(residual, steps_s, noise)
-    flexible_noise = noise
-    for _ in range(2):
-        _, curve = basis_fit(residual, basis, steps_s, flexible_noise)
-        flexible_noise = estimate_noise(residual - curve, steps_s)
-    log_lik, curve = basis_fit(residual, basis, steps_s, flexible_noise)
+def find_unexplained(time_s: np.ndarray, residual: np.ndarray, noise: NoiseLevels,
+                     regs: dict[str, np.ndarray], threshold: float,
+                     flexible: tuple[float, np.ndarray]) -> Unexplained | None:
+    """Structure the final model leaves: ``flexible`` holds twice the log-likelihood the
+    flexible term (:func:`flexible_columns`, fitted with the final model, its noise levels
+    its own) adds and its fitted curve (deg/h), scored by dBIC on the candidates' scale.
+    None unless it beats ``threshold`` or the final model's noise is slower than
+    :data:`SLOW_NOISE_TAU_S` (slow structure taken for noise); then where it is and what
+    it lines up with."""
+    time_s, residual = np.asarray(time_s), np.asarray(residual)
+    gain, curve = flexible
     blocks = max((time_s[-1] - time_s[0]) / FLEXIBLE_BLOCK_S, FLEXIBLE_TERMS + 2.0)
-    score = 2.0 * (log_lik - base) - FLEXIBLE_TERMS * math.log(min(blocks, residual.size))
-    pinned = noise.tau_s >= TAU_AT_CAP * MAX_NOISE_TAU_S
-    if score <= threshold and not pinned:
+    score = gain - FLEXIBLE_TERMS * math.log(min(blocks, residual.size))
+    too_slow = noise.tau_s > SLOW_NOISE_TAU_S
+    if score <= threshold and not too_slow:
         return None
     span = time_s[-1] - time_s[0]
     window = max(span / 40.0, 60.0)
     index = np.minimum(np.floor((time_s - time_s[0]) / window).astype(int),
                        max(int(span // window) - 1, 0))
-    # Where: the flexible curve's stretches when it won; else (the noise model pinned at
-    # its cap) the final residual's own slow part.
+    # Where: the flexible curve's stretches when it won; else (the noise slower than bias
+    # instability) the final residual's own slow part.
     shape = curve if score > threshold else residual
     means = np.bincount(index, weights=shape) / np.maximum(np.bincount(index), 1)
     strong = np.flatnonzero(np.abs(means) >= 0.5 * np.abs(means).max())
@@ -172,9 +162,9 @@ def find_unexplained(log: BenchLog, fit: ModelFit, noise: NoiseLevels, steps_s,
                  f"that no catalogued effect does: dBIC = {score:.1f} over the final model "
                  f"(penalty on the number of 60 s means; threshold {threshold:g})")
     else:
-        found = (f"the noise model's correlation time ran into its cap of "
-                 f"{MAX_NOISE_TAU_S:g} s (Gauss-Markov sd {noise.gm:.3g} deg/h): structure "
-                 "slower than the noise model allows is being called noise (a smooth function "
+        found = (f"the noise model's correlation time is {noise.tau_s:.0f} s, beyond "
+                 f"{SLOW_NOISE_TAU_S:g} s (Gauss-Markov sd {noise.gm:.3g} deg/h): structure "
+                 "slower than bias instability is being called noise (a smooth function "
                  f"of time scores dBIC = {score:.1f}; a step or a jump is not smooth)")
     evidence = (
         found + "; it is largest at " + ", ".join(f"{a:.2f}-{b:.2f} h" for a, b in where[:3])
@@ -182,7 +172,7 @@ def find_unexplained(log: BenchLog, fit: ModelFit, noise: NoiseLevels, steps_s,
            if lines_up else " and lines up with no logged quantity")
         + ". The named effects, if any, may be stand-ins for it: log the quantity that "
           "drives it, or offer it with --extra-columns")
-    return Unexplained(evidence, score, where, lines_up, bool(pinned), FLEXIBLE_TERMS)
+    return Unexplained(evidence, score, where, lines_up, bool(too_slow), FLEXIBLE_TERMS)
 
 
 def correlations(residual: np.ndarray, regs: dict[str, np.ndarray]) -> dict[str, float]:
