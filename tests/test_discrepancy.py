@@ -114,7 +114,7 @@ def test_where_reports_whole_windows_only():
 
 def test_a_step_outside_the_catalogue_is_reported_unexplained():
     """Without bias_step among the candidates, a 0.4 deg/h step is soaked up by the noise
-    model, whose correlation time then sits at its cap: reported, never 'nothing missing'."""
+    model, whose correlation time then exceeds bias instability's: reported, never 'nothing missing'."""
     from gyroid.models import CANDIDATES
 
     sim = simulate_thermal_bench(seed=5, effects={"bias_step": {"w_step": 0.4,

@@ -85,21 +85,28 @@ def _profile(density, u_positive, v):
     return collapsed.log_posterior(v) + _positive_log_prior(density, u_positive)
 
 
-def _best_positive(density, grid: list[np.ndarray] | None, v: np.ndarray,
-                   start: np.ndarray | None) -> tuple[np.ndarray, bool]:
+def _best_positive(density, grid: list[np.ndarray], v: np.ndarray, start: np.ndarray | None
+                   ) -> tuple[np.ndarray, bool]:
     """The positive parameters (logs) of highest profile at the noise levels ``v``: the
-    best point of ``grid`` (None: ``start``), refined by a bounded local search; and
-    whether that search converged."""
+    best point of ``grid`` (given a ``start``: that), refined by a bounded local search
+    (one parameter: Brent's method between the grid's neighbours of the best point, as the
+    profile of a step's time has a maximum near every jump of the log); and whether that
+    search converged."""
     def value(u):
         return float(_profile(density, jnp.asarray(u, dtype=float), jnp.asarray(v)))
 
-    candidates = [np.asarray(u) for u in grid_points(grid)] if grid else [np.asarray(start)]
+    candidates = ([np.asarray(u) for u in grid_points(grid)] if start is None
+                  else [np.asarray(start)])
     scores = [value(u) for u in candidates]
     finite = [s if math.isfinite(s) else -math.inf for s in scores]
     best = candidates[int(np.argmax(finite))]
-    bounds = _bounds(density)
-    if len(bounds) == 1:
-        found = minimize_scalar(lambda x: -value([x]), bounds=bounds[0], method="bounded",
+    bounds = [(float(g.min()) + BELOW, float(g.max()) + ABOVE) for g in grid]
+    if len(grid) == 1:
+        values = np.sort(grid[0])
+        below, above = values[values < best[0]], values[values > best[0]]
+        bracket = (below[-1] if below.size else bounds[0][0],
+                   above[0] if above.size else bounds[0][1])
+        found = minimize_scalar(lambda x: -value([x]), bounds=bracket, method="bounded",
                                 options={"xatol": 1e-4})
         x = np.array([found.x])
     else:
@@ -109,12 +116,6 @@ def _best_positive(density, grid: list[np.ndarray] | None, v: np.ndarray,
     if -found.fun < max(finite):
         return best, bool(found.success)
     return x, bool(found.success)
-
-
-def _bounds(density) -> list[tuple[float, float]]:
-    """The local search's bounds per positive parameter (logs): about its start grid."""
-    return [(float(g.min()) + BELOW, float(g.max()) + ABOVE)
-            for g in start_grid(density.model.parameters, density.inputs)]
 
 
 #: The central differences' step in the positive parameters (logs).
@@ -161,7 +162,7 @@ def profiled_mode(density, noise_u: np.ndarray, correlated: tuple[int, ...]):
     solution, _ = marginal_mode(_collapsed_at(density, jnp.asarray(u_positive)), v,
                                 correlated)
     v = np.asarray(solution.value)
-    u_positive, ok = _best_positive(density, None, v, u_positive)
+    u_positive, ok = _best_positive(density, grid, v, u_positive)
     collapsed = _collapsed_at(density, jnp.asarray(u_positive))
     solution, _ = marginal_mode(collapsed, v, ())
     joint, covariance_rv, converged, message = at_marginal_mode(
