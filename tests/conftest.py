@@ -66,8 +66,8 @@ def _room_for_programs():
 #: searches 40-55 s each), handed to the workers first: under ``--dist loadfile`` the files
 #: go out in collection order, and one of these started last kept one worker busy for
 #: minutes after the other had finished (longest first).
-LONGEST_FIRST = ("test_readme.py", "test_cli.py", "test_importance.py", "test_pool_noise.py",
-                 "test_discrepancy.py", "test_pool.py")
+LONGEST_FIRST = ("test_discrepancy.py", "test_readme.py", "test_discrepancy_causes.py",
+                 "test_cli.py", "test_importance.py", "test_pool_noise.py", "test_pool.py")
 
 
 def pytest_collection_modifyitems(config, items):

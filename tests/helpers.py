@@ -230,3 +230,13 @@ def write_rosbag(path: Path, imu: dict[str, np.ndarray], *, ros1: bool = False,
         stored = next(folder.glob("*.mcap"))
         stored.rename(path)
     return path
+
+
+def check_report(report, expected):
+    """A discrepancy report that added exactly ``expected``, left nothing unexplained, and
+    whose every step beat the threshold and cut the RMS."""
+    assert report.added == expected, [s.evidence for s in report.steps]
+    assert report.unexplained is None, report.unexplained
+    assert report.rms_final <= report.rms_baseline
+    for step in report.steps:
+        assert step.score > 10 and step.rms_after <= step.rms_before

@@ -96,12 +96,17 @@ def test_discrepancy_on_the_real_log_reads_vendor_columns_and_checks_itself(tmp_
                                                                             pan_csv):
     import json
 
+    # the final model is checked as `gyroid fit` checks a fit: the spike (the mean of 50
+    # samples at line 3209, -5 sd) moves the bias by 0.43 of its sd, so it is named as a
+    # warning, not an error (under white + Gauss-Markov noise the bursts' wander is noise)
     code = main(["discrepancy", str(pan_csv), "--terms", "thermal", "--out",
                  str(tmp_path / "d"), *_cli_map()])
-    assert code == 3
-    assert "outliers" in capsys.readouterr().err
+    err = capsys.readouterr().err
+    assert code == 0
+    assert "outliers" in err and "(line 3209 of pan_tvac.csv)" in err
     report = json.loads((tmp_path / "d" / "discrepancy.json").read_text())
-    assert report["trustworthy"] is False and not report["checks"]["outliers"]["passed"]
+    outliers = report["checks"]["outliers"]
+    assert not outliers["passed"] and outliers["severity"] == "warning"
 
 
 def test_segment_means_give_a_trusted_fit_of_the_real_log(tmp_path, capsys, pan_csv):

@@ -15,10 +15,10 @@ rest is found by alternating twice, from the grid of :mod:`gyroid.inference._sta
    coefficients, whatever the model).
 
 Joint BFGS on every parameter instead compiled a gradient and a Hessian through the filter
-for every model: 3-6 s each, a discrepancy search's candidates 4x slower than this
-(measured 2026-11-27). The covariance: the positive parameters' from the profile's
-curvature, the coefficients' conditional one widened by how their mean moves with those
-(the law of total covariance), the noise levels' inverse Hessian beside them.
+for every model: 3-6 s each (measured 2026-11-27), most of a discrepancy search's time. The
+covariance: the positive parameters' from the profile's curvature, the coefficients'
+conditional one widened by how their mean moves with those (the law of total covariance),
+the noise levels' inverse Hessian beside them.
 """
 
 from __future__ import annotations
