@@ -14,8 +14,6 @@ from gyroid.io._logs import BenchLog
 from gyroid.models._inputs import DriftInputs
 from gyroid.workflows._discrepancy_report import NoiseLevels, Unexplained
 
-_LOG_2PI = math.log(2.0 * math.pi)
-
 REGRESSOR_UNITS = {
     "temperature": "degC from t0", "temperature^2": "degC^2", "temperature^3": "degC^3",
     "dT/dt": "degC/h", "d2T/dt2": "degC/h^2", "elapsed time": "h",
