@@ -36,9 +36,9 @@ from gyroid.noise._base import parts_mean_covariance
 def bench_predictive(density: BenchDensity, time_s: np.ndarray,
                      point_u: np.ndarray | None = None) -> Check:
     """The predictive check of a bench log's density (rows at ``time_s``, s); ``point_u``:
-    the full fit's mode (sampling coordinates), whose noise levels are held in each fold's
-    refit of a linear model under correlated noise or errors in variables (a generalised
-    least-squares fit)."""
+    the full fit's mode (sampling coordinates), whose noise levels (and, under correlated
+    noise, time constants) are held in each fold's refit under correlated noise or errors in
+    variables (a generalised least-squares fit)."""
     folds, part_s = bench_held_out(density, time_s, point_u)
     return predictive_check(folds, part_s=part_s, remedies=density.noise.remedies)
 
