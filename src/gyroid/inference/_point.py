@@ -30,7 +30,7 @@ import optimistix as optx
 
 from gyroid.inference._batching import problem_batcher
 from gyroid.inference._bench_density import BenchDensity
-from gyroid.inference._collapsed import collapse
+from gyroid.inference._collapsed import collapse, model_columns, split_parameters
 from gyroid.inference._marginal_mode import (
     block_diag,
     collapsed_mode,
@@ -43,25 +43,14 @@ from gyroid.inference._starts import grid_points, start_grid
 from gyroid.models._priors import Normal, natural_with_sd
 
 
-def _real_mask(problem: BenchDensity) -> np.ndarray:
-    return ~np.asarray(problem.positive[: problem.n_model])
-
-
 @eqx.filter_jit
 def _projected(problem: BenchDensity, u_model: jax.Array, weights: jax.Array):
     """Exact solve of the real parameters with the positive ones fixed (variable projection)."""
-    real = np.flatnonzero(_real_mask(problem))  # static: from the model's terms
-    n_noise = len(problem.noise_names)
-
-    def predict(values):
-        full = u_model.at[real].set(values)
-        return problem.predict(jnp.concatenate([full, jnp.zeros(n_noise)]))
-
-    zero = jnp.zeros(real.size)
-    offset = predict(zero)
-    design = jax.jacfwd(predict)(zero)
-    values, *_ = jnp.linalg.lstsq(design * weights[:, None], (problem.drift - offset) * weights)
-    rss = jnp.sum(((problem.drift - offset - design @ values) * weights) ** 2)
+    real, positive = split_parameters(problem)  # static: from the model's terms
+    columns = model_columns(problem, u_model[positive])
+    target, design = columns[:, 0], columns[:, 1:]
+    values, *_ = jnp.linalg.lstsq(design * weights[:, None], target * weights)
+    rss = jnp.sum(((target - design @ values) * weights) ** 2)
     return u_model.at[real].set(values), rss
 
 

@@ -53,9 +53,12 @@ def _positive_log_prior(density, u_positive):
     return jnp.sum(on * (-0.5 * z**2 - jnp.log(scale)))
 
 
-@eqx.filter_jit
-def _collapsed_at(density, u_positive):
+def _collapsed_form(density, u_positive):
+    """The collapsed form at positive parameters ``u_positive`` (logs)."""
     return collapse(density, model_columns(density, u_positive), split_parameters(density)[0])
+
+
+_collapsed_at = eqx.filter_jit(_collapsed_form)
 
 
 @eqx.filter_jit
@@ -81,8 +84,8 @@ def collapsed_log_likelihood(density, u: np.ndarray) -> float:
 def _profile(density, u_positive, v):
     """The marginal log-posterior at positive parameters ``u_positive`` and noise levels
     ``v`` (coefficients integrated out), the positive parameters' prior included."""
-    collapsed = collapse(density, model_columns(density, u_positive), split_parameters(density)[0])
-    return collapsed.log_posterior(v) + _positive_log_prior(density, u_positive)
+    return (_collapsed_form(density, u_positive).log_posterior(v)
+            + _positive_log_prior(density, u_positive))
 
 
 def _best_positive(density, grid: list[np.ndarray], v: np.ndarray, start: np.ndarray | None
