@@ -182,14 +182,22 @@ def step_at_time(log: BenchLog, terms: tuple[str, ...], time_h: float, *,
 
 @dataclass(frozen=True)
 class SearchFit:
-    """A candidate model fitted by its problem: the mode, its values (natural units), the
-    residual on the search's rows (deg/h) and its RMS, and the noise levels there."""
+    """A candidate model fitted by its problem: the mode and the residual on the search's
+    rows (deg/h); its values, RMS and noise levels follow from them."""
 
     problem: BenchProblem
     point: PointEstimate
-    values: dict[str, float]
     residual: np.ndarray
-    noise: NoiseLevels
+
+    @property
+    def values(self) -> dict[str, float]:
+        """The model's parameters at the mode, natural units."""
+        return {name: self.point.value[name] for name in self.problem.model.parameter_names}
+
+    @property
+    def noise(self) -> NoiseLevels:
+        value = self.point.value
+        return NoiseLevels(value["sigma_deg_h"], value["sigma_gm_deg_h"], value["tau_gm_s"])
 
     @property
     def rms(self) -> float:
@@ -217,14 +225,10 @@ class _Search:
                                         t0_C=self.t0_C, rate_window_s=self.window_s,
                                         errors_in_variables=False)
         point = problem.mode()
-        values = {name: point.value[name] for name in model.parameter_names}
         inputs = self.inputs if log is self.log else log.inputs(
             t0_C=self.t0_C, rate_window_s=self.window_s)
-        theta = jnp.asarray([values[name] for name in model.parameter_names])
-        residual = self.y - np.asarray(model.predict(theta, inputs))
-        noise = NoiseLevels(point.value["sigma_deg_h"], point.value["sigma_gm_deg_h"],
-                            point.value["tau_gm_s"])
-        return SearchFit(problem, point, values, residual, noise)
+        theta = jnp.asarray([point.value[name] for name in model.parameter_names])
+        return SearchFit(problem, point, self.y - np.asarray(model.predict(theta, inputs)))
 
     def trial(self, model: DriftModel) -> Trial:
         fit = self.fit(model)
