@@ -7,7 +7,6 @@ posterior mode with the fold's rows masked (:meth:`BenchDensity.without_rows`)."
 
 from __future__ import annotations
 
-import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 import scipy.linalg
@@ -16,8 +15,8 @@ from gyroid.inference._bench_density import BenchDensity
 from gyroid.inference._check_report import Check
 from gyroid.inference._collapsed import (
     collapse,
+    columns_at,
     conditional_solution,
-    model_columns,
     split_parameters,
 )
 from gyroid.inference._point import point_estimate
@@ -147,7 +146,7 @@ def _collapsed_folds(density: BenchDensity, parts: Stretches, time_s: np.ndarray
     observed = part_means(drift, parts.part, parts.n_parts)
     counts = np.bincount(parts.part, minlength=parts.n_parts).astype(float)
     if positive.size:
-        columns = _model_columns(density, jnp.asarray(point_u[positive]))
+        columns = jnp.asarray(columns_at(density, point_u[positive])[0])
         offset, design = drift - np.asarray(columns[:, 0]), np.asarray(columns[:, 1:])
     else:
         columns, offset = None, np.zeros_like(drift)
@@ -173,8 +172,6 @@ def _collapsed_folds(density: BenchDensity, parts: Stretches, time_s: np.ndarray
                              counts=counts[held]))
     return folds
 
-
-_model_columns = eqx.filter_jit(model_columns)
 
 
 def _eiv_folds(density: BenchDensity, parts: Stretches, time_s: np.ndarray,

@@ -182,6 +182,48 @@ def model_columns(density, u_positive: Float[Array, " q"]) -> Float[Array, "n 1+
     return jnp.column_stack([density.drift - predict(zero), jax.jacfwd(predict)(zero)])
 
 
+_columns_at = eqx.filter_jit(eqx.filter_vmap(model_columns, in_axes=(None, 0)))
+#: Points of positive parameters whose columns are computed side by side (fewer are
+#: padded: one compilation per model).
+COLUMN_BATCH = 32
+
+
+def chunks(rows: np.ndarray, size: int = COLUMN_BATCH):
+    """``rows`` in runs of ``size``, the last padded by repeating its first row."""
+    for start in range(0, len(rows), size):
+        chunk = rows[start:start + size]
+        if len(chunk) < size:
+            chunk = np.concatenate([chunk, np.repeat(chunk[:1], size - len(chunk), axis=0)])
+        yield chunk
+
+
+def columns_at(density, points: np.ndarray) -> np.ndarray:
+    """:func:`model_columns` at each row of ``points`` (positive parameters, logs), computed
+    :data:`COLUMN_BATCH` rows at a time."""
+    points = np.atleast_2d(np.asarray(points, dtype=float))
+    return np.concatenate([np.asarray(_columns_at(density, jnp.asarray(chunk)))
+                           for chunk in chunks(points)])[: len(points)]
+
+
+def with_columns(template: CollapsedCoefficients, columns: Float[Array, "n 1+r"]
+                 ) -> CollapsedCoefficients:
+    """``template`` (a collapsed form, padded or not) with its columns replaced by
+    ``columns``, zero columns appended to its width (traceable)."""
+    extra = template.columns.shape[1] - columns.shape[1]
+    columns = jnp.concatenate([columns, jnp.zeros((columns.shape[0], extra))], axis=1)
+    return eqx.tree_at(lambda t: t.columns, template, columns)
+
+
+@eqx.filter_jit
+def log_posteriors_at(template: CollapsedCoefficients, columns: Float[Array, "m n 1+r"],
+                      v: Float[Array, " k"]) -> Float[Array, " m"]:
+    """The marginal log-posterior at noise levels ``v`` of ``template`` with its columns
+    replaced by each of ``columns`` (:func:`with_columns`): a model's profile over its
+    positive parameters, compiled once per log shape, padded width and batch, whatever the
+    model."""
+    return jax.vmap(lambda c: with_columns(template, c).log_posterior(v))(columns)
+
+
 def collapse(density, columns: Float[Array, "n 1+r"] | None = None,
              real: np.ndarray | None = None) -> CollapsedCoefficients | None:
     """The collapsed form of a :class:`~gyroid.inference._bench_density.BenchDensity`: a

@@ -9,6 +9,7 @@ shares.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import equinox as eqx
 import jax
@@ -23,43 +24,65 @@ def _negative_marginal(v: jax.Array, collapsed) -> jax.Array:
     return -collapsed.log_posterior(v)
 
 
-_marginal_gradient = eqx.filter_jit(jax.grad(_negative_marginal))
-_marginal_value = eqx.filter_jit(_negative_marginal)
+#: The marginal's gradient at each row of an array of noise levels (one compiled call).
+_marginal_gradients = eqx.filter_jit(eqx.filter_vmap(jax.grad(_negative_marginal),
+                                                     in_axes=(0, None)))
+
+
+class MarginalSolution(NamedTuple):
+    """BFGS's answer from one start: the noise levels (sampling coordinates) and optimistix's
+    result."""
+
+    value: jax.Array
+    result: optx.RESULTS
 
 
 @eqx.filter_jit
-def _marginal_bfgs(start, collapsed):
-    """BFGS on the collapsed marginal from ``start``, compiled once per log shape and
-    padded width (:func:`~gyroid.inference._collapsed.padded`; called
-    outside jit, optimistix traced its loop anew on every call: 0.2 s a start)."""
-    return optx.minimise(_negative_marginal, optx.BFGS(rtol=1e-9, atol=1e-9), start,
-                         args=collapsed, max_steps=2000, throw=False)
+def _marginal_bfgs(starts, collapsed):
+    """BFGS on the collapsed marginal from each row of ``starts``, side by side (vmapped:
+    one filter pass per iteration serves every start; run one by one, the starts' passes
+    and dispatches were most of a discrepancy search's time), compiled once per log shape,
+    padded width (:func:`~gyroid.inference._collapsed.padded`) and number of starts."""
+    def one(start):
+        solution = optx.minimise(_negative_marginal, optx.BFGS(rtol=1e-9, atol=1e-9), start,
+                                 args=collapsed, max_steps=2000, throw=False)
+        return solution.value, solution.result, _negative_marginal(solution.value, collapsed)
+
+    return jax.vmap(one)(starts)
 
 
 #: The correlated noise levels' extra starts: each raised this many times above its guess.
 RAISED_START = 30.0
 
 
-def marginal_mode(collapsed, noise_u: np.ndarray, correlated: tuple[int, ...] = ()):
+def marginal_mode(collapsed, noise_u: np.ndarray, correlated: tuple[int, ...] = (), *,
+                  lanes: int | None = None) -> tuple[MarginalSolution, float]:
     """BFGS on a collapsed problem's marginal from ``noise_u`` and from each level of
     ``correlated`` raised :data:`RAISED_START` times; the best plausible solution (its
     levels within 6 prior sds of each prior's median: far beyond, the filter's arithmetic,
-    a walk's variance 1e30 times the data's, is no likelihood) and its log-posterior."""
+    a walk's variance 1e30 times the data's, is no likelihood) and its log-posterior.
+    ``lanes``: run this many starts side by side, repeating ``noise_u`` (a call with fewer
+    starts then shares the compiled program of one with more: repeats cost little beside a
+    compilation)."""
     collapsed = padded(collapsed)  # one compilation for 1 to 8 coefficients
-    starts = [jnp.asarray(noise_u)] + [jnp.asarray(noise_u).at[i].add(math.log(RAISED_START))
-                                       for i in correlated]
-    solutions = [_marginal_bfgs(start, collapsed) for start in starts]
+    start = np.asarray(noise_u, dtype=float)
+    starts = [start] + [start + math.log(RAISED_START) * (np.arange(start.size) == i)
+                        for i in correlated]
+    starts += [start] * max((lanes or 0) - len(starts), 0)
+    values, results, objective = _marginal_bfgs(jnp.asarray(np.stack(starts)), collapsed)
+    solutions = [MarginalSolution(values[i], jax.tree.map(lambda x, i=i: x[i], results))
+                 for i in range(len(starts))]
     loc, scale = np.asarray(collapsed.noise_loc), np.asarray(collapsed.noise_scale)
     on = np.asarray(collapsed.noise_on) > 0
-    values = [float(_marginal_value(s.value, collapsed)) for s in solutions]
-    plausible = [i for i, s in enumerate(solutions) if np.isfinite(values[i]) and np.all(
+    objective = [float(f) for f in np.asarray(objective)]
+    plausible = [i for i, s in enumerate(solutions) if np.isfinite(objective[i]) and np.all(
         ~on | (np.abs(np.asarray(s.value) - loc) <= 6.0 * scale))]
-    best = min(plausible, key=values.__getitem__) if plausible else 0
-    return solutions[best], -values[best]
+    best = min(plausible, key=objective.__getitem__) if plausible else 0
+    return solutions[best], -objective[best]
 
 
 def collapsed_mode(collapsed, u_model: np.ndarray, noise_u: np.ndarray,
-                   correlated: tuple[int, ...] = ()):
+                   correlated: tuple[int, ...] = (), *, lanes: int | None = None):
     """The mode of a collapsed problem's noise levels (their marginal posterior, the
     coefficients integrated out) and the coefficients' conditional mean there: the point
     the sampled posterior is centred on. The joint mode's noise levels are biased low
@@ -71,9 +94,9 @@ def collapsed_mode(collapsed, u_model: np.ndarray, noise_u: np.ndarray,
     walk: a real log's, 33 +/- 7 deg/h/sqrt(h) of walk, had a second mode with none and
     more flicker, where the guess's BFGS stopped): besides the guess, BFGS starts from each
     level of ``correlated`` (indices into the levels) raised :data:`RAISED_START` times,
-    and the best of them is the mode."""
-    return at_marginal_mode(collapsed, marginal_mode(collapsed, noise_u, correlated)[0],
-                            u_model)
+    and the best of them is the mode (``lanes``: :func:`marginal_mode`'s)."""
+    return at_marginal_mode(
+        collapsed, marginal_mode(collapsed, noise_u, correlated, lanes=lanes)[0], u_model)
 
 
 def at_marginal_mode(collapsed, solution, u_model: np.ndarray):
@@ -86,9 +109,10 @@ def at_marginal_mode(collapsed, solution, u_model: np.ndarray):
     # central differences of the gradient (a few passes) rather than jax.hessian, whose
     # forward-over-reverse pass through the filter's scan took 46 s on the demo's log
     step = 1e-4
-    hessian = np.stack([(np.asarray(_marginal_gradient(v + step * e, collapsed))
-                         - np.asarray(_marginal_gradient(v - step * e, collapsed))) / (2 * step)
-                        for e in jnp.eye(v.size)])
+    steps = step * np.eye(v.size)
+    gradients = np.asarray(_marginal_gradients(
+        jnp.asarray(np.concatenate([np.asarray(v) + steps, np.asarray(v) - steps])), collapsed))
+    hessian = (gradients[: v.size] - gradients[v.size :]) / (2 * step)
     hessian = 0.5 * (hessian + hessian.T)
     mean, factor = conditional_solution(collapsed, v)
     mean, factor = np.asarray(mean)[:r], np.asarray(factor)

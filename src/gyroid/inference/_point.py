@@ -212,8 +212,11 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3,
         start, raised = ((guess, correlated) if noise_start is None
                          else (np.asarray(noise_start), ()))
         u, covariance, converged, message = collapsed_mode(
-            collapsed, _white_start(problem)[:problem.n_model], start, raised)
+            collapsed, _white_start(problem)[:problem.n_model], start, raised,
+            lanes=1 + len(correlated))
         return _point(problem, u, covariance, converged, message, n_starts=1 + len(raised))
+    if problem.noise.correlated and not problem.errors_in_variables:
+        return _profiled(problem)
     n, p = problem.n_observed, problem.n_model
     known = problem.sigma is not None and not problem.noise.correlated
     weights = 1.0 / problem.sigma if known else jnp.ones(problem.n)
@@ -226,8 +229,6 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3,
     candidates.sort(key=lambda c: c[0] if math.isfinite(c[0]) else math.inf)
     best_rss = candidates[0][0]
     scale = 1.0 if known else math.sqrt(best_rss / max(n - p, 1))
-    if problem.noise.correlated and not problem.errors_in_variables:
-        return _profiled(problem, candidates[0][1], scale, len(candidates))
     refined = []
     for _, start in candidates[: max_refine if len(candidates) > 1 else 1]:
         value, result, objective, jacobian = _levenberg_marquardt(
@@ -268,18 +269,16 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3,
     return _point(problem, u, covariance, converged, message, n_starts=len(candidates))
 
 
-def _profiled(problem: BenchDensity, u_model: np.ndarray, scale: float, n_starts: int
-              ) -> PointEstimate:
+def _profiled(problem: BenchDensity) -> PointEstimate:
     """The mode of a model linear in its real coefficients given its positive ones, under
     correlated noise: those profiled, these integrated out
-    (:func:`~gyroid.inference._point_profiled.profiled_mode`), the noise levels guessed from
-    the residual of the best white start ``u_model`` (rows' sd ``scale``)."""
-    padded = jnp.concatenate([jnp.asarray(u_model), jnp.zeros(len(problem.noise_names))])
-    residual = np.asarray(problem.drift) - np.asarray(problem.predict(padded))
-    if problem.weight is not None:
-        residual = residual[np.asarray(problem.weight) > 0]
-    u, covariance, converged, message = profiled_mode(
-        problem, _noise_start(problem, residual, scale)[0], _correlated_levels(problem))
+    (:func:`~gyroid.inference._point_profiled.profiled_mode`), the noise levels guessed by
+    the noise model from the best white start's residual."""
+    def guess(residual: np.ndarray, white: float) -> np.ndarray:
+        return _noise_start(problem, residual, white)[0]
+
+    u, covariance, converged, message, n_starts = profiled_mode(
+        problem, guess, _correlated_levels(problem))
     return _point(problem, u, covariance, converged, message, n_starts=n_starts)
 
 

@@ -5,11 +5,16 @@ catalogued effect) under correlated noise; part of the bench mode-finder
 
 The real coefficients are integrated out exactly for given positive parameters (the
 collapsed form of :mod:`gyroid.inference._collapsed` on the model's columns there), and the
-rest is found by alternating twice, from the grid of :mod:`gyroid.inference._starts`:
+rest is found by alternating twice, from the grid of :mod:`gyroid.inference._starts`
+(the noise levels first guessed from the residual of the grid's best white least
+squares):
 
 1. the noise levels held, the positive parameters maximise the collapsed marginal
-   posterior: the grid, then a bounded Nelder-Mead (Brent's method in one dimension) on
-   host; each evaluation one forward filter pass, compiled once per model;
+   posterior: the grid (its points side by side, :data:`CHUNK` at a time), then a bounded
+   Nelder-Mead (Brent's method in one dimension) on host; each evaluation one forward
+   filter pass. Only the model's columns (:func:`~gyroid.inference._collapsed.columns_at`)
+   are compiled per model; the filter and the marginal are shared by every model of as
+   many coefficients on the log's rows;
 2. the positive parameters held, the noise levels at the marginal's mode
    (:func:`~gyroid.inference._marginal_mode.marginal_mode`: BFGS compiled once per number of
    coefficients, whatever the model).
@@ -24,6 +29,7 @@ the noise levels' inverse Hessian beside them.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -31,11 +37,14 @@ import numpy as np
 from scipy.optimize import minimize, minimize_scalar
 
 from gyroid.inference._collapsed import (
+    chunks,
     collapse,
+    columns_at,
     conditional_solution,
-    model_columns,
+    log_posteriors_at,
     padded,
     split_parameters,
+    with_columns,
 )
 from gyroid.inference._marginal_mode import at_marginal_mode, marginal_mode, safe_inverse
 from gyroid.inference._starts import grid_points, start_grid
@@ -43,22 +52,84 @@ from gyroid.inference._starts import grid_points, start_grid
 #: The local search's bounds about the grid: a fifth of its least value to 3.3 times its
 #: largest (logs).
 BELOW, ABOVE = math.log(0.2), math.log(50.0 / 15.0)
+#: Points of positive parameters evaluated side by side (the grid and the differences,
+#: padded to a multiple of this: one compiled shape for every model).
+CHUNK = 32
+#: The central differences' step in the positive parameters (logs).
+STEP = 1e-3
 
 
-def _positive_log_prior(density, u_positive):
-    _, positive = split_parameters(density)
-    loc, scale, on = (jnp.asarray(a)[positive] for a in (
-        density.prior_loc, density.prior_scale, density.prior_on))
-    z = (u_positive - loc) / scale
-    return jnp.sum(on * (-0.5 * z**2 - jnp.log(scale)))
+class _Profile:
+    """A density's collapsed marginal as a function of its positive parameters: their
+    start grid, the model's columns there, and the collapsed form (``base``; padded,
+    ``template``) whose columns each evaluation replaces."""
 
+    def __init__(self, density) -> None:
+        self.density = density
+        self.real, self.positive = split_parameters(density)
+        self.grid = start_grid(density.model.parameters, density.inputs)
+        self.points = np.stack(list(grid_points(self.grid)))
+        raw = self._model_columns(self.points)
+        self.base = collapse(density, jnp.asarray(raw[0]), self.real)
+        self.template = padded(self.base)
+        self.grid_columns = self._padded(raw)
+        loc, scale, on = (np.asarray(a, dtype=float)[self.positive] for a in (
+            density.prior_loc, density.prior_scale, density.prior_on))
+        self._prior = (loc, scale, on)
 
-def _collapsed_form(density, u_positive):
-    """The collapsed form at positive parameters ``u_positive`` (logs)."""
-    return collapse(density, model_columns(density, u_positive), split_parameters(density)[0])
+    def _model_columns(self, points: np.ndarray) -> np.ndarray:
+        """The model's columns (:func:`~gyroid.inference._collapsed.columns_at`) at each
+        row of ``points``."""
+        return columns_at(self.density, points)
 
+    def _padded(self, columns: np.ndarray) -> np.ndarray:
+        extra = self.template.columns.shape[1] - columns.shape[2]
+        return np.concatenate([columns, np.zeros((*columns.shape[:2], extra))], axis=2)
 
-_collapsed_at = eqx.filter_jit(_collapsed_form)
+    def columns(self, points: np.ndarray) -> np.ndarray:
+        """The model's columns at each row of ``points``, zero columns appended to the
+        padded form's width."""
+        return self._padded(self._model_columns(points))
+
+    def log_prior(self, points: np.ndarray) -> np.ndarray:
+        loc, scale, on = self._prior
+        z = (np.atleast_2d(points) - loc) / scale
+        return np.sum(on * (-0.5 * z**2 - np.log(scale)), axis=1)
+
+    def values(self, points: np.ndarray, v: np.ndarray,
+               columns: np.ndarray | None = None) -> np.ndarray:
+        """The marginal log-posterior, the positive parameters' prior included, at each row
+        of ``points`` and the noise levels ``v`` (given their ``columns``, read from
+        there)."""
+        columns = self.columns(points) if columns is None else columns
+        v = jnp.asarray(v, dtype=float)
+        if len(points) == 1:
+            found = np.asarray(log_posteriors_at(self.template, jnp.asarray(columns), v))
+        else:
+            found = np.concatenate([np.asarray(log_posteriors_at(
+                self.template, jnp.asarray(chunk), v)) for chunk in chunks(columns, CHUNK)])
+        return found[: len(points)] + self.log_prior(points)
+
+    def value(self, point, v: np.ndarray) -> float:
+        return float(self.values(np.asarray(point, dtype=float)[None, :], v)[0])
+
+    def at(self, point: np.ndarray):
+        """The collapsed form at the positive parameters ``point``."""
+        return with_columns(self.base, jnp.asarray(self._model_columns(point[None, :])[0]))
+
+    def white_start(self, weight: np.ndarray | None) -> tuple[np.ndarray, float]:
+        """The residual (on the rows of positive ``weight``) of the grid point whose least
+        squares in the real coefficients fits best, and its residual sum of squares."""
+        keep = slice(None) if weight is None else np.asarray(weight) > 0
+        best = (math.inf, None)
+        for columns in self.grid_columns:
+            target, design = columns[keep, 0], columns[keep, 1:]
+            beta, *_ = np.linalg.lstsq(design, target, rcond=None)
+            residual = target - design @ beta
+            rss = float(residual @ residual)
+            if rss < best[0]:
+                best = (rss, residual)
+        return best[1], best[0]
 
 
 @eqx.filter_jit
@@ -73,35 +144,29 @@ def collapsed_log_likelihood(density, u: np.ndarray) -> float:
     real, positive = split_parameters(density)
     p = density.n_model
     u = np.asarray(u, dtype=float)
-    collapsed = padded(_collapsed_at(density, jnp.asarray(u[positive])) if positive.size
-                       else collapse(density))
+    collapsed = padded(
+        collapse(density, jnp.asarray(columns_at(density, u[positive])[0]), real)
+        if positive.size else collapse(density))
     beta = np.zeros(collapsed.beta_loc.size)
     beta[:real.size] = u[real]
     return float(_log_likelihood(collapsed, jnp.asarray(np.concatenate([beta, u[p:]]))))
 
 
-@eqx.filter_jit
-def _profile(density, u_positive, v):
-    """The marginal log-posterior at positive parameters ``u_positive`` and noise levels
-    ``v`` (coefficients integrated out), the positive parameters' prior included."""
-    return (_collapsed_form(density, u_positive).log_posterior(v)
-            + _positive_log_prior(density, u_positive))
-
-
-def _best_positive(density, grid: list[np.ndarray], v: np.ndarray, start: np.ndarray | None
+def _best_positive(profile: _Profile, v: np.ndarray, start: np.ndarray | None
                    ) -> tuple[np.ndarray, bool]:
     """The positive parameters (logs) of highest profile at the noise levels ``v``: the
-    best point of ``grid`` (given a ``start``: that), refined by a bounded local search
+    best point of the grid (given a ``start``: that), refined by a bounded local search
     (one parameter: Brent's method between the grid's neighbours of the best point, as the
     profile of a step's time has a maximum near every jump of the log); and whether that
     search converged."""
-    def value(u):
-        return float(_profile(density, jnp.asarray(u, dtype=float), jnp.asarray(v)))
-
-    candidates = ([np.asarray(u) for u in grid_points(grid)] if start is None
-                  else [np.asarray(start)])
-    scores = [value(u) for u in candidates]
-    finite = [s if math.isfinite(s) else -math.inf for s in scores]
+    grid = profile.grid
+    if start is None:
+        candidates = profile.points
+        scores = profile.values(candidates, v, profile.grid_columns)
+    else:
+        candidates = np.asarray(start, dtype=float)[None, :]
+        scores = profile.values(candidates, v)
+    finite = np.where(np.isfinite(scores), scores, -math.inf)
     best = candidates[int(np.argmax(finite))]
     bounds = [(float(g.min()) + BELOW, float(g.max()) + ABOVE) for g in grid]
     if len(grid) == 1:
@@ -109,65 +174,62 @@ def _best_positive(density, grid: list[np.ndarray], v: np.ndarray, start: np.nda
         below, above = values[values < best[0]], values[values > best[0]]
         bracket = (below[-1] if below.size else bounds[0][0],
                    above[0] if above.size else bounds[0][1])
-        found = minimize_scalar(lambda x: -value([x]), bounds=bracket, method="bounded",
-                                options={"xatol": 1e-4})
+        found = minimize_scalar(lambda x: -profile.value([x], v), bounds=bracket,
+                                method="bounded", options={"xatol": 1e-4})
         x = np.array([found.x])
     else:
-        found = minimize(lambda u: -value(u), best, method="Nelder-Mead", bounds=bounds,
-                         options={"xatol": 1e-4, "fatol": 1e-4})
+        found = minimize(lambda u: -profile.value(u, v), best, method="Nelder-Mead",
+                         bounds=bounds, options={"xatol": 1e-4, "fatol": 1e-4})
         x = np.asarray(found.x)
-    if -found.fun < max(finite):
+    if -found.fun < float(np.max(finite)):
         return best, bool(found.success)
     return x, bool(found.success)
 
 
-#: The central differences' step in the positive parameters (logs).
-STEP = 1e-3
-
-
-def _positive_covariance(density, u_positive: np.ndarray, v: np.ndarray
+def _positive_covariance(profile: _Profile, u_positive: np.ndarray, v: np.ndarray
                          ) -> tuple[np.ndarray, np.ndarray]:
     """The positive parameters' covariance (logs) from the profile's curvature at the noise
     levels ``v``, and the derivatives of the coefficients' conditional mean in them: by
-    central differences (a profile evaluation is one forward filter pass)."""
-    q, r = u_positive.size, split_parameters(density)[0].size
+    central differences (the profile's points side by side)."""
+    q, r = u_positive.size, profile.real.size
     steps = STEP * np.eye(q)
-
-    def f(u):
-        return float(_profile(density, jnp.asarray(u), jnp.asarray(v)))
+    pairs = [(i, j) for i in range(q) for j in range(i, q)]
+    signs = ((1, 1), (1, -1), (-1, 1), (-1, -1))
+    points = np.array([u_positive + a * steps[i] + b * steps[j]
+                       for i, j in pairs for a, b in signs])
+    f = profile.values(points, v).reshape(len(pairs), 4)
+    hessian = np.empty((q, q))
+    for k, (i, j) in enumerate(pairs):
+        hessian[i, j] = hessian[j, i] = (f[k, 0] - f[k, 1] - f[k, 2] + f[k, 3]) / (4 * STEP**2)
 
     def mean(u):
-        collapsed = padded(_collapsed_at(density, jnp.asarray(u)))
-        return np.asarray(conditional_solution(collapsed, jnp.asarray(v))[0])[:r]
+        return np.asarray(conditional_solution(padded(profile.at(u)), jnp.asarray(v))[0])[:r]
 
-    hessian = np.empty((q, q))
-    for i in range(q):
-        for j in range(i, q):
-            a, b = steps[i], steps[j]
-            hessian[i, j] = hessian[j, i] = (f(u_positive + a + b) - f(u_positive + a - b)
-                                             - f(u_positive - a + b)
-                                             + f(u_positive - a - b)) / (4 * STEP**2)
     jacobian = np.column_stack([(mean(u_positive + e) - mean(u_positive - e)) / (2 * STEP)
                                 for e in steps])
     return safe_inverse(-hessian), jacobian
 
 
-def profiled_mode(density, noise_u: np.ndarray, correlated: tuple[int, ...]):
+def profiled_mode(density, noise_start: Callable[[np.ndarray, float], np.ndarray],
+                  correlated: tuple[int, ...]):
     """The mode (sampling coordinates, in the density's order), its covariance, whether it
-    converged and the solver's message, from noise levels ``noise_u`` (with the extra
-    starts of ``correlated``, :func:`~gyroid.inference._marginal_mode.marginal_mode`):
-    the positive parameters from the start grid at ``noise_u``, the noise levels at them,
-    then once more each from where it was."""
-    real, positive = split_parameters(density)
-    grid = start_grid(density.model.parameters, density.inputs)
-    v = np.asarray(noise_u, dtype=float)
-    u_positive, ok = _best_positive(density, grid, v, None)
-    solution, _ = marginal_mode(_collapsed_at(density, jnp.asarray(u_positive)), v,
-                                correlated)
+    converged, the solver's message and the number of grid points: the noise levels
+    guessed by ``noise_start(residual, white)`` from the best white start's residual (with
+    the extra starts of ``correlated``, :func:`~gyroid.inference._marginal_mode.
+    marginal_mode`), the positive parameters from the start grid at them, the noise levels
+    at those, then once more each from where it was."""
+    profile = _Profile(density)
+    real, positive = profile.real, profile.positive
+    residual, rss = profile.white_start(density.weight)
+    scale = math.sqrt(rss / max(density.n_observed - density.n_model, 1))
+    v = np.asarray(noise_start(residual, scale), dtype=float)
+    lanes = 1 + len(correlated)
+    u_positive, ok = _best_positive(profile, v, None)
+    solution, _ = marginal_mode(profile.at(u_positive), v, correlated, lanes=lanes)
     v = np.asarray(solution.value)
-    u_positive, ok = _best_positive(density, grid, v, u_positive)
-    collapsed = _collapsed_at(density, jnp.asarray(u_positive))
-    solution, _ = marginal_mode(collapsed, v, ())
+    u_positive, ok = _best_positive(profile, v, u_positive)
+    collapsed = profile.at(u_positive)
+    solution, _ = marginal_mode(collapsed, v, (), lanes=lanes)
     joint, covariance_rv, converged, message = at_marginal_mode(
         collapsed, solution, np.zeros(real.size))
     p, k, r = density.n_model, v.size, real.size
@@ -175,7 +237,7 @@ def profiled_mode(density, noise_u: np.ndarray, correlated: tuple[int, ...]):
     u[real], u[positive], u[p:] = joint[:r], u_positive, joint[r:]
     # the coefficients given the positive parameters, those from the profile: by the law
     # of total covariance, Cov(beta) = P^-1 + J S J', Cov(beta, positive) = J S
-    s_positive, jacobian = _positive_covariance(density, u_positive, joint[r:])
+    s_positive, jacobian = _positive_covariance(profile, u_positive, joint[r:])
     order = np.concatenate([real, np.arange(p, p + k)])
     covariance = np.zeros((p + k, p + k))
     covariance[np.ix_(order, order)] = covariance_rv
@@ -185,4 +247,4 @@ def profiled_mode(density, noise_u: np.ndarray, correlated: tuple[int, ...]):
     covariance[np.ix_(positive, positive)] = s_positive
     if not ok:
         converged, message = False, "the time constants' search did not converge"
-    return u, covariance, converged, message
+    return u, covariance, converged, message, len(profile.points)
