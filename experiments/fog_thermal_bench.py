@@ -21,9 +21,10 @@ walk's mean over the log (a walk has no level of its own). Two temperature profi
     python experiments/fog_thermal_bench.py --seed 0 --datasets 30 --noise white \
         --results fog_thermal_bench_white --white-only
 
-Each log is fitted twice: by default (the run's ``z``, ``sd``, ``seconds``), and with the
-noise levels pinned at their truths (``z_known_noise``: what the realisation alone does to
-the coefficients, apart from the noise levels' inference; not for ``--white-only``).
+Each log is fitted twice (once with ``--warmup``, whose fits take minutes): by default (the
+run's ``z``, ``sd``, ``seconds``), and with the noise levels pinned at their truths
+(``z_known_noise``: what the realisation alone does to the coefficients, apart from the
+noise levels' inference; not for ``--white-only``).
 
 ``--flicker-walk-median X`` gives B and K the prior LogNormal(X, 3) instead of gyroid's
 default (median a thousandth of the log's white density: 3e-4 here): a study of what the
@@ -34,6 +35,12 @@ noise, flicker and walk, an independent realisation, a constant temperature), fi
 noise as ``gyroid noise`` does and fits the bench with IEEE noise priors from that fit, as
 ``gyroid fit --noise DIR`` does (paper A's bench would record such a run): what a measured
 noise buys where a 10 h thermal log cannot tell a FOG's flicker from none.
+
+``--warmup`` adds a start-up transient ``w exp(-t / tau)`` (w = 0.05 deg/h, tau = 40 min,
+five times the flicker's Allan floor at its start) and fits ``thermal,warmup``: the
+coverage of a model with a time constant under the default correlated noise, whose mode
+the profiled mode-finder finds (the time constant profiled, the coefficients integrated
+out) and whose posterior the sampler draws.
 
 ``--white-only`` drops the flicker and the walk (white noise and the thermometer's only):
 what the default costs where there is nothing low-frequency to carry (the posterior sds
@@ -56,6 +63,7 @@ HOURS, RATE_HZ = 10.0, 1.0
 ARW, B, K = 0.005, 0.01, 0.005  # deg/sqrt(h), deg/h, deg/h/sqrt(h)
 THERMOMETER_SD_C = 0.01
 PROFILES = ("smooth", "raised_cosine")
+WARMUP = {"w_warmup": 0.05, "tau_warmup_min": 40.0}  # deg/h, min
 
 
 def temperature_profile(profile: str, time_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -79,8 +87,10 @@ def temperature_profile(profile: str, time_s: np.ndarray) -> tuple[np.ndarray, n
     return temperature, rate
 
 
-def fog_log(seed: int, profile: str, white_only: bool = False) -> dict[str, np.ndarray]:
-    """One bench log's columns (contract section 1)."""
+def fog_log(seed: int, profile: str, white_only: bool = False, warmup: bool = False
+            ) -> dict[str, np.ndarray]:
+    """One bench log's columns (contract section 1), with :data:`WARMUP`'s start-up
+    transient if ``warmup``."""
     rng = np.random.default_rng([seed, PROFILES.index(profile), 42])
     dt = 1.0 / RATE_HZ
     n = int(HOURS * 3600 * RATE_HZ)
@@ -88,6 +98,8 @@ def fog_log(seed: int, profile: str, white_only: bool = False) -> dict[str, np.n
     temperature, rate = temperature_profile(profile, time_s)
     t = temperature - T0_C
     drift = TRUTH["w0"] + TRUTH["w1"] * t + TRUTH["w2"] * t**2 + TRUTH["wD"] * rate
+    if warmup:
+        drift = drift + WARMUP["w_warmup"] * np.exp(-time_s / (60.0 * WARMUP["tau_warmup_min"]))
     noise = rng.normal(0.0, 60.0 * ARW / math.sqrt(dt), n)
     walk = np.zeros(n)
     if not white_only:
@@ -125,8 +137,8 @@ def measured_noise_priors(seed: int, hours: float) -> tuple[dict, dict]:
 
 
 def one(seed: int, profile: str, noise: str, white_only: bool,
-        flicker_walk_median: float | None = None, static_hours: float | None = None
-        ) -> dict:
+        flicker_walk_median: float | None = None, static_hours: float | None = None,
+        warmup: bool = False) -> dict:
     import gyroid
     from gyroid.inference import Emcee, Importance, fit_log
     from gyroid.io import BenchLog
@@ -134,15 +146,16 @@ def one(seed: int, profile: str, noise: str, white_only: bool,
 
     gyroid.configure()
     started = time.time()
-    columns = fog_log(seed, profile, white_only)
-    truth = dict(TRUTH, w0=columns.pop("w0_over_the_log"))
+    columns = fog_log(seed, profile, white_only, warmup)
+    truth = dict(TRUTH, w0=columns.pop("w0_over_the_log"), **(WARMUP if warmup else {}))
+    terms = "thermal,warmup" if warmup else "thermal"
     chosen = None if flicker_walk_median is None else {
         name: LogNormal(flicker_walk_median, 3.0) for name in ("B_deg_h", "K_deg_h_sqrt_h")}
     static = None
     if static_hours:
         chosen, static = measured_noise_priors(seed, static_hours)
         noise = "white+flicker+rw"  # the noise model whose priors those are
-    fit = fit_log(BenchLog(columns), "thermal", noise=noise, seed=seed, priors=chosen,
+    fit = fit_log(BenchLog(columns), terms, noise=noise, seed=seed, priors=chosen,
                   sampler=Importance(fallback=Emcee(progress=False)))
     seconds = round(time.time() - started, 1)  # the default fit's alone
     summary = fit.posterior.summary
@@ -152,10 +165,10 @@ def one(seed: int, profile: str, noise: str, white_only: bool,
     # alone does to the coefficients, apart from the noise levels' inference
     pinned = {"N_deg_sqrt_h": LogNormal(ARW, 0.01), "B_deg_h": LogNormal(B, 0.01),
               "K_deg_h_sqrt_h": LogNormal(K, 0.01)}
-    known = (fit_log(BenchLog(columns), "thermal", noise=noise, seed=seed, priors=pinned,
+    known = (fit_log(BenchLog(columns), terms, noise=noise, seed=seed, priors=pinned,
                      sampler=Importance(fallback=Emcee(progress=False))).posterior.summary
              if fit.problem.noise.name == "white+flicker+rw" and not white_only
-             and not static_hours else None)
+             and not static_hours and not warmup else None)
     return {"seed": seed, "profile": profile, "noise": noise,
             "noise_used": fit.problem.noise.name, "trustworthy": fit.trustworthy,
             "sampler": fit.posterior.move,
@@ -191,7 +204,7 @@ def summarise(runs: list[dict]) -> dict:
         mine = [r for r in runs if r["profile"] == profile]
         if not mine:
             continue
-        names = list(TRUTH)
+        names = list(mine[0]["z"])
         z = np.array([[r["z"][k] for k in names] for r in mine])
         passed = [r for r in mine if r["trustworthy"]]
         out[profile] = {
@@ -231,11 +244,13 @@ def main() -> None:
     parser.add_argument("--static-hours", type=float, default=None,
                         help="fit with IEEE noise priors from a noise fit of this many "
                              "hours of the same gyro at rest (module docstring)")
+    parser.add_argument("--warmup", action="store_true",
+                        help="add a start-up transient and fit thermal,warmup")
     parser.add_argument("--results", default="fog_thermal_bench")
     args = parser.parse_args()
     started = time.time()
     jobs = [(args.seed + k, profile, args.noise, args.white_only, args.flicker_walk_median,
-             args.static_hours)
+             args.static_hours, args.warmup)
             for profile in args.profiles.split(",") for k in range(args.datasets)]
     with ProcessPoolExecutor(args.workers) as pool:
         runs = []
@@ -248,7 +263,8 @@ def main() -> None:
                      "thermometer_sd_C": THERMOMETER_SD_C, "white_only": args.white_only,
                      "noise": args.noise, "datasets": args.datasets,
                      "flicker_walk_median": args.flicker_walk_median,
-                     "static_hours": args.static_hours},
+                     "static_hours": args.static_hours,
+                     "warmup": WARMUP if args.warmup else None},
              results={"summary": summarise(runs), "runs": runs}, started=started)
 
 

@@ -165,6 +165,41 @@ def test_rate_window_scores_by_projection_equal_full_least_squares():
     assert best == min(scores, key=scores.get)
 
 
+def test_rate_window_of_a_model_with_a_time_constant_is_its_profiled_least_squares():
+    """A model reading dT/dt with a warm-up (a time constant): each window's score is the
+    least residual sum of squares over the time constant, the coefficients by least squares
+    (the warm-up's column written out here); it had been the linearisation at zero, whose
+    time constant of 0 made the first row NaN and the command a traceback."""
+    import jax.numpy as jnp
+
+    from gyroid.inference import choose_rate_window
+    from gyroid.models import DriftModel
+    from gyroid.simulation import simulate_thermal_bench
+
+    truth = {"w_warmup": 1.0, "tau_warmup_min": 20.0}
+    log = simulate_thermal_bench(seed=2, effects={"warmup": truth}).log
+    model = DriftModel.from_terms("thermal,warmup")
+    grid = np.array([300.0, 1200.0, 3600.0])
+    best, scores = choose_rate_window(log, model, t0_C=21.0, grid=grid)
+    inputs = log.inputs(t0_C=21.0)
+    thermal = DriftModel.from_terms("thermal")
+    elapsed_min = (log.time_s - log.time_s[0]) / 60.0
+    for window in grid:
+        rate = temperature_rate_deg_c_per_h(log.time_s, log.columns["temperature_C"], window)
+        design = np.asarray(thermal.design(
+            type(inputs)(**{**vars(inputs), "rate_C_h": jnp.asarray(rate)})))
+
+        def rss(tau_min, design=design):
+            full = np.column_stack([design, np.exp(-elapsed_min / tau_min)])
+            return np.linalg.lstsq(full, log.drift_deg_h, rcond=None)[1][0]
+
+        assert np.isfinite(scores[window])
+        # no better than the truth's time constant, no worse than the grid's best fit
+        assert scores[window] <= rss(truth["tau_warmup_min"]) * (1 + 1e-3)
+        assert scores[window] >= min(rss(t) for t in np.geomspace(1.0, 600.0, 400)) * (1 - 1e-9)
+    assert best == min(scores, key=scores.get)
+
+
 def test_temperature_change_sign_follows_a_thermal_cycle():
     """+1 warming, -1 cooling, 0 before any change beyond the 0.5 degC dead band, through
     0.05 degC noise; the plain loop's answer on the samples it reads."""

@@ -19,6 +19,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyroid.errors import GyroidInputError
+from gyroid.inference._starts import grid_points, start_grid
 from gyroid.io._logs import BenchLog
 from gyroid.models._derived import RATE_POLY_DEGREE, RATE_WINDOW_S, temperature_rate_deg_c_per_h
 from gyroid.models._design import with_rows
@@ -51,11 +52,38 @@ def window_grid(time_s: np.ndarray) -> np.ndarray:
     return grid
 
 
-def _design(model: DriftModel, inputs) -> np.ndarray:
-    if model.is_linear:
-        return np.asarray(model.design(inputs))
-    zero = jnp.zeros(len(model.parameter_names))
-    return np.asarray(jax.jacfwd(lambda th: model.predict(th, inputs))(zero))
+@eqx.filter_jit
+def _columns(model: DriftModel, inputs, u_positive: jax.Array) -> tuple[jax.Array, jax.Array]:
+    """A model linear in its real coefficients given its positive ones (``u_positive``,
+    logs): its prediction at zero real coefficients and its derivatives in them (exact)."""
+    positive = np.array([p.positive for p in model.parameters], dtype=bool)
+    real = np.flatnonzero(~positive)
+
+    def predict(values):
+        theta = (jnp.zeros(positive.size).at[real].set(values)
+                 .at[np.flatnonzero(positive)].set(jnp.exp(u_positive)))
+        return model.predict(theta, inputs)
+
+    zero = jnp.zeros(real.size)
+    return predict(zero), jax.jacfwd(predict)(zero)
+
+
+def _nonlinear_rss(model: DriftModel, inputs, y: np.ndarray, weights: np.ndarray | None
+                   ) -> float:
+    """The least residual sum of squares of a model with positive parameters (time
+    constants, a step's time): its real coefficients by least squares at each point of
+    the start grid of :mod:`gyroid.inference._starts`, the best point's."""
+    best = math.inf
+    for point in grid_points(start_grid(model.parameters, inputs)):
+        offset, design = (np.asarray(a) for a in _columns(model, inputs, jnp.asarray(point)))
+        target = y - (offset if weights is None else offset * weights)
+        if weights is not None:
+            design = design * weights[:, None]
+        if not (np.all(np.isfinite(design)) and np.all(np.isfinite(target))):
+            continue
+        coefficients, *_ = np.linalg.lstsq(design, target, rcond=None)
+        best = min(best, float(np.sum((target - design @ coefficients) ** 2)))
+    return best
 
 
 def choose_rate_window(log: BenchLog, model: DriftModel, *, t0_C: float,
@@ -104,11 +132,7 @@ def choose_rate_window(log: BenchLog, model: DriftModel, *, t0_C: float,
     else:
         for window in windows:
             trial = eqx.tree_at(lambda x: x.rate_C_h, inputs, jnp.asarray(rate(window)))
-            design = _design(model, trial)
-            if weights is not None:
-                design = design * weights[:, None]
-            coefficients, *_ = np.linalg.lstsq(design, y, rcond=None)
-            scores[float(window)] = float(np.sum((y - design @ coefficients) ** 2))
+            scores[float(window)] = _nonlinear_rss(model, trial, y, weights)
     best = min(scores, key=scores.get)
     if thermometer_var_C2 > 0 and model.is_linear and weights is None:
         shorter = np.sort([w for w in scores if w <= best])
