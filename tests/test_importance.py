@@ -167,3 +167,67 @@ def test_stored_block_log_likelihoods_need_one_filter_pass_per_noise_level(walke
     assert levels < flat.shape[0]  # the saving: repeated levels
     direct = in_chunks(problem_batcher(problem.density.log_likelihood_blocks), flat, 256)
     np.testing.assert_allclose(fast.reshape(direct.shape), direct, rtol=1e-9, atol=1e-9)
+
+
+def test_a_time_constant_is_sampled_as_its_exact_marginal():
+    """A warm-up (2 deg/h, 400 s, on 50 min) under white + Gauss-Markov noise: importance
+    sampling draws the time constant with the noise levels
+    (:mod:`gyroid.inference._marginal_target`), the coefficients exactly given both. With
+    the levels pinned by their priors (log-sds of 1e-3), the time constant's posterior is
+    one-dimensional, and quadrature on a grid of it (each node carrying the coefficients'
+    exact conditional Gaussian) gives the means and sds the draws must match within 4.5
+    Monte-Carlo standard errors; each kept draw's log-posterior is the joint density's
+    own."""
+    from gyroid.inference._collapsed import conditional_solution, padded
+    from gyroid.inference._point_profiled import _Profile
+    from gyroid.models import LogNormal
+
+    rng = np.random.default_rng(11)
+    n, tau_s, a = 3000, 400.0, np.exp(-1.0 / 100.0)
+    wander = np.zeros(n)
+    for i in range(1, n):  # a Gauss-Markov bias: 0.05 deg/h, 100 s
+        wander[i] = a * wander[i - 1] + rng.normal(0.0, 0.05 * np.sqrt(1 - a**2))
+    time_s = np.arange(n, dtype=float)
+    drift = 0.5 + 2.0 * np.exp(-time_s / tau_s) + wander + rng.normal(0.0, 0.3, n)
+    log = BenchLog(columns={"time_s": time_s, "drift_deg_h": drift})
+    pinned = {"sigma_deg_h": LogNormal(0.3, 1e-3), "sigma_gm_deg_h": LogNormal(0.05, 1e-3),
+              "tau_gm_s": LogNormal(100.0, 1e-3)}
+    problem = BenchProblem.from_log(log, "bias,warmup", noise="white+gm", priors=pinned)
+    point = problem.mode()
+    posterior = Importance().sample(problem, point, seed=4)
+    assert posterior.move == "psis" and "positive parameter" in posterior.method
+    u = problem.to_sampling_host(posterior.draws).reshape(-1, len(problem.names))
+    joint = in_chunks(problem_batcher(problem.density.log_posterior), u, 250)
+    np.testing.assert_allclose(posterior.log_posterior.reshape(-1), joint, rtol=0, atol=1e-7)
+
+    names = list(problem.names)
+    tau, w = names.index("tau_warmup_min"), names.index("w_warmup")
+    profile = _Profile(problem.density)
+    v = point.u[problem.n_model:]
+    centre, spread = point.u[tau], np.sqrt(point.covariance_u[tau, tau])
+    nodes = np.linspace(centre - 10 * spread, centre + 6.0, 2001)  # a long upper tail
+    log_post = profile.values(nodes[:, None], v)
+    weight = np.exp(log_post - log_post.max())
+    weight /= weight.sum()
+    assert weight[0] + weight[-1] < 1e-8, (weight[0], weight[-1])  # the grid holds the mass
+    real = [i for i, name in enumerate(names[:problem.n_model]) if name != "tau_warmup_min"]
+    k = real.index(w)
+    mean_w, var_w = [], []
+    for node in nodes:
+        mean, factor = conditional_solution(padded(profile.at(np.array([node]))), v)
+        factor = np.asarray(factor)
+        mean_w.append(float(np.asarray(mean)[k]))
+        var_w.append(float(np.linalg.inv(factor @ factor.T)[k, k]))
+    mean_w, var_w = np.array(mean_w), np.array(var_w)
+    exact = {tau: (weight @ nodes, np.sqrt(weight @ nodes**2 - (weight @ nodes) ** 2)),
+             w: (weight @ mean_w,
+                 np.sqrt(weight @ (var_w + mean_w**2) - (weight @ mean_w) ** 2))}
+    for i, (mean, sd) in exact.items():
+        ess = posterior.summary[names[i]]["ess_bulk"]
+        assert ess >= 400, names[i]
+        assert abs(u[:, i].mean() - mean) < 4.5 * sd / np.sqrt(ess), names[i]
+        # a sample sd's standard error, sd sqrt((kurtosis - 1) / 4n): w_warmup's marginal
+        # is a mixture over the time constant, heavier-tailed than a Gaussian
+        kurtosis = np.mean((u[:, i] - u[:, i].mean()) ** 4) / u[:, i].var() ** 2
+        se_sd = sd * np.sqrt((kurtosis - 1.0) / (4.0 * ess))
+        assert abs(u[:, i].std() - sd) < 4.5 * se_sd, (names[i], u[:, i].std(), sd, kurtosis)

@@ -233,6 +233,11 @@ class BenchProblem(AbstractProblem):
 
         return collapse(self.density)
 
+    def marginal_target(self):
+        from gyroid.inference._marginal_target import marginal_target
+
+        return marginal_target(self.density)
+
     def evidence(self, point: PointEstimate, posterior) -> FitEvidence:
         """What the self-checks read of a fit of this problem."""
         model, inputs, log = self.model, self.inputs, self.log

@@ -1,10 +1,12 @@
 """Posterior draws of a collapsed problem by Pareto-smoothed importance sampling
 (:class:`Importance`), with emcee where that is not reliable.
 
-A linear drift model under correlated noise has its coefficients integrated out exactly
+A drift model under correlated noise has its real coefficients integrated out exactly
 (:mod:`gyroid.inference._collapsed`): what is left to integrate numerically is the
 marginal posterior of the noise levels, three dimensions for IEEE 952 noise (two for a
-Gauss-Markov bias). There an ensemble sampler spends most of its time on its own
+Gauss-Markov bias), and of the model's positive parameters (a warm-up's time constant, a
+step's time) where it has them (:mod:`gyroid.inference._marginal_target`; below, "noise
+levels" stands for all of these). There an ensemble sampler spends most of its time on its own
 correlation: a FOG bench's thermal fit ran 1213 emcee steps x 16 walkers (19 400
 evaluations of the marginal, eight at a time) for some 800 effective draws. Importance
 sampling evaluates its draws hundreds at a time, and its weights say themselves whether it
@@ -44,10 +46,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from gyroid.inference._batching import in_chunks, problem_batcher
+from gyroid.inference._batching import in_chunks
 from gyroid.inference._checks import MIN_ESS
 from gyroid.inference._collapsed import conditional_draws
 from gyroid.inference._emcee import MAX_STORED_SAMPLES, Emcee
+from gyroid.inference._marginal_target import MarginalTarget
 from gyroid.inference._posterior import Posterior, summarise_draws
 from gyroid.inference._problem import AbstractProblem, AbstractSampler, PointEstimate
 from gyroid.inference._proposals import Blend, Kernels, StudentMixture
@@ -82,18 +85,17 @@ class Importance(AbstractSampler):
     def sample(self, problem: AbstractProblem, point: PointEstimate, *, seed: int = 0,
                progress: Callable[[str], None] | None = None) -> Posterior:
         rng = np.random.default_rng(seed)
-        collapsed = problem.collapsed()
-        if collapsed is None:
+        target = problem.marginal_target()
+        if target is None:
             return self.fallback.sample(problem, point, seed=seed, progress=progress)
-        # the mode's noise levels and their covariance (a bench density's levels come last)
-        levels = slice(point.u.size - int(collapsed.noise_loc.size), point.u.size)
-        mode = (np.asarray(point.u[levels], dtype=float),
-                np.asarray(point.covariance_u[levels, levels], dtype=float))
-        solved = problem_batcher(collapsed.solved)
-        weighted = self._weighted(mode, solved, _prior_tails(collapsed), rng)
+        # the mode's marginal coordinates and their covariance
+        at = target.marginal
+        mode = (np.asarray(point.u, dtype=float)[at],
+                np.asarray(point.covariance_u, dtype=float)[np.ix_(at, at)])
+        weighted = self._weighted(mode, target.solved, target.tails, rng)
         if weighted is None:
             return self.fallback.sample(problem, point, seed=seed, progress=progress)
-        return self._posterior(problem, weighted, rng)
+        return self._posterior(problem, target, weighted, rng)
 
     def _weighted(self, mode: tuple[np.ndarray, np.ndarray],
                   solved: Callable[[np.ndarray], np.ndarray],
@@ -149,14 +151,14 @@ class Importance(AbstractSampler):
             components.append((1.0, start, shape))
         return StudentMixture.of(components, self.df)
 
-    def _posterior(self, problem: AbstractProblem, weighted: _Weighted,
-                   rng: np.random.Generator) -> Posterior:
+    def _posterior(self, problem: AbstractProblem, target: MarginalTarget,
+                   weighted: _Weighted, rng: np.random.Generator) -> Posterior:
         kept = MAX_STORED_SAMPLES - MAX_STORED_SAMPLES % _CHAINS
         index = rng.permutation(_systematic(weighted.weights, kept, rng))
-        noise = weighted.draws[index]
-        z = rng.standard_normal((kept, len(problem.names) - noise.shape[1]))
+        z = rng.standard_normal((kept, target.real.size))
         beta, lp = conditional_draws(weighted.solved[index], z)
-        draws_u = np.concatenate([beta, noise], axis=1).reshape(_CHAINS, kept // _CHAINS, -1)
+        draws_u = target.assemble(beta, weighted.draws[index]).reshape(
+            _CHAINS, kept // _CHAINS, -1)
         natural = problem.to_natural_host(draws_u)
         summary = summarise_draws(natural, problem.names)
         for entry in summary.values():
@@ -172,20 +174,13 @@ class Importance(AbstractSampler):
             burn=0,
             thin=1,
             acceptance=weighted.effective / n,
-            method=(f"importance sampling of the noise levels (PSIS, Pareto k "
+            method=(f"importance sampling of the {target.describe} (PSIS, Pareto k "
                     f"{weighted.pareto_k:.2f}, {n} draws in {n // self.n_draws} stage(s) of "
                     f"Student-t's, {weighted.effective:.0f} effective); coefficients exact "
                     "given each"),
             summary=summary,
             move="psis",
         )
-
-
-def _prior_tails(collapsed) -> list[tuple[int, float, float]]:
-    """(index, prior median's log, prior log-sd) of each noise level with a prior."""
-    on = np.flatnonzero(np.asarray(collapsed.noise_on) > 0)
-    loc, scale = np.asarray(collapsed.noise_loc), np.asarray(collapsed.noise_scale)
-    return [(int(i), float(loc[i]), float(scale[i])) for i in on]
 
 
 def _kernels(weighted: _Weighted, df: float, rng: np.random.Generator) -> Kernels:

@@ -59,6 +59,16 @@ CHUNK = 32
 STEP = 1e-3
 
 
+def positive_log_prior(density, points: np.ndarray) -> np.ndarray:
+    """The positive parameters' log-prior (normal in their logs, where they have one: the
+    density's own terms) at each row of ``points`` (logs)."""
+    _, positive = split_parameters(density)
+    loc, scale, on = (np.asarray(a, dtype=float)[positive] for a in (
+        density.prior_loc, density.prior_scale, density.prior_on))
+    z = on * (np.atleast_2d(points) - loc) / scale
+    return np.sum(-0.5 * z**2 - on * (np.log(scale) + 0.5 * math.log(2.0 * math.pi)), axis=1)
+
+
 class _Profile:
     """A density's collapsed marginal as a function of its positive parameters: their
     start grid, the model's columns there, and the collapsed form (``base``; padded,
@@ -73,9 +83,6 @@ class _Profile:
         self.base = collapse(density, jnp.asarray(raw[0]), self.real)
         self.template = padded(self.base)
         self.grid_columns = self._padded(raw)
-        loc, scale, on = (np.asarray(a, dtype=float)[self.positive] for a in (
-            density.prior_loc, density.prior_scale, density.prior_on))
-        self._prior = (loc, scale, on)
 
     def _model_columns(self, points: np.ndarray) -> np.ndarray:
         """The model's columns (:func:`~gyroid.inference._collapsed.columns_at`) at each
@@ -91,11 +98,6 @@ class _Profile:
         padded form's width."""
         return self._padded(self._model_columns(points))
 
-    def log_prior(self, points: np.ndarray) -> np.ndarray:
-        loc, scale, on = self._prior
-        z = (np.atleast_2d(points) - loc) / scale
-        return np.sum(on * (-0.5 * z**2 - np.log(scale)), axis=1)
-
     def values(self, points: np.ndarray, v: np.ndarray,
                columns: np.ndarray | None = None) -> np.ndarray:
         """The marginal log-posterior, the positive parameters' prior included, at each row
@@ -108,7 +110,7 @@ class _Profile:
         else:
             found = np.concatenate([np.asarray(log_posteriors_at(
                 self.template, jnp.asarray(chunk), v)) for chunk in chunks(columns, CHUNK)])
-        return found[: len(points)] + self.log_prior(points)
+        return found[: len(points)] + positive_log_prior(self.density, points)
 
     def value(self, point, v: np.ndarray) -> float:
         return float(self.values(np.asarray(point, dtype=float)[None, :], v)[0])

@@ -113,6 +113,11 @@ class AbstractProblem(eqx.Module):
         cheaper to sample (:mod:`gyroid.inference._collapsed`); None otherwise."""
         return None
 
+    def marginal_target(self):
+        """What importance sampling integrates numerically where the problem's coefficients
+        integrate out exactly (:mod:`gyroid.inference._marginal_target`); None otherwise."""
+        return None
+
     def host_log_posterior(self) -> Callable[[np.ndarray], np.ndarray] | None:
         """A NumPy log-posterior of many points at once, ``u (w, d) -> (w,)``, where one
         is cheaper than a call into JAX (emcee then calls it every step); None otherwise."""

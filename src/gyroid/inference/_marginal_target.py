@@ -1,0 +1,113 @@
+"""What importance sampling (:mod:`gyroid.inference._importance`) integrates numerically
+for a bench problem under correlated noise, and how a draw becomes a full parameter vector.
+
+The real coefficients are integrated out exactly (:mod:`gyroid.inference._collapsed`). What
+is left, the *marginal coordinates*, is the noise levels for a linear model, and the
+positive parameters (time constants, a step's time; logs) with them for a model linear in
+its real coefficients given those (every catalogued effect): the collapsed form is then
+rebuilt at each draw's positive parameters from the model's columns there, and their prior
+joins the marginal. Either way, one filter pass per draw gives the marginal log-posterior
+and the coefficients' conditional Gaussian, from which :func:`~gyroid.inference._collapsed.
+conditional_draws` draws them.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import equinox as eqx
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from gyroid.inference._batching import problem_batcher
+from gyroid.inference._collapsed import (
+    COLUMN_BATCH,
+    chunks,
+    collapse,
+    columns_at,
+    split_parameters,
+    with_columns,
+)
+from gyroid.inference._point_profiled import positive_log_prior
+
+
+@dataclass(frozen=True)
+class MarginalTarget:
+    """The marginal coordinates' places in a parameter vector (sampling coordinates), the
+    coefficients', the batched marginal (``solved``: rows ``(m, d) -> (m, 1 + r + r^2)``,
+    :meth:`~gyroid.inference._collapsed.CollapsedCoefficients.solved`'s layout) and the
+    noise levels' priors (``tails``: index among the marginal coordinates, the prior
+    median's log, its log-sd)."""
+
+    marginal: np.ndarray
+    real: np.ndarray
+    solved: Callable[[np.ndarray], np.ndarray]
+    tails: list[tuple[int, float, float]]
+    n_positive: int = 0  # the marginal coordinates' first ones: positive parameters
+
+    @property
+    def describe(self) -> str:
+        """What the marginal coordinates are, in words."""
+        levels = len(self.marginal) - self.n_positive
+        return ("noise levels" if self.n_positive == 0
+                else f"noise levels and {self.n_positive} positive parameter(s)"
+                if levels else "positive parameters")
+
+    @property
+    def size(self) -> int:
+        return self.marginal.size + self.real.size
+
+    def assemble(self, beta: np.ndarray, marginal: np.ndarray) -> np.ndarray:
+        """Full parameter vectors (sampling coordinates) from coefficients and marginal
+        coordinates, row by row."""
+        u = np.empty((beta.shape[0], self.size))
+        u[:, self.real], u[:, self.marginal] = beta, marginal
+        return u
+
+
+def _tails(collapsed, offset: int) -> list[tuple[int, float, float]]:
+    """(index, prior median's log, prior log-sd) of each noise level with a prior, the
+    indices shifted by ``offset`` marginal coordinates before the levels."""
+    on = np.flatnonzero(np.asarray(collapsed.noise_on) > 0)
+    loc, scale = np.asarray(collapsed.noise_loc), np.asarray(collapsed.noise_scale)
+    return [(offset + int(i), float(loc[i]), float(scale[i])) for i in on]
+
+
+@eqx.filter_jit
+def _solved_at(base, columns, levels):
+    """:meth:`solved` of ``base`` with each of ``columns`` at the matching noise levels."""
+    return jax.vmap(lambda c, v: with_columns(base, c).solved(v))(columns, levels)
+
+
+def marginal_target(density) -> MarginalTarget | None:
+    """The target of a bench density under correlated noise whose model is linear in its
+    real coefficients given its positive ones; None otherwise (white noise, or the
+    thermometer's noise carried through dT/dt)."""
+    if not density.noise.correlated or density.errors_in_variables:
+        return None
+    real, positive = split_parameters(density)
+    p, k = density.n_model, len(density.noise_names)
+    levels = np.arange(p, p + k)
+    if positive.size == 0:
+        collapsed = collapse(density)
+        if collapsed is None:
+            return None
+        return MarginalTarget(levels, real, problem_batcher(collapsed.solved),
+                              _tails(collapsed, 0))
+    q = positive.size
+    probe = np.zeros((1, q))  # any point: the form's columns are replaced at every draw
+    base = collapse(density, jnp.asarray(columns_at(density, probe)[0]), real)
+
+    def solved(x: np.ndarray) -> np.ndarray:
+        x = np.asarray(x, dtype=float)
+        rows = np.concatenate([
+            np.asarray(_solved_at(base, jnp.asarray(columns_at(density, chunk[:, :q])),
+                                  jnp.asarray(chunk[:, q:])))
+            for chunk in chunks(x, COLUMN_BATCH)])[: len(x)]
+        rows[:, 0] += positive_log_prior(density, x[:, :q])
+        return rows
+
+    return MarginalTarget(np.concatenate([positive, levels]), real, solved, _tails(base, q),
+                          n_positive=q)
