@@ -36,8 +36,9 @@ noise as ``gyroid noise`` does and fits the bench with IEEE noise priors from th
 ``gyroid fit --noise DIR`` does (paper A's bench would record such a run): what a measured
 noise buys where a 10 h thermal log cannot tell a FOG's flicker from none.
 
-``--warmup`` adds a start-up transient ``w exp(-t / tau)`` (w = 0.05 deg/h, tau = 40 min,
-five times the flicker's Allan floor at its start) and fits ``thermal,warmup``: the
+``--warmup [W]`` adds a start-up transient ``w exp(-t / tau)`` (w = W deg/h, 0.05 unless
+given: five times the flicker's Allan floor at its start; tau = 40 min) and fits
+``thermal,warmup``: the
 coverage of a model with a time constant under the default correlated noise, whose mode
 the profiled mode-finder finds (the time constant profiled, the coefficients integrated
 out) and whose posterior the sampler draws.
@@ -63,7 +64,7 @@ HOURS, RATE_HZ = 10.0, 1.0
 ARW, B, K = 0.005, 0.01, 0.005  # deg/sqrt(h), deg/h, deg/h/sqrt(h)
 THERMOMETER_SD_C = 0.01
 PROFILES = ("smooth", "raised_cosine")
-WARMUP = {"w_warmup": 0.05, "tau_warmup_min": 40.0}  # deg/h, min
+WARMUP = {"w_warmup": 0.05, "tau_warmup_min": 40.0}  # deg/h, min (w: --warmup's default)
 
 
 def temperature_profile(profile: str, time_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -87,10 +88,10 @@ def temperature_profile(profile: str, time_s: np.ndarray) -> tuple[np.ndarray, n
     return temperature, rate
 
 
-def fog_log(seed: int, profile: str, white_only: bool = False, warmup: bool = False
+def fog_log(seed: int, profile: str, white_only: bool = False, warmup: float | None = None
             ) -> dict[str, np.ndarray]:
-    """One bench log's columns (contract section 1), with :data:`WARMUP`'s start-up
-    transient if ``warmup``."""
+    """One bench log's columns (contract section 1), with a start-up transient of
+    ``warmup`` deg/h (:data:`WARMUP`'s time constant) if given."""
     rng = np.random.default_rng([seed, PROFILES.index(profile), 42])
     dt = 1.0 / RATE_HZ
     n = int(HOURS * 3600 * RATE_HZ)
@@ -99,7 +100,7 @@ def fog_log(seed: int, profile: str, white_only: bool = False, warmup: bool = Fa
     t = temperature - T0_C
     drift = TRUTH["w0"] + TRUTH["w1"] * t + TRUTH["w2"] * t**2 + TRUTH["wD"] * rate
     if warmup:
-        drift = drift + WARMUP["w_warmup"] * np.exp(-time_s / (60.0 * WARMUP["tau_warmup_min"]))
+        drift = drift + warmup * np.exp(-time_s / (60.0 * WARMUP["tau_warmup_min"]))
     noise = rng.normal(0.0, 60.0 * ARW / math.sqrt(dt), n)
     walk = np.zeros(n)
     if not white_only:
@@ -138,7 +139,7 @@ def measured_noise_priors(seed: int, hours: float) -> tuple[dict, dict]:
 
 def one(seed: int, profile: str, noise: str, white_only: bool,
         flicker_walk_median: float | None = None, static_hours: float | None = None,
-        warmup: bool = False) -> dict:
+        warmup: float | None = None) -> dict:
     import gyroid
     from gyroid.inference import Emcee, Importance, fit_log
     from gyroid.io import BenchLog
@@ -147,7 +148,8 @@ def one(seed: int, profile: str, noise: str, white_only: bool,
     gyroid.configure()
     started = time.time()
     columns = fog_log(seed, profile, white_only, warmup)
-    truth = dict(TRUTH, w0=columns.pop("w0_over_the_log"), **(WARMUP if warmup else {}))
+    truth = dict(TRUTH, w0=columns.pop("w0_over_the_log"),
+                 **(dict(WARMUP, w_warmup=warmup) if warmup else {}))
     terms = "thermal,warmup" if warmup else "thermal"
     chosen = None if flicker_walk_median is None else {
         name: LogNormal(flicker_walk_median, 3.0) for name in ("B_deg_h", "K_deg_h_sqrt_h")}
@@ -244,8 +246,10 @@ def main() -> None:
     parser.add_argument("--static-hours", type=float, default=None,
                         help="fit with IEEE noise priors from a noise fit of this many "
                              "hours of the same gyro at rest (module docstring)")
-    parser.add_argument("--warmup", action="store_true",
-                        help="add a start-up transient and fit thermal,warmup")
+    parser.add_argument("--warmup", type=float, nargs="?", const=WARMUP["w_warmup"],
+                        default=None, metavar="DEG_H",
+                        help="add a start-up transient of this size (default 0.05 deg/h) "
+                             "and fit thermal,warmup")
     parser.add_argument("--results", default="fog_thermal_bench")
     args = parser.parse_args()
     started = time.time()
@@ -264,7 +268,7 @@ def main() -> None:
                      "noise": args.noise, "datasets": args.datasets,
                      "flicker_walk_median": args.flicker_walk_median,
                      "static_hours": args.static_hours,
-                     "warmup": WARMUP if args.warmup else None},
+                     "warmup": dict(WARMUP, w_warmup=args.warmup) if args.warmup else None},
              results={"summary": summarise(runs), "runs": runs}, started=started)
 
 

@@ -641,3 +641,29 @@ def test_the_fog_benches_with_a_measured_noise():
             f"{max(summary['z_sd'].values()):.2f}, w1's {summary['z_sd']['w1']:.2f})",
             f"w1 still lay {abs(worst):.1f} sd away (exit 0)")
     assert summary["exit_0_beyond_3_3_sd"] == 1
+
+
+def test_the_fog_benches_with_a_warm_up():
+    """experiments/results/fog_thermal_bench_warmup(_strong): thermal,warmup under the
+    default noise, the time constant importance-sampled."""
+    weak = _results("fog_thermal_bench_warmup")["summary"]["smooth"]
+    strong_runs = _results("fog_thermal_bench_warmup_strong")["runs"]
+    strong = _results("fog_thermal_bench_warmup_strong")["summary"]["smooth"]
+    assert {r["sampler"] for r in _results("fog_thermal_bench_warmup")["runs"]} == {"psis"}
+    trusted = [r for r in strong_runs if r["trustworthy"]]
+    far = {r["seed"]: r["z"] for r in trusted if any(abs(v) > 3.3 for v in r["z"].values())}
+    _quoted(f"{weak['exit_3']} of {weak['fits']} fits refused",
+            f"the {weak['fits'] - weak['exit_3']} trusted had every truth within",
+            f"the six truths {min(weak['inside_95'].values())} to "
+            f"{max(weak['inside_95'].values())} times of 30",
+            f"{len(trusted)} of {strong['fits']} were trusted",
+            f"the truths {min(strong['inside_95'].values())} to "
+            f"{max(strong['inside_95'].values())} times of 30",
+            f"{len(far)} trusted fits had a truth more than 3.3 sd away",
+            f"seed 8 (wD {far[8]['wD']:.1f} sd, tau {abs(far[8]['tau_warmup_min']):.1f})",
+            f"seed 28 (tau {abs(far[28]['tau_warmup_min']):.1f};",
+            f"their sd is {strong['z_sd']['tau_warmup_min']:.2f})")
+    assert weak["exit_0_beyond_3_3_sd"] == 0
+    windows = sorted({next(r for r in strong_runs if r["seed"] == s)["rate_window_s"]
+                      for s in (8, 28)})
+    _quoted(f"({windows[1]:.0f} and {windows[0]:.0f} s;")
