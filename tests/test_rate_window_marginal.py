@@ -84,3 +84,24 @@ def test_a_white_fit_keeps_least_squares_window(bench):
     """White noise has no collapsed form: the least-squares window stands."""
     white = BenchProblem.from_log(bench, "thermal", noise="white", rate_window_s=None)
     assert marginal_window(lambda w: white.density, white.rate_window_s, 1.0) is None
+
+
+def test_a_model_with_a_time_constant_carries_the_thermometer_and_chooses_the_same_way(
+        bench):
+    """A warm-up beside the thermal terms: the thermometer's noise is carried through
+    dT/dt, scaled by the wD of the start grid's best least squares (it had been carried for
+    linear models only: a nonlinear model's design could not be built), and the window is
+    the marginal likelihood's as for the linear model, the warm-up's time constant held at
+    that best point."""
+    columns = dict(bench.columns)
+    time_s = columns["time_s"]
+    columns["drift_deg_h"] = columns["drift_deg_h"] + 0.5 * np.exp(-time_s / 1800.0)
+    log = BenchLog(columns=columns)
+    linear = BenchProblem.from_log(log, "thermal", noise="white+flicker+rw",
+                                   rate_window_s=None)
+    warm = BenchProblem.from_log(log, "thermal,warmup", noise="white+flicker+rw",
+                                 rate_window_s=None)
+    assert warm.thermometer_sd_C == pytest.approx(linear.thermometer_sd_C)
+    assert warm.thermometer_sd_C == pytest.approx(0.01, rel=0.1)
+    assert warm.rate_error_wd == pytest.approx(1.997, abs=0.05)
+    assert warm.rate_window_choice.startswith("auto: the marginal likelihood's of")

@@ -95,10 +95,10 @@ def noise_guess(problem: BenchDensity) -> tuple[np.ndarray, tuple[int, ...]]:
     theta = _white_start(problem)[:p]
     residual = np.asarray(problem.drift) - np.asarray(problem.model.design(problem.inputs)) @ theta
     scale = float(np.sqrt(np.sum(residual**2) / max(residual.size - p, 1)))
-    return _noise_start(problem, residual, scale)[0], _correlated_levels(problem)
+    return _noise_start(problem, residual, scale)[0], correlated_levels(problem)
 
 
-def _correlated_levels(problem: BenchDensity) -> tuple[int, ...]:
+def correlated_levels(problem: BenchDensity) -> tuple[int, ...]:
     """Indices of the noise levels other than the white one (where the mode's extra
     starts go)."""
     white = problem.noise.level_names[0]
@@ -172,6 +172,13 @@ def _gaussian_coefficients(problem: BenchDensity, gram: np.ndarray, solution: np
         if done:
             break
     return theta, scale, np.linalg.inv(gram / scale**2 + np.diag(precision))
+
+
+def noise_from_residual(problem: BenchDensity, residual: np.ndarray, white: float
+                        ) -> np.ndarray:
+    """The noise model's guess of its levels (sampling coordinates) from a residual whose
+    rows' sd is ``white``."""
+    return _noise_start(problem, residual, white)[0]
 
 
 def _white_start(problem: BenchDensity) -> np.ndarray:
@@ -274,11 +281,9 @@ def _profiled(problem: BenchDensity) -> PointEstimate:
     correlated noise: those profiled, these integrated out
     (:func:`~gyroid.inference._point_profiled.profiled_mode`), the noise levels guessed by
     the noise model from the best white start's residual."""
-    def guess(residual: np.ndarray, white: float) -> np.ndarray:
-        return _noise_start(problem, residual, white)[0]
-
     u, covariance, converged, message, n_starts = profiled_mode(
-        problem, guess, _correlated_levels(problem))
+        problem, lambda residual, white: noise_from_residual(problem, residual, white),
+        correlated_levels(problem))
     return _point(problem, u, covariance, converged, message, n_starts=n_starts)
 
 

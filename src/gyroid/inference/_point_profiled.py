@@ -119,24 +119,36 @@ class _Profile:
         """The collapsed form at the positive parameters ``point``."""
         return with_columns(self.base, jnp.asarray(self._model_columns(point[None, :])[0]))
 
-    def white_start(self, weight: np.ndarray | None) -> tuple[np.ndarray, float]:
+    def white_start(self, weight: np.ndarray | None) -> tuple[np.ndarray, float, np.ndarray]:
         """The residual (on the rows of positive ``weight``) of the grid point whose least
-        squares in the real coefficients fits best, and its residual sum of squares."""
+        squares in the real coefficients fits best, its residual sum of squares and the
+        point."""
         keep = slice(None) if weight is None else np.asarray(weight) > 0
-        best = (math.inf, None)
-        for columns in self.grid_columns:
+        best = (math.inf, None, self.points[0])
+        for columns, point in zip(self.grid_columns, self.points, strict=True):
             target, design = columns[keep, 0], columns[keep, 1:]
             beta, *_ = np.linalg.lstsq(design, target, rcond=None)
             residual = target - design @ beta
             rss = float(residual @ residual)
             if rss < best[0]:
-                best = (rss, residual)
-        return best[1], best[0]
+                best = (rss, residual, point)
+        return best[1], best[0], best[2]
 
 
 @eqx.filter_jit
 def _log_likelihood(collapsed, u):
     return collapsed.log_likelihood(u)
+
+
+def collapsed_at_white_start(density, noise_start: Callable[[np.ndarray, float], np.ndarray]):
+    """A model with positive parameters under correlated noise: its collapsed form at the
+    start grid's best white least-squares point, and the noise levels guessed by
+    ``noise_start(residual, white)`` from that point's residual (what the rate window's
+    marginal compares, :mod:`gyroid.inference._rate_window_marginal`)."""
+    profile = _Profile(density)
+    residual, rss, point = profile.white_start(density.weight)
+    scale = math.sqrt(rss / max(density.n_observed - density.n_model, 1))
+    return profile.at(point), np.asarray(noise_start(residual, scale), dtype=float)
 
 
 def collapsed_log_likelihood(density, u: np.ndarray) -> float:
@@ -222,7 +234,7 @@ def profiled_mode(density, noise_start: Callable[[np.ndarray, float], np.ndarray
     at those, then once more each from where it was."""
     profile = _Profile(density)
     real, positive = profile.real, profile.positive
-    residual, rss = profile.white_start(density.weight)
+    residual, rss, _ = profile.white_start(density.weight)
     scale = math.sqrt(rss / max(density.n_observed - density.n_model, 1))
     v = np.asarray(noise_start(residual, scale), dtype=float)
     lanes = 1 + len(correlated)

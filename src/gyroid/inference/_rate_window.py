@@ -68,12 +68,14 @@ def _columns(model: DriftModel, inputs, u_positive: jax.Array) -> tuple[jax.Arra
     return predict(zero), jax.jacfwd(predict)(zero)
 
 
-def _nonlinear_rss(model: DriftModel, inputs, y: np.ndarray, weights: np.ndarray | None
-                   ) -> float:
-    """The least residual sum of squares of a model with positive parameters (time
-    constants, a step's time): its real coefficients by least squares at each point of
-    the start grid of :mod:`gyroid.inference._starts`, the best point's."""
-    best = math.inf
+def grid_least_squares(model: DriftModel, inputs, y: np.ndarray,
+                       weights: np.ndarray | None = None) -> tuple[float, np.ndarray | None]:
+    """A model with positive parameters (time constants, a step's time) by least squares:
+    its real coefficients at each point of the start grid of :mod:`gyroid.inference.
+    _starts`; the best point's residual sum of squares and parameters (natural units;
+    None where no point gives finite columns)."""
+    best: tuple[float, np.ndarray | None] = (math.inf, None)
+    positive = np.array([p.positive for p in model.parameters], dtype=bool)
     for point in grid_points(start_grid(model.parameters, inputs)):
         offset, design = (np.asarray(a) for a in _columns(model, inputs, jnp.asarray(point)))
         target = y - (offset if weights is None else offset * weights)
@@ -82,7 +84,11 @@ def _nonlinear_rss(model: DriftModel, inputs, y: np.ndarray, weights: np.ndarray
         if not (np.all(np.isfinite(design)) and np.all(np.isfinite(target))):
             continue
         coefficients, *_ = np.linalg.lstsq(design, target, rcond=None)
-        best = min(best, float(np.sum((target - design @ coefficients) ** 2)))
+        rss = float(np.sum((target - design @ coefficients) ** 2))
+        if rss < best[0]:
+            theta = np.empty(positive.size)
+            theta[~positive], theta[positive] = coefficients, np.exp(point)
+            best = (rss, theta)
     return best
 
 
@@ -132,7 +138,7 @@ def choose_rate_window(log: BenchLog, model: DriftModel, *, t0_C: float,
     else:
         for window in windows:
             trial = eqx.tree_at(lambda x: x.rate_C_h, inputs, jnp.asarray(rate(window)))
-            scores[float(window)] = _nonlinear_rss(model, trial, y, weights)
+            scores[float(window)] = grid_least_squares(model, trial, y, weights)[0]
     best = min(scores, key=scores.get)
     if thermometer_var_C2 > 0 and model.is_linear and weights is None:
         shorter = np.sort([w for w in scores if w <= best])

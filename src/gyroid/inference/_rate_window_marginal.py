@@ -35,13 +35,30 @@ from collections.abc import Callable
 
 import numpy as np
 
-from gyroid.inference._collapsed import collapse
+from gyroid.inference._collapsed import collapse, split_parameters
 from gyroid.inference._marginal_mode import marginal_mode
-from gyroid.inference._point import noise_guess
+from gyroid.inference._point import correlated_levels, noise_from_residual, noise_guess
+from gyroid.inference._point_profiled import collapsed_at_white_start
 from gyroid.models._derived import RATE_POLY_DEGREE
 
 #: Windows compared, the least-squares choice included.
 CANDIDATES = 3
+
+
+def _collapsed(density):
+    """The density's collapsed form, the noise levels' guess and the indices of its
+    correlated levels; for a model with positive parameters (time constants, a step's
+    time), the form at the start grid's best white least-squares point (those held there:
+    the windows are compared as for a linear model); None without correlated noise."""
+    collapsed = collapse(density)
+    if collapsed is not None:
+        return (collapsed, *noise_guess(density))
+    if (not density.noise.correlated or density.errors_in_variables
+            or not split_parameters(density)[1].size):
+        return None
+    form, guess = collapsed_at_white_start(
+        density, lambda residual, white: noise_from_residual(density, residual, white))
+    return form, guess, correlated_levels(density)
 
 
 def marginal_window(density_at: Callable[[float], object], least_squares_s: float,
@@ -53,18 +70,19 @@ def marginal_window(density_at: Callable[[float], object], least_squares_s: floa
     bench density at a window (s; its dT/dt, and the thermometer's noise through it when
     carried, are the window's); ``step_s``: the rows' median step."""
     density = density_at(least_squares_s)
-    collapsed = collapse(density)
-    if collapsed is None:
+    form = _collapsed(density)
+    if form is None:
         return None
+    collapsed, guess, correlated = form
     shortest = (2 * RATE_POLY_DEGREE + 1) * step_s
     if least_squares_s <= shortest * 1.01:
         return None
     windows = np.geomspace(shortest, least_squares_s, CANDIDATES)[::-1]
-    guess, correlated = noise_guess(density)
     scores: dict[float, float] = {}
     levels: dict[float, np.ndarray] = {}
     for window in windows:
-        trial = collapsed if window == least_squares_s else collapse(density_at(float(window)))
+        trial = collapsed if window == least_squares_s else _collapsed(
+            density_at(float(window)))[0]
         solution, value = marginal_mode(trial, guess, correlated)
         falling = bool(scores) and value < max(scores.values())
         scores[float(window)], levels[float(window)] = value, np.asarray(solution.value)

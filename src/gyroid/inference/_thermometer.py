@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from gyroid.inference._rate_window import window_grid
+from gyroid.inference._rate_window import grid_least_squares, window_grid
 from gyroid.io._logs import BenchLog, MeansOfBlocks
 from gyroid.models._derived import MAX_OPERATOR_ROWS, RATE_POLY_DEGREE, estimator_grid_size
 from gyroid.models._drift import DriftModel
@@ -104,11 +104,15 @@ def _least_squares_rate_coefficient(log: BenchLog | MeansOfBlocks, model: DriftM
                                       *ACCEL_COLUMNS)
                              or k in rows.extra_columns},
                     extra_columns=rows.extra_columns)
+    y = np.asarray(thin.drift_deg_h)
     try:
-        design = np.asarray(model.design(thin.inputs(t0_C=t0_C)))
+        inputs = thin.inputs(t0_C=t0_C)
+        if not model.is_linear:  # time constants: the start grid's best least squares
+            theta = grid_least_squares(model, inputs, y)[1]
+            return None if theta is None else float(theta[rate_coefficient_index(model)])
+        design = np.asarray(model.design(inputs))
     except (KeyError, ValueError):
         return None
-    y = np.asarray(thin.drift_deg_h)
     return float(np.linalg.lstsq(design, y, rcond=None)[0][rate_coefficient_index(model)])
 
 
