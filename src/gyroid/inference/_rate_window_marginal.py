@@ -66,7 +66,8 @@ def marginal_window(density_at: Callable[[float], object], least_squares_s: floa
     """The window (s) of highest collapsed marginal posterior, that maximum per window
     tried (the last, lower one included), and the noise levels there (sampling
     coordinates: where the fit's mode starts); None where the density has no collapsed
-    form (a white or nonlinear fit) or no shorter window exists. ``density_at``: the
+    form (:func:`_collapsed`: a white fit, or one carrying the thermometer under white
+    noise) or no shorter window exists. ``density_at``: the
     bench density at a window (s; its dT/dt, and the thermometer's noise through it when
     carried, are the window's); ``step_s``: the rows' median step."""
     density = density_at(least_squares_s)
