@@ -10,11 +10,12 @@ rest is found by alternating twice, from the grid of :mod:`gyroid.inference._sta
 squares):
 
 1. the noise levels held, the positive parameters maximise the collapsed marginal
-   posterior: the grid (its points side by side, :data:`CHUNK` at a time), then a bounded
-   Nelder-Mead (Brent's method in one dimension) on host; each evaluation one forward
-   filter pass. Only the model's columns (:func:`~gyroid.inference._collapsed.columns_at`)
-   are compiled per model; the filter and the marginal are shared by every model of as
-   many coefficients on the log's rows;
+   posterior: the grid (its points side by side, ``COLUMN_BATCH`` of
+   :mod:`gyroid.inference._collapsed` at a time), then a bounded Nelder-Mead (Brent's
+   method in one dimension) on host; each evaluation one forward filter pass. Only the
+   model's columns (:func:`~gyroid.inference._collapsed.columns_at`) are compiled per
+   model; the filter and the marginal are shared by every model of as many coefficients
+   on the log's rows;
 2. the positive parameters held, the noise levels at the marginal's mode
    (:func:`~gyroid.inference._marginal_mode.marginal_mode`: BFGS compiled once per number of
    coefficients, whatever the model).
@@ -47,14 +48,11 @@ from gyroid.inference._collapsed import (
     with_columns,
 )
 from gyroid.inference._marginal_mode import at_marginal_mode, marginal_mode, safe_inverse
-from gyroid.inference._starts import grid_points, start_grid
+from gyroid.inference._starts import best_least_squares, grid_points, start_grid
 
 #: The local search's bounds about the grid: a fifth of its least value to 3.3 times its
 #: largest (logs).
 BELOW, ABOVE = math.log(0.2), math.log(50.0 / 15.0)
-#: Points of positive parameters evaluated side by side (the grid and the differences,
-#: padded to a multiple of this: one compiled shape for every model).
-CHUNK = 32
 #: The central differences' step in the positive parameters (logs).
 STEP = 1e-3
 
@@ -109,7 +107,7 @@ class _Profile:
             found = np.asarray(log_posteriors_at(self.template, jnp.asarray(columns), v))
         else:
             found = np.concatenate([np.asarray(log_posteriors_at(
-                self.template, jnp.asarray(chunk), v)) for chunk in chunks(columns, CHUNK)])
+                self.template, jnp.asarray(chunk), v)) for chunk in chunks(columns)])
         return found[: len(points)] + positive_log_prior(self.density, points)
 
     def value(self, point, v: np.ndarray) -> float:
@@ -119,20 +117,17 @@ class _Profile:
         """The collapsed form at the positive parameters ``point``."""
         return with_columns(self.base, jnp.asarray(self._model_columns(point[None, :])[0]))
 
-    def white_start(self, weight: np.ndarray | None) -> tuple[np.ndarray, float, np.ndarray]:
-        """The residual (on the rows of positive ``weight``) of the grid point whose least
-        squares in the real coefficients fits best, its residual sum of squares and the
-        point."""
-        keep = slice(None) if weight is None else np.asarray(weight) > 0
-        best = (math.inf, None, self.points[0])
-        for columns, point in zip(self.grid_columns, self.points, strict=True):
-            target, design = columns[keep, 0], columns[keep, 1:]
-            beta, *_ = np.linalg.lstsq(design, target, rcond=None)
-            residual = target - design @ beta
-            rss = float(residual @ residual)
-            if rss < best[0]:
-                best = (rss, residual, point)
-        return best[1], best[0], best[2]
+    def white_guess(self, noise_start: Callable[[np.ndarray, float], np.ndarray]
+                    ) -> tuple[np.ndarray, np.ndarray]:
+        """The grid point whose least squares in the real coefficients fits best (on the
+        rows of positive weight) and the noise levels ``noise_start(residual, white)``
+        guesses from its residual (``white``: the rows' sd with n - p degrees of
+        freedom)."""
+        density = self.density
+        keep = slice(None) if density.weight is None else np.asarray(density.weight) > 0
+        index, rss, _, residual = best_least_squares(c[keep] for c in self.grid_columns)
+        scale = math.sqrt(rss / max(density.n_observed - density.n_model, 1))
+        return self.points[index], np.asarray(noise_start(residual, scale), dtype=float)
 
 
 @eqx.filter_jit
@@ -146,9 +141,8 @@ def collapsed_at_white_start(density, noise_start: Callable[[np.ndarray, float],
     ``noise_start(residual, white)`` from that point's residual (what the rate window's
     marginal compares, :mod:`gyroid.inference._rate_window_marginal`)."""
     profile = _Profile(density)
-    residual, rss, point = profile.white_start(density.weight)
-    scale = math.sqrt(rss / max(density.n_observed - density.n_model, 1))
-    return profile.at(point), np.asarray(noise_start(residual, scale), dtype=float)
+    point, guess = profile.white_guess(noise_start)
+    return profile.at(point), guess
 
 
 def collapsed_log_likelihood(density, u: np.ndarray) -> float:
@@ -234,9 +228,7 @@ def profiled_mode(density, noise_start: Callable[[np.ndarray, float], np.ndarray
     at those, then once more each from where it was."""
     profile = _Profile(density)
     real, positive = profile.real, profile.positive
-    residual, rss, _ = profile.white_start(density.weight)
-    scale = math.sqrt(rss / max(density.n_observed - density.n_model, 1))
-    v = np.asarray(noise_start(residual, scale), dtype=float)
+    _, v = profile.white_guess(noise_start)
     lanes = 1 + len(correlated)
     u_positive, ok = _best_positive(profile, v, None)
     solution, _ = marginal_mode(profile.at(u_positive), v, correlated, lanes=lanes)

@@ -19,7 +19,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyroid.errors import GyroidInputError
-from gyroid.inference._starts import grid_points, start_grid
+from gyroid.inference._starts import best_least_squares, grid_points, start_grid
 from gyroid.io._logs import BenchLog
 from gyroid.models._derived import RATE_POLY_DEGREE, RATE_WINDOW_S, temperature_rate_deg_c_per_h
 from gyroid.models._design import with_rows
@@ -74,22 +74,21 @@ def grid_least_squares(model: DriftModel, inputs, y: np.ndarray,
     its real coefficients at each point of the start grid of :mod:`gyroid.inference.
     _starts`; the best point's residual sum of squares and parameters (natural units;
     None where no point gives finite columns)."""
-    best: tuple[float, np.ndarray | None] = (math.inf, None)
+    points = list(grid_points(start_grid(model.parameters, inputs)))
+    w = np.ones_like(y) if weights is None else weights
+
+    def stacks():
+        for point in points:
+            offset, design = (np.asarray(a) for a in _columns(model, inputs, jnp.asarray(point)))
+            yield np.column_stack([y - offset * w, design * w[:, None]])
+
+    index, rss, coefficients, _ = best_least_squares(stacks())
+    if coefficients is None:
+        return rss, None
     positive = np.array([p.positive for p in model.parameters], dtype=bool)
-    for point in grid_points(start_grid(model.parameters, inputs)):
-        offset, design = (np.asarray(a) for a in _columns(model, inputs, jnp.asarray(point)))
-        target = y - (offset if weights is None else offset * weights)
-        if weights is not None:
-            design = design * weights[:, None]
-        if not (np.all(np.isfinite(design)) and np.all(np.isfinite(target))):
-            continue
-        coefficients, *_ = np.linalg.lstsq(design, target, rcond=None)
-        rss = float(np.sum((target - design @ coefficients) ** 2))
-        if rss < best[0]:
-            theta = np.empty(positive.size)
-            theta[~positive], theta[positive] = coefficients, np.exp(point)
-            best = (rss, theta)
-    return best
+    theta = np.empty(positive.size)
+    theta[~positive], theta[positive] = coefficients, np.exp(points[index])
+    return rss, theta
 
 
 def choose_rate_window(log: BenchLog, model: DriftModel, *, t0_C: float,

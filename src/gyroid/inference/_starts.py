@@ -14,16 +14,18 @@ grid, and refines the best points locally:
   two positive parameters per model);
 * real parameters start at zero (the profile solves them exactly).
 
-:func:`gyroid.inference._point.point_estimate` (optimistix's Levenberg-Marquardt on the
-posterior, for every bench problem, the discrepancy search's candidates included) starts
-here.
+:func:`gyroid.inference._point.point_estimate` starts here (under white noise,
+Levenberg-Marquardt from the best points; under correlated noise, the profile of
+:mod:`gyroid.inference._point_profiled`, the discrepancy search's candidates included), as
+does the dT/dt window's least squares of a model with positive parameters
+(:mod:`gyroid.inference._rate_window`); :func:`best_least_squares` compares the points.
 """
 
 from __future__ import annotations
 
 import itertools
 import math
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 
 import numpy as np
 
@@ -51,3 +53,22 @@ def grid_points(grid: list[np.ndarray]) -> Iterator[np.ndarray]:
     (one empty vector for a model without positive parameters)."""
     for combo in itertools.product(*grid):
         yield np.asarray(combo, dtype=float)
+
+
+def best_least_squares(stacks: Iterable[np.ndarray]
+                       ) -> tuple[int, float, np.ndarray | None, np.ndarray | None]:
+    """Of candidates given as column stacks ``[target, design...]`` (n x (1 + r) each: a
+    grid point's model columns), the one whose least squares fits best: its index, residual
+    sum of squares, coefficients and residual (-1, inf, None, None where no stack is
+    finite)."""
+    best: tuple[int, float, np.ndarray | None, np.ndarray | None] = (-1, math.inf, None, None)
+    for index, stack in enumerate(stacks):
+        if not np.all(np.isfinite(stack)):
+            continue
+        target, design = stack[:, 0], stack[:, 1:]
+        coefficients, *_ = np.linalg.lstsq(design, target, rcond=None)
+        residual = target - design @ coefficients
+        rss = float(residual @ residual)
+        if rss < best[1]:
+            best = (index, rss, coefficients, residual)
+    return best
