@@ -116,12 +116,16 @@ def ieee_innovations(
     whose filter needs no diffuse start)."""
     variance = bias_instability**2 * flicker_unit_var
     diffusion = (walk / 60.0) ** 2
-    phi, c, qxx, qmm, qxm = block_transitions(span_s, gap_s, flicker_tau_s, variance,
-                                              diffusion)
-    r = white_var + jnp.sum(qmm, axis=1)
-    update = jnp.ones_like(span_s) if update is None else update
+    # the system per unit variance and diffusion, the same for every draw of the levels;
+    # each state's new noise is its unit's times its level's scale (below), applied in the
+    # filter's step: arrays of (blocks, states) per draw were most of its memory traffic
+    phi, c, qxx, qmm, qxm = block_transitions(span_s, gap_s, flicker_tau_s, 1.0, 1.0)
     j = flicker_tau_s.size
+    r = white_var + variance * jnp.sum(qmm[:, :j], axis=1) + diffusion * qmm[:, j]
+    update = jnp.ones_like(span_s) if update is None else update
     start_var = jnp.concatenate([jnp.full((j,), variance), jnp.zeros(1)])
+    scale = jnp.concatenate([jnp.full((j,), variance), jnp.full((1,), diffusion)])
+    link, q_link = None, None  # the running mean's transition entry and state noise
     if centred:
         # the walk's running weighted mean over the log: each block's share of it times
         # the walk's block mean (module docstring)
@@ -131,32 +135,33 @@ def ieee_innovations(
         qxx = jnp.concatenate([qxx, (weight**2 * qmm[:, j])[:, None]], axis=1)
         qxm = jnp.concatenate([qxm, (weight * qmm[:, j])[:, None]], axis=1)
         start_var = jnp.concatenate([start_var, jnp.zeros(1)])
-    q = jax.vmap(jnp.diag)(qxx)
+        scale = jnp.concatenate([scale, jnp.full((1,), diffusion)])
+        link, q_link = weight, weight * qxm[:, j]
     start = jnp.diag(start_var)
-    link = None  # the transition's one entry off its diagonal: the running mean's
-    if centred:
-        a = j + 1
-        link = weight
-        q = q.at[:, a, j].set(weight * qxm[:, j]).at[:, j, a].set(weight * qxm[:, j])
-    block = None
+    block, q_block = None, None
     if rate_error is not None:
-        phi, q, c, qxm, start = _with_process(phi, q, c, qxm, start, rate_error)
-        block = rate_error.transition
+        phi, qxx, c, qxm, start = _with_process(phi, qxx, c, qxm, start, rate_error)
+        block, q_block = rate_error.transition, rate_error.state_noise
+        scale = jnp.concatenate([scale, jnp.ones(2)])  # the rate error's own noise
         r = r + rate_error.mean_noise
     transition = (phi, link, block)
+    # the new state noise as its parts: a diagonal, the running mean's entry (both per unit
+    # level), the rate error's 2 x 2 block (which no level changes)
+    q = (qxx, q_link, q_block)
     if not centred:
-        return _anchored(observed, transition, c, q, qxm, r, update, start)
-    return _centred(observed, transition, c, q, qxm, r, update, start, j)
+        return _anchored(observed, transition, c, q, qxm, r, update, start, scale)
+    return _centred(observed, transition, c, q, qxm, r, update, start, j, scale)
 
 
-def _with_process(phi, q, c, qxm, start, process: RateErrorProcess):
+def _with_process(phi, qxx, c, qxm, start, process: RateErrorProcess):
     """The block filter's system with the rate error's two states appended (their
-    transition, a 2 x 2 block, is applied apart: :func:`_transit`)."""
+    transition and state noise, 2 x 2 blocks, are applied apart: :func:`_transit`,
+    :func:`_plus_noise`)."""
     n, s = c.shape
     k = s + process.stationary.shape[0]
-    grown = jnp.zeros((n, k, k)).at[:, :s, :s].set(q).at[:, s:, s:].set(process.state_noise)
     start = jnp.zeros((k, k)).at[:s, :s].set(start).at[s:, s:].set(process.stationary)
-    return (jnp.concatenate([phi, jnp.zeros((n, k - s))], axis=1), grown,
+    return (jnp.concatenate([phi, jnp.zeros((n, k - s))], axis=1),
+            jnp.concatenate([qxx, jnp.zeros((n, k - s))], axis=1),
             jnp.concatenate([c, process.to_mean], axis=1),
             jnp.concatenate([qxm, process.cross_noise], axis=1), start)
 
@@ -175,7 +180,20 @@ def _transit(transition, m, j):
     return out
 
 
-def _centred(observed, transition, c, q, qxm, r, update, start_cov, j):
+def _plus_noise(cov, noise, scale, j):
+    """``cov`` plus a block's new state noise given as its parts (:func:`ieee_innovations`):
+    the diagonal and the running mean's covariance with the walk (states ``j + 1`` and
+    ``j``), per unit level, times each state's ``scale``; the rate error's 2 x 2 block."""
+    diag, link, block = noise
+    out = cov + jnp.diag(scale * diag)
+    if link is not None:
+        out = out.at[j + 1, j].add(scale[j] * link).at[j, j + 1].add(scale[j] * link)
+    if block is not None:
+        out = out.at[-2:, -2:].add(block)
+    return out
+
+
+def _centred(observed, transition, c, q, qxm, r, update, start_cov, j, scale):
     """The block filter with the walk (state ``j``) diffuse at the start and its running
     mean (state ``j + 1``) observed as zero at the end (module docstring)."""
     a = j + 1
@@ -187,8 +205,8 @@ def _centred(observed, transition, c, q, qxm, r, update, start_cov, j):
         y, f_k, c_k, q_k, qxm_k, r_k, u_k = row
         pc = cov @ c_k
         s_mm = c_k @ pc + r_k
-        s_xm = _transit(f_k, pc, j) + qxm_k
-        s_xx = _transit(f_k, _transit(f_k, cov, j).T, j) + q_k
+        s_xm = _transit(f_k, pc, j) + scale * qxm_k
+        s_xx = _plus_noise(_transit(f_k, _transit(f_k, cov, j).T, j), q_k, scale, j)
         innovation = y - jnp.tensordot(c_k, mean, axes=1)
         predicted = _transit(f_k, mean, j)
         d_next = _transit(f_k, d, j)  # the level's coefficients in the predicted states
@@ -214,7 +232,7 @@ def _centred(observed, transition, c, q, qxm, r, update, start_cov, j):
     return innovation, total
 
 
-def _anchored(observed, transition, c, q, qxm, r, update, start_cov):
+def _anchored(observed, transition, c, q, qxm, r, update, start_cov, scale):
     """The block filter with the walk from zero at the first block (``centred=False``)."""
     n_states = c.shape[1]
 
@@ -223,8 +241,8 @@ def _anchored(observed, transition, c, q, qxm, r, update, start_cov):
         y, f_k, c_k, q_k, qxm_k, r_k, u_k = row
         pc = cov @ c_k
         s_mm = c_k @ pc + r_k
-        s_xm = _transit(f_k, pc, -1) + qxm_k
-        s_xx = _transit(f_k, _transit(f_k, cov, -1).T, -1) + q_k
+        s_xm = _transit(f_k, pc, -1) + scale * qxm_k
+        s_xx = _plus_noise(_transit(f_k, _transit(f_k, cov, -1).T, -1), q_k, scale, -1)
         innovation = y - jnp.tensordot(c_k, mean, axes=1)
         gain = u_k * s_xm / s_mm
         mean = _transit(f_k, mean, -1) + jnp.tensordot(gain, innovation, axes=0)
