@@ -72,7 +72,7 @@ MAX_PARETO_K = 0.7
 #: Chains the kept draws are dealt into (for r_hat; they are independent draws).
 _CHAINS = 4
 #: Marginal log-posteriors evaluated this many at a time.
-_BATCH = 250
+_BATCH = 1000
 #: Kernels of an adapted stage's proposal.
 KERNELS = 200
 

@@ -216,9 +216,11 @@ def _centred(observed, transition, c, q, qxm, r, update, start_cov, j, scale):
         ordinary = (1.0 - pending) * u_k
         gain = ordinary * s_xm / s_mm + reveal * d_next
         mean = predicted + jnp.tensordot(gain, innovation, axes=0)
-        revealed = (s_xx + s_mm * jnp.outer(d_next, d_next) - jnp.outer(d_next, s_xm)
-                    - jnp.outer(s_xm, d_next))
-        cov = jnp.where(reveal > 0, revealed, s_xx - ordinary * jnp.outer(s_xm, s_xm) / s_mm)
+        cov = jax.lax.cond(
+            reveal > 0,
+            lambda: (s_xx + s_mm * jnp.outer(d_next, d_next) - jnp.outer(d_next, s_xm)
+                     - jnp.outer(s_xm, d_next)),
+            lambda: s_xx - ordinary * jnp.outer(s_xm, s_xm) / s_mm)
         d = (1.0 - reveal) * d_next
         return (mean, cov, d, pending * (1.0 - u_k)), (innovation, s_mm)
 
