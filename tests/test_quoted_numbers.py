@@ -577,13 +577,6 @@ def test_the_flicker_and_walk_prior_study():
             f"seed 25's w1 still lay {abs(worst['z']['w1']):.1f} sd from its truth")
 
 
-def test_the_default_sampler_benchmark():
-    """benchmarks/results_default_sampler.json: the default fit against emcee."""
-    result = json.loads((ROOT / "benchmarks" / "results_default_sampler.json").read_text())
-    _quoted(f"{result['importance']['median_seconds']:.2f} s a fit, against "
-            f"{result['emcee']['median_seconds']:.2f} s with emcee in the same run")
-
-
 def test_small_logs_under_the_default_noise():
     """benchmarks/results_scaling_small_ieee.json: gyroid fit and compensate against the
     bare scripts, the default fit IEEE 952 noise."""
