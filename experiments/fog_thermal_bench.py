@@ -43,6 +43,12 @@ coverage of a model with a time constant under the default correlated noise, who
 the profiled mode-finder finds (the time constant profiled, the coefficients integrated
 out) and whose posterior the sampler draws.
 
+``--flicker markov`` simulates the flicker as gyroid's noise model writes it (six
+Gauss-Markov processes, correlation times from a quarter of the fit's 36 s blocks to four
+times the log's length, :func:`_common.markov_flicker`) instead of by spectral shaping over
+twice the log (whose flicker has no power below 1/(20 h) and none of the model's slowest
+process): whether a miss is the realisation or the difference between the two flickers.
+
 ``--white-only`` drops the flicker and the walk (white noise and the thermometer's only):
 what the default costs where there is nothing low-frequency to carry (the posterior sds
 beside ``--noise white``'s on the same logs). ``--workers 2`` runs two processes.
@@ -56,7 +62,7 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
-from _common import flicker_noise, results_dir, save_run
+from _common import flicker_noise, markov_flicker, results_dir, save_run
 
 TRUTH = {"w0": 1.197, "w1": -0.108, "w2": 0.004, "wD": 1.997}
 T0_C = 21.0
@@ -88,10 +94,12 @@ def temperature_profile(profile: str, time_s: np.ndarray) -> tuple[np.ndarray, n
     return temperature, rate
 
 
-def fog_log(seed: int, profile: str, white_only: bool = False, warmup: float | None = None
-            ) -> dict[str, np.ndarray]:
+def fog_log(seed: int, profile: str, white_only: bool = False, warmup: float | None = None,
+            flicker: str = "spectral") -> dict[str, np.ndarray]:
     """One bench log's columns (contract section 1), with a start-up transient of
-    ``warmup`` deg/h (:data:`WARMUP`'s time constant) if given."""
+    ``warmup`` deg/h (:data:`WARMUP`'s time constant) if given; ``flicker``: "spectral"
+    (:func:`_common.flicker_noise`) or "markov" (:func:`_common.markov_flicker`, the
+    model's own construction for this log: 1000 block means of 36 s)."""
     rng = np.random.default_rng([seed, PROFILES.index(profile), 42])
     dt = 1.0 / RATE_HZ
     n = int(HOURS * 3600 * RATE_HZ)
@@ -104,7 +112,11 @@ def fog_log(seed: int, profile: str, white_only: bool = False, warmup: float | N
     noise = rng.normal(0.0, 60.0 * ARW / math.sqrt(dt), n)
     walk = np.zeros(n)
     if not white_only:
-        noise += flicker_noise(rng, n, dt, B)
+        if flicker == "markov":
+            block_s = HOURS * 3600.0 / 1000.0
+            noise += markov_flicker(rng, n, dt, B, block_s / 4.0, 4.0 * HOURS * 3600.0)
+        else:
+            noise += flicker_noise(rng, n, dt, B)
         walk = np.cumsum(rng.normal(0.0, K / 60.0 * math.sqrt(dt), n))
     # w0's truth is the bias over the log: a random walk has no level of its own, the
     # flicker (stationary) its long-run mean, zero
@@ -139,7 +151,7 @@ def measured_noise_priors(seed: int, hours: float) -> tuple[dict, dict]:
 
 def one(seed: int, profile: str, noise: str, white_only: bool,
         flicker_walk_median: float | None = None, static_hours: float | None = None,
-        warmup: float | None = None) -> dict:
+        warmup: float | None = None, flicker: str = "spectral") -> dict:
     import gyroid
     from gyroid.inference import Emcee, Importance, fit_log
     from gyroid.io import BenchLog
@@ -147,7 +159,7 @@ def one(seed: int, profile: str, noise: str, white_only: bool,
 
     gyroid.configure()
     started = time.time()
-    columns = fog_log(seed, profile, white_only, warmup)
+    columns = fog_log(seed, profile, white_only, warmup, flicker)
     truth = dict(TRUTH, w0=columns.pop("w0_over_the_log"),
                  **(dict(WARMUP, w_warmup=warmup) if warmup else {}))
     terms = "thermal,warmup" if warmup else "thermal"
@@ -250,11 +262,13 @@ def main() -> None:
                         default=None, metavar="DEG_H",
                         help="add a start-up transient of this size (default 0.05 deg/h) "
                              "and fit thermal,warmup")
+    parser.add_argument("--flicker", choices=("spectral", "markov"), default="spectral",
+                        help="the flicker's simulation (module docstring)")
     parser.add_argument("--results", default="fog_thermal_bench")
     args = parser.parse_args()
     started = time.time()
     jobs = [(args.seed + k, profile, args.noise, args.white_only, args.flicker_walk_median,
-             args.static_hours, args.warmup)
+             args.static_hours, args.warmup, args.flicker)
             for profile in args.profiles.split(",") for k in range(args.datasets)]
     with ProcessPoolExecutor(args.workers) as pool:
         runs = []
@@ -268,7 +282,8 @@ def main() -> None:
                      "noise": args.noise, "datasets": args.datasets,
                      "flicker_walk_median": args.flicker_walk_median,
                      "static_hours": args.static_hours,
-                     "warmup": dict(WARMUP, w_warmup=args.warmup) if args.warmup else None},
+                     "warmup": dict(WARMUP, w_warmup=args.warmup) if args.warmup else None,
+                     "flicker": args.flicker},
              results={"summary": summarise(runs), "runs": runs}, started=started)
 
 

@@ -636,6 +636,41 @@ def test_the_fog_benches_with_a_measured_noise():
     assert summary["exit_0_beyond_3_3_sd"] == 1
 
 
+def test_the_fog_benches_with_the_models_own_flicker():
+    """fog_thermal_bench.py --flicker markov: the misses follow the noise levels' inference,
+    not the simulator's flicker."""
+    runs = _results("fog_thermal_bench_markov")["runs"]
+    smooth = _results("fog_thermal_bench_markov")["summary"]["smooth"]
+    z_sd, known = smooth["z_sd"], smooth["z_sd_known_noise"]
+    inside = smooth["inside_95"]
+    far = {r["seed"]: r for r in runs
+           if r["trustworthy"] and any(abs(v) > 3.3 for v in r["z"].values())}
+    assert sorted(far) == [3, 13] and smooth["exit_0_beyond_3_3_sd"] == 2
+
+    def ratio(seed, name):
+        return far[seed]["noise_median"][name] / {"B_deg_h": 0.01, "K_deg_h_sqrt_h": 0.005}[name]
+
+    _quoted(f"calibrated (z-scores' sd {min(known.values()):.2f}-{max(known.values()):.2f})",
+            f"held the truths {inside['w0']}, {inside['w1']}, {inside['w2']} and "
+            f"{inside['wD']} times of 30 (z-scores' sd {min(z_sd.values()):.2f}-"
+            f"{max(z_sd.values()):.2f})",
+            f"seed 3 (w1 {abs(far[3]['z']['w1']):.1f} sd) and seed 13 (wD "
+            f"{abs(far[13]['z']['wD']):.1f} sd, {abs(far[13]['z_known_noise']['wD']):.1f} with "
+            "the levels pinned)",
+            f"lay at {ratio(3, 'B_deg_h'):.2f} and {ratio(3, 'K_deg_h_sqrt_h'):.2f}, and "
+            f"{ratio(13, 'B_deg_h'):.2f} and {ratio(13, 'K_deg_h_sqrt_h'):.2f}, of their")
+    warm = _results("fog_thermal_bench_warmup_strong_markov")
+    summary = warm["summary"]["smooth"]
+    far = {r["seed"]: r["z"] for r in warm["runs"]
+           if r["trustworthy"] and any(abs(v) > 3.3 for v in r["z"].values())}
+    assert sorted(far) == [0, 13]
+    _quoted(f"{summary['fits'] - summary['exit_3']} of 30 were trusted, the intervals held "
+            f"the truths {min(summary['inside_95'].values())} to "
+            f"{max(summary['inside_95'].values())} times of 30, tau's z-scores' sd was "
+            f"{summary['z_sd']['tau_warmup_min']:.2f}",
+            f"seed 0 (w1 {abs(far[0]['w1']):.1f} sd) and seed 13 (wD {abs(far[13]['wD']):.1f} sd)")
+
+
 def test_the_fog_benches_with_a_warm_up():
     """experiments/results/fog_thermal_bench_warmup(_strong): thermal,warmup under the
     default noise, the time constant importance-sampled."""
