@@ -47,17 +47,12 @@ def fitted_thermal(seed: int):
     return fit.fitted_drift()
 
 
-def markov_flicker(rng: np.random.Generator, n: int, dt: float, b: float, shortest_s: float,
-                   longest_s: float, processes: int = 6) -> np.ndarray:
-    """Flicker of bias instability ``b`` (deg/h) as gyroid's noise model writes it (its
-    docstring's construction, written here): ``processes`` first-order Gauss-Markov
-    processes, correlation times evenly spaced in log from ``shortest_s`` to ``longest_s``,
-    each of variance ``b^2 ln(r) / pi`` (r the spacing ratio), each started stationary.
-    Aperiodic, and with the model's power below the log's own frequencies."""
+def gauss_markov_sum(rng: np.random.Generator, n: int, dt: float, taus, variance: float
+                     ) -> np.ndarray:
+    """The sum of first-order Gauss-Markov processes of correlation times ``taus`` (s), each
+    of ``variance`` and started stationary, at ``n`` steps of ``dt`` (s)."""
     from scipy import signal
 
-    taus = np.geomspace(shortest_s, longest_s, processes)
-    variance = b**2 * math.log(taus[1] / taus[0]) / math.pi
     out = np.zeros(n)
     for tau in taus:
         phi = math.exp(-dt / tau)
@@ -65,6 +60,17 @@ def markov_flicker(rng: np.random.Generator, n: int, dt: float, b: float, shorte
         steps = math.sqrt(variance * (1.0 - phi**2)) * rng.standard_normal(n)
         out += signal.lfilter([1.0], [1.0, -phi], steps, zi=[phi * start])[0]
     return out
+
+
+def markov_flicker(rng: np.random.Generator, n: int, dt: float, b: float, shortest_s: float,
+                   longest_s: float, processes: int = 6) -> np.ndarray:
+    """Flicker of bias instability ``b`` (deg/h) as gyroid's noise model writes it (its
+    docstring's construction, written here): ``processes`` Gauss-Markov processes,
+    correlation times evenly spaced in log from ``shortest_s`` to ``longest_s``, each of
+    variance ``b^2 ln(r) / pi`` (r the spacing ratio). Aperiodic, and with the model's
+    power below the log's own frequencies."""
+    taus = np.geomspace(shortest_s, longest_s, processes)
+    return gauss_markov_sum(rng, n, dt, taus, b**2 * math.log(taus[1] / taus[0]) / math.pi)
 
 
 def flicker_noise(rng: np.random.Generator, n: int, dt: float, b: float) -> np.ndarray:

@@ -30,8 +30,8 @@ import time
 from concurrent.futures import ProcessPoolExecutor
 
 import numpy as np
-from _common import results_dir, save_run
-from scipy import signal, stats
+from _common import gauss_markov_sum, results_dir, save_run
+from scipy import stats
 
 ROWS, DT = 14400, 1.0
 TERMS = "bias,temperature"
@@ -65,12 +65,8 @@ def simulate(truth: dict[str, float], flicker_tau_s, flicker_unit_var: float,
     temperature = 21.0 + 15.0 * np.sin(2.0 * math.pi * time_s / (ROWS * DT))
     n, dt = ROWS * substeps, DT / substeps
     noise = 60.0 * truth["N_deg_sqrt_h"] / math.sqrt(dt) * rng.standard_normal(n)
-    variance = truth["B_deg_h"] ** 2 * flicker_unit_var
-    for tau in flicker_tau_s:
-        phi = math.exp(-dt / tau)
-        start = math.sqrt(variance) * rng.standard_normal()
-        steps = math.sqrt(variance * (1.0 - phi**2)) * rng.standard_normal(n)
-        noise = noise + signal.lfilter([1.0], [1.0, -phi], steps, zi=[phi * start])[0]
+    noise = noise + gauss_markov_sum(rng, n, dt, flicker_tau_s,
+                                     truth["B_deg_h"] ** 2 * flicker_unit_var)
     walk = np.cumsum(truth["K_deg_h_sqrt_h"] / 60.0 * math.sqrt(dt) * rng.standard_normal(n))
     noise = (noise + walk - walk.mean()).reshape(ROWS, substeps).mean(axis=1)
     drift = truth["w0"] + truth["w1"] * (temperature - 21.0) + noise
