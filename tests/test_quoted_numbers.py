@@ -659,6 +659,15 @@ def test_the_fog_benches_with_the_models_own_flicker():
             "the levels pinned)",
             f"lay at {ratio(3, 'B_deg_h'):.2f} and {ratio(3, 'K_deg_h_sqrt_h'):.2f}, and "
             f"{ratio(13, 'B_deg_h'):.2f} and {ratio(13, 'K_deg_h_sqrt_h'):.2f}, of their")
+    higher = _results("fog_thermal_bench_markov_prior_hundredth")
+    z_sd = higher["summary"]["smooth"]["z_sd"]
+    worst = {r["seed"]: r["z"] for r in higher["runs"]
+             if r["trustworthy"] and any(abs(v) > 3.3 for v in r["z"].values())}
+    assert sorted(worst) == [13]
+    seed3 = next(r["z"] for r in higher["runs"] if r["seed"] == 3)
+    _quoted(f"the z-scores' sd fell to {min(z_sd.values()):.2f}-{max(z_sd.values()):.2f} and "
+            f"seed 3's w1 lay {abs(seed3['w1']):.1f} sd away; seed 13's wD still lay "
+            f"{abs(worst[13]['wD']):.1f} sd away")
     warm = _results("fog_thermal_bench_warmup_strong_markov")
     summary = warm["summary"]["smooth"]
     far = {r["seed"]: r["z"] for r in warm["runs"]
