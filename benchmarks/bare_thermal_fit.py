@@ -52,10 +52,11 @@ def rate_c_per_h(time_s: np.ndarray, temperature: np.ndarray) -> np.ndarray:
     return np.interp(time_s, centres, slope) * 3600.0
 
 
-def main() -> None:
+def fit(path: str) -> dict:
+    """The posterior means of one log and the seconds each stage took."""
     timings = {}
     start = time.perf_counter()
-    data = read(sys.argv[1])
+    data = read(path)
     timings["read_s"] = time.perf_counter() - start
 
     start = time.perf_counter()
@@ -83,8 +84,12 @@ def main() -> None:
     chain = sampler.get_chain(discard=1000, flat=True)
     timings["sample_s"] = time.perf_counter() - start
     names = ("w0", "w1", "w2", "wD")
-    print(json.dumps({"mean": dict(zip(names, chain[:, :4].mean(0).tolist(), strict=True)),
-                      "sigma_deg_h": float(np.exp(chain[:, 4]).mean()), **timings}))
+    return {"mean": dict(zip(names, chain[:, :4].mean(0).tolist(), strict=True)),
+            "sigma_deg_h": float(np.exp(chain[:, 4]).mean()), **timings}
+
+
+def main() -> None:
+    print(json.dumps(fit(sys.argv[1])))
 
 
 if __name__ == "__main__":

@@ -577,6 +577,19 @@ def test_the_flicker_and_walk_prior_study():
             f"seed 25's w1 still lay {abs(worst['z']['w1']):.1f} sd from its truth")
 
 
+def test_many_small_logs():
+    """benchmarks/results_batch.json: gyroid batch against the bare loop."""
+    r = json.loads((ROOT / "benchmarks" / "results_batch.json").read_text())
+    default, white, bare = r["gyroid_batch"], r["gyroid_batch_white"], r["bare_loop"]
+    assert default["code"] == white["code"] == bare["code"] == 0
+    assert default["fitted"] == white["fitted"] == r["logs"]
+    _quoted(f"took {default['seconds']:.1f} s with its default noise (IEEE 952; all "
+            f"{default['fitted']} fitted) and {white['seconds']:.1f} s with `--noise white`, "
+            f"against {bare['seconds']:.1f} s",
+            f"{r['gyroid_batch_over_bare']:.1f}x and {r['gyroid_batch_white_over_bare']:.1f}x "
+            "slower")
+
+
 def test_small_logs_under_the_default_noise():
     """benchmarks/results_scaling_small_ieee.json: gyroid fit and compensate against the
     bare scripts, the default fit IEEE 952 noise."""
