@@ -118,7 +118,8 @@ def ieee_innovations(
     diffusion = (walk / 60.0) ** 2
     # the system per unit variance and diffusion, the same for every draw of the levels;
     # each state's new noise is its unit's times its level's scale (below), applied in the
-    # filter's step: arrays of (blocks, states) per draw were most of its memory traffic
+    # filter's step: arrays per block and draw (a dense states x states noise among them)
+    # had been most of its memory traffic
     phi, c, qxx, qmm, qxm = block_transitions(span_s, gap_s, flicker_tau_s, 1.0, 1.0)
     j = flicker_tau_s.size
     r = white_var + variance * jnp.sum(qmm[:, :j], axis=1) + diffusion * qmm[:, j]
