@@ -590,6 +590,17 @@ def test_many_small_logs():
             "slower")
 
 
+def test_one_long_axis_searched():
+    """benchmarks/results_discrepancy_long.json: the discrepancy search on 90 000 rows."""
+    r = json.loads((ROOT / "benchmarks" / "results_discrepancy_long.json").read_text())
+    plain, hidden = r["cases"]["plain"], r["cases"]["hidden_warmup"]
+    assert plain["rows"] == hidden["rows"] == 90000
+    assert plain["code"] == hidden["code"] == 0 and plain["added"] == []
+    assert hidden["added"] == ["warmup"]
+    _quoted(f"thermal` in a fresh process: {plain['seconds']:.1f} s with nothing to find",
+            f"{hidden['seconds']:.1f} s with a hidden start-up transient")
+
+
 def test_small_logs_under_the_default_noise():
     """benchmarks/results_scaling_small_ieee.json: gyroid fit and compensate against the
     bare scripts, the default fit IEEE 952 noise."""
