@@ -7,7 +7,8 @@ ratio (baseline time / gyroid time; below 1 gyroid is slower). Every baseline is
 competent researcher writes in a day: vectorised NumPy, sufficient statistics where they
 apply, the same sampler and move, data passed as arguments. End-to-end cost against the
 length of the log is benchmarks/scaling.py. Sections: likelihood_throughput, posterior_time,
-point_fit, roll_monte_carlo, cold_start (compilation, in a fresh process), demo.
+point_fit, roll_monte_carlo, cold_start (compilation, in a fresh process), demo, help (the
+CLI's --help in a fresh process).
 """
 
 from __future__ import annotations
@@ -407,6 +408,21 @@ def bench_demo():
     return out
 
 
+def bench_help():
+    """``gyroid --help`` and ``gyroid fit --help`` in fresh processes: seconds, the median of
+    five runs each (every run kept)."""
+    out = {}
+    for label, command in (("gyroid", ["--help"]), ("gyroid_fit", ["fit", "--help"])):
+        runs = []
+        for _ in range(5):
+            started = time.perf_counter()
+            subprocess.run([sys.executable, "-m", "gyroid", *command], check=True,
+                           capture_output=True)
+            runs.append(time.perf_counter() - started)
+        out[label] = {"seconds": sorted(runs)[2], "seconds_all": runs}
+    return out
+
+
 def bench_problems(seed: int):
     """The 6 h log's problem (paper A's FOG priors: the registry's fixed scales, which the
     NumPy baseline writes out; the default priors are scaled to each log), its flat-prior
@@ -442,6 +458,7 @@ def main() -> None:
         ("roll_monte_carlo", lambda: bench_roll(10000, args.quick)),
         ("cold_start", bench_cold_start),
         ("demo", bench_demo),
+        ("help", bench_help),
     ):
         if args.jobs is not None and name not in args.jobs:
             continue

@@ -601,6 +601,13 @@ def test_one_long_axis_searched():
             f"{hidden['seconds']:.1f} s with a hidden start-up transient")
 
 
+def test_help_times():
+    """benchmarks/results_help.json: --help in a fresh process."""
+    r = json.loads((ROOT / "benchmarks" / "results_help.json").read_text())["help"]
+    _quoted(f"`gyroid --help` {r['gyroid']['seconds']:.2f} s and `gyroid fit --help` "
+            f"{r['gyroid_fit']['seconds']:.2f} s")
+
+
 def test_small_logs_under_the_default_noise():
     """benchmarks/results_scaling_small_ieee.json: gyroid fit and compensate against the
     bare scripts, the default fit IEEE 952 noise."""
