@@ -601,6 +601,18 @@ def test_one_long_axis_searched():
             f"{hidden['seconds']:.1f} s with a hidden start-up transient")
 
 
+def test_a_fit_beside_busy_processes():
+    """benchmarks/results_under_load.json: a warm fit quiet and loaded."""
+    r = json.loads((ROOT / "benchmarks" / "results_under_load.json").read_text())
+    quiet, loaded = r["quiet"], r["loaded"]
+    _quoted(f"quiet, {quiet['gyroid']['seconds']:.2f} s against {quiet['bare']['seconds']:.2f} s "
+            f"({quiet['ratio']:.1f}x)",
+            f"{loaded['gyroid']['seconds']:.2f} s against {loaded['bare']['seconds']:.2f} s "
+            f"({loaded['ratio']:.1f}x)",
+            f"({loaded['gyroid']['seconds'] / quiet['gyroid']['seconds']:.1f}x against "
+            f"{loaded['bare']['seconds'] / quiet['bare']['seconds']:.1f}x)")
+
+
 def test_help_times():
     """benchmarks/results_help.json: --help in a fresh process."""
     r = json.loads((ROOT / "benchmarks" / "results_help.json").read_text())["help"]
