@@ -19,6 +19,7 @@ import tempfile
 from datetime import date
 from pathlib import Path
 
+from _report import report
 from scaling import measure
 
 _LOOP = """
@@ -71,12 +72,7 @@ def main() -> None:
         out["bare_loop"] = measure(sys.executable, "-c", _LOOP.format(here=here), *paths)
     for key in ("gyroid_batch", "gyroid_batch_white"):
         out[f"{key}_over_bare"] = out[key]["seconds"] / out["bare_loop"]["seconds"]
-    text = json.dumps(out, indent=2)
-    print(text)
-    if args.json:
-        from gyroid.io import atomic_write_text
-
-        atomic_write_text(Path(args.json), text + "\n")
+    report(out, args.json)
 
 
 if __name__ == "__main__":

@@ -9,16 +9,14 @@ posterior means and sds each gives.
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from datetime import date
-from pathlib import Path
 
 import numpy as np
+from _report import report
 
 import gyroid
 from gyroid.inference import Emcee, Importance, fit_log
-from gyroid.io._outputs import atomic_write_text
 from gyroid.simulation import simulate_thermal_bench
 
 
@@ -45,10 +43,7 @@ def main() -> None:
                      "posterior": {k: {"mean": summary[k]["mean"], "sd": summary[k]["sd"]}
                                    for k in ("w0", "w1", "w2", "wD")}}
     out["ratio"] = out["emcee"]["median_seconds"] / out["importance"]["median_seconds"]
-    text = json.dumps(out, indent=2)
-    print(text)
-    if args.json:
-        atomic_write_text(Path(args.json), text + "\n")
+    report(out, args.json)
 
 
 if __name__ == "__main__":

@@ -15,6 +15,7 @@ import tempfile
 from datetime import date
 from pathlib import Path
 
+from _report import report
 from scaling import measure
 
 #: The logs searched: a name and the ``gyroid simulate thermal`` effect switched on (or none).
@@ -46,12 +47,7 @@ def main() -> None:
                 "seconds": search["seconds"], "peak_mb": search["peak_mb"],
                 "code": search["code"], "added": found["added"],
                 "trustworthy": found["trustworthy"]}
-    text = json.dumps(out, indent=2)
-    print(text)
-    if args.json:
-        from gyroid.io import atomic_write_text
-
-        atomic_write_text(Path(args.json), text + "\n")
+    report(out, args.json)
 
 
 if __name__ == "__main__":

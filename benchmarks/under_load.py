@@ -10,7 +10,6 @@ share of the machine fall further than the script's?
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import subprocess
 import sys
@@ -20,6 +19,7 @@ from datetime import date
 from pathlib import Path
 
 import numpy as np
+from _report import report
 from bare_thermal_fit import fit as bare_fit
 
 
@@ -61,12 +61,7 @@ def main() -> None:
                 process.kill()
     for state in ("quiet", "loaded"):
         out[state]["ratio"] = out[state]["gyroid"]["seconds"] / out[state]["bare"]["seconds"]
-    text = json.dumps(out, indent=2)
-    print(text)
-    if args.json:
-        from gyroid.io import atomic_write_text
-
-        atomic_write_text(Path(args.json), text + "\n")
+    report(out, args.json)
 
 
 if __name__ == "__main__":
