@@ -171,15 +171,8 @@ def model_columns(density, u_positive: Float[Array, " q"]) -> Float[Array, "n 1+
     """The drift less the model at zero real coefficients, then the model's derivatives in
     them (exact: every effect is linear in its real coefficients), at positive parameters
     ``u_positive`` (logs): what :func:`collapse` integrates the coefficients out of."""
-    real, positive = split_parameters(density)
-    n_noise = len(density.noise_names)
-
-    def predict(values):
-        u = jnp.zeros(density.n_model).at[real].set(values).at[positive].set(u_positive)
-        return density.predict(jnp.concatenate([u, jnp.zeros(n_noise)]))
-
-    zero = jnp.zeros(real.size)
-    return jnp.column_stack([density.drift - predict(zero), jax.jacfwd(predict)(zero)])
+    offset, design = density.model.columns_at(density.inputs, u_positive)
+    return jnp.column_stack([density.drift - offset, design])
 
 
 _columns_at = eqx.filter_jit(eqx.filter_vmap(model_columns, in_axes=(None, 0)))

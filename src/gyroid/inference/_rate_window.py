@@ -54,18 +54,8 @@ def window_grid(time_s: np.ndarray) -> np.ndarray:
 
 @eqx.filter_jit
 def _columns(model: DriftModel, inputs, u_positive: jax.Array) -> tuple[jax.Array, jax.Array]:
-    """A model linear in its real coefficients given its positive ones (``u_positive``,
-    logs): its prediction at zero real coefficients and its derivatives in them (exact)."""
-    positive = np.array([p.positive for p in model.parameters], dtype=bool)
-    real = np.flatnonzero(~positive)
-
-    def predict(values):
-        theta = (jnp.zeros(positive.size).at[real].set(values)
-                 .at[np.flatnonzero(positive)].set(jnp.exp(u_positive)))
-        return model.predict(theta, inputs)
-
-    zero = jnp.zeros(real.size)
-    return predict(zero), jax.jacfwd(predict)(zero)
+    """:meth:`~gyroid.models.DriftModel.columns_at`, compiled per model and log shape."""
+    return model.columns_at(inputs, u_positive)
 
 
 def grid_least_squares(model: DriftModel, inputs, y: np.ndarray,

@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Iterator
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
@@ -101,6 +102,22 @@ class DriftModel(eqx.Module):
             nonlinear = [e.name for e in self.effects if not e.linear]
             raise ValueError(f"the model is not linear: {', '.join(nonlinear)}")
         return jnp.concatenate([e.design(inputs) for e in self.effects], axis=1)
+
+    def columns_at(self, inputs: DriftInputs, u_positive: Float[Array, " q"]
+                   ) -> tuple[Float[Array, " n"], Float[Array, "n r"]]:
+        """At positive parameters ``u_positive`` (logs, in parameter order): the prediction
+        at zero real coefficients and its derivatives in them, exact since every effect is
+        linear in its real coefficients (a linear model: zeros and its design)."""
+        positive = np.array([p.positive for p in self.parameters], dtype=bool)
+        real = np.flatnonzero(~positive)
+
+        def predict(values):
+            theta = (jnp.zeros(positive.size).at[real].set(values)
+                     .at[np.flatnonzero(positive)].set(jnp.exp(u_positive)))
+            return self.predict(theta, inputs)
+
+        zero = jnp.zeros(real.size)
+        return predict(zero), jax.jacfwd(predict)(zero)
 
     def design_blocks(self, inputs: DriftInputs, effects: tuple[Effect, ...] | list[Effect]
                       | None = None, rows: int | None = None
