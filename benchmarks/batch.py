@@ -20,7 +20,7 @@ from datetime import date
 from pathlib import Path
 
 from _report import report
-from scaling import measure
+from scaling import make_log, measure
 
 _LOOP = """
 import sys
@@ -29,21 +29,6 @@ from bare_thermal_fit import fit
 for path in sys.argv[1:]:
     fit(path)
 """
-
-
-def make_logs(count: int, rows: int, folder: Path) -> list[Path]:
-    """``count`` thermal logs of ``rows`` rows (paper A's schedule, seeds 1 to count)."""
-    from gyroid.io import write_bench_log
-    from gyroid.simulation import ThermalProtocol, simulate_thermal_bench
-
-    protocol = ThermalProtocol()
-    stretched = protocol.stretched(None, rows / protocol.duration_s)
-    paths = []
-    for seed in range(1, count + 1):
-        path = folder / f"log_{seed:03d}.parquet"
-        write_bench_log(path, simulate_thermal_bench(seed=seed, protocol=stretched).log.columns)
-        paths.append(path)
-    return paths
 
 
 def main() -> None:
@@ -58,7 +43,8 @@ def main() -> None:
                  "workers": args.workers}
     with tempfile.TemporaryDirectory() as tmp:
         folder = Path(tmp)
-        paths = [str(p) for p in make_logs(args.logs, int(args.rows), folder)]
+        paths = [str(make_log(int(args.rows), folder, seed=seed, name=f"log_{seed:03d}"))
+                 for seed in range(1, args.logs + 1)]
         batch = [sys.executable, "-m", "gyroid", "batch", *paths, "--terms", "thermal",
                  "--workers", str(args.workers), "-q"]
         out["gyroid_batch"] = measure(*batch, "--out", str(folder / "default"))

@@ -131,14 +131,16 @@ def measure(*command: str) -> dict:
     return middle
 
 
-def make_log(rows: int, folder: Path) -> Path:
+def make_log(rows: int, folder: Path, seed: int = 1, name: str | None = None) -> Path:
+    """Paper A's thermal schedule sampled fast enough for ``rows`` rows, simulated with
+    ``seed``, as ``folder/NAME.parquet`` (default name: the row count)."""
     from gyroid.io import write_bench_log
     from gyroid.simulation import ThermalProtocol, simulate_thermal_bench
 
     protocol = ThermalProtocol()
     rate_hz = rows / protocol.duration_s
-    sim = simulate_thermal_bench(seed=1, protocol=protocol.stretched(None, rate_hz))
-    path = folder / f"thermal_{rows:.0e}.parquet"
+    sim = simulate_thermal_bench(seed=seed, protocol=protocol.stretched(None, rate_hz))
+    path = folder / f"{name or f'thermal_{rows:.0e}'}.parquet"
     write_bench_log(path, sim.log.columns)
     return path
 
