@@ -9,7 +9,7 @@ step's time) where it has them (:mod:`gyroid.inference._marginal_target`; below,
 levels" stands for all of these). There an ensemble sampler spends most of its time on its own
 correlation: a FOG bench's thermal fit ran 1213 emcee steps x 16 walkers (19 400
 evaluations of the marginal, eight at a time) for some 800 effective draws. Importance
-sampling evaluates its draws hundreds at a time, and its weights say themselves whether it
+sampling evaluates its draws a thousand at a time, and its weights say themselves whether it
 worked: Pareto smoothing's shape ``k`` (Vehtari, Simpson, Gelman, Yao & Gabry 2024,
 "Pareto smoothed importance sampling", JMLR 25(72)) below 0.7 means the weighted draws'
 averages are reliable, and their effective number (``1 / sum w^2`` of the smoothed,
