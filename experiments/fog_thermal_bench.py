@@ -201,7 +201,22 @@ def one(seed: int, profile: str, noise: str, white_only: bool,
                              for i, name in enumerate(fit.problem.names)
                              if name not in truth},
             "static_noise_fit": static,
+            "allowed_noise": _allowed(fit, truth),
             "seconds": seconds}
+
+
+def _allowed(fit, truth: dict) -> dict | None:
+    """What the fit's ``noise_prior_dependence`` check found: whether it warned, each
+    coefficient's sd at the noisiest levels the log allows over its posterior sd, and
+    whether the truth lies in its range over those levels."""
+    allowed = fit.allowed_noise
+    if allowed is None:
+        return None
+    check = {c.name: c for c in fit.checks.checks}["noise_prior_dependence"]
+    return {"warned": not check.passed,
+            "sd_widening": {k: round(v, 3) for k, v in allowed.widening.items()},
+            "inside_range": {k: bool(allowed.ranges[k][0] <= truth[k] <= allowed.ranges[k][1])
+                             for k in allowed.ranges if k in truth}}
 
 
 def _known_noise_sd(runs: list[dict], names: list[str]) -> dict[str, float] | None:
@@ -236,11 +251,30 @@ def summarise(runs: list[dict]) -> dict:
             "inside_95": {k: sum(r["inside_95"][k] for r in mine) for k in names},
             "exit_0_beyond_3_3_sd": sum(any(abs(v) > 3.3 for v in r["z"].values())
                                         for r in passed),
+            **_allowed_summary(mine, passed),
             "noise_used": {m: sum(r["noise_used"] == m for r in mine)
                            for m in sorted({r["noise_used"] for r in mine})},
             "median_seconds": float(np.median([r["seconds"] for r in mine])),
         }
     return out
+
+
+def _allowed_summary(mine: list[dict], passed: list[dict]) -> dict:
+    """The ``noise_prior_dependence`` check over the runs: how many warned, the median
+    widening per coefficient, how often each truth lay in the range over the allowed noise
+    levels, and the trusted fits with a truth beyond 3.3 sd that it did not warn of."""
+    seen = [r for r in mine if r["allowed_noise"] is not None]
+    if not seen:
+        return {}
+    names = list(seen[0]["allowed_noise"]["sd_widening"])
+    return {"noise_prior_dependence_warned": sum(r["allowed_noise"]["warned"] for r in seen),
+            "sd_widening_median": {k: round(float(np.median(
+                [r["allowed_noise"]["sd_widening"][k] for r in seen])), 2) for k in names},
+            "inside_allowed_range": {k: sum(r["allowed_noise"]["inside_range"][k]
+                                            for r in seen) for k in names},
+            "exit_0_beyond_3_3_sd_unwarned": sum(
+                any(abs(v) > 3.3 for v in r["z"].values())
+                and not (r["allowed_noise"] or {}).get("warned", False) for r in passed)}
 
 
 def main() -> None:

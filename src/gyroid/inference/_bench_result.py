@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from gyroid.inference._allowed_noise import AllowedNoise
 from gyroid.inference._batching import problem_batcher
 from gyroid.inference._bench_predictive import bench_predictive
 from gyroid.inference._check_report import Check, CheckReport
@@ -42,6 +43,9 @@ class BenchFit(FitResult):
     checks: CheckReport = field(repr=False)
     #: How the noise model was chosen: asked for by name, or by ``--noise auto`` and why.
     noise_choice: str = ""
+    #: Each coefficient's range over the noise levels the log cannot rule out (None under
+    #: white noise or without a posterior).
+    allowed_noise: AllowedNoise | None = field(default=None, repr=False)
 
     def __repr__(self) -> str:
         verdict = "trustworthy" if self.trustworthy else "NOT trustworthy"
@@ -273,6 +277,8 @@ class BenchFit(FitResult):
             out["posterior"] = {k: post.summary[k] for k in names}
             out["noise"]["posterior"] = {k: post.summary[k] for k in noise_names}
             out["posterior_correlation"] = _correlation(post, problem.names, names)
+            out["over_allowed_noise"] = (None if self.allowed_noise is None
+                                         else self.allowed_noise.to_json())
             out["convergence"]["sampler"] = {
                 "method": post.method,
                 "move": post.move,
@@ -299,11 +305,15 @@ def _describe(prior: Prior) -> str:
     return prior.describe()
 
 
-def bench_checks(problem: AbstractProblem, point: PointEstimate, posterior: Posterior | None
-                 ) -> CheckReport:
-    """Every self-check of a bench fit: the shared ones on its evidence, then those that read
-    only the mode (:func:`bench_point_checks`)."""
-    return fit_checks(problem.evidence(point, posterior)) + bench_point_checks(problem, point)
+def bench_checks(problem: AbstractProblem, point: PointEstimate, posterior: Posterior | None,
+                 allowed: AllowedNoise | None = None) -> CheckReport:
+    """Every self-check of a bench fit: the shared ones on its evidence, those that read
+    only the mode (:func:`bench_point_checks`), and how far its intervals rest on the noise
+    levels' priors (``allowed``, when given)."""
+    report = fit_checks(problem.evidence(point, posterior)) + bench_point_checks(problem, point)
+    if allowed is None:
+        return report
+    return report + CheckReport((allowed.check(problem.noise.units),))
 
 
 def bench_point_checks(problem: AbstractProblem, point: PointEstimate) -> CheckReport:

@@ -1,0 +1,147 @@
+"""How much a bench fit's intervals rest on its noise levels' priors
+(:class:`AllowedNoise`): each coefficient's range over the noise levels the log itself
+cannot rule out.
+
+Under correlated noise a fit integrates the coefficients out exactly at any noise levels
+(:mod:`gyroid.inference._collapsed`): one filter pass gives the levels' marginal likelihood
+and the coefficients' conditional Gaussian. The *allowed* levels are those whose marginal
+likelihood (their weak priors taken out, the defaults' log-sd of 3 that let a level be
+negligible; measured priors and a time constant's kept) is within
+``chi2_d(0.95) / 2`` of the best found, ``d`` the marginal coordinates; a coefficient's
+range is the union of its conditional 95 % intervals over them, and its *widening* the largest
+conditional sd among them over its posterior sd (the check ``noise_prior_dependence`` warns
+from :data:`SAID_FROM`). The levels evaluated are
+the posterior's (at most ``POSTERIOR_LEVELS``) and ``BOX_LEVELS`` drawn uniformly in a box
+reaching ``ABOVE`` log units above the posterior's largest draw of each level with a
+prior, where the likelihood of flicker and a walk ends: the range is the union over those,
+so at most the true union.
+
+Why: a 10 h FOG bench hardly tells flicker of 0.01 deg/h and a walk of 0.005
+deg/h/sqrt(h) from none (their Allan floor stands above the white noise only from about
+0.6 h to 5 h); measured on the issue's benches (`experiments/fog_thermal_bench.py`), the
+likelihood allowed B up to 0.008-0.016 deg/h and K up to 0.02-0.03 deg/h/sqrt(h) alike on
+logs with and without them, and w1's range over those levels was 8-10 posterior sds
+wide on both. The posterior's own interval is then set by the priors of B and K, whose
+medians let them be negligible: right on average over those priors, too narrow for a gyro
+whose flicker and walk sit near the likelihood's edge. No rule reading the log can tell
+the two kinds of log apart there; this says how much the answer rests on the prior, and
+measuring the noise at rest (``gyroid noise``, then ``gyroid fit --noise DIR``) is what
+narrows the range.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+
+from gyroid.inference._batching import in_chunks
+from gyroid.inference._check_report import Check
+
+#: The likelihood region's probability (chi-square with the marginal coordinates' number).
+REGION = 0.95
+#: Posterior draws of the levels evaluated at most, and uniform ones in the box.
+POSTERIOR_LEVELS, BOX_LEVELS = 1000, 1000
+#: How far the box reaches above the posterior's largest draw of a level with a prior, and
+#: beyond the draws of every other coordinate (log units).
+ABOVE, BESIDE = 6.0, 1.0
+#: A noise level's prior this wide (log-sd) or wider is a placeholder, taken out of the
+#: likelihood region; a narrower one (measured: ``gyroid fit --noise DIR``) stays in.
+WEAK_FROM = 2.0
+#: A coefficient's sd at allowed levels over its posterior sd from which the check warns.
+SAID_FROM = 2.0
+_BATCH = 1000
+_Z95 = float(stats.norm.ppf(0.975))
+
+
+@dataclass(frozen=True)
+class AllowedNoise:
+    """The noise levels a log allows and what they do to each coefficient."""
+
+    upper: dict[str, float]  # each noise level's largest allowed value, natural units
+    ranges: dict[str, tuple[float, float]]  # coefficient: union of conditional 95 % CIs
+    #: coefficient: its largest conditional sd over the allowed levels / its posterior sd
+    widening: dict[str, float]
+    at: dict[str, dict[str, float]]  # coefficient: the allowed levels of that largest sd
+    evaluated: int  # noise levels evaluated
+    allowed: int  # of which inside the likelihood region
+
+    @property
+    def widest(self) -> tuple[str, float]:
+        """The coefficient whose sd widens most, and by how much."""
+        name = max(self.widening, key=self.widening.__getitem__)
+        return name, self.widening[name]
+
+    def check(self, units: dict[str, str]) -> Check:
+        """A warning when some coefficient's sd at levels the log allows is
+        :data:`SAID_FROM` times its posterior sd or more: the stated intervals rest on the
+        noise levels' priors."""
+        name, factor = self.widest
+        low, high = self.ranges[name]
+        digits = max(3, int(np.ceil(np.log10(max(abs(low), abs(high))
+                                             / max(high - low, 1e-300)))) + 2)
+        levels = ", ".join(f"{k} = {v:.2g} {units.get(k, '')}".rstrip()
+                           for k, v in self.at[name].items())
+        return Check(
+            name="noise_prior_dependence", passed=factor < SAID_FROM, severity="warning",
+            value=round(factor, 3), threshold=SAID_FROM,
+            message=(f"at noise levels this log does not rule out ({levels}) {name}'s sd "
+                     f"is {factor:.1f}x its posterior sd (95 % range over such levels "
+                     f"[{low:.{digits}g}, {high:.{digits}g}]): the intervals rest on the "
+                     "noise levels' priors; measure the noise at rest (gyroid noise) and fit "
+                     "with --noise DIR"))
+
+    def to_json(self) -> dict:
+        return {"likelihood_region": REGION, "levels_up_to": self.upper,
+                "ci95": {k: list(v) for k, v in self.ranges.items()},
+                "sd_widening": self.widening, "widest_at": self.at,
+                "levels_evaluated": self.evaluated, "levels_allowed": self.allowed}
+
+
+def allowed_noise(problem, posterior, seed: int = 0) -> AllowedNoise | None:
+    """:class:`AllowedNoise` of a bench fit under correlated noise with a collapsed form and
+    a posterior; None otherwise (white noise, no posterior)."""
+    if posterior is None or not problem.noise.correlated:
+        return None
+    target = problem.marginal_target()
+    if target is None:
+        return None
+    rng = np.random.default_rng([seed, 952])
+    names = list(problem.names)
+    u = problem.to_sampling_host(posterior.draws.reshape(-1, len(names)))
+    drawn = np.unique(u[:, target.marginal], axis=0)
+    if drawn.shape[0] > POSTERIOR_LEVELS:
+        drawn = drawn[rng.choice(drawn.shape[0], POSTERIOR_LEVELS, replace=False)]
+    low, high = drawn.min(axis=0) - BESIDE, drawn.max(axis=0) + BESIDE
+    for index, _, _ in target.tails:
+        high[index] += ABOVE - BESIDE
+    levels = np.concatenate([drawn, rng.uniform(low, high, (BOX_LEVELS, low.size))])
+    rows = in_chunks(target.solved, levels, _BATCH)
+    log_lik = rows[:, 0].copy()
+    for index, loc, scale in target.tails:  # weak priors taken out, measured ones kept
+        if scale >= WEAK_FROM:
+            log_lik -= stats.norm.logpdf(levels[:, index], loc, scale)
+    finite = np.isfinite(log_lik)
+    if not finite.any():
+        return None
+    inside = finite & (log_lik >= log_lik[finite].max()
+                       - stats.chi2.ppf(REGION, low.size) / 2.0)
+    p = target.real.size
+    mean = rows[inside, 1:1 + p]
+    # the conditional sds: the precision's Cholesky factor L, covariance (L L')^-1
+    inverse = np.linalg.inv(rows[inside, 1 + p:].reshape(-1, p, p))
+    sd = np.sqrt(np.einsum("nji,nji->ni", inverse, inverse))
+    lowest, highest = np.min(mean - _Z95 * sd, axis=0), np.max(mean + _Z95 * sd, axis=0)
+    noise_at = list(enumerate(target.marginal, start=0))[target.n_positive:]
+    allowed_levels = np.exp(levels[inside])
+    ranges, widening, at = {}, {}, {}
+    for j, index in enumerate(target.real):
+        name = names[index]
+        ranges[name] = (float(lowest[j]), float(highest[j]))
+        widest = int(np.argmax(sd[:, j]))
+        widening[name] = float(sd[widest, j] / posterior.summary[name]["sd"])
+        at[name] = {names[i]: float(allowed_levels[widest, k]) for k, i in noise_at}
+    upper = {names[i]: float(allowed_levels[:, k].max()) for k, i in noise_at}
+    return AllowedNoise(upper=upper, ranges=ranges, widening=widening, at=at,
+                        evaluated=int(levels.shape[0]), allowed=int(inside.sum()))
