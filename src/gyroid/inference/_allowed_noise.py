@@ -10,11 +10,11 @@ negligible; measured priors and a time constant's kept) is within
 ``chi2_d(0.95) / 2`` of the best found, ``d`` the marginal coordinates; a coefficient's
 range is the union of its conditional 95 % intervals over them, and its *widening* the largest
 conditional sd among them over its posterior sd (the check ``noise_prior_dependence`` warns
-from :data:`SAID_FROM`). The levels evaluated are
-the posterior's (at most ``POSTERIOR_LEVELS``) and ``BOX_LEVELS`` drawn uniformly in a box
-reaching ``ABOVE`` log units above the posterior's largest draw of each level with a
-prior, where the likelihood of flicker and a walk ends: the range is the union over those,
-so at most the true union.
+from :data:`SAID_FROM`). The levels evaluated are those the posterior came from (every draw
+importance sampling weighed, already evaluated; or at most ``POSTERIOR_LEVELS`` of a
+chain's) and ``BOX_LEVELS`` drawn uniformly in a box about the allowed ones among them,
+reaching ``ABOVE`` log units above them for each level with a prior, where the likelihood
+of flicker and a walk ends: the range is the union over those, so at most the true union.
 
 Why: a 10 h FOG bench hardly tells flicker of 0.01 deg/h and a walk of 0.005
 deg/h/sqrt(h) from none (their Allan floor stands above the white noise only from about
@@ -109,24 +109,22 @@ def allowed_noise(problem, posterior, seed: int = 0) -> AllowedNoise | None:
         return None
     rng = np.random.default_rng([seed, 952])
     names = list(problem.names)
-    u = problem.to_sampling_host(posterior.draws.reshape(-1, len(names)))
-    drawn = np.unique(u[:, target.marginal], axis=0)
-    if drawn.shape[0] > POSTERIOR_LEVELS:
-        drawn = drawn[rng.choice(drawn.shape[0], POSTERIOR_LEVELS, replace=False)]
-    low, high = drawn.min(axis=0) - BESIDE, drawn.max(axis=0) + BESIDE
+    drawn, rows = _posterior_levels(problem, target, posterior, rng)
+    drop = stats.chi2.ppf(REGION, drawn.shape[1]) / 2.0
+    log_lik = _log_likelihood(target, drawn, rows)
+    if not np.isfinite(log_lik).any():
+        return None
+    # the box about the allowed levels among those, reaching above them
+    near = drawn[log_lik >= np.max(log_lik[np.isfinite(log_lik)]) - drop]
+    low, high = near.min(axis=0) - BESIDE, near.max(axis=0) + BESIDE
     for index, _, _ in target.tails:
         high[index] += ABOVE - BESIDE
-    levels = np.concatenate([drawn, rng.uniform(low, high, (BOX_LEVELS, low.size))])
-    rows = in_chunks(target.solved, levels, _BATCH)
-    log_lik = rows[:, 0].copy()
-    for index, loc, scale in target.tails:  # weak priors taken out, measured ones kept
-        if scale >= WEAK_FROM:
-            log_lik -= stats.norm.logpdf(levels[:, index], loc, scale)
+    box = rng.uniform(low, high, (BOX_LEVELS, low.size))
+    levels = np.concatenate([drawn, box])
+    rows = np.concatenate([rows, in_chunks(target.solved, box, _BATCH)])
+    log_lik = _log_likelihood(target, levels, rows)
     finite = np.isfinite(log_lik)
-    if not finite.any():
-        return None
-    inside = finite & (log_lik >= log_lik[finite].max()
-                       - stats.chi2.ppf(REGION, low.size) / 2.0)
+    inside = finite & (log_lik >= log_lik[finite].max() - drop)
     p = target.real.size
     mean = rows[inside, 1:1 + p]
     # the conditional sds: the precision's Cholesky factor L, covariance (L L')^-1
@@ -145,3 +143,28 @@ def allowed_noise(problem, posterior, seed: int = 0) -> AllowedNoise | None:
     upper = {names[i]: float(allowed_levels[:, k].max()) for k, i in noise_at}
     return AllowedNoise(upper=upper, ranges=ranges, widening=widening, at=at,
                         evaluated=int(levels.shape[0]), allowed=int(inside.sum()))
+
+
+def _posterior_levels(problem, target, posterior, rng: np.random.Generator
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """The marginal coordinates the posterior came from with their ``solved`` rows: those
+    importance sampling weighed (all of them, already evaluated), else at most
+    :data:`POSTERIOR_LEVELS` of a chain's distinct draws, evaluated here."""
+    if posterior.evaluated is not None:
+        return posterior.evaluated
+    u = problem.to_sampling_host(posterior.draws.reshape(-1, len(problem.names)))
+    drawn = np.unique(u[:, target.marginal], axis=0)
+    if drawn.shape[0] > POSTERIOR_LEVELS:
+        drawn = drawn[rng.choice(drawn.shape[0], POSTERIOR_LEVELS, replace=False)]
+    return drawn, in_chunks(target.solved, drawn, _BATCH)
+
+
+def _log_likelihood(target, levels: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """The marginal log-likelihood at ``levels`` from their ``solved`` rows: the marginal
+    log-posterior with the weak priors of the noise levels taken out (measured ones, and a
+    time constant's, kept); -inf where it is not finite."""
+    log_lik = rows[:, 0].copy()
+    for index, loc, scale in target.tails:
+        if scale >= WEAK_FROM:
+            log_lik -= stats.norm.logpdf(levels[:, index], loc, scale)
+    return np.where(np.isfinite(log_lik), log_lik, -np.inf)

@@ -191,6 +191,7 @@ class Importance(AbstractSampler):
                     "given each"),
             summary=summary,
             move="psis",
+            evaluated=(weighted.draws, weighted.solved),
         )
 
 

@@ -30,6 +30,10 @@ class Posterior:
     summary: dict[str, dict] = field(repr=False)  # per name: mean, sd, ci95, r_hat, ess_bulk
     divergent: int = 0  # NUTS's divergent transitions after warm-up
     move: str | None = None  # emcee's move ("de" or "stretch")
+    #: Importance sampling's weighed draws of the marginal coordinates and their ``solved``
+    #: rows (:class:`~gyroid.inference._marginal_target.MarginalTarget`), which
+    #: :func:`~gyroid.inference._allowed_noise.allowed_noise` reuses; None for a chain.
+    evaluated: tuple[np.ndarray, np.ndarray] | None = field(default=None, repr=False)
 
     def flat(self, name: str) -> np.ndarray:
         return self.draws[..., self.names.index(name)].reshape(-1)
