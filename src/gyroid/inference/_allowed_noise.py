@@ -18,15 +18,15 @@ of flicker and a walk ends: the range is the union over those, so at most the tr
 
 Why: a 10 h FOG bench hardly tells flicker of 0.01 deg/h and a walk of 0.005
 deg/h/sqrt(h) from none (their Allan floor stands above the white noise only from about
-0.6 h to 5 h); measured on the issue's benches (`experiments/fog_thermal_bench.py`), the
-likelihood allowed B up to 0.008-0.016 deg/h and K up to 0.02-0.03 deg/h/sqrt(h) alike on
-logs with and without them, and w1's range over those levels was 8-10 posterior sds
-wide on both. The posterior's own interval is then set by the priors of B and K, whose
-medians let them be negligible: right on average over those priors, too narrow for a gyro
-whose flicker and walk sit near the likelihood's edge. No rule reading the log can tell
-the two kinds of log apart there; this says how much the answer rests on the prior, and
-measuring the noise at rest (``gyroid noise``, then ``gyroid fit --noise DIR``) is what
-narrows the range.
+0.6 h to 5 h). On the issue's benches (``experiments/fog_thermal_bench.py``) the likelihood
+allowed B up to about 0.01 deg/h and K up to 0.02-0.03 deg/h/sqrt(h) alike on logs with
+and without them (one-off, six logs), and w1's sd at the allowed levels was a median 2.9x
+its posterior sd on 30 FOG logs and 4.4x on 20 white-only ones (results files). The
+posterior's own interval is set there by the priors of B and K, whose medians let them be
+negligible: right on average over those priors, too narrow for a gyro whose flicker and
+walk sit near the likelihood's edge. No rule reading such a log tells the two kinds apart;
+this says how much the answer rests on the priors, and noise measured at rest (``gyroid
+noise``, then ``gyroid fit --noise DIR``) narrows it (a median 2.1x for w1 with 40 h at rest).
 """
 
 from __future__ import annotations
