@@ -21,7 +21,7 @@ walk's mean over the log (a walk has no level of its own). Two temperature profi
     python experiments/fog_thermal_bench.py --seed 0 --datasets 30 --noise white \
         --results fog_thermal_bench_white --white-only
 
-Each log is fitted twice (once with ``--warmup``, whose fits take minutes): by default (the
+Each log is fitted twice (once with ``--warmup``): by default (the
 run's ``z``, ``sd``, ``seconds``), and with the noise levels pinned at their truths
 (``z_known_noise``: what the realisation alone does to the coefficients, apart from the
 noise levels' inference; not for ``--white-only``).

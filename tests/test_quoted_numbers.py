@@ -773,3 +773,12 @@ def test_the_noise_prior_dependence_on_the_fog_benches():
             f"every truth on every one of those {sum(s['fits'] for s in studies)} logs",
             f"it warned on {static['noise_prior_dependence_warned']} of {static['fits']} "
             f"({span(static)})")
+    weak = _results("fog_thermal_bench_warmup")["summary"]["smooth"]
+    strong = _results("fog_thermal_bench_warmup_strong")
+    missed = {r["seed"]: r["allowed_noise"]["warned"] for r in strong["runs"]
+              if r["trustworthy"] and any(abs(v) > 3.3 for v in r["z"].values())}
+    assert missed == {8: True, 28: True}
+    strong = strong["summary"]["smooth"]
+    _quoted(f"it warned on {weak['noise_prior_dependence_warned']} of {weak['fits']} (w = 0.05 "
+            f"deg/h) and {strong['noise_prior_dependence_warned']} of {strong['fits']} (w = "
+            "0.2 deg/h)")
