@@ -79,8 +79,8 @@ class AllowedNoise:
         noise levels' priors."""
         name, factor = self.widest
         low, high = self.ranges[name]
-        digits = max(3, int(np.ceil(np.log10(max(abs(low), abs(high))
-                                             / max(high - low, 1e-300)))) + 2)
+        digits = int(np.clip(np.ceil(np.log10(max(abs(low), abs(high), 1e-300)
+                                              / max(high - low, 1e-300))) + 2, 3, 12))
         levels = ", ".join(f"{k} = {v:.2g} {units.get(k, '')}".rstrip()
                            for k, v in self.at[name].items())
         return Check(
@@ -126,9 +126,15 @@ def allowed_noise(problem, posterior, seed: int = 0) -> AllowedNoise | None:
     finite = np.isfinite(log_lik)
     inside = finite & (log_lik >= log_lik[finite].max() - drop)
     p = target.real.size
+    factors = rows[:, 1 + p:].reshape(-1, p, p)
+    inside &= (np.all(np.isfinite(rows[:, 1:]), axis=1)
+               & np.all(np.abs(np.diagonal(factors, axis1=1, axis2=2)) > 0.0, axis=1))
+    if not inside.any():
+        return None
     mean = rows[inside, 1:1 + p]
-    # the conditional sds: the precision's Cholesky factor L, covariance (L L')^-1
-    inverse = np.linalg.inv(rows[inside, 1 + p:].reshape(-1, p, p))
+    # the conditional sds: the precision's Cholesky factor L (triangular, its diagonal
+    # nonzero), covariance (L L')^-1
+    inverse = np.linalg.inv(factors[inside])
     sd = np.sqrt(np.einsum("nji,nji->ni", inverse, inverse))
     lowest, highest = np.min(mean - _Z95 * sd, axis=0), np.max(mean + _Z95 * sd, axis=0)
     noise_at = list(enumerate(target.marginal, start=0))[target.n_positive:]
