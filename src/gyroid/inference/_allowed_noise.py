@@ -43,8 +43,8 @@ from gyroid.inference._check_report import Check
 REGION = 0.95
 #: Posterior draws of the levels evaluated at most, and uniform ones in the box.
 POSTERIOR_LEVELS, BOX_LEVELS = 1000, 1000
-#: How far the box reaches above the posterior's largest draw of a level with a prior, and
-#: beyond the draws of every other coordinate (log units).
+#: How far the box reaches above the largest allowed draw of a level with a prior, and
+#: beyond the allowed draws of every other coordinate (log units).
 ABOVE, BESIDE = 6.0, 1.0
 #: A noise level's prior this wide (log-sd) or wider is a placeholder, taken out of the
 #: likelihood region; a narrower one (measured: ``gyroid fit --noise DIR``) stays in.
@@ -89,8 +89,8 @@ class AllowedNoise:
             message=(f"at noise levels this log does not rule out ({levels}) {name}'s sd "
                      f"is {factor:.1f}x its posterior sd (95 % range over such levels "
                      f"[{low:.{digits}g}, {high:.{digits}g}]): the intervals rest on the "
-                     "noise levels' priors; measure the noise at rest (gyroid noise) and fit "
-                     "with --noise DIR"))
+                     "noise levels' priors; noise measured at rest (gyroid noise, then fit "
+                     "with --noise DIR) or a longer log narrows this"))
 
     def to_json(self) -> dict:
         return {"likelihood_region": REGION, "levels_up_to": self.upper,
