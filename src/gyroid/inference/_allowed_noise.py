@@ -38,6 +38,7 @@ from scipy import stats
 
 from gyroid.inference._batching import in_chunks
 from gyroid.inference._check_report import Check
+from gyroid.inference._importance import BATCH
 
 #: The likelihood region's probability (chi-square with the marginal coordinates' number).
 REGION = 0.95
@@ -51,7 +52,6 @@ ABOVE, BESIDE = 6.0, 1.0
 WEAK_FROM = 2.0
 #: A coefficient's sd at allowed levels over its posterior sd from which the check warns.
 SAID_FROM = 2.0
-_BATCH = 1000
 _Z95 = float(stats.norm.ppf(0.975))
 
 
@@ -115,16 +115,15 @@ def allowed_noise(problem, posterior, seed: int = 0) -> AllowedNoise | None:
     if not np.isfinite(log_lik).any():
         return None
     # the box about the allowed levels among those, reaching above them
-    near = drawn[log_lik >= np.max(log_lik[np.isfinite(log_lik)]) - drop]
+    near = drawn[log_lik >= log_lik.max() - drop]
     low, high = near.min(axis=0) - BESIDE, near.max(axis=0) + BESIDE
     for index, _, _ in target.tails:
         high[index] += ABOVE - BESIDE
     box = rng.uniform(low, high, (BOX_LEVELS, low.size))
-    levels = np.concatenate([drawn, box])
-    rows = np.concatenate([rows, in_chunks(target.solved, box, _BATCH)])
-    log_lik = _log_likelihood(target, levels, rows)
-    finite = np.isfinite(log_lik)
-    inside = finite & (log_lik >= log_lik[finite].max() - drop)
+    box_rows = in_chunks(target.solved, box, BATCH)
+    levels, rows = np.concatenate([drawn, box]), np.concatenate([rows, box_rows])
+    log_lik = np.concatenate([log_lik, _log_likelihood(target, box, box_rows)])
+    inside = log_lik >= log_lik.max() - drop  # -inf where not finite: never inside
     p = target.real.size
     factors = rows[:, 1 + p:].reshape(-1, p, p)
     inside &= (np.all(np.isfinite(rows[:, 1:]), axis=1)
@@ -162,7 +161,7 @@ def _posterior_levels(problem, target, posterior, rng: np.random.Generator
     drawn = np.unique(u[:, target.marginal], axis=0)
     if drawn.shape[0] > POSTERIOR_LEVELS:
         drawn = drawn[rng.choice(drawn.shape[0], POSTERIOR_LEVELS, replace=False)]
-    return drawn, in_chunks(target.solved, drawn, _BATCH)
+    return drawn, in_chunks(target.solved, drawn, BATCH)
 
 
 def _log_likelihood(target, levels: np.ndarray, rows: np.ndarray) -> np.ndarray:

@@ -71,8 +71,9 @@ from gyroid.io._arviz import arviz
 MAX_PARETO_K = 0.7
 #: Chains the kept draws are dealt into (for r_hat; they are independent draws).
 _CHAINS = 4
-#: Marginal log-posteriors evaluated this many at a time.
-_BATCH = 1000
+#: Marginal log-posteriors evaluated this many at a time (one compiled program per log
+#: shape: whoever else evaluates a target's draws uses the same, :mod:`._allowed_noise`).
+BATCH = 1000
 #: Kernels of an adapted stage's proposal.
 KERNELS = 200
 
@@ -125,7 +126,7 @@ class Importance(AbstractSampler):
             new = stages[-1].draw(self.n_draws, rng)
             draws = np.concatenate([draws, new])
             # the marginal and the coefficients' conditional at each draw, one filter pass
-            new_rows = in_chunks(solved, new, _BATCH)
+            new_rows = in_chunks(solved, new, BATCH)
             rows = new_rows if rows is None else np.concatenate([rows, new_rows])
             log_target = rows[:, 0]
             # every draw weighed against the stages' mixture (deterministic mixture weights);
