@@ -11,6 +11,7 @@ from gyroid.cli.base import (
     POSITIVE,
     SEED,
     TEMPERATURE,
+    FiniteFloat,
     axes_option,
     cli,
     fit_options,
@@ -149,18 +150,32 @@ def fit(data, out, options) -> None:
               type=click.FloatRange(min=0.0, min_open=True),
               help="compensated_means.csv: the means over consecutive windows of this many "
                    "seconds, with the 95 % band for each (model and noise).")
+@click.option("--another-run", is_flag=True,
+              help="DATA is another power-on than the fitted run's (another day, a restart): "
+                   "its bias differs by the turn-on repeatability, which a fit of one run "
+                   "cannot know; give --turn-on-sd or compensate with a 'gyroid pool' folder.")
+@click.option("--turn-on-sd", "turn_on_sd", default=None, type=FiniteFloat(0.0),
+              metavar="DEG_H",
+              help="The spread of the bias at each power-on about the unit's mean, deg/h (1 "
+                   "sigma; a datasheet's initial bias error, or a pool's between-run sd): "
+                   "another run differs from the fitted one by sqrt(2) times it. Implies "
+                   "--another-run.")
 @map_option
 @axes_option
 @instance_option
-def compensate(data, fit_dir, out, seed, window_s, mappings, axes, instance) -> None:
+def compensate(data, fit_dir, out, seed, window_s, another_run, turn_on_sd, mappings, axes,
+               instance) -> None:
     """Compensate a new bench log DATA with a fitted drift model; Allan deviation before and
     after. Every axis a fit of several has (--axes to choose). Exit code 3 when a self-check
-    (extrapolation, gain, the predictive check) says not to use it."""
+    (extrapolation, gain, the predictive check, another run's unknown turn-on bias) says not
+    to use it."""
     from gyroid.pipeline._compensate_file import compensate_file
+    from gyroid.workflows._turn_on import TurnOn
 
     click.echo(f"compensating {data} with {fit_dir} ...", err=True)
     result = compensate_file(data, fit_dir, out, seed=seed, maps=parse_maps(mappings),
-                             axes=parse_axes(axes), instance=instance, window_s=window_s)
+                             axes=parse_axes(axes), instance=instance, window_s=window_s,
+                             turn_on=TurnOn(another_run or turn_on_sd is not None, turn_on_sd))
     for axis, item in result.results.items():
         s = item.summary
         which = f"axis {axis}: " if result.several else ""

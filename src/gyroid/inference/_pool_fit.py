@@ -190,7 +190,7 @@ def pooled_fits(logs: Sequence[BenchLog], labels: Sequence[str], model: DriftMod
     negligible where the run identifies a coefficient), pooled by
     :meth:`PoolProblem.from_estimates`; each run's residual and noise checks kept."""
     p = len(model.parameter_names)
-    means, covariances, reports = [], [], []
+    means, covariances, reports, levels = [], [], [], []
     for k, log in enumerate(logs):
         single = fit_log(log, model, noise=noise, seed=seed + k, prior_set=prior_set,
                          t0_C=t0_C, segment_means=segment_means, progress=False)
@@ -199,6 +199,7 @@ def pooled_fits(logs: Sequence[BenchLog], labels: Sequence[str], model: DriftMod
         covariances.append(np.atleast_2d(np.cov(draws.T)))
         reports.append(CheckReport(tuple(c for c in single.checks.checks
                                          if c.name in RUN_RESIDUAL_CHECKS)))
+        levels.append(single.noise_estimate())
         if progress is not None:
             progress(f"  {labels[k]} fitted ({k + 1} of {len(logs)})")
     means, covariances = np.array(means), np.array(covariances)
@@ -207,7 +208,8 @@ def pooled_fits(logs: Sequence[BenchLog], labels: Sequence[str], model: DriftMod
         model.parameter_names, tuple(labels), means, covariances, mean_priors=mean_priors,
         spread_scales=spread_scales, terms=tuple(model.terms), t0_C=t0_C,
         own_mean=means, own_sd=sds, reference=reference, runs=tuple(white_runs),
-        run_reports=tuple(reports), run_noise=noise.name, segment_means=segment_means)
+        run_reports=tuple(reports), run_noise=noise.name, run_noise_levels=tuple(levels),
+        segment_means=segment_means)
 
 
 def pool_estimates(names: tuple[str, ...], labels: tuple[str, ...], estimates: np.ndarray,

@@ -202,6 +202,9 @@ class PoolProblem(AbstractProblem):
     #: run's residual and noise checks from that fit (``runs`` then only describe the logs).
     run_reports: tuple = ()
     run_noise: str = White.name
+    #: Those fits' noise estimates (``NoiseEstimate``s, one per run), from which a new
+    #: run's noise is drawn up (``pool.json``'s ``run_noise_levels``).
+    run_noise_levels: tuple = ()
 
     @classmethod
     def from_statistics(cls, coefficient_names, run_labels, *, gram, solution, rss, n_rows,

@@ -162,6 +162,8 @@ class PoolFit(FitResult):
             "heterogeneity": {n: h.to_json() for n, h in self.heterogeneity.items()},
             "noise": {name: dict(summary[name]) for name in self.problem.noise_names},
             "run_noise": self.problem.idata_attrs()["run_noise"],
+            "run_noise_levels": {label: estimate.to_json() for label, estimate in zip(
+                self.run_labels, self.problem.run_noise_levels, strict=True)},
             "units": {n: parameter(n).unit for n in names},
             "priors": {n: prior.describe() for n, prior in zip(
                 names + self.problem.names, self.problem.mean_priors + self.problem.priors,
@@ -184,8 +186,11 @@ class PoolFit(FitResult):
                 },
             },
             "model": "theta_run ~ N(population mean, between_run_sd**2) per coefficient; "
-                     "each run's white noise its own; runs' coefficients integrated out "
-                     "exactly (linear model) and drawn from their conditional",
+                     + ("each run's own fit's posterior one Gaussian observation of its "
+                        "coefficients (its noise model its own)" if self.problem.run_reports
+                        else "each run's white noise its own")
+                     + "; runs' coefficients integrated out exactly (linear model) and "
+                     "drawn from their conditional",
             **self.checks.to_json(),
         }
         return out

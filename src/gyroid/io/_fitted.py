@@ -86,9 +86,7 @@ class FittedDrift:
                    trustworthy=bool(pool.get("trustworthy", True)),
                    source="pool: predictive for a new run",
                    input_ranges=pool.get("input_ranges", {}),
-                   noise=(NoiseEstimate(White(), {}, float(np.median(
-                       [s["mean"] for s in pool["noise"].values()])))
-                          if pool.get("noise") else None))
+                   noise=_new_run_noise(pool))
 
 
 @dataclass(frozen=True)
@@ -177,6 +175,31 @@ def _draws(posterior, name: str, path: Path) -> np.ndarray:
         raise GyroidInputError(f"{path} has no draws of {name}: it does not belong to this "
                                "fit record; run the fit again")
     return np.asarray(posterior[name]).reshape(-1)
+
+
+def _new_run_noise(pool: dict) -> NoiseEstimate | None:
+    """A new run's noise from pool.json: the runs' correlated estimates drawn up
+    (:meth:`NoiseEstimate.of_runs`), else the median of the pooled white sds; None when it
+    records neither (an old record)."""
+    runs = pool.get("run_noise_levels") or {}
+    if runs:
+        return NoiseEstimate.of_runs([_noise_estimate(r) for r in runs.values()])
+    if pool.get("noise"):
+        return NoiseEstimate(White(), {}, float(np.median(
+            [s["mean"] for s in pool["noise"].values()])))
+    return None
+
+
+#: The keys of a noise estimate's record that are not levels.
+_NOT_LEVELS = frozenset({"model", "white_sd_deg_h", "white_sample_s", "span_s"})
+
+
+def _noise_estimate(record: dict) -> NoiseEstimate:
+    """A noise estimate from its record (``NoiseEstimate.to_json``)."""
+    return NoiseEstimate(recorded_model(record),
+                         {k: float(v) for k, v in record.items() if k not in _NOT_LEVELS},
+                         float(record["white_sd_deg_h"]), record.get("white_sample_s"),
+                         record.get("span_s"))
 
 
 def _noise_of(fit: dict) -> NoiseEstimate | None:

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import abc
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 import equinox as eqx
@@ -221,6 +221,27 @@ class NoiseEstimate:
         part_covariance`, rows as samples, the log after the fitted one)."""
         return self.model.part_covariance(time_s, part, n_parts, step_s, white_var,
                                           self.levels, after_s=self.span_s or 0.0)
+
+    @classmethod
+    def of_runs(cls, runs: Sequence[NoiseEstimate]) -> NoiseEstimate:
+        """A new run's noise from the estimates of several runs of one gyro type (one
+        noise model): each level and the white sd (at the first run's sample interval) the
+        root mean square over the runs, as :func:`predictive_level` averages a variance over
+        a posterior. No fitted span: a new run's offset from the runs' is their between-run
+        spread (a pool's), not a walk on from the last fitted log."""
+        first = runs[0]
+        if any(r.model.name != first.model.name or set(r.levels) != set(first.levels)
+               for r in runs):
+            raise ValueError("the runs' noise estimates are of different models")
+        step = first.white_sample_s
+
+        def rms(values: list[float]) -> float:
+            return math.sqrt(sum(v * v for v in values) / len(values))
+
+        white = rms([r.white_sd_at(step) if step is not None else r.white_sd_deg_h
+                     for r in runs])
+        return cls(first.model, {n: rms([r.levels[n] for r in runs]) for n in first.levels},
+                   white, step)
 
     def to_json(self) -> dict:
         out = {"model": self.model.name, "white_sd_deg_h": self.white_sd_deg_h,

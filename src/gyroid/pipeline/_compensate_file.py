@@ -14,6 +14,7 @@ from gyroid.io._tables import read_log_table, table_source
 from gyroid.io._units import ColumnMap
 from gyroid.pipeline._axes import PerAxis, chosen_axes, write_per_axis
 from gyroid.workflows._compensate import WINDOW_S, Compensation, compensate
+from gyroid.workflows._turn_on import SAME_RUN, TurnOn
 
 
 def fitted_axes(fit_dir: str | Path) -> dict[str | None, FittedDrift]:
@@ -24,11 +25,12 @@ def fitted_axes(fit_dir: str | Path) -> dict[str | None, FittedDrift]:
 
 def compensate_file(path: str | Path, fit_dir: str | Path, out: str | Path, *, seed: int = 0,
                     maps: tuple[ColumnMap, ...] = (), axes: tuple[str, ...] | None = None,
-                    instance: int | None = None, window_s: float = WINDOW_S
-                    ) -> PerAxis[Compensation]:
+                    instance: int | None = None, window_s: float = WINDOW_S,
+                    turn_on: TurnOn = SAME_RUN) -> PerAxis[Compensation]:
     """Compensate one log's axes (``axes``; default every axis the fit has; ``instance``: a
     native log's IMU) with their fits and write the results to ``out`` (the means over
-    windows of ``window_s`` seconds in ``compensated_means.csv``)."""
+    windows of ``window_s`` seconds in ``compensated_means.csv``; ``turn_on``: whether the
+    log is another power-on than the fitted one's)."""
     refuse_if_too_long(path, bytes_per_row=COMPENSATE_BYTES_PER_ROW, command="compensating",
                        remedy="compensate it in parts (its rows split by time), or on a "
                        "machine with more memory")
@@ -54,7 +56,7 @@ def compensate_file(path: str | Path, fit_dir: str | Path, out: str | Path, *, s
                                    "--axes")
         pairs = {axis: fits[axis] for axis in chosen}
     results = {axis: compensate(bench_log_from_table(table, fitted.model, axis=axis), fitted,
-                                seed=seed, window_s=window_s)
+                                seed=seed, window_s=window_s, turn_on=turn_on)
                for axis, fitted in pairs.items()}
     per_axis = PerAxis(results, table_source(table))
     write_per_axis(out, per_axis)

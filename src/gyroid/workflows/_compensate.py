@@ -33,6 +33,7 @@ from gyroid.io._logs import BenchLog, contiguous_segments
 from gyroid.models._drift import DriftModel
 from gyroid.models._effects import EXTRA_PREFIX, effect
 from gyroid.workflows._allan import AllanDeviation, allan_deviation
+from gyroid.workflows._turn_on import SAME_RUN, TurnOn, turn_on_check, with_turn_on
 
 
 @dataclass(frozen=True, eq=False)
@@ -111,10 +112,12 @@ WINDOW_S = 600.0
 
 
 def compensate(log: BenchLog, fitted: FittedDrift, *, max_draws: int = 400, seed: int = 0,
-               window_s: float = WINDOW_S) -> Compensation:
+               window_s: float = WINDOW_S, turn_on: TurnOn = SAME_RUN) -> Compensation:
     """Apply a fit's posterior (``fitted``: ``BenchFit.fitted_drift()``, or a fit's folder
     read back) to ``log``; rows beyond the ranges the fit saw are flagged; the means over
-    consecutive windows of ``window_s`` seconds with their bands (:func:`window_means`)."""
+    consecutive windows of ``window_s`` seconds with their bands (:func:`window_means`).
+    ``turn_on``: whether ``log`` is another power-on than the fitted run's, and the turn-on
+    spread of the bias if known (:mod:`gyroid.workflows._turn_on`)."""
     extra = [name for name in fitted.model.terms if name.startswith(EXTRA_PREFIX)]
     if extra:
         raise GyroidInputError(
@@ -127,6 +130,7 @@ def compensate(log: BenchLog, fitted: FittedDrift, *, max_draws: int = 400, seed
     draws = fitted.draws
     if draws.shape[0] > max_draws:
         draws = draws[rng.choice(draws.shape[0], max_draws, replace=False)]
+    draws = with_turn_on(fitted, turn_on, draws, rng)
     predictions = DrawPredictions.of(fitted.model, inputs, draws)
     model, sd = predictions.mean, predictions.sd
     drift = np.asarray(log.drift_deg_h)
@@ -170,6 +174,7 @@ def compensate(log: BenchLog, fitted: FittedDrift, *, max_draws: int = 400, seed
         "within_fitted_range": not outside,
         "terms": list(fitted.model.terms),
         "model_source": fitted.source,
+        "turn_on": turn_on.to_json(),
         "posterior_draws_used": int(draws.shape[0]),
         "rows": int(drift.size),
     }
@@ -177,7 +182,7 @@ def compensate(log: BenchLog, fitted: FittedDrift, *, max_draws: int = 400, seed
     checks = compensation_checks(drift, compensated, outside, fitted.trustworthy) + \
         CheckReport((compensation_predictive(log, fitted, predictions.part_means),
                      window_bands(windows, window_cov, window_s, seed=seed),
-                     units_sanity(log)))
+                     turn_on_check(fitted, turn_on), units_sanity(log)))
     summary.update(checks.to_json())
     return Compensation(log, model, sd, compensated, summary, before, after, checks, windows)
 
