@@ -24,7 +24,15 @@ Cases (``GYROID_DATA`` holds the logs as ``../shared/data/real/``):
 * astropi_sensehat: 81 h; the first half trains, the second tests; 10-minute windows;
 * mpu6050: the 10-minute run trains, each other run of the unit tests (other orientations
   and days); 15-second windows, bias and bias + temperature;
-* adis16405: run 1 trains, runs 2-6 test, bias only (no thermometer); 10-minute windows.
+* adis16405: run 1 trains, runs 2-6 test, bias only (no thermometer); 10-minute windows;
+* pooled (``gyroid pool`` of the unit's other runs, each under its default noise; the
+  held-out run compensated with the pool's predictive for a new run): each ADIS16405 run
+  and each MPU6050 run held out in turn, bias only; least squares is then the mean of the
+  other runs' rows.
+
+A test run that is another power-on than the training rows' (the MPU6050's and ADIS16405's
+other runs) is compensated with ``--another-run``: a fit of one run cannot state another
+run's turn-on bias, so gyroid refuses those unless the training is a pool of runs.
 
 A training set shared by several cases is fitted once.
 
@@ -82,7 +90,24 @@ def _cases() -> list[dict]:
         for axis in "xyz":
             cases.append(_case(f"adis16405 run 1 -> {k}", axis, (train, test), None,
                                None, "bias", 600.0, trained_on="adis_16405_imu1"))
+    adis_runs = {name: log for name, log in adis.items() if name.startswith("adis_16405")}
+    for unit, runs, window_s in (("adis16405", adis_runs, 600.0), ("mpu6050", mpu, 15.0)):
+        names = sorted(runs)
+        for held in names:
+            for axis in "xyz":
+                cases.append(_pooled_case(unit, held, axis, runs, window_s))
     return cases
+
+
+def _pooled_case(unit: str, held: str, axis: str, runs: dict, window_s: float) -> dict:
+    """The unit's other runs pooled, ``held`` predicted; least squares on their rows."""
+    others = [_axis_columns(runs[name][0], axis) for name in sorted(runs) if name != held]
+    train = {k: np.concatenate([o[k] for o in others]) for k in ("time_s", "drift_deg_h")}
+    test = _axis_columns(runs[held][0], axis)
+    short = held.removeprefix("adis_16405_").removeprefix("mpu6050_")
+    return {"case": f"{unit} pooled -> {short}", "axis": axis, "train": train, "test": test,
+            "terms": "bias", "window_s": window_s, "pool": others, "another_run": True,
+            "fit_key": (f"{unit} without {held}", axis, "bias")}
 
 
 def _case(name, axis, columns, train_rows, test_rows, terms, window_s, trained_on=None
@@ -94,7 +119,7 @@ def _case(name, axis, columns, train_rows, test_rows, terms, window_s, trained_o
         train = {k: v[train_rows] for k, v in both.items()}
         test = {k: v[test_rows] for k, v in both.items()}
     return {"case": name, "axis": axis, "train": train, "test": test, "terms": terms,
-            "window_s": window_s,
+            "window_s": window_s, "another_run": trained_on is not None,
             "fit_key": (trained_on or name, axis, terms)}
 
 
@@ -146,14 +171,22 @@ def one(case: dict, folder: Path, seed: int, fits: dict) -> dict:
     """One case; ``fits`` holds the fits (folder, exit code) made so far, by training set."""
     started = time.time()
     write_bench_log(folder / "test.csv", case["test"], ())
-    if case["fit_key"] not in fits:
+    if case["fit_key"] not in fits and "pool" in case:
+        paths = [folder / f"run{k}.csv" for k in range(len(case["pool"]))]
+        for path, columns in zip(paths, case["pool"], strict=True):
+            write_bench_log(path, columns, ())
+        code = gyroid_main(["pool", *map(str, paths), "--terms", case["terms"], "--out",
+                            str(folder / "fit"), "--seed", str(seed)])
+        fits[case["fit_key"]] = (folder / "fit", code)
+    elif case["fit_key"] not in fits:
         write_bench_log(folder / "train.csv", case["train"], ())
         code = gyroid_main(["fit", str(folder / "train.csv"), "--terms", case["terms"],
                             "--out", str(folder / "fit"), "--seed", str(seed)])
         fits[case["fit_key"]] = (folder / "fit", code)
     fit_dir, fit_code = fits[case["fit_key"]]
     result = {"case": case["case"], "axis": case["axis"], "terms": case["terms"],
-              "window_s": case["window_s"], "fit_exit": fit_code}
+              "window_s": case["window_s"], "fit_exit": fit_code,
+              "pooled": "pool" in case, "another_run": case["another_run"]}
     test = case["test"]
     part = _windows(test["time_s"], case["window_s"])
     n = int(part.max()) + 1
@@ -162,7 +195,8 @@ def one(case: dict, folder: Path, seed: int, fits: dict) -> dict:
     if fit_code in (0, 3):
         compensate_code = gyroid_main(
             ["compensate", str(folder / "test.csv"), "--fit", str(fit_dir), "--out",
-             str(folder / "comp"), "--window", str(case["window_s"])])
+             str(folder / "comp"), "--window", str(case["window_s"])]
+            + (["--another-run"] if case["another_run"] else []))
         result["compensate_exit"] = compensate_code
         if compensate_code in (0, 3):
             rows = list(csv.DictReader(open(folder / "comp" / "compensated_means.csv")))
@@ -205,6 +239,26 @@ def summarise(runs: list[dict]) -> dict:
         "gyroid_rms_over_best_peer_median": float(np.median(ratio)),
         "gyroid_no_worse_than_best_peer": sum(x <= 1.0 + 1e-9 for x in ratio),
         "gyroid_rms_over_best_peer_max": float(max(ratio)),
+        **_by_kind(runs, trusted),
+    }
+
+
+def _by_kind(runs: list[dict], trusted: list[dict]) -> dict:
+    """The pooled cases, and the single-run fits applied to another power-on."""
+    pooled = [r for r in runs if r.get("pooled")]
+    single = [r for r in runs if r.get("another_run") and not r.get("pooled")]
+    pooled_trusted = [r for r in pooled if r in trusted]
+    return {
+        "pooled_cases": len(pooled),
+        "pooled_trusted": len(pooled_trusted),
+        "pooled_trusted_holding_80pct": sum(r["gyroid"]["band_holds"] >= 0.8
+                                            for r in pooled_trusted),
+        "pooled_trusted_band_holds_median": float(np.median(
+            [r["gyroid"]["band_holds"] for r in pooled_trusted] or [math.nan])),
+        "pooled_least_squares_band_holds_median": float(np.median(
+            [r["least_squares"]["band_holds"] for r in pooled] or [math.nan])),
+        "another_run_single_fit_cases": len(single),
+        "another_run_single_fit_refused": sum(r.get("compensate_exit") == 3 for r in single),
     }
 
 
