@@ -801,3 +801,14 @@ def test_the_noise_prior_dependence_on_the_fog_benches():
     _quoted(f"it warned on {weak['noise_prior_dependence_warned']} of {weak['fits']} (w = 0.05 "
             f"deg/h) and {strong['noise_prior_dependence_warned']} of {strong['fits']} (w = "
             "0.2 deg/h)")
+
+
+def test_real_log_on_three_axes():
+    r = json.loads((ROOT / "benchmarks" / "results_real_log.json").read_text())
+    fit, compensate = (sorted(r["seconds_all"][k])[len(r["seconds_all"][k]) // 2]
+                       for k in ("fit", "compensate"))
+    assert not r["within_budget"] and set(r["exit_codes"].values()) == {0}
+    _quoted(f"`gyroid fit --terms bias` took {fit:.1f} s and `gyroid compensate` "
+            f"{compensate:.1f} s (medians of three), against {r['bare_s']:.2f} s",
+            f"columns: {r['gyroid_over_bare']:.1f}x", f"floor ({r['import_floor_s']:.1f} s in "
+            f"the same run): {r['budget_s']:.1f} s, not met")
