@@ -48,6 +48,9 @@ def test_the_advice_followed_pools_each_runs_correlated_noise_fit():
     for name in ("goodness_of_fit", "residual_whiteness", "predictive"):
         assert next(c for c in followed.checks.checks if c.name == name).passed, name
     assert followed.problem.run_noise == "white+flicker+rw"
+    # how far each run's intervals rest on the noise priors is carried into the lot's checks
+    carried = next(c for c in followed.checks.checks if c.name == "noise_prior_dependence")
+    assert carried.severity == "warning"
     white_sd, ieee_sd = (r.to_json()["population"]["w0"]["sd"] for r in (result, followed))
     assert ieee_sd > white_sd
 

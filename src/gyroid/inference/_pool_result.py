@@ -162,8 +162,9 @@ class PoolFit(FitResult):
             "heterogeneity": {n: h.to_json() for n, h in self.heterogeneity.items()},
             "noise": {name: dict(summary[name]) for name in self.problem.noise_names},
             "run_noise": self.problem.idata_attrs()["run_noise"],
-            "run_noise_levels": {label: estimate.to_json() for label, estimate in zip(
-                self.run_labels, self.problem.run_noise_levels, strict=True)},
+            "run_noise_levels": ({label: estimate.to_json() for label, estimate in zip(
+                self.run_labels, self.problem.run_noise_levels, strict=True)}
+                if self.problem.run_noise_levels else {}),
             "units": {n: parameter(n).unit for n in names},
             "priors": {n: prior.describe() for n, prior in zip(
                 names + self.problem.names, self.problem.mean_priors + self.problem.priors,
