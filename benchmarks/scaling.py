@@ -19,6 +19,9 @@ and peak memory (the process and its children):
   ``--ieee-rows``;
 * ``bare``: the bare script (read, Savitzky-Golay dT/dt, normal equations, emcee on
   sufficient statistics with DE moves for 3000 steps; no checks, no files);
+* ``bare_correlated``: the bare script for correlated noise, what ``gyroid fit`` assumes
+  by default (benchmarks/bare_correlated_fit.py: least squares, the residual's Allan slopes,
+  generalised least squares on at most 1000 block means; no checks, no files);
 * ``compensate``: ``gyroid compensate LOG --fit FIT`` (the log with its own fit; the
   compensated CSV, compensate.json, two figures, the checks) against ``bare_compensate``
   (benchmarks/bare_compensate.py: pyarrow, the same dT/dt and posterior means, a NumPy
@@ -247,10 +250,13 @@ def one_length(rows: int, folder: Path, discrepancy_rows: int, ieee_rows: int) -
                                      for k in ("w0", "w1", "w2", "wD")}
         else:
             row["fit_ieee"]["stderr"] = ieee["stderr"]
-    bare = measure(sys.executable, str(HERE / "bare_thermal_fit.py"), str(log))
-    row["bare"] = {k: bare[k] for k in ("seconds", "seconds_all", "peak_mb", "code")}
-    if bare["code"] == 0:
-        row["bare"].update(json.loads(bare["stdout"].strip().splitlines()[-1]))
+    for key, script in (("bare", "bare_thermal_fit.py"),
+                        ("bare_correlated", "bare_correlated_fit.py")):
+        bare = measure(sys.executable, str(HERE / script), str(log))
+        row[key] = {k: bare[k] for k in ("seconds", "seconds_all", "peak_mb", "code")}
+        if bare["code"] == 0:
+            row[key].update(json.loads(bare["stdout"].strip().splitlines()[-1]))
+    bare = row["bare"]
     if fit["code"] in (0, 3):
         row |= compensate_rows(log, fit_dir, folder)
         record = json.loads((fit_dir / "fit.json").read_text())
