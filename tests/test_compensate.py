@@ -197,7 +197,7 @@ def test_window_bands_judge_by_the_stated_correlation():
     level, a run's bias) when the offset is within about two sd, and improbable beyond: the
     check refuses only the latter (it passes a model that describes the log 99 times in
     100, whatever its correlation)."""
-    from gyroid.workflows._compensate import window_bands
+    from gyroid.workflows._window_means import window_bands
 
     n = 20
     shared, own = 1.0, 0.1  # a common offset's sd and each window's own

@@ -34,6 +34,7 @@ from gyroid.models._drift import DriftModel
 from gyroid.models._effects import EXTRA_PREFIX, effect
 from gyroid.workflows._allan import AllanDeviation, allan_deviation
 from gyroid.workflows._turn_on import SAME_RUN, TurnOn, turn_on_check, with_turn_on
+from gyroid.workflows._window_means import window_bands, window_means
 
 
 @dataclass(frozen=True, eq=False)
@@ -185,110 +186,6 @@ def compensate(log: BenchLog, fitted: FittedDrift, *, max_draws: int = 400, seed
                      turn_on_check(fitted, turn_on), units_sanity(log)))
     summary.update(checks.to_json())
     return Compensation(log, model, sd, compensated, summary, before, after, checks, windows)
-
-
-
-def window_means(log: BenchLog, fitted: FittedDrift,
-                 draw_part_means: Callable[[np.ndarray, int], np.ndarray], window_s: float
-                 ) -> tuple[dict[str, np.ndarray], np.ndarray | None]:
-    """Per consecutive window of ``window_s`` seconds holding samples: its first and last
-    time, samples, the measured drift's mean, the model's mean over posterior draws and its
-    sd, the fit's noise model's sd of such a mean (at this log's sample interval, after the
-    fitted log), and the 95 % band for the measured mean (model and noise, normal). A fit
-    without a noise model (an old folder) has no noise sd or band (NaN). Also the
-    predictive covariance of the windows' measured means (model and noise; None without a
-    noise model), which the bands are the diagonal of."""
-    time_s = np.asarray(log.time_s)
-    index = np.floor((time_s - time_s[0]) / window_s).astype(int)
-    _, part = np.unique(index, return_inverse=True)
-    n = int(part.max()) + 1
-    counts = np.bincount(part, minlength=n).astype(float)
-    means = draw_part_means(part, n)
-    model_mean, model_sd = means.mean(axis=0), means.std(axis=0, ddof=1) if means.shape[
-        0] > 1 else np.zeros(n)
-    noise_sd = np.full(n, np.nan)
-    covariance = None
-    if fitted.noise is not None:
-        step = float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
-        sigma = log.sigma_deg_h
-        white = (np.bincount(part, np.asarray(sigma) ** 2, n) / counts**2
-                 if sigma is not None else fitted.noise.white_sd_at(step) ** 2 / counts)
-        noise_cov = np.atleast_2d(fitted.noise.part_covariance(time_s, part, n, step, white))
-        noise_sd = np.sqrt(np.diag(noise_cov))
-        model_cov = np.atleast_2d(np.cov(means, rowvar=False)) if means.shape[0] > 1 else 0.0
-        covariance = noise_cov + model_cov
-    half = 1.96 * np.sqrt(model_sd**2 + noise_sd**2)
-    return {"t_start_s": np.array([time_s[part == k][0] for k in range(n)]),
-            "t_end_s": np.array([time_s[part == k][-1] for k in range(n)]),
-            "n_samples": counts.astype(int),
-            "drift_mean_deg_h": np.bincount(part, np.asarray(log.drift_deg_h), n) / counts,
-            "model_mean_deg_h": model_mean, "model_mean_sd_deg_h": model_sd,
-            "noise_mean_sd_deg_h": noise_sd, "band95_lo_deg_h": model_mean - half,
-            "band95_hi_deg_h": model_mean + half}, covariance
-
-
-#: Share of a log's window means below which, if improbable, the bands fail; the fewest
-#: windows judged; the improbability (under the predictive covariance) that is an error;
-#: the draws the probability is estimated from, and the most windows it reads.
-WINDOW_BANDS_INSIDE = 0.8
-WINDOW_BANDS_MIN = 5
-WINDOW_BANDS_P = 0.01
-WINDOW_BANDS_DRAWS = 4000
-WINDOW_BANDS_MAX = 2000
-
-
-def window_bands(windows: dict[str, np.ndarray], covariance: np.ndarray | None,
-                 window_s: float, *, seed: int = 0) -> Check:
-    """The bands ``compensated_means.csv`` states, held against this log's measured window
-    means, one window at a time as a user reads them: fewer than ``WINDOW_BANDS_INSIDE``
-    inside is an error when that is improbable (p < ``WINDOW_BANDS_P``) under the windows'
-    predictive covariance (model and noise; by ``WINDOW_BANDS_DRAWS`` draws with ``seed``),
-    judged by how far beyond the bands the means lie in all (the sum over windows of each
-    one's excess beyond its band, in half-bands: zero inside). The windows' errors are
-    correlated (a shared offset, a walk's trend), so many may fall outside together by
-    chance: the probability decides, not the count, and a model that describes the log
-    passes 99 times in 100. The whitened predictive check tests
-    the joint calibration; this one sees a run whose means sit outside their bands together
-    (another run's turn-on bias) beyond what the stated correlation allows."""
-    low, high = windows.get("band95_lo_deg_h"), windows.get("band95_hi_deg_h")
-    name = "window_bands"
-    if (covariance is None or low is None or not np.all(np.isfinite(low))
-            or low.size < WINDOW_BANDS_MIN):
-        return Check(name, True, "error", None, WINDOW_BANDS_INSIDE,
-                     f"fewer than {WINDOW_BANDS_MIN} windows of {window_s:g} s with bands: not "
-                     "judged")
-    measured = windows["drift_mean_deg_h"]
-    inside = (measured >= low) & (measured <= high)
-    share = float(np.mean(inside))
-    where = f"{int(inside.sum())} of {inside.size} window means of {window_s:g} s"
-    if share >= WINDOW_BANDS_INSIDE:
-        return Check(name, True, "error", share, WINDOW_BANDS_INSIDE,
-                     f"{where} lie inside their 95 % bands")
-    every = max(1, -(-inside.size // WINDOW_BANDS_MAX))
-    kept = np.arange(0, inside.size, every)
-    half = 0.5 * (high - low)[kept]
-    factor = np.linalg.cholesky(covariance[np.ix_(kept, kept)]
-                                + 1e-12 * np.diag(np.diag(covariance)[kept]))
-    draws = np.random.default_rng(seed).standard_normal((WINDOW_BANDS_DRAWS, kept.size))
-
-    def beyond(errors: np.ndarray) -> np.ndarray:
-        return np.sum(np.maximum(np.abs(errors) / half - 1.0, 0.0), axis=-1)
-
-    errors = (measured - windows["model_mean_deg_h"])[kept]
-    p = float(np.mean(beyond(draws @ factor.T) >= beyond(errors)))
-    offset = float(np.median(measured - windows["model_mean_deg_h"]))
-    if p >= WINDOW_BANDS_P:
-        return Check(name, True, "error", share, WINDOW_BANDS_INSIDE,
-                     f"{where} lie inside their 95 % bands; no further outside than errors "
-                     f"as correlated as the fit states leave (p = {p:.2g})")
-    return Check(name, False, "error", share, WINDOW_BANDS_INSIDE,
-                 f"only {where} lie inside their 95 % bands, further outside than errors as "
-                 f"correlated as the fit states leave (p = {p:.1g}; the measured means sit "
-                 f"{offset:+.3g} deg/h from the model's, in the median): the fit does not "
-                 "describe this log (another run's turn-on bias, another unit, conditions "
-                 "it did not see); do not compensate with it: refit on this run, or fit "
-                 "several runs together (gyroid pool) so that the run-to-run spread is "
-                 "known")
 
 
 #: Rows outside the fitted ranges above this fraction make the compensation an
