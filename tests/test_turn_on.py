@@ -17,9 +17,9 @@ from gyroid.inference import fit_log
 from gyroid.io._fitted import FittedDrift, _noise_estimate
 from gyroid.models._drift import DriftModel
 from gyroid.noise._base import NoiseEstimate
-from gyroid.noise._kinds import Ieee952
+from gyroid.noise._kinds import Ieee952, White
 from gyroid.workflows._compensate import compensate
-from gyroid.workflows._turn_on import TurnOn, turn_on_check, with_turn_on
+from gyroid.workflows._turn_on import StartUp, TurnOn, turn_on_check, with_turn_on
 
 #: The unit's mean bias and its spread from one power-on to the next (deg/h).
 BIAS, TURN_ON_SD = 100.0, 30.0
@@ -135,3 +135,54 @@ def test_a_pool_compensates_another_run_with_its_spread_and_noise(tmp_path):
                  "--out", str(tmp_path / "refused")]) == 3
     refused = json.loads((tmp_path / "refused" / "compensate.json").read_text())
     assert "gyroid pool" in refused["checks"]["turn_on_bias"]["message"]
+
+
+def test_a_start_up_calibration_sets_the_bias_exactly():
+    """A bias-only fit under white noise, compensated with the log's first 300 s setting the
+    bias: the model is the start-up mean on every row with no uncertainty (the fitted bias
+    cancels), and each window's noise sd is that of its mean less the start-up mean, 20
+    deg/h sqrt(1/n + 1/300) (white noise: the two means independent)."""
+    rng = np.random.default_rng(1)
+    draws = rng.normal(BIAS, 2.0, (400, 1))
+    fitted = FittedDrift(model=DriftModel.from_terms("bias"), draws=draws, t0_C=21.0,
+                         noise=NoiseEstimate(White(), {}, 20.0, 1.0))
+    log = BenchLog(_run(rng))
+    result = compensate(log, fitted, window_s=600.0, turn_on=TurnOn(rezero_s=300.0))
+    start = float(np.mean(log.drift_deg_h[:300]))
+    np.testing.assert_allclose(result.model_deg_h, start, rtol=1e-12)
+    assert np.max(result.model_sd_deg_h) < 1e-9
+    means = result.window_means
+    assert means["t_start_s"][0] == 300.0 and means["n_samples"].sum() == 3300
+    np.testing.assert_allclose(means["model_mean_deg_h"], start, rtol=1e-12)
+    np.testing.assert_allclose(means["noise_mean_sd_deg_h"],
+                               20.0 * np.sqrt(1.0 / means["n_samples"] + 1.0 / 300.0))
+    assert result.summary["checks"]["turn_on_bias"]["passed"]
+    assert result.summary["turn_on"]["startup_rows"] == 300
+    with pytest.raises(GyroidInputError, match="holds 1 of"):
+        StartUp.of(np.arange(10.0), np.zeros(10), 0.5)
+    with pytest.raises(GyroidInputError, match="give one of them"):
+        TurnOn(True, 5.0, 300.0)
+
+
+@pytest.mark.slow
+def test_start_up_calibrated_bands_hold_on_another_run():
+    """30 pairs of power-ons whose drift also follows the temperature (0.5 deg/h per degC,
+    a 10 degC ramp): fitted (bias and temperature, white noise) on the first, the second
+    compensated with its first 300 s setting its bias: its later mean's 95 % band holds at
+    least 25 of 30 (the binomial's 0.4 % tail at 0.95)."""
+    rng = np.random.default_rng(11)
+    held = 0
+    for k in range(30):
+        runs = []
+        for _ in range(2):
+            columns = _run(rng)
+            columns["temperature_C"] = 15.0 + 10.0 * columns["time_s"] / 3600.0
+            columns["drift_deg_h"] += 0.5 * (columns["temperature_C"] - 21.0)
+            runs.append(BenchLog(columns))
+        fitted = fit_log(runs[0], "bias,temperature", noise="white", seed=k).fitted_drift()
+        result = compensate(runs[1], fitted, seed=k, window_s=3600.0,
+                            turn_on=TurnOn(True, rezero_s=300.0))
+        means = result.window_means
+        held += int(means["band95_lo_deg_h"][0] <= means["drift_mean_deg_h"][0]
+                    <= means["band95_hi_deg_h"][0])
+    assert held >= 25, held

@@ -160,11 +160,15 @@ def fit(data, out, options) -> None:
                    "sigma; a datasheet's initial bias error, or a pool's between-run sd): "
                    "another run differs from the fitted one by sqrt(2) times it. Implies "
                    "--another-run.")
+@click.option("--rezero", "rezero_s", default=None, type=POSITIVE, metavar="SECONDS",
+              help="DATA starts with SECONDS at rest whose mean sets its bias, as a "
+                   "firmware's start-up calibration does: the model predicts the drift's "
+                   "change from that mean (another power-on's turn-on bias does not enter).")
 @map_option
 @axes_option
 @instance_option
-def compensate(data, fit_dir, out, seed, window_s, another_run, turn_on_sd, mappings, axes,
-               instance) -> None:
+def compensate(data, fit_dir, out, seed, window_s, another_run, turn_on_sd, rezero_s,
+               mappings, axes, instance) -> None:
     """Compensate a new bench log DATA with a fitted drift model; Allan deviation before and
     after. Every axis a fit of several has (--axes to choose). Exit code 3 when a self-check
     (extrapolation, gain, the predictive check, another run's unknown turn-on bias) says not
@@ -175,7 +179,8 @@ def compensate(data, fit_dir, out, seed, window_s, another_run, turn_on_sd, mapp
     click.echo(f"compensating {data} with {fit_dir} ...", err=True)
     result = compensate_file(data, fit_dir, out, seed=seed, maps=parse_maps(mappings),
                              axes=parse_axes(axes), instance=instance, window_s=window_s,
-                             turn_on=TurnOn(another_run or turn_on_sd is not None, turn_on_sd))
+                             turn_on=TurnOn(another_run or turn_on_sd is not None, turn_on_sd,
+                                            rezero_s))
     for axis, item in result.results.items():
         s = item.summary
         which = f"axis {axis}: " if result.several else ""

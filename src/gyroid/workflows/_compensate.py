@@ -33,8 +33,8 @@ from gyroid.io._logs import BenchLog, contiguous_segments
 from gyroid.models._drift import DriftModel
 from gyroid.models._effects import EXTRA_PREFIX, effect
 from gyroid.workflows._allan import AllanDeviation, allan_deviation
-from gyroid.workflows._turn_on import SAME_RUN, TurnOn, turn_on_check, with_turn_on
-from gyroid.workflows._window_means import window_bands, window_means
+from gyroid.workflows._turn_on import SAME_RUN, StartUp, TurnOn, turn_on_check, with_turn_on
+from gyroid.workflows._window_means import measured_mean_covariance, window_bands, window_means
 
 
 @dataclass(frozen=True, eq=False)
@@ -81,9 +81,15 @@ class DrawPredictions:
     part_means: Callable[[np.ndarray, int], np.ndarray]
 
     @classmethod
-    def of(cls, model: DriftModel, inputs, draws: np.ndarray) -> DrawPredictions:
+    def of(cls, model: DriftModel, inputs, draws: np.ndarray, startup: StartUp | None = None
+           ) -> DrawPredictions:
+        """With ``startup``: each draw's drift less its mean over the start-up rows, plus
+        the measured start-up mean (the run's bias set by its start-up calibration)."""
+        offset = 0.0 if startup is None else startup.mean_deg_h
         if model.is_linear:
             design = np.asarray(model.design(inputs))
+            if startup is not None:
+                design = design - design[startup.rows].mean(axis=0)
             covariance = (np.atleast_2d(np.cov(draws, rowvar=False)) if draws.shape[0] > 1
                           else np.zeros((draws.shape[1],) * 2))
             variance = np.einsum("ij,jk,ik->i", design, covariance, design)
@@ -91,11 +97,14 @@ class DrawPredictions:
             def linear_part_means(part: np.ndarray, n_parts: int) -> np.ndarray:
                 columns = [part_means(design[:, i], part, n_parts)
                            for i in range(design.shape[1])]
-                return draws @ np.column_stack(columns).T
+                return draws @ np.column_stack(columns).T + offset
 
-            return cls(design @ draws.mean(axis=0), np.sqrt(np.maximum(variance, 0.0)),
-                       linear_part_means)
+            return cls(design @ draws.mean(axis=0) + offset,
+                       np.sqrt(np.maximum(variance, 0.0)), linear_part_means)
         predictions = np.asarray(_predict_draws(model, jnp.asarray(draws), inputs))
+        if startup is not None:
+            predictions = (predictions - predictions[:, startup.rows].mean(axis=1)[:, None]
+                           + offset)
         sd = (predictions.std(axis=0, ddof=1) if predictions.shape[0] > 1
               else np.zeros(predictions.shape[1]))
         return cls(predictions.mean(axis=0), sd, lambda part, n_parts: np.stack(
@@ -132,9 +141,11 @@ def compensate(log: BenchLog, fitted: FittedDrift, *, max_draws: int = 400, seed
     if draws.shape[0] > max_draws:
         draws = draws[rng.choice(draws.shape[0], max_draws, replace=False)]
     draws = with_turn_on(fitted, turn_on, draws, rng)
-    predictions = DrawPredictions.of(fitted.model, inputs, draws)
-    model, sd = predictions.mean, predictions.sd
     drift = np.asarray(log.drift_deg_h)
+    startup = (StartUp.of(np.asarray(log.time_s), drift, turn_on.rezero_s)
+               if turn_on.rezero_s is not None else None)
+    predictions = DrawPredictions.of(fitted.model, inputs, draws, startup)
+    model, sd = predictions.mean, predictions.sd
     compensated = drift - model
     steps = np.diff(log.time_s)
     sample_s = float(np.median(steps))
@@ -175,13 +186,15 @@ def compensate(log: BenchLog, fitted: FittedDrift, *, max_draws: int = 400, seed
         "within_fitted_range": not outside,
         "terms": list(fitted.model.terms),
         "model_source": fitted.source,
-        "turn_on": turn_on.to_json(),
+        "turn_on": turn_on.to_json() | ({"startup_rows": int(startup.rows.sum()),
+                                          "startup_mean_deg_h": startup.mean_deg_h}
+                                         if startup is not None else {}),
         "posterior_draws_used": int(draws.shape[0]),
         "rows": int(drift.size),
     }
-    windows, window_cov = window_means(log, fitted, predictions.part_means, window_s)
+    windows, window_cov = window_means(log, fitted, predictions.part_means, window_s, startup)
     checks = compensation_checks(drift, compensated, outside, fitted.trustworthy) + \
-        CheckReport((compensation_predictive(log, fitted, predictions.part_means),
+        CheckReport((compensation_predictive(log, fitted, predictions.part_means, startup),
                      window_bands(windows, window_cov, window_s, seed=seed),
                      turn_on_check(fitted, turn_on), units_sanity(log)))
     summary.update(checks.to_json())
@@ -223,41 +236,39 @@ def compensation_checks(drift: np.ndarray, compensated: np.ndarray, outside: lis
 
 
 def compensation_predictive(log: BenchLog, fitted: FittedDrift,
-                            draw_part_means: Callable[[np.ndarray, int], np.ndarray]
-                            ) -> Check:
+                            draw_part_means: Callable[[np.ndarray, int], np.ndarray],
+                            startup: StartUp | None = None) -> Check:
     """The predictive check of a compensation: the compensated drift's means over parts of
-    the new log (up to 16, whole bursts for a log of bursts) against the fit's bands: the
-    model's uncertainty (the covariance of the parts' means over the posterior draws) plus
-    the fit's noise model's covariance of those means (:mod:`gyroid.inference._predictive`;
-    ``draw_part_means(part, n_parts)``: the modelled drift's part means per draw).
-    A fit whose stated uncertainty describes this log passes; a log that departs from it
-    (another unit, wander the fit's noise model lacks) fails, saying by how much. White noise
-    is taken at this log's own sample interval (a sample's variance times the fit's interval
-    over this log's, as a rate averaged over each sample has), so a log sampled faster than
-    the fitted one is not refused for its larger per-sample noise."""
+    the new log (up to 16, whole bursts for a log of bursts; after the start-up
+    calibration's rows, with ``startup``) against the fit's bands: the model's uncertainty
+    (the covariance of the parts' means over the posterior draws) plus the fit's noise
+    model's covariance of those means (of each less the start-up mean, with ``startup``;
+    :mod:`gyroid.inference._predictive`; ``draw_part_means(part, n_parts)``: the modelled
+    drift's part means per draw). A fit whose stated uncertainty describes this log passes;
+    a log that departs from it (another unit, wander the fit's noise model lacks) fails,
+    saying by how much. White noise is taken at this log's own sample interval
+    (:func:`~gyroid.workflows._window_means.measured_mean_covariance`), so a log sampled
+    faster than the fitted one is not refused for its larger per-sample noise."""
     noise = fitted.noise
     time_s = np.asarray(log.time_s)
-    segments = tuple(contiguous_segments(time_s))
-    parts = stretches(log.n, segments if len(segments) > 1 else None, folds=1)
+    after = np.arange(log.n) if startup is None else np.flatnonzero(~startup.rows)
+    segments = tuple(contiguous_segments(time_s[after]))
+    parts = stretches(after.size, segments if len(segments) > 1 else None, folds=1)
     if parts is None or noise is None:
         return predictive_check(None, why_none=(
             "the fit's noise model is unknown (an old fit folder?): the bands are not tested "
             "on this log" if noise is None else ""))
-    means = draw_part_means(parts.part, parts.n_parts)
+    part = np.full(log.n, -1)
+    part[after] = parts.part
+    means = draw_part_means(part, parts.n_parts)
     model_cov = np.cov(means, rowvar=False) if means.shape[0] > 1 else np.zeros(
         (parts.n_parts,) * 2)
-    counts = np.bincount(parts.part, minlength=parts.n_parts).astype(float)
-    sigma = log.sigma_deg_h
-    step = float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
-    # white noise at this log's own rate: a sample's variance scales as 1 / its interval
-    white = (np.bincount(parts.part, np.asarray(sigma) ** 2, parts.n_parts) / counts**2
-             if sigma is not None else noise.white_sd_at(step) ** 2 / counts)
-    covariance = np.atleast_2d(model_cov) + noise.part_covariance(time_s, parts.part,
-                                                                  parts.n_parts, step, white)
-    held = HeldOut(observed=part_means(np.asarray(log.drift_deg_h), parts.part,
-                                       parts.n_parts),
+    counts = np.bincount(part[part >= 0], minlength=parts.n_parts).astype(float)
+    covariance = np.atleast_2d(model_cov) + measured_mean_covariance(
+        log, noise, part, parts.n_parts, startup)
+    held = HeldOut(observed=part_means(np.asarray(log.drift_deg_h), part, parts.n_parts),
                    predicted=means.mean(axis=0), covariance=covariance, counts=counts)
-    durations = [np.ptp(time_s[parts.part == s]) for s in range(parts.n_parts)]
+    durations = [np.ptp(time_s[part == s]) for s in range(parts.n_parts)]
     return predictive_check([held], part_s=float(np.median(durations)) or None,
                             subject="on this log, which the fit did not see")
 

@@ -8,7 +8,10 @@ an earlier lot: ``sd_deg_h``, the spread of each power-on's bias about the unit'
 the fitted run's bias is one such draw, so another run's differs from it by ``sqrt(2)``
 times the spread, which is added to the bias's draws), or a pool of several runs,
 whose predictive for a new run carries the spread it measured; without either, its bands
-for the new run are bands for the fitted run, and the compensation is refused.
+for the new run are bands for the fitted run, and the compensation is refused. Or the
+new log sets its own bias, as a firmware's start-up calibration does (``rezero_s``: its
+first seconds at rest, :class:`StartUp`): the model then predicts the drift's change from
+that mean, and the bands its uncertainty and the noise of both means.
 """
 
 from __future__ import annotations
@@ -35,16 +38,59 @@ class TurnOn:
 
     another_run: bool = False
     sd_deg_h: float | None = None
+    #: The log's first seconds at rest, whose mean sets its bias (a start-up calibration).
+    rezero_s: float | None = None
 
     def __post_init__(self) -> None:
         if self.sd_deg_h is not None and not (np.isfinite(self.sd_deg_h)
                                                and self.sd_deg_h >= 0):
             raise GyroidInputError(f"the turn-on bias sd must be a finite number >= 0 deg/h, "
                                    f"not {self.sd_deg_h!r}")
+        if self.rezero_s is not None and not (np.isfinite(self.rezero_s)
+                                               and self.rezero_s > 0):
+            raise GyroidInputError(f"the start-up calibration's length must be a positive "
+                                   f"number of seconds, not {self.rezero_s!r}")
+        if self.rezero_s is not None and self.sd_deg_h is not None:
+            raise GyroidInputError("a start-up calibration sets the new run's bias, so a "
+                                   "turn-on spread has nothing to add to: give one of them")
 
     def to_json(self) -> dict:
         return {"another_run": self.another_run or self.sd_deg_h is not None,
-                "sd_deg_h": self.sd_deg_h}
+                "sd_deg_h": self.sd_deg_h, "rezero_s": self.rezero_s}
+
+
+@dataclass(frozen=True)
+class StartUp:
+    """A log's start-up calibration: its rows in the first ``seconds`` (``rows``, a mask),
+    at rest, whose measured mean (``mean_deg_h``) sets the run's bias."""
+
+    rows: np.ndarray
+    mean_deg_h: float
+    seconds: float
+
+    @classmethod
+    def of(cls, time_s: np.ndarray, drift_deg_h: np.ndarray, seconds: float) -> StartUp:
+        rows = time_s < time_s[0] + seconds
+        if rows.sum() < 2 or rows.all():
+            raise GyroidInputError(
+                f"the start-up calibration of {seconds:g} s holds {int(rows.sum())} of the "
+                f"log's {rows.size} rows: give a length that holds at least two rows and "
+                "leaves some after it")
+        return cls(rows, float(np.mean(drift_deg_h[rows])), float(seconds))
+
+    def relabelled(self, part: np.ndarray, n_parts: int) -> np.ndarray:
+        """Parts for the noise covariance of parts' means less the start-up mean: the
+        start-up rows part 0 (the earliest), every other part one up; (n_parts + 1) parts."""
+        out = np.where(part >= 0, part + 1, -1)
+        out[self.rows] = 0
+        return out
+
+    @staticmethod
+    def contrasted(covariance: np.ndarray) -> np.ndarray:
+        """The covariance of each part's mean less the start-up part's (part 0 of
+        :meth:`relabelled`'s) from that of the means themselves."""
+        c = np.atleast_2d(covariance)
+        return c[1:, 1:] - c[1:, :1] - c[:1, 1:] + c[0, 0]
 
 
 #: The default: the compensated log is the fitted run's own power-on.
@@ -87,6 +133,11 @@ def turn_on_check(fitted: FittedDrift, turn_on: TurnOn) -> Check:
     """An error when the log is another run's, the fit one run's, and no turn-on spread is
     given: the bands would be the fitted run's."""
     name = "turn_on_bias"
+    if turn_on.rezero_s is not None:
+        return Check(name, True, "error", None, None,
+                     f"the log's first {turn_on.rezero_s:g} s set its bias (a start-up "
+                     "calibration, at rest): the model predicts the drift's change from their "
+                     "mean, so the run's turn-on bias does not enter")
     if is_new_run_predictive(fitted):
         return Check(name, True, "error", None, None,
                      "the fit is a pool's predictive for a new run: its draws carry the runs' "
@@ -106,5 +157,6 @@ def turn_on_check(fitted: FittedDrift, turn_on: TurnOn) -> Check:
                  "for that power-on only: another power-on's bias differs by the gyro's "
                  "turn-on repeatability, which one run cannot measure, so the bands are the "
                  "fitted run's; fit several runs together (gyroid pool) and compensate "
-                 "with the pool, or give the spread (--turn-on-sd, e.g. a datasheet's "
-                 "initial bias error)")
+                 "with the pool, give the spread (--turn-on-sd, e.g. a datasheet's "
+                 "initial bias error), or let the log's first seconds at rest set its bias "
+                 "(--rezero SECONDS, a start-up calibration)")

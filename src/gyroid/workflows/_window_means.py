@@ -9,36 +9,61 @@ from collections.abc import Callable
 import numpy as np
 
 from gyroid.inference._checks import Check
+from gyroid.inference._predictive import part_means
 from gyroid.io._fitted import FittedDrift
 from gyroid.io._logs import BenchLog
+from gyroid.noise._base import NoiseEstimate
+from gyroid.workflows._turn_on import StartUp
+
+
+def measured_mean_covariance(log: BenchLog, noise: NoiseEstimate, part: np.ndarray,
+                             n_parts: int, startup: StartUp | None = None) -> np.ndarray:
+    """The fit's noise model's covariance ((deg/h)^2) of ``log``'s measured means over its
+    parts (``part``: each row's, -1 for none; contiguous, in time order), white noise from
+    the log's own sds or the fit's at this log's sample interval (a rate averaged over each
+    sample), the log after the fitted one; with ``startup``, of each part's mean less the
+    start-up rows' mean (the parts then must not hold start-up rows)."""
+    time_s = np.asarray(log.time_s)
+    step = float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
+    if startup is not None:
+        part, n = startup.relabelled(part, n_parts), n_parts + 1
+    else:
+        n = n_parts
+    kept = part >= 0
+    counts = np.bincount(part[kept], minlength=n).astype(float)
+    sigma = log.sigma_deg_h
+    white = (np.bincount(part[kept], np.asarray(sigma)[kept] ** 2, n) / counts**2
+             if sigma is not None else noise.white_sd_at(step) ** 2 / counts)
+    covariance = np.atleast_2d(noise.part_covariance(time_s, part, n, step, white))
+    return covariance if startup is None else startup.contrasted(covariance)
 
 
 def window_means(log: BenchLog, fitted: FittedDrift,
-                 draw_part_means: Callable[[np.ndarray, int], np.ndarray], window_s: float
+                 draw_part_means: Callable[[np.ndarray, int], np.ndarray], window_s: float,
+                 startup: StartUp | None = None
                  ) -> tuple[dict[str, np.ndarray], np.ndarray | None]:
-    """Per consecutive window of ``window_s`` seconds holding samples: its first and last
-    time, samples, the measured drift's mean, the model's mean over posterior draws and its
-    sd, the fit's noise model's sd of such a mean (at this log's sample interval, after the
-    fitted log), and the 95 % band for the measured mean (model and noise, normal). A fit
-    without a noise model (an old folder) has no noise sd or band (NaN). Also the
-    predictive covariance of the windows' measured means (model and noise; None without a
-    noise model), which the bands are the diagonal of."""
+    """Per consecutive window of ``window_s`` seconds holding samples (after the start-up
+    calibration's rows, with ``startup``): its first and last time, samples, the measured
+    drift's mean, the model's mean over posterior draws and its sd, the fit's noise model's
+    sd of such a mean (at this log's sample interval, after the fitted log; less the
+    start-up mean, with ``startup``), and the 95 % band for the measured mean (model and
+    noise, normal). A fit without a noise model (an old folder) has no noise sd or band
+    (NaN). Also the predictive covariance of the windows' measured means (model and noise;
+    None without a noise model), which the bands are the diagonal of."""
     time_s = np.asarray(log.time_s)
-    index = np.floor((time_s - time_s[0]) / window_s).astype(int)
-    _, part = np.unique(index, return_inverse=True)
+    kept = np.ones(time_s.size, dtype=bool) if startup is None else ~startup.rows
+    part = np.full(time_s.size, -1)
+    index = np.floor((time_s[kept] - time_s[kept][0]) / window_s).astype(int)
+    part[kept] = np.unique(index, return_inverse=True)[1]
     n = int(part.max()) + 1
-    counts = np.bincount(part, minlength=n).astype(float)
+    counts = np.bincount(part[kept], minlength=n).astype(float)
     means = draw_part_means(part, n)
     model_mean, model_sd = means.mean(axis=0), means.std(axis=0, ddof=1) if means.shape[
         0] > 1 else np.zeros(n)
     noise_sd = np.full(n, np.nan)
     covariance = None
     if fitted.noise is not None:
-        step = float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
-        sigma = log.sigma_deg_h
-        white = (np.bincount(part, np.asarray(sigma) ** 2, n) / counts**2
-                 if sigma is not None else fitted.noise.white_sd_at(step) ** 2 / counts)
-        noise_cov = np.atleast_2d(fitted.noise.part_covariance(time_s, part, n, step, white))
+        noise_cov = measured_mean_covariance(log, fitted.noise, part, n, startup)
         noise_sd = np.sqrt(np.diag(noise_cov))
         model_cov = np.atleast_2d(np.cov(means, rowvar=False)) if means.shape[0] > 1 else 0.0
         covariance = noise_cov + model_cov
@@ -46,7 +71,7 @@ def window_means(log: BenchLog, fitted: FittedDrift,
     return {"t_start_s": np.array([time_s[part == k][0] for k in range(n)]),
             "t_end_s": np.array([time_s[part == k][-1] for k in range(n)]),
             "n_samples": counts.astype(int),
-            "drift_mean_deg_h": np.bincount(part, np.asarray(log.drift_deg_h), n) / counts,
+            "drift_mean_deg_h": part_means(np.asarray(log.drift_deg_h), part, n),
             "model_mean_deg_h": model_mean, "model_mean_sd_deg_h": model_sd,
             "noise_mean_sd_deg_h": noise_sd, "band95_lo_deg_h": model_mean - half,
             "band95_hi_deg_h": model_mean + half}, covariance
