@@ -25,6 +25,9 @@ Cases (``GYROID_DATA`` holds the logs as ``../shared/data/real/``):
 * mpu6050: the 10-minute run trains, each other run of the unit tests (other orientations
   and days); 15-second windows, bias and bias + temperature;
 * adis16405: run 1 trains, runs 2-6 test, bias only (no thermometer); 10-minute windows;
+  and again with each test run's first 600 s setting its bias (``--rezero 600``, a
+  firmware's start-up calibration; the windows then start after it, and the start-up mean
+  is a peer's prediction too);
 * pooled (``gyroid pool`` of the unit's other runs, each under its default noise; the
   held-out run compensated with the pool's predictive for a new run): each ADIS16405 run
   and each MPU6050 run held out in turn, bias only; least squares is then the mean of the
@@ -59,6 +62,10 @@ from gyroid.io import atomic_write_text, dataset_logs, json_text
 from gyroid.io._log_writer import write_bench_log
 
 Z95 = 1.959963984540054
+#: The peers' recipes compared (each where the case has it).
+PEERS = ("least_squares", "cubic", "startup_mean")
+#: The start-up calibration of the ADIS16405's other runs, s.
+REZERO_S = 600.0
 
 
 def _cases() -> list[dict]:
@@ -90,6 +97,12 @@ def _cases() -> list[dict]:
         for axis in "xyz":
             cases.append(_case(f"adis16405 run 1 -> {k}", axis, (train, test), None,
                                None, "bias", 600.0, trained_on="adis_16405_imu1"))
+    for k in range(2, 7):
+        train, test = adis["adis_16405_imu1"][0], adis[f"adis_16405_imu{k}"][0]
+        for axis in "xyz":
+            case = _case(f"adis16405 run 1 -> {k}, start-up", axis, (train, test), None,
+                         None, "bias", 600.0, trained_on="adis_16405_imu1")
+            cases.append(case | {"rezero_s": REZERO_S})
     adis_runs = {name: log for name, log in adis.items() if name.startswith("adis_16405")}
     for unit, runs, window_s in (("adis16405", adis_runs, 600.0), ("mpu6050", mpu, 15.0)):
         names = sorted(runs)
@@ -138,10 +151,11 @@ def _windows(time_s: np.ndarray, window_s: float) -> np.ndarray:
     return np.unique(index, return_inverse=True)[1]
 
 
-def _peers(case: dict, part: np.ndarray) -> dict:
+def _peers(case: dict, part: np.ndarray, test: dict) -> dict:
     """Least squares and the cubic: each window mean's prediction (and least squares'
-    band)."""
-    train, test = case["train"], case["test"]
+    band) on the scored rows ``test``; with a start-up calibration, its mean too (a
+    firmware's recipe: the bias is the mean of the first seconds at rest)."""
+    train = case["train"]
     n = int(part.max()) + 1
     counts = np.bincount(part, minlength=n)
     thermal = "temperature" in case["terms"] and "temperature_C" in train
@@ -186,17 +200,25 @@ def one(case: dict, folder: Path, seed: int, fits: dict) -> dict:
     fit_dir, fit_code = fits[case["fit_key"]]
     result = {"case": case["case"], "axis": case["axis"], "terms": case["terms"],
               "window_s": case["window_s"], "fit_exit": fit_code,
-              "pooled": "pool" in case, "another_run": case["another_run"]}
-    test = case["test"]
+              "pooled": "pool" in case, "another_run": case["another_run"],
+              "rezero_s": case.get("rezero_s")}
+    test, rezero = case["test"], case.get("rezero_s")
+    startup = (test["time_s"] < test["time_s"][0] + rezero if rezero
+               else np.zeros(test["time_s"].size, dtype=bool))
+    test = {k: v[~startup] for k, v in test.items()}
     part = _windows(test["time_s"], case["window_s"])
     n = int(part.max()) + 1
     measured = np.bincount(part, test["drift_deg_h"], n) / np.bincount(part, minlength=n)
-    methods = _peers(case, part)
+    methods = _peers(case, part, test)
+    if rezero:
+        methods["startup_mean"] = (np.full(n, np.mean(case["test"]["drift_deg_h"][startup])),
+                                   None, None)
     if fit_code in (0, 3):
         compensate_code = gyroid_main(
             ["compensate", str(folder / "test.csv"), "--fit", str(fit_dir), "--out",
              str(folder / "comp"), "--window", str(case["window_s"])]
-            + (["--another-run"] if case["another_run"] else []))
+            + (["--another-run"] if case["another_run"] else [])
+            + (["--rezero", str(rezero)] if rezero else []))
         result["compensate_exit"] = compensate_code
         if compensate_code in (0, 3):
             rows = list(csv.DictReader(open(folder / "comp" / "compensated_means.csv")))
@@ -218,7 +240,7 @@ def one(case: dict, folder: Path, seed: int, fits: dict) -> dict:
 def summarise(runs: list[dict]) -> dict:
     gyroid_runs = [r for r in runs if "gyroid" in r]
     trusted = [r for r in gyroid_runs if r["fit_exit"] == 0 and r.get("compensate_exit") == 0]
-    best_peer = [min(r[m]["rms_deg_h"] for m in ("least_squares", "cubic") if m in r)
+    best_peer = [min(r[m]["rms_deg_h"] for m in PEERS if m in r)
                  for r in gyroid_runs]
     ratio = [r["gyroid"]["rms_deg_h"] / b for r, b in zip(gyroid_runs, best_peer, strict=True)]
     trusted_ratio = [x for r, x in zip(gyroid_runs, ratio, strict=True) if r in trusted]
@@ -246,7 +268,9 @@ def summarise(runs: list[dict]) -> dict:
 def _by_kind(runs: list[dict], trusted: list[dict]) -> dict:
     """The pooled cases, and the single-run fits applied to another power-on."""
     pooled = [r for r in runs if r.get("pooled")]
-    single = [r for r in runs if r.get("another_run") and not r.get("pooled")]
+    single = [r for r in runs if r.get("another_run") and not r.get("pooled")
+              and not r.get("rezero_s")]
+    startup = [r for r in runs if r.get("rezero_s")]
     pooled_trusted = [r for r in pooled if r in trusted]
     return {
         "pooled_cases": len(pooled),
@@ -259,6 +283,10 @@ def _by_kind(runs: list[dict], trusted: list[dict]) -> dict:
             [r["least_squares"]["band_holds"] for r in pooled] or [math.nan])),
         "another_run_single_fit_cases": len(single),
         "another_run_single_fit_refused": sum(r.get("compensate_exit") == 3 for r in single),
+        "startup_cases": len(startup),
+        "startup_trusted": sum(r in trusted for r in startup),
+        "startup_trusted_holding_80pct": sum(r["gyroid"]["band_holds"] >= 0.8
+                                             for r in startup if r in trusted),
     }
 
 
