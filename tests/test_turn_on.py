@@ -51,6 +51,9 @@ def test_the_spread_is_added_to_the_bias_draws_only():
     assert added == pytest.approx(2 * TURN_ON_SD**2, rel=4 * np.sqrt(2 / 4000))
     np.testing.assert_array_equal(out[:, 1], draws[:, 1])
     assert with_turn_on(_fitted(draws), TurnOn(True), draws, rng) is draws
+    odd = draws[:3]
+    shifted = with_turn_on(_fitted(odd), TurnOn(True, TURN_ON_SD), odd, rng)
+    assert shifted[:, 0].mean() == pytest.approx(odd[:, 0].mean(), abs=1e-9)
 
 
 def test_a_spread_needs_a_bias_term_a_single_fit_and_a_number():

@@ -153,7 +153,8 @@ def fit(data, out, options) -> None:
 @click.option("--another-run", is_flag=True,
               help="DATA is another power-on than the fitted run's (another day, a restart): "
                    "its bias differs by the turn-on repeatability, which a fit of one run "
-                   "cannot know; give --turn-on-sd or compensate with a 'gyroid pool' folder.")
+                   "cannot know; give --turn-on-sd or --rezero, or compensate with a "
+                   "'gyroid pool' folder.")
 @click.option("--turn-on-sd", "turn_on_sd", default=None, type=FiniteFloat(0.0),
               metavar="DEG_H",
               help="The spread of the bias at each power-on about the unit's mean, deg/h (1 "

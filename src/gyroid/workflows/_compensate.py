@@ -126,8 +126,9 @@ def compensate(log: BenchLog, fitted: FittedDrift, *, max_draws: int = 400, seed
     """Apply a fit's posterior (``fitted``: ``BenchFit.fitted_drift()``, or a fit's folder
     read back) to ``log``; rows beyond the ranges the fit saw are flagged; the means over
     consecutive windows of ``window_s`` seconds with their bands (:func:`window_means`).
-    ``turn_on``: whether ``log`` is another power-on than the fitted run's, and the turn-on
-    spread of the bias if known (:mod:`gyroid.workflows._turn_on`)."""
+    ``turn_on``: whether ``log`` is another power-on than the fitted run's, and how its bias
+    is known: the turn-on spread, or its start-up calibration's rows
+    (:mod:`gyroid.workflows._turn_on`)."""
     extra = [name for name in fitted.model.terms if name.startswith(EXTRA_PREFIX)]
     if extra:
         raise GyroidInputError(

@@ -120,10 +120,9 @@ def with_turn_on(fitted: FittedDrift, turn_on: TurnOn, draws: np.ndarray,
         raise GyroidInputError(
             f"a turn-on bias sd adds to the bias {BIAS}, and the fit has none (terms: "
             f"{', '.join(fitted.model.terms)}): refit with the bias among --terms")
-    half = rng.standard_normal(-(-draws.shape[0] // 2))
-    shifts = np.concatenate([half, -half])[:draws.shape[0]]
-    if draws.shape[0] % 2:
-        shifts[-1] = 0.0
+    m = draws.shape[0]
+    half = rng.standard_normal(m // 2)
+    shifts = np.concatenate([half, -half, np.zeros(m % 2)])
     out = np.array(draws, dtype=float, copy=True)
     out[:, names.index(BIAS)] += math.sqrt(2.0) * turn_on.sd_deg_h * shifts
     return out
@@ -146,7 +145,8 @@ def turn_on_check(fitted: FittedDrift, turn_on: TurnOn) -> Check:
         return Check(name, True, "error", None, None,
                      "this log is taken to be the fitted run's own power-on (the run "
                      "continued, or a part held out); for another run's, say so "
-                     "(--another-run), and the bands add the turn-on spread")
+                     "(--another-run) and say how its bias is known (a pool, --turn-on-sd "
+                     "or --rezero)")
     if turn_on.sd_deg_h is not None:
         return Check(name, True, "error", turn_on.sd_deg_h, None,
                      f"another run: a turn-on spread of the bias of {turn_on.sd_deg_h:.3g} "
