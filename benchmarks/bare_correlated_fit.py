@@ -30,7 +30,7 @@ import time
 
 import allantools
 import numpy as np
-from bare_thermal_fit import T0_C, rate_c_per_h, read
+from bare_thermal_fit import read, thermal_design
 from scipy.linalg import cho_factor, cho_solve
 
 BLOCKS = 1000
@@ -57,9 +57,7 @@ def fit(path: str) -> dict:
 
     start = time.perf_counter()
     time_s = data["time_s"]
-    t = data["temperature_C"] - T0_C
-    design = np.column_stack([np.ones_like(t), t, t**2,
-                              rate_c_per_h(time_s, data["temperature_C"])])
+    design = thermal_design(data)
     y = data["drift_deg_h"]
     ols, *_ = np.linalg.lstsq(design, y, rcond=None)
     sample_s = float(np.median(np.diff(time_s)))

@@ -52,6 +52,13 @@ def rate_c_per_h(time_s: np.ndarray, temperature: np.ndarray) -> np.ndarray:
     return np.interp(time_s, centres, slope) * 3600.0
 
 
+def thermal_design(data: dict[str, np.ndarray]) -> np.ndarray:
+    """Paper A's thermal regressors: 1, t, t^2 (t = T - 21 degC) and dT/dt (degC/h)."""
+    t = data["temperature_C"] - T0_C
+    return np.column_stack([np.ones_like(t), t, t**2,
+                            rate_c_per_h(data["time_s"], data["temperature_C"])])
+
+
 def fit(path: str) -> dict:
     """The posterior means of one log and the seconds each stage took."""
     timings = {}
@@ -60,9 +67,7 @@ def fit(path: str) -> dict:
     timings["read_s"] = time.perf_counter() - start
 
     start = time.perf_counter()
-    t = data["temperature_C"] - T0_C
-    design = np.column_stack([np.ones_like(t), t, t**2,
-                              rate_c_per_h(data["time_s"], data["temperature_C"])])
+    design = thermal_design(data)
     y = data["drift_deg_h"]
     gram, xy, yy, n = design.T @ design, design.T @ y, float(y @ y), y.size
     solution = np.linalg.solve(gram, xy)
