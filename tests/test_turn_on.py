@@ -115,11 +115,12 @@ def test_another_runs_bands_hold_with_the_spread_and_not_without():
 
 
 @pytest.mark.slow
-def test_a_pool_compensates_another_run_with_its_spread_and_noise(tmp_path):
+def test_a_pool_compensates_another_run_with_its_spread_and_noise(tmp_path, capsys):
     """Four power-ons with a walk: three pooled (each under IEEE noise), the fourth
     compensated with the pool and --another-run: the turn-on check passes (the pool carries
     the spread), the bands are stated (the runs' noise drawn up, not white only), and a
-    single run's fit with --another-run exits 3 naming the pool."""
+    single run's fit with --another-run exits 3 naming the pool, and without the flag the
+    console says the bands take the log to be the fitted run's own power-on."""
     rng = np.random.default_rng(3)
     paths = [str(write_log(tmp_path / f"run{k}.csv", _run(rng, walk=30.0))) for k in range(4)]
     assert main(["pool", *paths[:3], "--terms", "bias", "--out", str(tmp_path / "pool")]) in (0, 3)
@@ -138,6 +139,11 @@ def test_a_pool_compensates_another_run_with_its_spread_and_noise(tmp_path):
                  "--out", str(tmp_path / "refused")]) == 3
     refused = json.loads((tmp_path / "refused" / "compensate.json").read_text())
     assert "gyroid pool" in refused["checks"]["turn_on_bias"]["message"]
+    # without the flag the console says what the bands assume
+    capsys.readouterr()
+    main(["compensate", paths[3], "--fit", str(tmp_path / "one"), "--out",
+          str(tmp_path / "same")])
+    assert "fitted run's own power-on" in capsys.readouterr().err
 
 
 def test_a_start_up_calibration_sets_the_bias_exactly():

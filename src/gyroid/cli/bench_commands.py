@@ -187,6 +187,11 @@ def compensate(data, fit_dir, out, seed, window_s, another_run, turn_on_sd, reze
         which = f"axis {axis}: " if result.several else ""
         click.echo(f"{which}RMS {s['rms_before_deg_h']:.3g} -> {s['rms_after_deg_h']:.3g} "
                    f"deg/h ({100 * s['fraction_removed']:.0f} % removed)")
+    if not (another_run or turn_on_sd is not None or rezero_s is not None) and any(
+            item.summary["model_source"] == "fit posterior" for item in result.results.values()):
+        click.echo(f"note: the bands take {data} to be the fitted run's own power-on; for "
+                   "another run's, add --another-run with --rezero SECONDS, --turn-on-sd "
+                   "DEG_H, or a 'gyroid pool' fit", err=True)
     report_written(result, out, ("compensated.csv", "compensated_means.csv", "compensate.json",
                                  "compensation.png", "allan.png"))
 
