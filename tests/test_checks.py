@@ -374,3 +374,22 @@ def test_a_stopped_mode_search_beside_a_converged_sampler_is_said_not_hidden():
     check = convergence(evidence)
     assert check.passed and "the Hessian is singular" in check.message
     assert "the posterior, not the point estimate, is the answer" in check.message
+
+
+def test_the_console_says_why_a_stopped_mode_leaves_the_posterior_standing():
+    """What ``gyroid fit`` prints of a fit whose mode search stopped: the point estimate
+    and, on the next line, the convergence check's reason the posterior is the answer; of a
+    converged one, the point estimate alone."""
+    from dataclasses import replace
+
+    from gyroid import BenchLog
+    from gyroid.inference import fit_log
+
+    rng = np.random.default_rng(0)
+    log = BenchLog({"time_s": np.arange(600.0), "drift_deg_h": rng.normal(1.0, 0.1, 600)})
+    fit = fit_log(log, "bias", noise="white", seed=0)
+    assert fit.point_summary() == fit.point.summary()
+    stopped = replace(fit, point=replace(fit.point, converged=False, message="max steps"))
+    lines = stopped.point_summary().splitlines()
+    assert "NOT converged: max steps" in lines[0]
+    assert lines[-1].startswith("the sampler converged")

@@ -133,8 +133,8 @@ def fit(data, out, options) -> None:
 
     result = fit_file(data, options, out, say=lambda m: click.echo(m, err=True))
     for axis, fit in result.results.items():
-        click.echo(f"axis {axis}: " + fit.point.summary() if result.several else
-                   fit.point.summary())
+        click.echo(f"axis {axis}: " + fit.point_summary() if result.several else
+                   fit.point_summary())
     report_written(result, out, ("fit.json", "posterior.nc", "fit.png", "pair.png"))
 
 

@@ -131,6 +131,16 @@ class BenchFit(FitResult):
         """The range of every input the model reads, as seen in the fitted log."""
         return self.problem.model.input_ranges(self.problem.inputs)
 
+    def point_summary(self) -> str:
+        """The point estimate as the console shows it; where its search stopped and a
+        converged posterior stands, also why that posterior is the answer (the convergence
+        check's message), so that a stopped mode is never followed by a bare verdict."""
+        text = self.point.summary()
+        convergence = next((c for c in self.checks.checks if c.name == "convergence"), None)
+        if not self.point.converged and convergence is not None and convergence.passed:
+            text += f"\n{convergence.message}"
+        return text
+
     def summary(self) -> str:
         """Each coefficient's posterior (or point estimate) and the failed self-checks."""
         names = self.problem.names
