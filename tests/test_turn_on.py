@@ -83,7 +83,19 @@ def test_a_new_runs_noise_is_the_runs_root_mean_square():
     assert new.levels["K_deg_h_sqrt_h"] == pytest.approx(np.sqrt(8.0))
     # b's 60 deg/h at 4 s is 120 deg/h at 1 s
     assert new.white_sd_deg_h == pytest.approx(np.sqrt((60.0**2 + 120.0**2) / 2))
-    assert new.white_sample_s == 1.0 and new.span_s is None
+    assert new.white_sample_s == 1.0 and new.span_s is None and new.centred
+    # a walk about the new run's own mean: windows at both ends alike, where a walk on from
+    # a fitted log grows through the new one
+    time_s = np.arange(3600.0)
+    part = (time_s // 360).astype(int)
+    walk = {"N_deg_sqrt_h": 1e-3, "B_deg_h": 0.0, "K_deg_h_sqrt_h": 10.0}
+    white = np.full(10, 1e-6)
+    centred = np.diag(NoiseEstimate(Ieee952(), walk, 1e-3, 1.0, centred=True)
+                      .part_covariance(time_s, part, 10, 1.0, white))
+    after = np.diag(NoiseEstimate(Ieee952(), walk, 1e-3, 1.0, 3600.0)
+                    .part_covariance(time_s, part, 10, 1.0, white))
+    assert centred[0] == pytest.approx(centred[-1], rel=1e-6) and centred[0] > centred[5]
+    assert np.all(np.diff(after) > 0)
     back = _noise_estimate(a.to_json())
     assert back.levels == a.levels and back.model.name == a.model.name
     assert (back.white_sd_deg_h, back.white_sample_s, back.span_s) == (60.0, 1.0, 3600.0)
