@@ -466,7 +466,9 @@ def main() -> None:
         results[name] = run()
         print(json.dumps(results[name], indent=2), flush=True)
     if args.json:
-        args.json.write_text(json.dumps(results, indent=2) + "\n")
+        from gyroid.io import atomic_write_text
+
+        atomic_write_text(args.json, json.dumps(results, indent=2) + "\n")
 
 
 if __name__ == "__main__":

@@ -330,8 +330,11 @@ def main() -> None:
             results.append(row)
             print(json.dumps(row), f"({time.perf_counter() - started:.0f} s)", flush=True)
     if args.json:
-        args.json.write_text(json.dumps({"command": " ".join(sys.argv), "imports": imports,
-                                         "results": results}, indent=1))
+        from gyroid.io import atomic_write_text
+
+        atomic_write_text(args.json, json.dumps({"command": " ".join(sys.argv),
+                                                 "imports": imports, "results": results},
+                                                indent=1))
 
 
 if __name__ == "__main__":
