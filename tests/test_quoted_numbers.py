@@ -835,3 +835,22 @@ def test_real_log_on_three_axes():
             f"{compensate:.1f} s (medians of three), against {r['bare_s']:.2f} s",
             f"columns: {r['gyroid_over_bare']:.1f}x", f"floor ({r['import_floor_s']:.1f} s in "
             f"the same run): {r['budget_s']:.1f} s, not met")
+
+
+def test_where_a_fit_s_time_goes():
+    """benchmarks/results_profile_fit.json: one process's first and warm fit, its outputs,
+    and a profiled warm fit's stages."""
+    r = json.loads((ROOT / "benchmarks" / "results_profile_fit.json").read_text())
+    seconds, stages = r["seconds"], r["stages_s"]
+    assert seconds["first_fit"] > 1.5 * seconds["warm_fit"]  # "about twice a warm one"
+    _quoted(f"the first fit in a process {seconds['first_fit']:.1f} s, a warm one "
+            f"{seconds['warm_fit']:.1f} s",
+            f"the figures {seconds['write']:.1f} s, {seconds['block_log_likelihoods']:.2f} s of "
+            "it the block log-likelihoods",
+            f"a warm fit spends {stages['rate_window_marginal_search']:.2f} s in the dT/dt",
+            f"{stages['importance_sampling']:.2f} s in importance sampling, "
+            f"{stages['rate_window_least_squares']:.2f} s in least squares' window",
+            f"{stages['final_mode']:.2f} s in the final mode, "
+            f"{stages['noise_priors_check']:.2f} s in the noise priors' check and "
+            f"{stages['thermometer_rate_error_match']:.2f} s matching",
+            f"{100 * r['compiled_share']:.0f} % of it in compiled XLA calls")
