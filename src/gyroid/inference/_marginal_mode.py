@@ -1,7 +1,8 @@
 """The mode of a collapsed form (:mod:`gyroid.inference._collapsed`: a model's real
 coefficients integrated out under correlated noise): BFGS on the noise levels' marginal
-posterior (compiled once per number of coefficients, whatever the model), the coefficients'
-conditional mean there, and the one Hessian routine, solver message and safe inverse the
+posterior (compiled once per number of coefficients, whatever the model; each start's
+coordinates whitened by the marginal's Hessian there), the coefficients' conditional mean
+there, and the one Hessian routine, solver message and safe inverse the
 bench mode-finder (:mod:`gyroid.inference._point`, :mod:`gyroid.inference._point_profiled`)
 shares.
 """
@@ -37,18 +38,75 @@ class MarginalSolution(NamedTuple):
     result: optx.RESULTS
 
 
+#: BFGS's absolute tolerance (:func:`_marginal_bfgs`): a step's size in posterior sds.
+MODE_ATOL = 1e-6
+
+
 @eqx.filter_jit
-def _marginal_bfgs(starts, collapsed):
+def _marginal_bfgs(starts, maps, collapsed):
     """BFGS on the collapsed marginal from each row of ``starts``, side by side (vmapped:
     one filter pass per iteration serves every start; run one by one, the starts' passes
-    and dispatches were most of a discrepancy search's time), compiled once per log shape,
-    padded width (:func:`~gyroid.inference._collapsed.padded`) and number of starts."""
-    def one(start):
-        solution = optx.minimise(_negative_marginal, optx.BFGS(rtol=1e-9, atol=1e-9), start,
-                                 args=collapsed, max_steps=2000, throw=False)
-        return solution.value, solution.result, _negative_marginal(solution.value, collapsed)
+    and dispatches were most of a discrepancy search's time), each in the coordinates ``y``
+    of ``v = map y`` (:func:`_whitening`; the identity gives the levels' own), compiled
+    once per log shape, padded width (:func:`~gyroid.inference._collapsed.padded`) and
+    number of starts.
 
-    return jax.vmap(one)(starts)
+    BFGS stops when a step moves every coordinate of ``y`` by less than ``MODE_ATOL`` plus
+    1e-9 of its size and the marginal by less than that plus 1e-9 of its own: whitened,
+    ``y`` is in posterior sds, so the step rule asks for a millionth of an sd (at an
+    absolute 1e-9 it asked for a billionth, which the filter's rounding barely allows, and
+    one start of paper A's bench took 57 steps where 27 reach the same mode to 1e-7 in
+    each log level). The coordinates are scaled, not shifted to the start, so the rule's
+    relative part keeps its meaning where no Hessian whitens them (the identity)."""
+    def one(start, to_levels):
+        def objective(y, collapsed):
+            return _negative_marginal(to_levels @ y, collapsed)
+
+        solution = optx.minimise(objective, optx.BFGS(rtol=1e-9, atol=MODE_ATOL),
+                                 jnp.linalg.solve(to_levels, start), args=collapsed,
+                                 max_steps=2000, throw=False)
+        value = to_levels @ solution.value
+        return value, solution.result, _negative_marginal(value, collapsed)
+
+    return jax.vmap(one)(starts, maps)
+
+
+#: Central differences' step in the noise levels' sampling coordinates (logs).
+_HESSIAN_STEP = 1e-4
+
+
+def marginal_hessian(collapsed, v: np.ndarray) -> np.ndarray:
+    """The marginal's Hessian at the levels ``v`` by central differences of its gradient
+    (one compiled call of ``2 k`` gradients) rather than jax.hessian, whose
+    forward-over-reverse pass through the filter's scan took 46 s on the demo's log."""
+    v = np.asarray(v, dtype=float)
+    steps = _HESSIAN_STEP * np.eye(v.size)
+    gradients = np.asarray(_marginal_gradients(
+        jnp.asarray(np.concatenate([v + steps, v - steps])), collapsed))
+    hessian = (gradients[: v.size] - gradients[v.size :]) / (2 * _HESSIAN_STEP)
+    return 0.5 * (hessian + hessian.T)
+
+
+def _whitening(collapsed, starts: np.ndarray) -> np.ndarray:
+    """Per start, a matrix ``M`` with ``M' H M = I`` for the marginal's Hessian ``H`` there
+    (its eigenvalues taken as their magnitudes, at least 1e-6 of the largest: a start far
+    from the mode may sit where the marginal curves down), or the identity where ``H`` is
+    not finite. BFGS starts from the identity as its Hessian; in the levels' own
+    coordinates, where the marginal of 10^4 rows curves some 10^3 times faster in the
+    white level than in a walk the log barely resolves, it took 33-63 steps to the mode of
+    paper A's bench from the fit's three starts, and 21-29 in these."""
+    maps = {}
+    for row in map(tuple, np.asarray(starts, dtype=float)):
+        if row in maps:
+            continue
+        hessian = marginal_hessian(collapsed, np.asarray(row))
+        maps[row] = np.eye(len(row))
+        if np.all(np.isfinite(hessian)):
+            value, vectors = np.linalg.eigh(hessian)
+            size = np.abs(value)
+            if np.max(size) > 0:
+                maps[row] = vectors / np.sqrt(np.maximum(size, 1e-6 * np.max(size)))
+    return np.stack([maps[row] for row in map(tuple, np.asarray(starts, dtype=float))])
 
 
 #: The correlated noise levels' extra starts: each raised this many times above its guess.
@@ -69,7 +127,9 @@ def marginal_mode(collapsed, noise_u: np.ndarray, correlated: tuple[int, ...] = 
     starts = [start] + [start + math.log(RAISED_START) * (np.arange(start.size) == i)
                         for i in correlated]
     starts += [start] * max((lanes or 0) - len(starts), 0)
-    values, results, objective = _marginal_bfgs(jnp.asarray(np.stack(starts)), collapsed)
+    starts = np.stack(starts)
+    values, results, objective = _marginal_bfgs(
+        jnp.asarray(starts), jnp.asarray(_whitening(collapsed, starts)), collapsed)
     solutions = [MarginalSolution(values[i], jax.tree.map(lambda x, i=i: x[i], results))
                  for i in range(len(starts))]
     loc, scale = np.asarray(collapsed.noise_loc), np.asarray(collapsed.noise_scale)
@@ -106,14 +166,7 @@ def at_marginal_mode(collapsed, solution, u_model: np.ndarray):
     r = collapsed.beta_loc.size
     collapsed = padded(collapsed)
     v = solution.value
-    # central differences of the gradient (a few passes) rather than jax.hessian, whose
-    # forward-over-reverse pass through the filter's scan took 46 s on the demo's log
-    step = 1e-4
-    steps = step * np.eye(v.size)
-    gradients = np.asarray(_marginal_gradients(
-        jnp.asarray(np.concatenate([np.asarray(v) + steps, np.asarray(v) - steps])), collapsed))
-    hessian = (gradients[: v.size] - gradients[v.size :]) / (2 * step)
-    hessian = 0.5 * (hessian + hessian.T)
+    hessian = marginal_hessian(collapsed, np.asarray(v))
     mean, factor = conditional_solution(collapsed, v)
     mean, factor = np.asarray(mean)[:r], np.asarray(factor)
     covariance = block_diag(safe_inverse(factor @ factor.T)[:r, :r], safe_inverse(hessian))
