@@ -11,7 +11,8 @@ it) read and fitted with every default (``fit_log``, IEEE 952 noise, importance 
   hold another: the window search builds a density per window, each matching the
   thermometer's rate error);
 * ``compiled_share``: of that profiled fit, the share spent in compiled XLA calls and in
-  waiting for their results (equinox's dispatch and NumPy's conversion of device arrays).
+  waiting for their results (equinox's dispatch, NumPy's conversion of device arrays, and
+  the main thread's wait for a batch's worker threads).
 
     python benchmarks/profile_fit.py --json benchmarks/results_profile_fit.json
 """
@@ -39,8 +40,10 @@ STAGES = {
     ("_allowed_noise.py", "allowed_noise"): "noise_priors_check",
     ("_bench_result.py", "bench_checks"): "other_checks",
 }
-#: The calls whose own time is compiled work or waiting for it.
-COMPILED = {("equinox/_jit.py", "_call"), ("~", "<built-in method numpy.asarray>")}
+#: The calls whose own time is compiled work or waiting for it (on the main thread: a batch
+#: of evaluations runs on worker threads, which the main thread waits for on a lock).
+COMPILED = {("equinox/_jit.py", "_call"), ("~", "<built-in method numpy.asarray>"),
+            ("~", "<method 'acquire' of '_thread.lock' objects>")}
 
 
 def _stages(stats: pstats.Stats) -> tuple[dict[str, float], float, float]:

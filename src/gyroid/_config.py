@@ -59,14 +59,28 @@ def use_compilation_cache(folder: str) -> None:
 
 
 #: Environment that keeps a process's computing on one core: XLA's and the BLAS's thread
-#: pools off. Two gyroid processes side by side on a two-core machine otherwise run ~1.4x
-#: slower each, their pools contending (the demo's two processes: 29 s -> 25 s warm).
+#: pools off, and gyroid's own batches on one thread (:func:`compute_threads`). Two gyroid
+#: processes side by side on a two-core machine otherwise run ~1.4x slower each, their
+#: pools contending (the demo's two processes: 29 s -> 25 s warm).
 ONE_CORE_ENVIRONMENT = {
     "XLA_FLAGS": "--xla_cpu_multi_thread_eigen=false",
+    "GYROID_THREADS": "1",
     "OPENBLAS_NUM_THREADS": "1",
     "OMP_NUM_THREADS": "1",
     "MKL_NUM_THREADS": "1",
 }
+
+
+def compute_threads() -> int:
+    """How many threads a batch of evaluations may run on: ``GYROID_THREADS`` (a positive
+    integer; the one-core environment sets 1), else the cores this process may use."""
+    setting = os.environ.get("GYROID_THREADS", "").strip()
+    if setting.isdigit() and int(setting) > 0:
+        return int(setting)
+    try:
+        return max(len(os.sched_getaffinity(0)), 1)
+    except AttributeError:  # no affinity on this platform
+        return max(os.cpu_count() or 1, 1)
 
 
 def use_one_core() -> None:
