@@ -72,8 +72,10 @@ MAX_PARETO_K = 0.7
 #: Chains the kept draws are dealt into (for r_hat; they are independent draws).
 _CHAINS = 4
 #: Marginal log-posteriors evaluated this many at a time (one compiled program per log
-#: shape: whoever else evaluates a target's draws uses the same, :mod:`._allowed_noise`).
-BATCH = 1000
+#: shape: whoever else evaluates a target's draws uses the same, :mod:`._allowed_noise`),
+#: the chunks side by side on the cores (:func:`~gyroid.inference._batching.in_chunks`):
+#: half the noise priors' check's 1000 levels a chunk, so its two run at once.
+BATCH = 500
 #: Kernels of an adapted stage's proposal.
 KERNELS = 200
 

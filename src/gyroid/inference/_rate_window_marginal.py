@@ -32,9 +32,11 @@ likelihood), as least squares is under white noise.
 from __future__ import annotations
 
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from gyroid._config import compute_threads
 from gyroid.inference._collapsed import collapse, split_parameters
 from gyroid.inference._marginal_mode import marginal_mode
 from gyroid.inference._point import correlated_levels, noise_from_residual, noise_guess
@@ -79,12 +81,19 @@ def marginal_window(density_at: Callable[[float], object], least_squares_s: floa
     if least_squares_s <= shortest * 1.01:
         return None
     windows = np.geomspace(shortest, least_squares_s, CANDIDATES)[::-1]
-    scores: dict[float, float] = {}
-    levels: dict[float, np.ndarray] = {}
-    for window in windows:
+
+    def mode_at(window: float):
         trial = collapsed if window == least_squares_s else _collapsed(
             density_at(float(window)))[0]
-        solution, value = marginal_mode(trial, guess, correlated)
+        return marginal_mode(trial, guess, correlated)
+
+    # the first two windows are always compared: their searches run side by side
+    with ThreadPoolExecutor(min(2, compute_threads())) as pool:
+        first = list(pool.map(mode_at, windows[:2]))
+    scores: dict[float, float] = {}
+    levels: dict[float, np.ndarray] = {}
+    for i, window in enumerate(windows):
+        solution, value = first[i] if i < len(first) else mode_at(window)
         falling = bool(scores) and value < max(scores.values())
         scores[float(window)], levels[float(window)] = value, np.asarray(solution.value)
         if falling:
