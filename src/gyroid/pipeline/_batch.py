@@ -5,14 +5,12 @@ Each log is fitted in a worker process exactly as ``gyroid fit`` fits it, and it
 written to ``OUT/LABEL/`` (fit.json, posterior.nc, figures; ``LABEL`` is the file's stem,
 or its folder's name when stems repeat). A log that cannot be read or
 fitted fails alone: its message goes into ``batch.json``'s ``failed`` and the others finish.
-The scheduler is a ``LocalCluster`` of single-threaded worker processes by default (each
-computing on one core when there are as many workers as cores), or an existing cluster
-given by address (its workers must see the same file system).
+The scheduler is a ``LocalCluster`` of single-threaded worker processes by default, or an
+existing cluster given by address (its workers must see the same file system).
 """
 
 from __future__ import annotations
 
-import contextlib
 import csv
 import io
 import logging
@@ -20,7 +18,6 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
-from gyroid._config import compute_threads, one_core_environment
 from gyroid.errors import GyroidInputError
 from gyroid.io._logs import run_labels
 from gyroid.io._outputs import json_text, output_dir
@@ -119,12 +116,8 @@ def run_batch(paths: Sequence[str | Path], options: FitOptions, out: Path, *,
         cluster = None
         where = scheduler
     else:
-        # as many workers as cores: each computes on one (XLA's and the BLAS's pools and
-        # gyroid's batch threads off), or their pools contend
-        shared = workers >= compute_threads()
-        with one_core_environment() if shared else contextlib.nullcontext():
-            cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                   dashboard_address=None, silence_logs=logging.ERROR)
+        cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                               dashboard_address=None, silence_logs=logging.ERROR)
         client = Client(cluster)
         where = "LocalCluster"
     try:
