@@ -854,3 +854,24 @@ def test_where_a_fit_s_time_goes():
             f"{stages['noise_priors_check']:.2f} s in the noise priors' check and "
             f"{stages['thermometer_rate_error_match']:.2f} s matching",
             f"{100 * r['compiled_share']:.0f} % of it in compiled XLA calls")
+
+
+def test_a_new_run_compensated_with_a_pool():
+    """experiments/results/pool_new_run_bands: a held-out FOG run's window means against the
+    bands of its lot's pool."""
+    import numpy as np
+
+    record = _results("pool_new_run_bands")
+    summary, lots = record["summary"], record["lots"]
+    assert set(summary["pool_exit"]) == set(summary["compensate_exit"]) == {0}
+    assert summary["window_bands_refused"] == 0
+    halfwidths = [lot["band_halfwidth_deg_h"] for lot in lots]
+    largest = max(abs(z) for lot in lots for z in lot["z"])
+    seconds = [lot["seconds"] for lot in lots]
+    _quoted(f"all {summary['windows']} window means of the {summary['scored']} new runs lay "
+            f"inside their 95 %" if summary["in_band_min"] == 1.0 else "never",
+            f"has an sd of {summary['z_sd_all_windows']:.2f} over all windows",
+            f"the largest {largest:.2f})",
+            f"half-widths {min(halfwidths):.3f}-{max(halfwidths):.2f} deg/h (median "
+            f"{np.median(halfwidths):.2f})",
+            f"A lot took {np.median(seconds):.0f} s (median), and up to {max(seconds):.0f} s")
