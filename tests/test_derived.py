@@ -165,6 +165,26 @@ def test_rate_window_scores_by_projection_equal_full_least_squares():
     assert best == min(scores, key=scores.get)
 
 
+@pytest.mark.parametrize("window_s", [400.0, 900.0, 20000.0])
+def test_the_rate_errors_covariance_is_solved_by_its_band_as_densely(window_s):
+    # covariance_solve: C = v L L' + w I solved by the band of L L' (the window's reach),
+    # or densely where the band covers most of the log (the longest window here)
+    import scipy.linalg
+
+    from gyroid.inference._rate_window import covariance_solve
+    from gyroid.models._derived import temperature_rate_operator
+
+    time_s = np.arange(1000) * 36.0
+    temperature = 21.0 + 20.0 * np.sin(2 * np.pi * time_s / time_s[-1])
+    operator = temperature_rate_operator(time_s, temperature, window_s)
+    right = np.random.default_rng(4).normal(size=(1000, 4))
+    dense = operator @ operator.T * 0.7
+    dense[np.diag_indices_from(dense)] += 0.3
+    expected = scipy.linalg.solve(dense, right, assume_a="pos")
+    np.testing.assert_allclose(covariance_solve(operator, 0.7, 0.3, right), expected,
+                               rtol=1e-8, atol=1e-10 * np.abs(expected).max())
+
+
 def test_rate_window_of_a_model_with_a_time_constant_is_its_profiled_least_squares():
     """A model reading dT/dt with a warm-up (a time constant): each window's score is the
     least residual sum of squares over the time constant, the coefficients by least squares

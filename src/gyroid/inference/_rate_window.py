@@ -155,8 +155,6 @@ def _least_biased(log: BenchLog, model: DriftModel, inputs, windows: np.ndarray,
     shortest window's rate, ``d = r_W - r_0``: the generalised least-squares coefficients
     move by ``wD G d``, less the part of ``d`` that is the two windows' noise (its
     covariance ``v (L_W - L_0)(L_W - L_0)'`` is known), over their posterior sd."""
-    import scipy.linalg
-
     from gyroid.models._derived import temperature_rate_operator
     from gyroid.models._rate_error import rate_coefficient_index, white_level_var
 
@@ -174,10 +172,8 @@ def _least_biased(log: BenchLog, model: DriftModel, inputs, windows: np.ndarray,
         trial = eqx.tree_at(lambda x: x.rate_C_h, inputs, jnp.asarray(operator @ temperature))
         design = np.asarray(model.design(trial))
         wd = np.linalg.lstsq(design, y, rcond=None)[0][index]
-        covariance = wd**2 * thermometer_var_C2 * (operator @ operator.T)
-        covariance[np.diag_indices_from(covariance)] += white
-        whitened = scipy.linalg.cho_solve(scipy.linalg.cho_factor(covariance, lower=True),
-                                          design)  # C^-1 X
+        whitened = covariance_solve(operator, wd**2 * thermometer_var_C2, white,
+                                    design)  # C^-1 X
         posterior = np.linalg.pinv(design.T @ whitened)
         gain = posterior @ whitened.T  # G: y -> coefficients
         difference = operator - reference
@@ -188,6 +184,34 @@ def _least_biased(log: BenchLog, model: DriftModel, inputs, windows: np.ndarray,
         if biases[float(window)] <= MAX_BIAS_SD:
             return float(window), biases
     return float(windows[0]), biases
+
+
+def covariance_solve(operator: np.ndarray, rate_var: float, white_var: float,
+                     right: np.ndarray) -> np.ndarray:
+    """``C^-1 right`` for ``C = rate_var L L' + white_var I`` (``L``: the rate ``operator``,
+    n x n), by the band of ``L L'`` where ``L`` is banded (its rows read a window's
+    columns: some 25 of 1000 block means at paper A's bench's window), else densely. The
+    dense form's product and factor, some 70 ms a window tried at 1000 rows, were most of
+    the window choice's time under the thermometer's noise; the band's solve is the same
+    to rounding (tests/test_derived.py)."""
+    import scipy.linalg
+    import scipy.sparse
+
+    n = operator.shape[0]
+    rows, columns = np.nonzero(operator)
+    half = int(np.max(np.abs(rows - columns))) if rows.size else 0
+    if 4 * half >= n:
+        covariance = rate_var * (operator @ operator.T)
+        covariance[np.diag_indices_from(covariance)] += white_var
+        return scipy.linalg.cho_solve(scipy.linalg.cho_factor(covariance, lower=True), right)
+    sparse = scipy.sparse.csr_matrix(operator)
+    product = (sparse @ sparse.T).tocsr()
+    band = 2 * half
+    upper = np.zeros((band + 1, n))  # scipy's upper banded form: upper[band + i - j, j]
+    for k in range(band + 1):
+        upper[band - k, k:] = rate_var * product.diagonal(k)
+    upper[band] += white_var
+    return scipy.linalg.solveh_banded(upper, right)
 
 
 def parse_rate_window(value: str | float | None) -> float | None:
