@@ -94,7 +94,7 @@ def _whitening(collapsed, starts: np.ndarray) -> np.ndarray:
     not finite. BFGS starts from the identity as its Hessian; in the levels' own
     coordinates, where the marginal of 10^4 rows curves some 10^3 times faster in the
     white level than in a walk the log barely resolves, it took 33-63 steps to the mode of
-    paper A's bench from the fit's three starts, and 21-29 in these."""
+    paper A's bench from the fit's three starts, and 21-27 in these."""
     maps = {}
     for row in map(tuple, np.asarray(starts, dtype=float)):
         if row in maps:
