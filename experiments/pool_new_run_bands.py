@@ -10,9 +10,10 @@ bias added, drawn per run from N(0, ``--turn-on-sd``) (deg/h). Lot ``k`` pools t
 seeds ``seed + 5k`` .. ``seed + 5k + 3`` (``gyroid pool --terms thermal``, every default:
 each run fitted under IEEE 952 noise, the posteriors pooled) and compensates the run of
 seed ``seed + 5k + 4`` with it, in windows of ``--window`` s. Per lot: the exit codes, the
-``window_bands`` check, the share of the new run's window means inside their 95 % bands,
-and each window's error over its band's sd (a z-score: about N(0, 1) where the bands are
-right, but correlated within a run: its walk and turn-on bias are shared by every window).
+pool's failed checks (warnings included), the ``window_bands`` check, the share of the new
+run's window means inside their 95 % bands, and each window's error over its band's sd
+(a z-score: about N(0, 1) where the bands are right, but correlated within a run: its walk
+and turn-on bias are shared by every window).
 
     python experiments/pool_new_run_bands.py --seed 500 --lots 16 --workers 2
 """
@@ -59,6 +60,8 @@ def one_lot(seed0: int, turn_on_sd: float, window_s: float) -> dict:
         record = {"seeds": seeds, "turn_on_deg_h": offsets, "pool_exit": pool_code}
         if pool_code not in (0, 3):
             return record | {"seconds": round(time.time() - started, 1)}
+        checks = json.loads((folder / "pool" / "pool.json").read_text())["checks"]
+        record["pool_failed_checks"] = sorted(n for n, c in checks.items() if not c["passed"])
         code = gyroid_main(["compensate", str(paths[-1]), "--fit", str(folder / "pool"),
                             "--out", str(folder / "comp"), "--window", str(window_s),
                             "--another-run", "--seed", str(seed0), "-q"])
@@ -94,6 +97,10 @@ def summarise(lots: list[dict]) -> dict:
         "in_band_min": float(shares.min()) if scored else None,
         "lots_at_least_80_percent": int(np.sum(shares >= 0.8)),
         "window_bands_refused": int(sum(not lot["window_bands_passed"] for lot in scored)),
+        "pool_failed_checks": {name: sum(name in lot.get("pool_failed_checks", ())
+                                         for lot in lots)
+                               for name in sorted({n for lot in lots
+                                                   for n in lot.get("pool_failed_checks", ())})},
         "z_sd_all_windows": float(np.std(z)) if z.size else None,
         "z_lot_means_sd": float(np.std(means)) if scored else None,
         "windows": int(z.size),

@@ -874,4 +874,8 @@ def test_a_new_run_compensated_with_a_pool():
             f"the largest {largest:.2f})",
             f"half-widths {min(halfwidths):.3f}-{max(halfwidths):.2f} deg/h (median "
             f"{np.median(halfwidths):.2f})",
-            f"A lot took {np.median(seconds):.0f} s (median), and up to {max(seconds):.0f} s")
+            f"A lot took {np.median(seconds):.0f} s (median), and up to {max(seconds):.0f} s",
+            f"warned `between_run_sd_identified` on "
+            f"{summary['pool_failed_checks']['between_run_sd_identified']} of {summary['lots']} "
+            f"lots, and `noise_prior_dependence` on "
+            f"{summary['pool_failed_checks']['noise_prior_dependence']})")
