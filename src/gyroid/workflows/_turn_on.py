@@ -78,9 +78,9 @@ class StartUp:
                 "leaves some after it")
         return cls(rows, float(np.mean(drift_deg_h[rows])), float(seconds))
 
-    def relabelled(self, part: np.ndarray, n_parts: int) -> np.ndarray:
+    def relabelled(self, part: np.ndarray) -> np.ndarray:
         """Parts for the noise covariance of parts' means less the start-up mean: the
-        start-up rows part 0 (the earliest), every other part one up; (n_parts + 1) parts."""
+        start-up rows part 0 (the earliest), every other part one up (one part more)."""
         out = np.where(part >= 0, part + 1, -1)
         out[self.rows] = 0
         return out

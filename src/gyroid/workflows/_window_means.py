@@ -26,7 +26,7 @@ def measured_mean_covariance(log: BenchLog, noise: NoiseEstimate, part: np.ndarr
     time_s = np.asarray(log.time_s)
     step = float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
     if startup is not None:
-        part, n = startup.relabelled(part, n_parts), n_parts + 1
+        part, n = startup.relabelled(part), n_parts + 1
     else:
         n = n_parts
     kept = part >= 0
