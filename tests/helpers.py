@@ -24,6 +24,23 @@ SHORT_MAGNETIC = MagneticProtocol(dwell_s=60.0, sample_s=5.0, turn_gap_s=100.0)
 WHITE = ("--noise", "white")
 
 
+def require_dataset(name: str) -> Path:
+    """The folder gyroid's dataset registry (:mod:`gyroid.io._datasets`) reads a public real
+    log's files from, or a skip that names the log and how to get it: the project ships
+    none, and a test fetches none (a clone may have no network, and a test writes only in
+    its temporary folder)."""
+    import pytest
+
+    from gyroid.io import data_home, missing
+
+    absent = missing(name)
+    if absent:
+        pytest.skip(f"real log {name!r}: {len(absent)} file(s) not in {data_home()} (such as "
+                    f"{absent[0]}); `gyroid datasets {name} --out DIR` fetches them there, or "
+                    "set GYROID_DATA to a folder that has them")
+    return data_home()
+
+
 def random_blocks(rng: np.random.Generator, n: int, *, span_s: tuple[float, float],
                   longest_gap_s: float) -> tuple[np.ndarray, ...]:
     """``n`` blocks of spans drawn from ``span_s`` (s), a fifth of them after a pause of up

@@ -1,24 +1,23 @@
 """A real log: the PAN CubeSat's LSM6DSM MEMS gyro in thermal vacuum (dataset pan_tvac:
-tests/data/README.md). The tests read the published file from the shared folder of real logs
-through gyroid's dataset registry (conftest sets GYROID_DATA); the project commits none.
+tests/data/README.md). The tests read the published file through gyroid's dataset registry
+(from the project's shared folder of real logs, or the user's cache) and skip, naming it,
+where it is absent; the project commits none.
 
 Every way it broke gyroid is a test: raw sensor counts, spikes, bias wander between bursts
 that no test on consecutive samples sees, and compensation judged on held-out bursts
 against what a researcher would write with NumPy."""
 
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
+from helpers import require_dataset
 
 from gyroid.cli import main
 from gyroid.inference import Emcee, fit_log
 from gyroid.io import BenchLog, contiguous_segments, load_bench_log
 from gyroid.workflows import allan_deviation, compensate
 
-#: The log as published (rates in rad/s doubled by the authors' driver, raw temperature).
-RAW = Path(os.environ["GYROID_DATA"]) / "pan_tvac" / "TVCtest3_7_20.csv"
 MAP = ["drift_deg_h=drift_x_deg_h"]
 #: Rows (0-based) of the three spikes the authors' own script drops.
 SPIKES = (2340, 2570, 3223)
@@ -31,7 +30,14 @@ def _cli_map():
 
 
 @pytest.fixture(scope="module")
-def pan_csv(tmp_path_factory) -> Path:
+def pan_raw() -> Path:
+    """The log as published (rates in rad/s doubled by the authors' driver, raw
+    temperature)."""
+    return require_dataset("pan_tvac") / "pan_tvac" / "TVCtest3_7_20.csv"
+
+
+@pytest.fixture(scope="module")
+def pan_csv(tmp_path_factory, pan_raw) -> Path:
     """The dataset in gyroid's columns, as ``gyroid datasets pan_tvac --out`` writes it."""
     out = tmp_path_factory.mktemp("pan")
     assert main(["datasets", "pan_tvac", "--out", str(out)]) == 0
@@ -69,8 +75,8 @@ def _rms(x) -> float:
     return float(np.sqrt(np.mean(np.square(x))))
 
 
-def test_raw_sensor_counts_are_refused_with_advice(tmp_path, capsys):
-    args = ["fit", str(RAW), "--terms", "thermal", "--out", str(tmp_path / "fit"),
+def test_raw_sensor_counts_are_refused_with_advice(tmp_path, capsys, pan_raw):
+    args = ["fit", str(pan_raw), "--terms", "thermal", "--out", str(tmp_path / "fit"),
             "--no-progress", "--map", "time_s=time (ms):ms",
             "--map", "drift_deg_h=gyrox rad/s:rad/s", "--map", "temperature_C=temp"]
     assert main(args) == 2
@@ -190,6 +196,7 @@ def test_allan_deviation_claims_no_tau_beyond_its_bursts(pan_log):
 
 @pytest.fixture(scope="module")
 def mpu_folder(tmp_path_factory) -> Path:
+    require_dataset("mpu6050_sunsided")
     out = tmp_path_factory.mktemp("mpu")
     assert main(["datasets", "mpu6050_sunsided", "--out", str(out)]) == 0
     return out
@@ -212,8 +219,8 @@ def test_the_real_matlab_file_reads_as_the_registry_converts_it(mpu_folder):
     from gyroid.io._units import parse_column_maps
 
     run = "set2_unmoved-with-x-pointing-forward-10min"
-    mat = Path(os.environ["GYROID_DATA"]) / "mpu6050_sunsided" / "raw" / run / \
-        "mpu6050_gyroscope.mat"
+    mat = (require_dataset("mpu6050_sunsided") / "mpu6050_sunsided" / "raw" / run
+           / "mpu6050_gyroscope.mat")
     maps = parse_column_maps(["time_s=gyroBuffer_1", *(
         f"drift_{a}_deg_h=gyroBuffer_{k + 2}:deg/s" for k, a in enumerate("xyz"))])
     table = read_log_table(mat, maps)
@@ -264,6 +271,7 @@ def test_a_real_allan_variance_the_noise_terms_cannot_describe_is_refused():
     from gyroid.inference import fit_noise
     from gyroid.io import dataset_logs
 
+    require_dataset("mpu6050_sunsided")
     logs = dataset_logs("mpu6050_sunsided")
 
     def rate(run: str, axis: str) -> tuple[np.ndarray, float]:

@@ -5,6 +5,7 @@ gyroid's registry from the shared folder of real logs; the project commits none)
 import allantools
 import numpy as np
 import pytest
+from helpers import require_dataset
 
 from gyroid.inference import fit_noise, fit_unit_noise
 from gyroid.io import dataset_logs
@@ -14,6 +15,7 @@ SAMPLE_S = 0.01
 
 @pytest.fixture(scope="module")
 def smac():
+    require_dataset("smac_imudata")
     return dataset_logs("smac_imudata")
 
 
@@ -87,6 +89,7 @@ def test_the_mpu6050_y_axis_later_minutes_are_covered_or_the_fit_is_refused(term
     from gyroid.inference import Emcee, fit_log
     from gyroid.io import BenchLog
 
+    require_dataset("mpu6050_sunsided")
     columns, _ = dataset_logs("mpu6050_sunsided")[
         "mpu6050_set2_unmoved-with-x-pointing-forward-10min"]
     t = np.asarray(columns["time_s"])

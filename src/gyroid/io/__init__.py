@@ -14,7 +14,7 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "_stream": ["STREAM_ROWS", "parquet_rows", "stream_block_means"],
     "_bench_reader": ["bench_log_from_table", "load_bench_log"],
     "_log_writer": ["bench_log_text", "write_bench_log"],
-    "_datasets": ["DATASETS", "data_home", "dataset_logs", "fetch"],
+    "_datasets": ["DATASETS", "data_home", "dataset_logs", "fetch", "missing"],
     "_outputs": ["atomic_write_text", "json_text", "output_dir", "output_lock"],
     "_paper_tables": [
         "paper_a_magnetic_coefficients", "paper_a_table_log", "paper_a_thermal_coefficients",

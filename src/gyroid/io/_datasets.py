@@ -87,6 +87,17 @@ def fetch(name: str) -> dict[str, Path]:
     return files
 
 
+def missing(name: str) -> list[str]:
+    """The dataset's files that are not yet in :func:`data_home` with their published
+    checksum (none: it can be read without a network)."""
+    import pooch
+
+    home = data_home()
+    return [source.path for source in dataset_named(name).sources
+            if not (home / source.path).is_file()
+            or pooch.file_hash(str(home / source.path)) != source.sha256]
+
+
 def dataset_logs(name: str) -> dict[str, tuple[dict[str, np.ndarray], list[str]]]:
     """The dataset's logs as gyroid bench-log columns (and comments), by log name."""
     dataset = dataset_named(name)
