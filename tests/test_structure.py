@@ -38,6 +38,25 @@ def test_writers_are_chosen_by_type_not_by_a_class_path():
     assert "__qualname__" not in text and "gyroid.inference._bench_fit.BenchFit\"" not in text
 
 
+def test_optimisers_are_run_from_the_mode_module_only():
+    """Every optimiser the inference runs is a finder of inference/_mode.py (one answer, one
+    solver message, one inverse); noise/ sits below inference/, so the rate-error process's
+    own match is the one other place. An import of optimistix or scipy.optimize anywhere
+    else is a second mode-finder."""
+    allowed = {"inference/_mode.py", "noise/_rate_error_process.py"}
+    found = set()
+    for path in SOURCE.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = ([alias.name for alias in node.names] if isinstance(node, ast.Import)
+                     else [f"{node.module}.{a.name}" for a in node.names]
+                     if isinstance(node, ast.ImportFrom) and node.module else [])
+            if any(n.split(".")[0] == "optimistix" or n.startswith("scipy.optimize")
+                   for n in names):
+                found.add(str(path.relative_to(SOURCE)))
+    assert found <= allowed, found - allowed
+    assert "inference/_mode.py" in found
+
+
 #: A module longer than this does more than one job; a function longer, more than one step.
 MAX_MODULE_LINES = 400
 MAX_FUNCTION_LINES = 80

@@ -11,9 +11,9 @@ import math
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-from scipy import optimize
 
 from gyroid.inference._haar import HaarStatistics
+from gyroid.inference._mode import bracketed_root
 from gyroid.inference._noise_problem import max_likelihood
 from gyroid.inference._noise_terms import (
     EXCLUSIVE,
@@ -170,4 +170,4 @@ def _upper_bound(stats: HaarStatistics, chosen: tuple[str, ...], name: str,
         return float(math.exp(low))
     if drop(high) < 0:
         return float(math.exp(high))
-    return float(math.exp(optimize.brentq(drop, low, high, xtol=1e-3)))
+    return math.exp(bracketed_root(drop, low, high, xtol=1e-3))

@@ -21,10 +21,10 @@ import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
-from scipy import optimize
 
 from gyroid.inference._emcee import Emcee
 from gyroid.inference._haar import HaarStatistics
+from gyroid.inference._mode import BoundedGradientSearch, FisherScoring, value_hessian
 from gyroid.inference._noise_model_fit import noise_model_result
 from gyroid.inference._noise_terms import (
     ceiling,
@@ -37,6 +37,10 @@ from gyroid.models._priors import Normal, natural_with_sd
 
 PRIOR_BELOW_ENVELOPE = math.log(10.0)
 PRIOR_LOG_SD = math.log(100.0)
+#: The posterior mode's search (L-BFGS-B with the analytic gradient, polished by BFGS).
+_SEARCH = BoundedGradientSearch(gtol=1e-8, ftol=1e-15, max_steps=5000, polish_steps=2000)
+#: The maximum likelihood's Fisher scoring: steps at most, the relative rise that ends them.
+_SCORING = FisherScoring(max_steps=500, tol=1e-12)
 
 
 class NoiseDensity(eqx.Module):
@@ -122,14 +126,15 @@ class NoiseProblem(AbstractProblem):
                     grad - (u - loc) / scale**2)
 
         extra = [np.asarray(self.start)] if self.start else []
-        best = _maximise(target, [*extra, *_starts(self.stats, self.terms)],
-                         _bounds(self.stats, self.terms))
-        covariance = np.linalg.pinv(-_hessian(lambda u: target(u)[0], best.x))
-        x, sd = natural_with_sd(best.x, covariance, np.ones(len(self.terms), dtype=bool))
-        return PointEstimate(names=self.terms, u=best.x, covariance_u=covariance,
+        best = _SEARCH.maximise(target, [*extra, *_starts(self.stats, self.terms)],
+                                _bounds(self.stats, self.terms))
+        covariance = np.linalg.pinv(-value_hessian(
+            lambda points: np.array([target(u)[0] for u in points]), best.value, 1e-4))
+        x, sd = natural_with_sd(best.value, covariance, np.ones(len(self.terms), dtype=bool))
+        return PointEstimate(names=self.terms, u=best.value, covariance_u=covariance,
                              value=dict(zip(self.terms, map(float, x), strict=True)),
                              sd=dict(zip(self.terms, map(float, sd), strict=True)),
-                             converged=bool(best.success), message=str(best.message))
+                             converged=best.converged, message=best.message)
 
     def default_sampler(self) -> Emcee:
         return Emcee(progress=False)
@@ -201,49 +206,6 @@ def _bounds(stats: HaarStatistics, names: tuple[str, ...]) -> list[tuple[float, 
             for n in names]
 
 
-def _maximise(function: Callable[[np.ndarray], tuple[float, np.ndarray]],
-              starts: list[np.ndarray], bounds: list[tuple[float, float]]):
-    """The best of L-BFGS-B runs (with the analytic gradient) from ``starts`` within
-    ``bounds``; ``success`` when the gradient projected on the bounds vanishes."""
-    def negative(u):
-        return tuple(-v for v in function(u))
-
-    lo, hi = np.transpose(bounds)
-    best = None
-    for start in starts:
-        found = optimize.minimize(negative, np.clip(start, lo, hi), jac=True,
-                                  method="L-BFGS-B", bounds=bounds,
-                                  options={"gtol": 1e-8, "ftol": 1e-15, "maxiter": 5000})
-        # L-BFGS-B stops early where the terms' gradients differ by orders of magnitude
-        # (N's and a small F's): BFGS polishes from there, within the bounds after
-        polished = optimize.minimize(negative, found.x, jac=True, method="BFGS",
-                                     options={"gtol": 1e-8, "maxiter": 2000})
-        polished.x = np.clip(polished.x, lo, hi)
-        polished.fun, polished.jac = negative(polished.x)
-        polished.jac = np.asarray(polished.jac)
-        for candidate in (found, polished):
-            if best is None or candidate.fun < best.fun:
-                best = candidate
-    grad = np.asarray(best.jac)
-    free = ~(((best.x <= lo + 1e-9) & (grad > 0)) | ((best.x >= hi - 1e-9) & (grad < 0)))
-    best.success = bool(np.isfinite(best.fun) and np.max(np.abs(grad * free), initial=0.0)
-                        < 1e-3 * max(1.0, abs(best.fun)))
-    return best
-
-
-def _hessian(function: Callable[[np.ndarray], float], x: np.ndarray, h: float = 1e-4
-             ) -> np.ndarray:
-    d = x.size
-    out = np.empty((d, d))
-    for i in range(d):
-        for j in range(i, d):
-            e_i, e_j = np.eye(d)[i] * h, np.eye(d)[j] * h
-            out[i, j] = out[j, i] = (function(x + e_i + e_j) - function(x + e_i - e_j)
-                                     - function(x - e_i + e_j) + function(x - e_i - e_j)
-                                     ) / (4 * h * h)
-    return out
-
-
 def max_likelihood(stats: HaarStatistics, names: tuple[str, ...],
                    fixed: dict[str, float] | None = None, starts: tuple[np.ndarray, ...] = ()
                    ) -> tuple[float, np.ndarray]:
@@ -273,52 +235,10 @@ def max_likelihood(stats: HaarStatistics, names: tuple[str, ...],
             return -np.inf
         return float(np.sum(level_log_likelihood(variance, stats)))
 
-    tries = [_scoring(columns, held, stats, None)]
-    tries += [_scoring(columns, held, stats, np.exp(2.0 * np.asarray(u)) / scale)
-              for u in starts]
+    tries = [_SCORING.maximise(log_likelihood, columns, held, stats.avar, stats.count, start)
+             for start in (None, *(np.exp(2.0 * np.asarray(u)) / scale for u in starts))]
     best = max(tries, key=log_likelihood)
     u = 0.5 * np.log(np.maximum(best, np.exp(-2.0 * BELOW_ENVELOPE)) * scale)
     return log_likelihood(best), u
 
-
-#: Fisher-scoring steps at most, and the relative rise in log-likelihood that ends them.
-SCORING_STEPS, SCORING_TOL = 500, 1e-12
-
-
-def _scoring(columns: np.ndarray, held: np.ndarray, stats: HaarStatistics,
-             start: np.ndarray | None) -> np.ndarray:
-    """Iterated non-negative least squares (Fisher scoring) of the Haar likelihood in the
-    terms' variances (:func:`max_likelihood`), from ``start`` or the data's weights."""
-    target = stats.avar - held
-    floor = 1e-12 * float(np.max(stats.avar))  # a model variance at or below zero
-
-    def fit(variance: np.ndarray) -> np.ndarray:
-        root = np.sqrt(stats.count / 2.0) / np.maximum(variance, floor)
-        return optimize.nnls(columns * root[:, None], target * root, maxiter=50 * len(root))[0]
-
-    def ll(x: np.ndarray) -> float:
-        variance = 2.0 * (columns @ x + held)
-        return (float(np.sum(level_log_likelihood(variance, stats)))
-                if np.all(variance > 0) else -np.inf)
-
-    x = fit(stats.avar) if start is None else np.maximum(start, 0.0)
-    if not np.isfinite(ll(x)):  # a data-weighted step too deep in F: back to no F
-        x = np.where(columns.min(axis=0) < 0, 0.0, x)
-    value = ll(x)
-    for _ in range(SCORING_STEPS):
-        proposal = fit(columns @ x + held)
-        step, new = 1.0, -np.inf
-        while step > 1e-6:
-            trial = x + step * (proposal - x)
-            new = ll(trial)
-            if new >= value:
-                break
-            step *= 0.5
-        if not new >= value:
-            break
-        done = new - value <= SCORING_TOL * max(1.0, abs(value))
-        x, value = trial, new
-        if done:
-            break
-    return x
 

@@ -12,7 +12,8 @@
   :mod:`gyroid.inference._starts`; then Levenberg-Marquardt (optimistix) on the
   noise-weighted residuals plus standardised prior residuals from the best starts (the
   white level, when unknown, the residual RMS with ``n - p`` degrees of freedom); with the
-  thermometer's noise carried, BFGS on the full log-posterior.
+  thermometer's noise carried, BFGS on the full log-posterior. The finders are
+  :mod:`gyroid.inference._mode`'s.
 
 The covariance is the Gauss-Newton ``(J'J)^-1`` of the weighted residuals at the optimum
 (exact for a linear model), or the inverse Hessian of the log-posterior.
@@ -26,17 +27,13 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optimistix as optx
+from scipy.linalg import block_diag
 
 from gyroid.inference._batching import problem_batcher
 from gyroid.inference._bench_density import BenchDensity
 from gyroid.inference._collapsed import collapse, model_columns, split_parameters
-from gyroid.inference._marginal_mode import (
-    block_diag,
-    collapsed_mode,
-    safe_inverse,
-    solver_message,
-)
+from gyroid.inference._marginal_mode import collapsed_mode
+from gyroid.inference._mode import JointBFGS, LeastSquares, safe_inverse
 from gyroid.inference._point_profiled import profiled_mode
 from gyroid.inference._problem import PointEstimate
 from gyroid.inference._starts import grid_points, start_grid
@@ -62,29 +59,10 @@ def _weighted_residuals(u_model, args):
     return jnp.concatenate([data, prior])
 
 
-@eqx.filter_jit
-def _levenberg_marquardt(problem: BenchDensity, u0: jax.Array, weights: jax.Array):
-    solver = optx.LevenbergMarquardt(rtol=1e-10, atol=1e-10)
-    solution = optx.least_squares(
-        _weighted_residuals, solver, u0, args=(problem, weights), max_steps=500, throw=False
-    )
-    residuals = _weighted_residuals(solution.value, (problem, weights))
-    jacobian = jax.jacfwd(_weighted_residuals)(solution.value, (problem, weights))
-    return solution.value, solution.result, jnp.sum(residuals**2), jacobian
-
-
-def _negative_log_posterior(u, problem):
-    return -problem.log_posterior(u)
-
-
-@eqx.filter_jit
-def _bfgs(problem: BenchDensity, u0: jax.Array):
-    solver = optx.BFGS(rtol=1e-9, atol=1e-9)
-    solution = optx.minimise(
-        _negative_log_posterior, solver, u0, args=problem, max_steps=2000, throw=False
-    )
-    hessian = jax.hessian(_negative_log_posterior)(solution.value, problem)
-    return solution.value, solution.result, hessian
+#: Levenberg-Marquardt on the noise-weighted residuals and standardised prior residuals.
+_LEAST_SQUARES = LeastSquares(rtol=1e-10, atol=1e-10, max_steps=500)
+#: BFGS on the whole log-posterior (the thermometer's noise carried, or correlated noise).
+_JOINT = JointBFGS(rtol=1e-9, atol=1e-9, max_steps=2000)
 
 
 def noise_guess(problem: BenchDensity) -> tuple[np.ndarray, tuple[int, ...]]:
@@ -210,9 +188,9 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3,
         return _linear_gaussian(problem)
     if problem.errors_in_variables and problem.model.is_linear:
         # a linear model carrying the thermometer: BFGS from its white mode (NumPy)
-        value, result, hessian = _bfgs(problem, jnp.asarray(_white_start(problem)))
-        return _point(problem, np.asarray(value), safe_inverse(np.asarray(hessian)),
-                      *solver_message(result), n_starts=1)
+        found = _JOINT.minimise(problem, _white_start(problem))
+        return _point(problem, found.value, safe_inverse(found.curvature), found.converged,
+                      found.message, n_starts=1)
     collapsed = collapse(problem)
     if collapsed is not None:  # a linear model under correlated noise: its marginal's mode
         guess, correlated = noise_guess(problem)
@@ -236,15 +214,11 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3,
     candidates.sort(key=lambda c: c[0] if math.isfinite(c[0]) else math.inf)
     best_rss = candidates[0][0]
     scale = 1.0 if known else math.sqrt(best_rss / max(n - p, 1))
-    refined = []
-    for _, start in candidates[: max_refine if len(candidates) > 1 else 1]:
-        value, result, objective, jacobian = _levenberg_marquardt(
-            problem, jnp.asarray(start), weights / scale
-        )
-        refined.append((float(objective), np.asarray(value), result, np.asarray(jacobian)))
-    refined.sort(key=lambda r: r[0] if math.isfinite(r[0]) else math.inf)
-    _, u_model, result, jacobian = refined[0]
-    converged, message = solver_message(result)
+    refined = [_LEAST_SQUARES.minimise(_weighted_residuals, start, (problem, weights / scale))
+               for _, start in candidates[: max_refine if len(candidates) > 1 else 1]]
+    best = min(refined, key=lambda r: r.objective if math.isfinite(r.objective) else math.inf)
+    u_model, curvature = best.value, best.curvature
+    converged, message = best.converged, best.message
     padded = jnp.concatenate([jnp.asarray(u_model), jnp.zeros(len(problem.noise_names))])
     residual = np.asarray(problem.drift) - np.asarray(problem.predict(padded))
     if problem.weight is not None:
@@ -256,12 +230,11 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3,
         if problem.sigma is not None and problem.weight is not None:
             w = w[np.asarray(problem.weight) > 0]
         scale = math.sqrt(float(np.sum((residual * w) ** 2)) / max(n - p, 1))
-        value, result, _, jacobian = _levenberg_marquardt(
-            problem, jnp.asarray(u_model), weights / scale
-        )
-        u_model, jacobian = np.asarray(value), np.asarray(jacobian)
-        converged, message = solver_message(result)
-    covariance_model = safe_inverse(jacobian.T @ jacobian)
+        again = _LEAST_SQUARES.minimise(_weighted_residuals, u_model,
+                                        (problem, weights / scale))
+        u_model, curvature = again.value, again.curvature
+        converged, message = again.converged, again.message
+    covariance_model = safe_inverse(curvature)
     u = u_model
     covariance = covariance_model
     if problem.noise_names:
@@ -269,10 +242,9 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3,
         u = np.concatenate([u_model, noise_u])
         covariance = block_diag(covariance_model, noise_cov)
     if problem.noise.correlated or problem.errors_in_variables:
-        value, result, hessian = _bfgs(problem, jnp.asarray(u))
-        u = np.asarray(value)
-        converged, message = solver_message(result)
-        covariance = safe_inverse(np.asarray(hessian))
+        found = _JOINT.minimise(problem, u)
+        u, converged, message = found.value, found.converged, found.message
+        covariance = safe_inverse(found.curvature)
     return _point(problem, u, covariance, converged, message, n_starts=len(candidates))
 
 

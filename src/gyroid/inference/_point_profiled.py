@@ -35,7 +35,6 @@ from collections.abc import Callable
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
-from scipy.optimize import minimize, minimize_scalar
 
 from gyroid.inference._collapsed import (
     chunks,
@@ -47,7 +46,8 @@ from gyroid.inference._collapsed import (
     split_parameters,
     with_columns,
 )
-from gyroid.inference._marginal_mode import at_marginal_mode, marginal_mode, safe_inverse
+from gyroid.inference._marginal_mode import at_marginal_mode, marginal_mode
+from gyroid.inference._mode import BoundedSearch, safe_inverse, value_hessian
 from gyroid.inference._starts import best_least_squares, grid_points, start_grid
 
 #: The local search's bounds about the grid: a fifth of its least value to 3.3 times its
@@ -55,6 +55,8 @@ from gyroid.inference._starts import best_least_squares, grid_points, start_grid
 BELOW, ABOVE = math.log(0.2), math.log(50.0 / 15.0)
 #: The central differences' step in the positive parameters (logs).
 STEP = 1e-3
+#: The local search about the grid's best point (each evaluation a filter pass).
+_SEARCH = BoundedSearch(xatol=1e-4, fatol=1e-4)
 
 
 def positive_log_prior(density, points: np.ndarray) -> np.ndarray:
@@ -180,18 +182,12 @@ def _best_positive(profile: _Profile, v: np.ndarray, start: np.ndarray | None
     if len(grid) == 1:
         values = np.sort(grid[0])
         below, above = values[values < best[0]], values[values > best[0]]
-        bracket = (below[-1] if below.size else bounds[0][0],
-                   above[0] if above.size else bounds[0][1])
-        found = minimize_scalar(lambda x: -profile.value([x], v), bounds=bracket,
-                                method="bounded", options={"xatol": 1e-4})
-        x = np.array([found.x])
-    else:
-        found = minimize(lambda u: -profile.value(u, v), best, method="Nelder-Mead",
-                         bounds=bounds, options={"xatol": 1e-4, "fatol": 1e-4})
-        x = np.asarray(found.x)
-    if -found.fun < float(np.max(finite)):
-        return best, bool(found.success)
-    return x, bool(found.success)
+        bounds = [(below[-1] if below.size else bounds[0][0],
+                   above[0] if above.size else bounds[0][1])]
+    found = _SEARCH.minimise(lambda u: -profile.value(u, v), best, bounds)
+    if -found.objective < float(np.max(finite)):
+        return best, found.converged
+    return found.value, found.converged
 
 
 def _positive_covariance(profile: _Profile, u_positive: np.ndarray, v: np.ndarray
@@ -199,16 +195,9 @@ def _positive_covariance(profile: _Profile, u_positive: np.ndarray, v: np.ndarra
     """The positive parameters' covariance (logs) from the profile's curvature at the noise
     levels ``v``, and the derivatives of the coefficients' conditional mean in them: by
     central differences (the profile's points side by side)."""
-    q, r = u_positive.size, profile.real.size
-    steps = STEP * np.eye(q)
-    pairs = [(i, j) for i in range(q) for j in range(i, q)]
-    signs = ((1, 1), (1, -1), (-1, 1), (-1, -1))
-    points = np.array([u_positive + a * steps[i] + b * steps[j]
-                       for i, j in pairs for a, b in signs])
-    f = profile.values(points, v).reshape(len(pairs), 4)
-    hessian = np.empty((q, q))
-    for k, (i, j) in enumerate(pairs):
-        hessian[i, j] = hessian[j, i] = (f[k, 0] - f[k, 1] - f[k, 2] + f[k, 3]) / (4 * STEP**2)
+    r = profile.real.size
+    steps = STEP * np.eye(u_positive.size)
+    hessian = value_hessian(lambda points: profile.values(points, v), u_positive, STEP)
 
     def mean(u):
         return np.asarray(conditional_solution(padded(profile.at(u)), jnp.asarray(v))[0])[:r]

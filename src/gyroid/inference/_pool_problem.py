@@ -38,9 +38,9 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
-import optimistix as optx
 from jaxtyping import Array, Float
 
+from gyroid.inference._mode import JointBFGS, safe_inverse
 from gyroid.inference._nuts import Nuts
 from gyroid.inference._pool_result import PoolFit, pool_result
 from gyroid.inference._problem import AbstractProblem, PointEstimate
@@ -52,6 +52,10 @@ from gyroid.noise._kinds import White
 _LOG_2PI = math.log(2.0 * math.pi)
 #: Prefix of a between-run sd's name (``between_sd_w0``).
 SPREAD_PREFIX = "between_sd_"
+
+
+#: BFGS on the pool's hyper-parameters (logs of the between-run sds and run noise levels).
+_FINDER = JointBFGS(rtol=1e-9, atol=1e-9, max_steps=5000)
 
 
 class PoolDensity(eqx.Module):
@@ -357,36 +361,16 @@ class PoolProblem(AbstractProblem):
                                                  log_sigma[noisy])])
 
     def mode(self) -> PointEstimate:
-        """Posterior mode of the sampled parameters (optimistix BFGS) and the inverse
-        Hessian there."""
-        value, result, hessian = _bfgs(self.density, jnp.asarray(self.start()))
-        ok = bool(result == optx.RESULTS.successful)
-        u = np.asarray(value)
-        hessian = np.asarray(hessian)
-        try:
-            covariance = np.linalg.inv(0.5 * (hessian + hessian.T))
-            if not np.all(np.linalg.eigvalsh(covariance) > 0):
-                raise np.linalg.LinAlgError
-        except np.linalg.LinAlgError:
-            covariance = np.diag(1.0 / np.clip(np.abs(np.diag(hessian)), 1e-12, None))
-        natural = np.exp(u)
+        """Posterior mode of the sampled parameters (:class:`~gyroid.inference._mode.
+        JointBFGS`) and the inverse Hessian there (each parameter's own inverse curvature
+        where that is not positive definite)."""
+        found = _FINDER.minimise(self.density, self.start())
+        covariance = safe_inverse(found.curvature, diagonal_fallback=True)
+        natural = np.exp(found.value)
         sd = natural * np.sqrt(np.diag(covariance))
         return PointEstimate(
-            names=self.names, u=u, covariance_u=covariance,
+            names=self.names, u=found.value, covariance_u=covariance,
             value=dict(zip(self.names, map(float, natural), strict=True)),
-            sd=dict(zip(self.names, map(float, sd), strict=True)), converged=ok,
-            message="converged" if ok else optx.RESULTS[result].split("\n")[0],
-            n_starts=1)
+            sd=dict(zip(self.names, map(float, sd), strict=True)),
+            converged=found.converged, message=found.message, n_starts=1)
 
-
-def _negative_log_posterior(u, density: PoolDensity):
-    return -density.log_posterior(u)
-
-
-@eqx.filter_jit
-def _bfgs(density: PoolDensity, u0: jax.Array):
-    solver = optx.BFGS(rtol=1e-9, atol=1e-9)
-    solution = optx.minimise(_negative_log_posterior, solver, u0, args=density,
-                             max_steps=5000, throw=False)
-    hessian = jax.hessian(_negative_log_posterior)(solution.value, density)
-    return solution.value, solution.result, hessian

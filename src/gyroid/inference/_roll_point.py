@@ -1,42 +1,23 @@
 """The mode of paper B's loop on a roll log: linearised least squares for a start, then
-BFGS (optimistix) on the log-posterior, the covariance from the inverse Hessian."""
+BFGS (:class:`~gyroid.inference._mode.JointBFGS`) on the log-posterior, the covariance from
+the inverse Hessian."""
 
 
 from __future__ import annotations
 
-import equinox as eqx
-import jax
 import jax.numpy as jnp
 import numpy as np
-import optimistix as optx
 
+from gyroid.inference._mode import JointBFGS, safe_inverse
 from gyroid.inference._problem import AbstractProblem, PointEstimate
-from gyroid.inference._roll_density import RollDensity
 from gyroid.models._paper_b import DEG
 from gyroid.models._priors import LogNormal, natural_with_sd
 
-
-def _nlp_full(v, density: RollDensity):
-    return -density.log_posterior(v)
-
-
-_nlp_hessian = eqx.filter_jit(jax.hessian(_nlp_full))
-
-
-@eqx.filter_jit
-def _minimise(density: RollDensity, v0, scale):
-    """BFGS in standardised coordinates (v = v0 + scale z) over all of ``ALL_PARAMETERS``,
-    so that every model of a log shares one compilation: the entries outside the model have
-    no gradient, so BFGS never moves them. Standardised because D1 is known to 1e-7 while
-    the offsets are known to 1e-3: unscaled step tolerances would stop far too early."""
-
-    def objective(z, args):
-        return _nlp_full(v0 + scale * z, args)
-
-    solution = optx.minimise(objective, optx.BFGS(rtol=1e-10, atol=1e-10), jnp.zeros_like(v0),
-                             args=density, max_steps=5000, throw=False)
-    v = v0 + scale * solution.value
-    return v, solution.result, jax.hessian(_nlp_full)(v, density)
+#: BFGS in standardised coordinates (v = v0 + scale z) over all of ``ALL_PARAMETERS``, so
+#: that every model of a log shares one compilation: the entries outside the model have no
+#: gradient, so BFGS never moves them. Standardised because D1 is known to 1e-7 while the
+#: offsets are known to 1e-3: unscaled step tolerances would stop far too early.
+_FINDER = JointBFGS(rtol=1e-10, atol=1e-10, max_steps=5000)
 
 
 def _start(problem: AbstractProblem) -> dict[str, float]:
@@ -67,17 +48,12 @@ def roll_point_estimate(problem: AbstractProblem) -> PointEstimate:
     v0 = np.asarray(problem.density.spread(problem.to_sampling(jnp.asarray(x0))))
     # Scales from the curvature at the start (diagonal of the Hessian), floored for safety;
     # 1 for the parameters outside the model (they have no curvature).
-    curvature = np.abs(np.diag(np.asarray(_nlp_hessian(jnp.asarray(v0), problem.density.full))))
+    curvature = np.abs(np.diag(_FINDER.curvature(problem.density.full, v0)))
     scale = 1.0 / np.sqrt(np.where(np.isfinite(curvature) & (curvature > 0), curvature, 1.0))
-    value, result, hessian = _minimise(problem.density.full, jnp.asarray(v0), jnp.asarray(scale))
-    ok = bool(result == optx.RESULTS.successful)
-    message = "converged" if ok else optx.RESULTS[result].split("\n")[0]
-    hessian = np.asarray(hessian)[np.ix_(slot, slot)]
-    try:
-        cov = np.linalg.inv(hessian)
-    except np.linalg.LinAlgError:
-        cov = np.full_like(hessian, np.nan)
-    u = np.asarray(value)[slot]
+    found = _FINDER.minimise(problem.density.full, v0, scale)
+    cov = safe_inverse(found.curvature[np.ix_(slot, slot)])
+    u = found.value[slot]
     x, sd = natural_with_sd(u, cov, problem.positive)
     return PointEstimate(problem.names, u, cov, dict(zip(problem.names, x.tolist(), strict=True)),
-                         dict(zip(problem.names, sd.tolist(), strict=True)), ok, message)
+                         dict(zip(problem.names, sd.tolist(), strict=True)), found.converged,
+                         found.message)
