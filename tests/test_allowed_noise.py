@@ -69,3 +69,23 @@ def test_pinned_levels_leave_the_posterior_sd_and_weak_priors_warn():
     there = fit_log(log, "bias,temperature,temperature_sq", seed=2, priors=at)
     assert there.posterior.summary[name]["sd"] == pytest.approx(
         allowed.widening[name] * default.posterior.summary[name]["sd"], rel=0.12)
+
+
+@pytest.mark.parametrize(("factor", "passed", "severity"), [
+    (1.5, True, "warning"), (2.0, False, "warning"), (10.0, False, "warning"),
+    (10.5, False, "error"), (695.0, False, "error")])
+def test_an_interval_that_could_be_ten_times_wider_is_not_trustworthy(factor, passed, severity):
+    """Contract section 7, trust by range: a warning from 2x, and beyond 10x for some
+    coefficient an error (exit 3): the interval is then the priors' answer."""
+    from gyroid.inference._allowed_noise import AllowedNoise
+    from gyroid.inference._check_report import CheckReport
+
+    allowed = AllowedNoise(upper={"B_deg_h": 0.1}, ranges={"w0": (-6.1, 8.3), "w1": (0.0, 1.0)},
+                           widening={"w0": factor, "w1": 1.0},
+                           at={"w0": {"B_deg_h": 0.1}, "w1": {"B_deg_h": 0.01}},
+                           evaluated=2000, allowed=100)
+    check = allowed.check({"B_deg_h": "deg/h"})
+    assert (check.passed, check.severity) == (passed, severity)
+    assert CheckReport((check,)).trustworthy == (severity == "warning")
+    assert ("not an answer" in check.message) == (severity == "error")
+    assert "w0's sd" in check.message and "[-6.1, 8.3]" in check.message

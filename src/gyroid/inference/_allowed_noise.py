@@ -52,6 +52,10 @@ ABOVE, BESIDE = 6.0, 1.0
 WEAK_FROM = 2.0
 #: A coefficient's sd at allowed levels over its posterior sd from which the check warns.
 SAID_FROM = 2.0
+#: ... and beyond which the fit is not trustworthy (contract section 7, "trust by range"):
+#: an interval that could be ten times as wide at levels the log allows is the priors'
+#: answer, not the log's.
+TRUSTED_UP_TO = 10.0
 _Z95 = float(stats.norm.ppf(0.975))
 
 
@@ -76,21 +80,27 @@ class AllowedNoise:
     def check(self, units: dict[str, str]) -> Check:
         """A warning when some coefficient's sd at levels the log allows is
         :data:`SAID_FROM` times its posterior sd or more: the stated intervals rest on the
-        noise levels' priors."""
+        noise levels' priors; an error beyond :data:`TRUSTED_UP_TO` times: the interval is
+        the priors' answer, and the fit is not to be used (exit 3)."""
         name, factor = self.widest
         low, high = self.ranges[name]
         digits = int(np.clip(np.ceil(np.log10(max(abs(low), abs(high), 1e-300)
                                               / max(high - low, 1e-300))) + 2, 3, 12))
         levels = ", ".join(f"{k} = {v:.2g} {units.get(k, '')}".rstrip()
                            for k, v in self.at[name].items())
+        untrusted = factor > TRUSTED_UP_TO
         return Check(
-            name="noise_prior_dependence", passed=factor < SAID_FROM, severity="warning",
-            value=round(factor, 3), threshold=SAID_FROM,
+            name="noise_prior_dependence", passed=factor < SAID_FROM,
+            severity="error" if untrusted else "warning", value=round(factor, 3),
+            threshold=TRUSTED_UP_TO if untrusted else SAID_FROM,
             message=(f"at noise levels this log does not rule out ({levels}) {name}'s sd "
                      f"is {factor:.1f}x its posterior sd (95 % range over such levels "
                      f"[{low:.{digits}g}, {high:.{digits}g}]): the intervals rest on the "
-                     "noise levels' priors; noise measured at rest (gyroid noise, then fit "
-                     "with --noise DIR) or a longer log narrows this"))
+                     "noise levels' priors"
+                     + (f", more than {TRUSTED_UP_TO:g}x, so they are not an answer"
+                        if untrusted else "")
+                     + "; noise measured at rest (gyroid noise, then fit with --noise DIR) "
+                     "or a longer log narrows this"))
 
     def to_json(self) -> dict:
         return {"likelihood_region": REGION, "levels_up_to": self.upper,
