@@ -141,6 +141,27 @@ class SampleDeviations:
         return cls(log.n, rows, z[rows], float(z @ z), within_sd, log, log.where)
 
 
+def about_local_lines(drift: np.ndarray, time_s: np.ndarray) -> np.ndarray:
+    """Each row of ``drift`` (blocks x samples, deg/h) about its own least-squares line in
+    ``time_s`` (s): what the spike check reads of the samples behind a mean. About the
+    block's mean alone, the drift's own slope across a block (a temperature ramp's) made
+    its end samples look like spikes: the README tour's bench named two samples "beyond 5.1
+    sd" whose noise was +3.4 and +3.2 sd. Two degrees of freedom per block."""
+    drift = np.atleast_2d(np.asarray(drift, dtype=float))
+    t = np.atleast_2d(np.asarray(time_s, dtype=float))
+    t = t - t.mean(axis=1, keepdims=True)
+    about_mean = drift - drift.mean(axis=1, keepdims=True)
+    tt = np.sum(t * t, axis=1, keepdims=True)
+    slope = np.sum(t * about_mean, axis=1, keepdims=True) / np.where(tt > 0, tt, 1.0)
+    return about_mean - slope * t
+
+
+def line_dof(counts) -> int:
+    """The degrees of freedom left by :func:`about_local_lines` in blocks of ``counts``
+    samples (each line takes two, a block of one sample its one)."""
+    return int(sum(max(int(c) - 2, 0) for c in np.atleast_1d(counts)))
+
+
 def segment_means(log: BenchLog, segments: list[tuple[int, int]]
                   ) -> tuple[BenchLog, SampleDeviations]:
     """One row per contiguous segment (burst) of ``log``: every column's mean over it
@@ -153,9 +174,10 @@ def segment_means(log: BenchLog, segments: list[tuple[int, int]]
             f"contiguous segments; {log.source} has {len(segments)}: fit its samples instead")
     columns = {name: np.array([values[a:b].mean() for a, b in segments])
                for name, values in log.columns.items() if name != "sigma_deg_h"}
-    drift = np.asarray(log.drift_deg_h, dtype=float)
-    deviation = np.concatenate([drift[a:b] - drift[a:b].mean() for a, b in segments])
-    dof = log.n - len(segments)
+    drift, time_s = np.asarray(log.drift_deg_h, dtype=float), np.asarray(log.time_s)
+    deviation = np.concatenate([about_local_lines(drift[a:b], time_s[a:b]).ravel()
+                                for a, b in segments])
+    dof = line_dof([b - a for a, b in segments])
     scale = float(np.sqrt(np.sum(deviation**2) / dof)) if dof > 0 else 0.0
     within = deviation / scale if scale > 0 else np.zeros_like(deviation)
     comments = (*log.comments, f"means of the {len(segments)} contiguous segments of "
@@ -208,12 +230,12 @@ def log_of_means(columns: Mapping[str, np.ndarray], rows: int, starts: np.ndarra
 
 def block_deviations(log: BenchLog, rows: int, index: np.ndarray | None = None
                      ) -> SampleDeviations:
-    """Each sample's drift about its block's mean (the blocks of :func:`block_means`), 0
-    for a sample in no block."""
+    """Each sample's drift about its block's line (the blocks of :func:`block_means`;
+    :func:`about_local_lines`), 0 for a sample in no block."""
     index = _block_rows(log, rows) if index is None else index
     drift = np.asarray(log.drift_deg_h, dtype=float)
-    deviation = drift[index] - drift[index].mean(axis=1, keepdims=True)
-    dof = index.size - index.shape[0]
+    deviation = about_local_lines(drift[index], np.asarray(log.time_s)[index])
+    dof = line_dof([index.shape[1]] * index.shape[0])
     scale = float(np.sqrt(np.sum(deviation**2) / dof)) if dof > 0 else 0.0
     out = np.zeros(log.n)
     if scale > 0:

@@ -30,7 +30,9 @@ from gyroid.io._logs import (
     BenchLog,
     MeansOfBlocks,
     SampleDeviations,
+    about_local_lines,
     gap_threshold,
+    line_dof,
     log_of_means,
     means_of_blocks,
 )
@@ -145,11 +147,10 @@ class _Blocks:
             self.means.setdefault(c, []).append(v)
         k = shaped["drift_deg_h"].shape[0]
         self.starts.append(first_row + m * np.arange(k))
-        drift = shaped["drift_deg_h"]
-        deviation = drift - drift.mean(axis=1, keepdims=True)
+        deviation = about_local_lines(shaped["drift_deg_h"], shaped["time_s"])
         pooled = math.sqrt(self.sum_sq / self.dof) if self.dof else math.inf
         self.sum_sq += float(np.sum(deviation**2))
-        self.dof += deviation.size - k
+        self.dof += line_dof([m] * k)
         robust = 1.4826 * np.median(np.abs(deviation - np.median(deviation, axis=1,
                                                                   keepdims=True)), axis=1)
         limit = CANDIDATE_SD * np.minimum(robust, pooled)
