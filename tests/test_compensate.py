@@ -38,6 +38,17 @@ def test_rate_random_walk_has_slope_plus_half():
     assert np.median(level) == pytest.approx(1.0, rel=0.15)
 
 
+def test_white_noise_resolves_no_bias_instability():
+    """A white log's curve flattens by chance at its longest averaging times, where few
+    clusters remain (seed 20: its last five points climbed to 2.3x the white line): no
+    floor is resolved that does not stand above the white line by more than the curve's
+    scatter, read where it has 10 degrees of freedom. 60 logs of 10 h at 1 Hz."""
+    resolved = [seed for seed in range(60) if allan_deviation(
+        np.random.default_rng(seed).normal(0.0, 0.3, 36_000), 1.0
+    ).figures_of_merit()["bias_instability_resolved"]]
+    assert resolved == []
+
+
 def test_gauss_markov_bias_instability_is_recovered():
     rng = np.random.default_rng(2)
     rate = rng.normal(0, 0.3, 72_000) + gauss_markov(rng, 72_000, 1.0, 0.05 / 0.6174, 300.0)
@@ -151,6 +162,10 @@ def test_cli_writes_the_contract_files(tmp_path, monkeypatch, capsys):
     for key in ("rms_before_deg_h", "rms_after_deg_h", "peak_before_deg_h", "peak_after_deg_h",
                 "fraction_removed", "allan_before", "allan_after"):
         assert key in summary
+    # the residual's Allan curve is named for what it is: no bias instability is claimed
+    after = summary["allan_after"]
+    assert "compensated residual" in after["of"] and "bias_instability_deg_h" not in after
+    assert {"floor_deg_h", "floor_tau_s", "floor_resolved"} <= set(after)
     assert (out / "allan.png").exists() and (out / "compensation.png").exists()
     means = (out / "compensated_means.csv").read_text().splitlines()
     assert means[0].split(",") == ["t_start_s", "t_end_s", "n_samples", "drift_mean_deg_h",

@@ -193,11 +193,14 @@ def _compensation_section(report: Report, study: Study) -> None:
         f"{cs['peak_before_deg_h']:.3g} -> {cs['peak_after_deg_h']:.3g} deg/h; angle random "
         f"walk {before['arw_deg_rt_h']:.4f} -> {after['arw_deg_rt_h']:.4f} deg/sqrt(h). "
         "Before compensation the Allan deviation is the thermal drift itself (it peaks at "
-        f"{before['bias_instability_deg_h']:.3g} deg/h near tau = "
-        f"{before['bias_instability_tau_s']:.0f} s, the heating cycles, not a noise "
-        "floor); after it, its flat stretch (the bias-instability level) is "
-        f"{after['bias_instability_deg_h']:.3g} deg/h at tau = "
-        f"{after['bias_instability_tau_s']:.0f} s. {inside} Files `compensate/`.", "")
+        f"{before['floor_deg_h']:.3g} deg/h near tau = {before['floor_tau_s']:.0f} s, the "
+        "heating cycles, not a noise floor); after it, the compensated residual's "
+        + (f"floor is {after['floor_deg_h']:.3g} deg/h at tau = "
+           f"{after['floor_tau_s']:.0f} s: what the compensation leaves (the model's error "
+           "beside the gyro's noise), not the gyro's bias instability, which this simulated "
+           "gyro does not have" if after["floor_resolved"] else
+           "curve stays on the white noise's line: no floor above it is resolved")
+        + f". {inside} Files `compensate/`.", "")
     report.figure("compensate/allan", "Allan deviation of the drift before and after "
                   "compensation, with 68 % intervals and the standard slopes; what remains "
                   "after is the white noise and a small correlated part from the estimated "

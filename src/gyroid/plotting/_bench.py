@@ -279,23 +279,24 @@ def compensation_figure(time_s: np.ndarray, before: np.ndarray, after: np.ndarra
 
 def allan_figure(before, after) -> Figure:
     """Log-log Allan deviation before and after, with the after-curve's angle random walk
-    (slope -1/2 through its shortest tau) and bias-instability level drawn as references
-    (the before-curve of a thermal run is the drift itself, not noise: no slope fits it)."""
+    (slope -1/2 through its shortest tau) and, where resolved, its floor drawn as
+    references: the compensated residual's floor, what the compensation leaves, not the
+    gyro's bias instability (the before-curve of a thermal run is the drift itself, not
+    noise: no slope fits it)."""
     with figure_style():
         fig, ax = subplots(figsize=(5.5, 4.0))
         for adev, style, label in ((before, "s", "before"), (after, "o", "after")):
             ax.fill_between(adev.tau_s, adev.lower_deg_h, adev.upper_deg_h, color="0.85", lw=0)
             ax.loglog(adev.tau_s, adev.adev_deg_h, style + "-", color="0.0" if label == "after"
                       else "0.5", ms=3, lw=1.0, label=f"{label} compensation")
-        merit = after.figures_of_merit()
         tau = after.tau_s
-        arw = merit["arw_deg_rt_h"] * 60.0 / np.sqrt(tau)  # deg/h at tau s
-        ax.loglog(tau, arw, ":", color="0.2", lw=0.9,
-                  label=f"angle random walk {merit['arw_deg_rt_h']:.2g} deg/sqrt(h) (-1/2)")
-        if merit["bias_instability_resolved"]:
-            ax.axhline(merit["bias_instability_deg_h"], color="0.2", lw=0.9, ls="--",
-                       label=f"bias instability {merit['bias_instability_deg_h']:.2g} deg/h "
-                             f"at {merit['bias_instability_tau_s']:.3g} s")
+        level_arw = after.arw()
+        level, at_s, resolved = after.floor(level_arw)
+        ax.loglog(tau, level_arw * 60.0 / np.sqrt(tau), ":", color="0.2", lw=0.9,
+                  label=f"angle random walk {level_arw:.2g} deg/sqrt(h) (-1/2)")
+        if resolved:
+            ax.axhline(level, color="0.2", lw=0.9, ls="--",
+                       label=f"residual's floor {level:.2g} deg/h at {at_s:.3g} s")
         ax.set_xlabel("averaging time tau, s")
         ax.set_ylabel("Allan deviation, deg/h")
         ax.legend(frameon=False, loc="upper left", fontsize=7)

@@ -181,8 +181,10 @@ def compensate(log: BenchLog, fitted: FittedDrift, *, max_draws: int = 400, seed
         "fraction_removed": 1.0 - rms(compensated) / rms(drift),
         "model_sd_note": "drift_model_sd_deg_h is the sd of the modelled drift over posterior "
                          "draws (the model's uncertainty), without the gyro's own noise",
-        "allan_before": before.figures_of_merit(),
-        "allan_after": after.figures_of_merit(),
+        "allan_before": before.summary("the measured drift (before compensation)"),
+        "allan_after": after.summary("the compensated residual (the drift less the model): "
+                                     "its floor is what the compensation leaves, not the "
+                                     "gyro's bias instability"),
         "extrapolation": outside,
         "within_fitted_range": not outside,
         "terms": list(fitted.model.terms),
