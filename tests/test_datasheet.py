@@ -131,3 +131,54 @@ def test_an_export_names_the_walk_that_bounds_the_flicker_its_model_leaves_out()
     assert "over-bounding the fitted flicker" in text and f"{axis.flicker_walk:.6e}" in text
     assert f"N (pi/180) / 60 = {0.5 * RAD / 60.0:.6e}" in text
     assert result.record["axes"]["x"]["flicker_walk"] == axis.flicker_walk
+
+
+def _still_bench(tmp_path, arw: float, seed: int = 4):
+    """A 2 h bench at 1 Hz of white noise only, the temperature moving (bias, w1 = 0.1)."""
+    rng = np.random.default_rng(seed)
+    time_s = np.arange(7200.0)
+    temperature = 21.0 + 10.0 * np.sin(2.0 * math.pi * time_s / 7200.0)
+    drift = 1.0 + 0.1 * (temperature - 21.0) + rng.normal(0.0, 60.0 * arw, time_s.size)
+    return write_log(tmp_path / "bench.csv", {"time_s": time_s, "drift_deg_h": drift,
+                                              "temperature_C": temperature})
+
+
+def test_a_datasheet_sets_the_noise_levels_priors_of_a_fit(tmp_path):
+    """Contract section 7: ``gyroid fit --noise FILE.toml`` fits white + flicker + rate
+    random walk, each level the datasheet gives a log-normal about its typical value (log-sd
+    ln 2), a level it omits its default prior; fit.json's noise.priors_from names the file and
+    each prior; a datasheet the log disagrees with (N a hundredth of the log's) fails
+    prior_data_conflict, as any prior does."""
+    log = _still_bench(tmp_path, arw=0.05)
+    sheet = _sheet(tmp_path, 'noise_density = "0.05 deg/sqrt(h)"\n'
+                             'bias_instability = "0.02 deg/h"\n')
+    out = tmp_path / "fit"
+    assert main(["fit", str(log), "--terms", "bias,temperature", "--noise", str(sheet),
+                 "--out", str(out), "--no-progress"]) in (0, 3)
+    record = json.loads((out / "fit.json").read_text())
+    assert record["noise"]["model"] == "white+flicker+rw"
+    given = record["noise"]["priors_from"]
+    assert given["source"] == str(sheet)
+    assert set(given["priors"]) == {"N_deg_sqrt_h", "B_deg_h"}  # K: the default prior
+    for level, median in (("N_deg_sqrt_h", 0.05), ("B_deg_h", 0.02)):
+        assert given["priors"][level] == record["priors"][level]
+        assert f"median {median:g}" in given["priors"][level]
+        assert f"log-sd {math.log(2.0):.6g}" in given["priors"][level]
+    assert "datasheet" in record["noise_choice"]
+    assert record["checks"]["prior_data_conflict"]["passed"]  # the log agrees with it
+    wrong = _sheet(tmp_path, 'arw = "0.0005 deg/sqrt(h)"\n')
+    assert main(["fit", str(log), "--terms", "bias,temperature", "--noise", str(wrong),
+                 "--out", str(tmp_path / "wrong"), "--no-progress"]) in (0, 3)
+    conflict = json.loads((tmp_path / "wrong" / "fit.json").read_text()
+                          )["checks"]["prior_data_conflict"]
+    assert not conflict["passed"] and "N_deg_sqrt_h" in conflict["message"]
+
+
+def test_a_missing_or_bad_datasheet_is_one_message_before_any_log_is_read(tmp_path, capsys):
+    log = _still_bench(tmp_path, arw=0.05)
+    for sheet, says in ((tmp_path / "none.toml", "no such datasheet file"),
+                        (_sheet(tmp_path, 'arw = "fast"\n'), "give a number and a unit")):
+        assert main(["fit", str(log), "--terms", "bias", "--noise", str(sheet),
+                     "--out", str(tmp_path / "fit")]) == 2
+        assert says in capsys.readouterr().err
+        assert not (tmp_path / "fit").exists()

@@ -271,16 +271,24 @@ def fit_options(function):
                 rate_window, segment_means, mappings, progress, axes, instance, **kwargs):
         from gyroid.inference._rate_window import parse_rate_window
         from gyroid.models._prior_scales import resolve_prior_option
-        from gyroid.pipeline._fit_file import FitOptions, noise_file_options
+        from gyroid.pipeline._fit_file import (
+            FitOptions,
+            noise_datasheet_options,
+            noise_file_options,
+        )
 
         prior_set, overrides = resolve_prior_option(prior_choice, prior_items)
         noise_options = {"noise": noise}
         if noise not in NOISE_CHOICES:
-            if not Path(noise).is_dir():
+            if Path(noise).suffix.lower() == ".toml":
+                noise_options = noise_datasheet_options(noise)
+            elif Path(noise).is_dir():
+                noise_options = noise_file_options(noise)
+            else:
                 raise GyroidInputError(f"--noise {noise!r}: use one of "
-                                       f"{', '.join(NOISE_CHOICES)}, or give the --out folder "
-                                       "of 'gyroid noise' (no such folder here)")
-            noise_options = noise_file_options(noise)
+                                       f"{', '.join(NOISE_CHOICES)}, a gyro datasheet "
+                                       "(FILE.toml), or the --out folder of 'gyroid noise' "
+                                       "(no such folder here)")
         options = FitOptions(terms=terms, seed=seed, t0_C=t0_C, **noise_options,
                              prior_set="flat" if flat_prior else prior_set, priors=overrides,
                              rate_window_s=parse_rate_window(rate_window),
@@ -293,13 +301,15 @@ def fit_options(function):
         click.option("--seed", default=0, show_default=True, type=SEED,
                      help="Random seed of the sampler."),
         click.option("--noise", default="auto", show_default=True,
-                     metavar="|".join(NOISE_CHOICES) + "|DIR",
+                     metavar="|".join(NOISE_CHOICES) + "|FILE.toml|DIR",
                      help="Noise model: white; white plus a Gauss-Markov part; IEEE 952's "
                      "white + flicker (bias instability) + rate random walk; auto: "
                      "white+flicker+rw on every log, B and K with priors that let them be "
-                     "negligible; or DIR, the --out folder of 'gyroid "
-                     "noise' on the same gyro at rest: white+flicker+rw with its N, B and K "
-                     "posteriors as priors."),
+                     "negligible; FILE.toml, the gyro's datasheet ([gyro] arw or "
+                     "noise_density, bias_instability, rate_random_walk): white+flicker+rw "
+                     "with priors about its typical values (a factor of 2 at one sd); or DIR, "
+                     "the --out folder of 'gyroid noise' on the same gyro at rest: "
+                     "white+flicker+rw with its N, B and K posteriors as priors."),
         click.option("--t0", "t0_C", default=21.0, show_default=True, type=TEMPERATURE,
                      help="Reference temperature t0, degC (t = T - t0)."),
         prior_options,

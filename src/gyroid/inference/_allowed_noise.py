@@ -99,8 +99,9 @@ class AllowedNoise:
                      "noise levels' priors"
                      + (f", more than {TRUSTED_UP_TO:g}x, so they are not an answer"
                         if untrusted else "")
-                     + "; noise measured at rest (gyroid noise, then fit with --noise DIR) "
-                     "or a longer log narrows this"))
+                     + "; the gyro's datasheet (fit with --noise FILE.toml), noise measured "
+                     "at rest (gyroid noise, then fit with --noise DIR) or a longer log "
+                     "narrows this"))
 
     def to_json(self) -> dict:
         return {"likelihood_region": REGION, "levels_up_to": self.upper,

@@ -31,6 +31,15 @@ from gyroid.models._priors import Prior
 from gyroid.noise._base import NoiseEstimate, predictive_level
 
 
+@dataclass(frozen=True)
+class NoisePriorSource:
+    """A bench fit's noise priors' source (a datasheet, a noise fit's folder) and the
+    levels it set (the others keep their defaults)."""
+
+    source: str
+    levels: tuple[str, ...]
+
+
 @dataclass(frozen=True, eq=False)
 class BenchFit(FitResult):
     """A fitted bench log: its problem, point estimate, posterior (None when only the mode
@@ -46,6 +55,9 @@ class BenchFit(FitResult):
     #: Each coefficient's range over the noise levels the log cannot rule out (None under
     #: white noise or without a posterior).
     allowed_noise: AllowedNoise | None = field(default=None, repr=False)
+    #: Where the noise levels' priors came from (``--noise DIR`` or ``FILE.toml``), if
+    #: anywhere: the source and the levels it set.
+    noise_priors_from: NoisePriorSource | None = None
 
     def __repr__(self) -> str:
         verdict = "trustworthy" if self.trustworthy else "NOT trustworthy"
@@ -283,6 +295,12 @@ class BenchFit(FitResult):
             "input_ranges": self.input_ranges,
             "effect_contributions_deg_h": self.effect_contributions(),
         }
+        if self.noise_priors_from is not None:
+            given = self.noise_priors_from
+            out["noise"]["priors_from"] = {
+                "source": given.source,
+                "priors": {k: _describe(p) for k, p in zip(problem.names, problem.priors,
+                                                           strict=True) if k in given.levels}}
         if post is not None:
             out["posterior"] = {k: post.summary[k] for k in names}
             out["noise"]["posterior"] = {k: post.summary[k] for k in noise_names}

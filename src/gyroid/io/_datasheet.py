@@ -25,8 +25,12 @@ import re
 import tomllib
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from gyroid.errors import GyroidInputError
+
+if TYPE_CHECKING:
+    from gyroid.models._priors import Prior
 
 DEG = 180.0 / math.pi
 #: Per key: the term it gives and, per accepted unit (spelled without spaces, lower case),
@@ -138,3 +142,26 @@ def read_datasheet(path: str | Path) -> Datasheet:
                                    "\"200 Hz\"")
         rate = float(match.group(1))
     return Datasheet(terms, rate, str(path))
+
+
+#: A datasheet's typical value as a prior: log-normal about it with this log-sd, a unit
+#: within a factor of 2 of the typical value at one sd (4 at two): datasheets state typical
+#: values, and units of one type differ by tens of percent in N and by up to a few times in
+#: B and K. Narrower than 2, so the fit's allowed-noise check keeps it (a measured prior,
+#: :mod:`gyroid.inference._allowed_noise`).
+DATASHEET_LOG_SD = math.log(2.0)
+#: The IEEE 952 levels of the bench fit's noise model that a datasheet's terms set.
+LEVELS = {"N": "N_deg_sqrt_h", "B": "B_deg_h", "K": "K_deg_h_sqrt_h"}
+
+
+def datasheet_priors(sheet: Datasheet) -> dict[str, Prior]:
+    """The bench fit's IEEE 952 noise priors from a datasheet (``gyroid fit --noise
+    FILE.toml``): each term it gives, log-normal about its typical value with log-sd
+    :data:`DATASHEET_LOG_SD`, in the datasheet's units (deg/sqrt(h), deg/h,
+    deg/h/sqrt(h): the levels' own); its bias instability read as IEEE's B, as
+    ``gyroid noise --datasheet`` compares it. A level the datasheet omits keeps its
+    default prior."""
+    from gyroid.models._priors import LogNormal  # JAX: not for `gyroid datasheet`
+
+    return {LEVELS[name]: LogNormal(term.value, DATASHEET_LOG_SD)
+            for name, term in sheet.terms.items()}

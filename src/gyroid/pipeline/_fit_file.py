@@ -12,10 +12,11 @@ from pathlib import Path
 from gyroid.errors import GyroidInputError
 from gyroid.inference._bench_fit import fit_log
 from gyroid.inference._bench_problem import IEEE_MAX_ROWS
-from gyroid.inference._bench_result import BenchFit
+from gyroid.inference._bench_result import BenchFit, NoisePriorSource
 from gyroid.inference._emcee import Emcee
 from gyroid.inference._importance import Importance
 from gyroid.io._bench_reader import bench_log_from_table
+from gyroid.io._datasheet import datasheet_priors, read_datasheet
 from gyroid.io._fitted import FittedNoise, axes_of
 from gyroid.io._log_table import LogTable
 from gyroid.io._logs import MeansOfBlocks
@@ -50,16 +51,18 @@ class FitOptions:
     #: A native log's IMU (``--instance``); None: its first.
     instance: int | None = None
     #: ``--noise DIR``: the IEEE 952 noise priors per axis from 'gyroid noise' (None: one
-    #: axis, unnamed), and that folder.
+    #: axis, unnamed), and that folder; ``--noise FILE.toml``: a datasheet's, for every
+    #: axis (``noise_from_datasheet``), and that file.
     noise_priors: Mapping[str | None, Mapping[str, Prior]] = field(default_factory=dict)
     noise_source: str = ""
+    noise_from_datasheet: bool = False
 
     def __post_init__(self) -> None:
         resolve_terms(self.terms)
         if self.noise not in (*NOISE_MODELS, "auto"):
             raise GyroidInputError(f"--noise {self.noise!r}: use one of "
-                                   f"{', '.join(NOISE_MODELS)}, auto or the --out folder of "
-                                   "'gyroid noise'")
+                                   f"{', '.join(NOISE_MODELS)}, auto, a datasheet FILE.toml "
+                                   "or the --out folder of 'gyroid noise'")
         if self.noise_priors and self.noise != Ieee952.name:
             raise GyroidInputError(f"noise priors from {self.noise_source} are priors of "
                                    f"the {Ieee952.name} noise model, not of {self.noise}")
@@ -72,6 +75,15 @@ class FitOptions:
         if self.prior_set not in PRIOR_SETS:
             raise GyroidInputError(f"--priors {self.prior_set!r}: use one of "
                                    f"{', '.join(PRIOR_SETS)} or a .toml file")
+
+
+def noise_datasheet_options(path: str | Path) -> dict:
+    """``--noise FILE.toml``: the :class:`FitOptions` fields that fit IEEE 952 noise with its
+    levels' priors from a gyro's datasheet (docs/formats.md section 6;
+    :func:`~gyroid.io._datasheet.datasheet_priors`), the same on every axis."""
+    sheet = read_datasheet(path)
+    return {"noise": Ieee952.name, "noise_source": str(path), "noise_from_datasheet": True,
+            "noise_priors": {None: datasheet_priors(sheet)}}
 
 
 def noise_file_options(folder: str | Path) -> dict:
@@ -97,6 +109,8 @@ def _axis_noise_priors(options: FitOptions, axis: str | None, n_axes: int
     when one axis is fitted."""
     if not options.noise_priors:
         return {}
+    if options.noise_from_datasheet:  # one gyro type on every axis
+        return dict(next(iter(options.noise_priors.values())))
     if axis in options.noise_priors:
         return dict(options.noise_priors[axis])
     if len(options.noise_priors) == 1 and n_axes == 1:
@@ -150,8 +164,12 @@ def fit_file(path: str | Path, options: FitOptions, out: str | Path,
                       sampler=Importance(fallback=Emcee(progress=options.progress)),
                       segment_means=options.segment_means)
         if noise_priors[axis]:
-            fit = replace(fit, noise_choice=f"asked for: {Ieee952.name}, its N, B and K priors "
-                                            f"from the noise fit in {options.noise_source}")
+            given = ("datasheet" if options.noise_from_datasheet else "noise fit in")
+            fit = replace(fit, noise_priors_from=NoisePriorSource(options.noise_source,
+                                                                  tuple(noise_priors[axis])),
+                          noise_choice=f"asked for: {Ieee952.name}, the priors of "
+                                       f"{', '.join(noise_priors[axis])} from the {given} "
+                                       f"{options.noise_source}")
         fits[axis] = fit
     result = PerAxis(fits, table_source(table))
     write_per_axis(out, result)
