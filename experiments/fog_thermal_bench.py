@@ -49,6 +49,13 @@ times the log's length, :func:`_common.markov_flicker`) instead of by spectral s
 twice the log (whose flicker has no power below 1/(20 h) and none of the model's slowest
 process): whether a miss is the realisation or the difference between the two flickers.
 
+``--datasheet`` fits with the noise levels' priors from a datasheet that states the bench's
+own ARW, B and K (written to a TOML file and read as ``gyroid fit --noise FILE.toml`` reads
+it), and fits the same log by default too: whether the datasheet's intervals cover at the
+nominal rate, and how wide they are beside the default's interval and the default's range
+over the noise levels the log allows (``width_95``: each coefficient's interval width with
+the datasheet, ``width_95_default``, ``range_95_default``).
+
 ``--white-only`` drops the flicker and the walk (white noise and the thermometer's only):
 what the default costs where there is nothing low-frequency to carry (the posterior sds
 beside ``--noise white``'s on the same logs). ``--workers 2`` runs two processes.
@@ -149,9 +156,25 @@ def measured_noise_priors(seed: int, hours: float) -> tuple[dict, dict]:
     return priors_from_noise(terms), {"trustworthy": fitted.trustworthy, "terms": found}
 
 
+def datasheet_priors_of_the_bench() -> dict:
+    """The noise priors ``gyroid fit --noise FILE.toml`` takes from a datasheet stating this
+    bench's ARW, B and K (the file written and read as the command reads it)."""
+    import tempfile
+    from pathlib import Path
+
+    from gyroid.io._datasheet import datasheet_priors, read_datasheet
+
+    with tempfile.TemporaryDirectory() as folder:
+        path = Path(folder) / "fog.toml"
+        path.write_text(f'[gyro]\narw = "{ARW} deg/sqrt(h)"\nbias_instability = "{B} deg/h"\n'
+                        f'rate_random_walk = "{K} deg/h/sqrt(h)"\n')
+        return datasheet_priors(read_datasheet(path))
+
+
 def one(seed: int, profile: str, noise: str, white_only: bool,
         flicker_walk_median: float | None = None, static_hours: float | None = None,
-        warmup: float | None = None, flicker: str = "spectral") -> dict:
+        warmup: float | None = None, flicker: str = "spectral",
+        datasheet: bool = False) -> dict:
     import gyroid
     from gyroid.inference import Emcee, Importance, fit_log
     from gyroid.io import BenchLog
@@ -169,9 +192,12 @@ def one(seed: int, profile: str, noise: str, white_only: bool,
     if static_hours:
         chosen, static = measured_noise_priors(seed, static_hours)
         noise = "white+flicker+rw"  # the noise model whose priors those are
+    if datasheet:
+        chosen, noise = datasheet_priors_of_the_bench(), "white+flicker+rw"
     fit = fit_log(BenchLog(columns), terms, noise=noise, seed=seed, priors=chosen,
                   sampler=Importance(fallback=Emcee(progress=False)))
     seconds = round(time.time() - started, 1)  # the default fit's alone
+    widths = _datasheet_widths(fit, columns, terms, seed, truth) if datasheet else None
     summary = fit.posterior.summary
     z = {name: (summary[name]["mean"] - value) / summary[name]["sd"]
          for name, value in truth.items()}
@@ -182,7 +208,7 @@ def one(seed: int, profile: str, noise: str, white_only: bool,
     known = (fit_log(BenchLog(columns), terms, noise=noise, seed=seed, priors=pinned,
                      sampler=Importance(fallback=Emcee(progress=False))).posterior.summary
              if fit.problem.noise.name == "white+flicker+rw" and not white_only
-             and not static_hours and not warmup else None)
+             and not static_hours and not warmup and not datasheet else None)
     return {"seed": seed, "profile": profile, "noise": noise,
             "noise_used": fit.problem.noise.name, "trustworthy": fit.trustworthy,
             "sampler": fit.posterior.move,
@@ -202,7 +228,30 @@ def one(seed: int, profile: str, noise: str, white_only: bool,
                              if name not in truth},
             "static_noise_fit": static,
             "allowed_noise": _allowed(fit, truth),
+            "datasheet": widths,
             "seconds": seconds}
+
+
+def _datasheet_widths(fit, columns: dict, terms: str, seed: int, truth: dict) -> dict:
+    """Each coefficient's 95 % interval width with the datasheet's priors, and on the same
+    log by default: its interval's width and its range's over the noise levels the log
+    allows (what the default's noise_prior_dependence says to read instead), and whether
+    the truth lies in each."""
+    from gyroid.inference import Emcee, Importance, fit_log
+    from gyroid.io import BenchLog
+
+    default = fit_log(BenchLog(columns), terms, seed=seed,
+                      sampler=Importance(fallback=Emcee(progress=False)))
+    mine, theirs = fit.posterior.summary, default.posterior.summary
+    allowed = default.allowed_noise
+    return {
+        "trustworthy_default": default.trustworthy,
+        "width_95": {k: mine[k]["ci95"][1] - mine[k]["ci95"][0] for k in truth},
+        "width_95_default": {k: theirs[k]["ci95"][1] - theirs[k]["ci95"][0] for k in truth},
+        "range_95_default": None if allowed is None else {
+            k: allowed.ranges[k][1] - allowed.ranges[k][0] for k in truth},
+        "inside_95_default": {k: bool(theirs[k]["ci95"][0] <= v <= theirs[k]["ci95"][1])
+                              for k, v in truth.items()}}
 
 
 def _allowed(fit, truth: dict) -> dict | None:
@@ -255,8 +304,26 @@ def summarise(runs: list[dict]) -> dict:
             "noise_used": {m: sum(r["noise_used"] == m for r in mine)
                            for m in sorted({r["noise_used"] for r in mine})},
             "median_seconds": float(np.median([r["seconds"] for r in mine])),
+            **_datasheet_summary(mine, names),
         }
     return out
+
+
+def _datasheet_summary(mine: list[dict], names: list[str]) -> dict:
+    """With ``--datasheet``: the default fit's coverage on the same logs, and per
+    coefficient the median ratio of the datasheet's interval width to the default's
+    interval and to the default's range over the allowed noise levels."""
+    seen = [r["datasheet"] for r in mine if r.get("datasheet")]
+    if not seen:
+        return {}
+    def ratio(key: str) -> dict:
+        return {k: round(float(np.median([d["width_95"][k] / d[key][k] for d in seen
+                                          if d[key] is not None])), 3) for k in names}
+    return {"datasheet": {
+        "inside_95_default": {k: sum(d["inside_95_default"][k] for d in seen) for k in names},
+        "exit_3_default": sum(not d["trustworthy_default"] for d in seen),
+        "width_over_default_interval": ratio("width_95_default"),
+        "width_over_default_range": ratio("range_95_default")}}
 
 
 def _allowed_summary(mine: list[dict], passed: list[dict]) -> dict:
@@ -298,11 +365,13 @@ def main() -> None:
                              "and fit thermal,warmup")
     parser.add_argument("--flicker", choices=("spectral", "markov"), default="spectral",
                         help="the flicker's simulation (module docstring)")
+    parser.add_argument("--datasheet", action="store_true",
+                        help="noise priors from a datasheet of the bench's own levels")
     parser.add_argument("--results", default="fog_thermal_bench")
     args = parser.parse_args()
     started = time.time()
     jobs = [(args.seed + k, profile, args.noise, args.white_only, args.flicker_walk_median,
-             args.static_hours, args.warmup, args.flicker)
+             args.static_hours, args.warmup, args.flicker, args.datasheet)
             for profile in args.profiles.split(",") for k in range(args.datasets)]
     with ProcessPoolExecutor(args.workers) as pool:
         runs = []
@@ -317,7 +386,7 @@ def main() -> None:
                      "flicker_walk_median": args.flicker_walk_median,
                      "static_hours": args.static_hours,
                      "warmup": dict(WARMUP, w_warmup=args.warmup) if args.warmup else None,
-                     "flicker": args.flicker},
+                     "flicker": args.flicker, "datasheet": args.datasheet},
              results={"summary": summarise(runs), "runs": runs}, started=started)
 
 
