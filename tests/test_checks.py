@@ -401,8 +401,8 @@ def test_the_drifts_own_slope_within_a_block_is_no_spike(seed):
     of 38 samples: about each block's mean alone, the drift's slope across a block made its
     end samples "spikes beyond 5.1 sd" (seed 1: two, whose noise was +3.4 and +3.2 sd);
     about each block's line, none. An 8 sd spike added to one sample is still named."""
+    from gyroid.inference._bench_checks import spikes_within_segments
     from gyroid.inference._bench_problem import IEEE_MAX_ROWS
-    from gyroid.inference._bench_result import spikes_within_segments
     from gyroid.io import BenchLog, MeansOfBlocks
     from gyroid.simulation import simulate_thermal_bench
 

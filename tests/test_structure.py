@@ -18,6 +18,21 @@ def test_every_fit_result_shares_one_base():
         assert not getattr(kind.summary, "__isabstractmethod__", False)
 
 
+def test_every_result_reads_its_problem_by_its_concrete_type():
+    """A result reads its problem's own attributes (the log, the model, the segments): its
+    ``problem`` field has the problem's concrete type, which a type checker follows (typed
+    as AbstractProblem, 69 reads were of attributes the abstract class never declares)."""
+    import typing
+
+    from gyroid.inference import BenchProblem, PoolProblem, RollProblem
+    from gyroid.inference._fit import RESULTS
+
+    for result, problem in ((BenchFit, BenchProblem), (RollFit, RollProblem),
+                            (PoolFit, PoolProblem)):
+        assert typing.get_type_hints(result)["problem"] is problem, result
+    assert set(RESULTS) >= {BenchProblem, RollProblem, PoolProblem}
+
+
 def test_one_library_file_spells_the_noise_models_names():
     """Outside cli/ (whose --help lists the choices without importing JAX) and plotting/
     (where "white" is a colour), the names appear as string constants in noise/_kinds.py

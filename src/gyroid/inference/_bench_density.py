@@ -51,7 +51,7 @@ class BenchDensity(eqx.Module):
     :meth:`from_log` (what :class:`~gyroid.inference.BenchProblem` does)."""
 
     model: DriftModel
-    inputs: eqx.Module
+    inputs: DriftInputs
     drift: Float[Array, " n"]
     sigma: Float[Array, " n"] | None  # known per-row white-noise sd, deg/h
     steps_s: Float[Array, " n"]  # time since the previous sample (first: the median step)

@@ -13,9 +13,7 @@ import numpy as np
 
 from gyroid._compiled_programs import release_if_crowded
 from gyroid.errors import GyroidInputError
-from gyroid.inference._allowed_noise import allowed_noise
 from gyroid.inference._bench_density import BenchDensity
-from gyroid.inference._bench_result import BenchFit, bench_checks
 from gyroid.inference._check_report import FitEvidence
 from gyroid.inference._emcee import Emcee
 from gyroid.inference._importance import Importance
@@ -262,11 +260,6 @@ class BenchProblem(AbstractProblem):
 
     def default_sampler(self) -> Importance:
         return Importance(fallback=Emcee())
-
-    def result(self, point: PointEstimate, posterior, *, seed: int) -> BenchFit:
-        allowed = allowed_noise(self, posterior, seed)
-        return BenchFit(problem=self, point=point, posterior=posterior, seed=seed,
-                        checks=bench_checks(self, point, posterior, allowed), allowed_noise=allowed)
 
     # ----- storage ------------------------------------------------------------------------------
     def observed_data(self) -> dict[str, np.ndarray]:

@@ -1,7 +1,7 @@
 """A fitted bench log (:class:`BenchFit`: ``fit.json``, InferenceData, predictions, a
-summary) and the self-checks of a bench fit. What
-:meth:`~gyroid.inference.BenchProblem.result` builds; it reads the problem through its
-attributes and does not import it (the problem imports this module)."""
+summary) and the self-checks of a bench fit: what :func:`bench_result` builds of a
+:class:`~gyroid.inference.BenchProblem` (imported one way: the problem does not know its
+result; :func:`~gyroid.inference.fit` picks the builder by the problem's type)."""
 
 from __future__ import annotations
 
@@ -10,21 +10,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from gyroid.inference._allowed_noise import AllowedNoise
+from gyroid.inference._allowed_noise import AllowedNoise, allowed_noise
 from gyroid.inference._batching import problem_batcher
-from gyroid.inference._bench_predictive import bench_predictive
-from gyroid.inference._check_report import Check, CheckReport
-from gyroid.inference._checks import fit_checks
-from gyroid.inference._excitation import excitation
-from gyroid.inference._plausibility import effect_sizes, units_sanity
+from gyroid.inference._bench_checks import bench_checks
+from gyroid.inference._bench_problem import BenchProblem
+from gyroid.inference._check_report import CheckReport
 from gyroid.inference._posterior import Posterior
-from gyroid.inference._problem import AbstractProblem, PointEstimate
-from gyroid.inference._rate_estimate import rate_estimate
-from gyroid.inference._residual_checks import outliers_among
+from gyroid.inference._problem import PointEstimate
 from gyroid.inference._result import FitResult
 from gyroid.inference._storage import inference_data
 from gyroid.io._fitted import FittedDrift
-from gyroid.io._logs import BenchLog, SampleDeviations, contiguous_segments
+from gyroid.io._logs import BenchLog
 from gyroid.models._design import rows_of
 from gyroid.models._effects import parameter
 from gyroid.models._priors import Prior
@@ -45,7 +41,7 @@ class BenchFit(FitResult):
     """A fitted bench log: its problem, point estimate, posterior (None when only the mode
     was asked for) and self-checks."""
 
-    problem: AbstractProblem = field(repr=False)  # a BenchProblem
+    problem: BenchProblem = field(repr=False)
     point: PointEstimate = field(repr=False)
     posterior: Posterior | None = field(repr=False)
     seed: int
@@ -333,62 +329,11 @@ def _describe(prior: Prior) -> str:
     return prior.describe()
 
 
-def bench_checks(problem: AbstractProblem, point: PointEstimate, posterior: Posterior | None,
-                 allowed: AllowedNoise | None = None) -> CheckReport:
-    """Every self-check of a bench fit: the shared ones on its evidence, those that read
-    only the mode (:func:`bench_point_checks`), and how far its intervals rest on the noise
-    levels' priors (``allowed``, when given)."""
-    report = fit_checks(problem.evidence(point, posterior)) + bench_point_checks(problem, point)
-    if allowed is None:
-        return report
-    return report + CheckReport((allowed.check(problem.noise.units),))
-
-
-def bench_point_checks(problem: AbstractProblem, point: PointEstimate) -> CheckReport:
-    """The checks of a bench fit that read its mode and not its posterior: excitation, the
-    predictive check (held-out stretches), units, effect sizes, and for a fit of segment
-    means the spike check on the samples behind them."""
-    time_s = np.asarray(problem.log.time_s)
-    samples = problem.log if problem.segments is None else problem.segments.head
-    checks = CheckReport((
-        excitation(problem.model, problem.inputs, time_s, tuple(contiguous_segments(time_s))),
-        bench_predictive(problem.density, time_s, np.asarray(point.u)),
-        units_sanity(samples),
-        effect_sizes(problem.model, point.value, problem.inputs,
-                     np.asarray(problem.log.drift_deg_h)),
-        _rate_estimate_check(problem, point, time_s)))
-    segments = problem.segments
-    if segments is None:
-        return checks
-    # the means' own scatter: their white sd, or, for block means whose noise is
-    # correlated, the RMS of their residuals
-    sigma = (point.rms_residual if problem.block_rows > 1
-             else point.value.get("sigma_deg_h", segments.within_sd))
-    return checks + CheckReport((spikes_within_segments(
-        segments, sigma_of_means=sigma, n_means=problem.n),))
-
-
-def _rate_estimate_check(problem: AbstractProblem, point: PointEstimate, time_s: np.ndarray
-                         ) -> Check:
-    """:func:`~gyroid.inference._rate_estimate.rate_estimate` of a bench fit: its dT/dt
-    window, wD at the mode, and a window mean's white noise from the residuals."""
-    window_s = float(problem.density.rate_window_s)
-    wD = point.value.get("wD") if "temperature_rate" in problem.model.terms else None
-    if wD is None or not problem.log.has("temperature_C"):
-        return rate_estimate(time_s, time_s, window_s, None, 0.0)
-    step = float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
-    noise = point.rms_residual / math.sqrt(max(window_s / step, 1.0))
-    return rate_estimate(time_s, np.asarray(problem.log.columns["temperature_C"]), window_s,
-                         float(wD), noise, rate_C_h=np.asarray(problem.inputs.rate_C_h))
-
-
-def spikes_within_segments(samples: SampleDeviations, *, sigma_of_means: float,
-                           n_means: int) -> Check:
-    """The spike check of a fit of means (of segments or blocks), on the samples about
-    their mean. A spike shifts the bias by its deviation / n; that is judged against the
-    fit's sd of the bias (about ``sigma_of_means / sqrt(K)`` of the K means), not the
-    samples' ``s / sqrt(n)``."""
-    ratio = (sigma_of_means / math.sqrt(n_means)) / (samples.within_sd / math.sqrt(samples.n))
-    return outliers_among(samples.n, samples.rows, samples.z, samples.z_sum_sq,
-                          where=samples.where, name="outliers_within_segments",
-                          bias_sd_ratio=max(ratio, 1e-12), sets_noise_level=False)
+def bench_result(problem: BenchProblem, point: PointEstimate, posterior: Posterior | None,
+                 *, seed: int) -> BenchFit:
+    """The frozen result of a bench fit, its self-checks (and how far its intervals rest on
+    the noise levels' priors) computed first."""
+    allowed = allowed_noise(problem, posterior, seed)
+    return BenchFit(problem=problem, point=point, posterior=posterior, seed=seed,
+                    checks=bench_checks(problem, point, posterior, allowed),
+                    allowed_noise=allowed)

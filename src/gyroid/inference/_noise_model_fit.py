@@ -11,9 +11,10 @@ import numpy as np
 
 from gyroid.inference._check_report import CheckReport, FitEvidence
 from gyroid.inference._checks import fit_checks
+from gyroid.inference._noise_problem import NoiseProblem
 from gyroid.inference._noise_terms import term
 from gyroid.inference._posterior import Posterior
-from gyroid.inference._problem import AbstractProblem, PointEstimate
+from gyroid.inference._problem import PointEstimate
 from gyroid.inference._result import FitResult
 
 #: The checks a noise fit keeps of those every fit has (the others read a drift's residuals).
@@ -42,7 +43,7 @@ class NoiseModelFit(FitResult):
 
 
 
-def noise_model_result(problem: AbstractProblem, point: PointEstimate,
+def noise_model_result(problem: NoiseProblem, point: PointEstimate,
                        posterior: Posterior | None) -> NoiseModelFit:
     """The frozen :class:`NoiseModelFit` of one sampled set of terms, checks first."""
     if posterior is None:

@@ -25,7 +25,6 @@ from jaxtyping import Array, Float
 from gyroid.inference._emcee import Emcee
 from gyroid.inference._haar import HaarStatistics
 from gyroid.inference._mode import BoundedGradientSearch, FisherScoring, value_hessian
-from gyroid.inference._noise_model_fit import noise_model_result
 from gyroid.inference._noise_terms import (
     ceiling,
     envelope,
@@ -138,9 +137,6 @@ class NoiseProblem(AbstractProblem):
 
     def default_sampler(self) -> Emcee:
         return Emcee(progress=False)
-
-    def result(self, point, posterior, *, seed: int):
-        return noise_model_result(self, point, posterior)
 
     def observed_data(self) -> dict[str, np.ndarray]:
         return {"haar_sum_sq": self.stats.sum_sq}

@@ -27,8 +27,8 @@ import jax.numpy as jnp
 import numpy as np
 from scipy import stats
 
+from gyroid.inference._bench_checks import spikes_within_segments
 from gyroid.inference._bench_predictive import bench_predictive
-from gyroid.inference._bench_result import spikes_within_segments
 from gyroid.inference._check_report import Check, CheckReport, FitEvidence
 from gyroid.inference._checks import (
     PRIOR_TAIL_SD,
@@ -38,8 +38,9 @@ from gyroid.inference._checks import (
     point_vs_posterior,
     prior_data_conflict,
 )
+from gyroid.inference._pool_problem import PoolProblem
 from gyroid.inference._posterior import Posterior
-from gyroid.inference._problem import AbstractProblem, PointEstimate
+from gyroid.inference._problem import PointEstimate
 from gyroid.inference._residual_checks import outliers, residual_whiteness
 from gyroid.io._logs import contiguous_segments
 from gyroid.models._priors import Normal
@@ -167,7 +168,7 @@ def between_run_sd_identified(names: tuple[str, ...], tau_draws: np.ndarray,
                  "predictive is correspondingly wide; pool more runs to narrow it")
 
 
-def leave_one_run_out(problem: AbstractProblem) -> np.ndarray:
+def leave_one_run_out(problem: PoolProblem) -> np.ndarray:
     """Per run, the probability that a run of the population fitted WITHOUT it lies as far
     from that population's mean as it does: ``d' (A_r^-1 + T + C)^-1 d`` against chi-square
     (rank of A_r degrees of freedom), ``d`` the run's own estimate minus the others' mean,
@@ -199,7 +200,7 @@ def leave_one_run_out(problem: AbstractProblem) -> np.ndarray:
     return np.array(p_values)
 
 
-def pool_checks(problem: AbstractProblem, point: PointEstimate, posterior: Posterior,
+def pool_checks(problem: PoolProblem, point: PointEstimate, posterior: Posterior,
                 mean_draws: np.ndarray, run_draws: np.ndarray, summary: dict) -> CheckReport:
     """The population's checks, every run's residual checks (when logs were pooled), and
     the lot's own two."""
@@ -236,7 +237,7 @@ def pool_checks(problem: AbstractProblem, point: PointEstimate, posterior: Poste
     return population + per_run + lot
 
 
-def run_checks(problem: AbstractProblem, u_mean: np.ndarray, pooled_mean: np.ndarray
+def run_checks(problem: PoolProblem, u_mean: np.ndarray, pooled_mean: np.ndarray
                ) -> CheckReport:
     """Every run's residual checks at its pooled coefficients (and its noise level's
     posterior mean), combined per kind across runs; for burst logs pooled on their segment

@@ -42,7 +42,6 @@ from jaxtyping import Array, Float
 
 from gyroid.inference._mode import JointBFGS, safe_inverse
 from gyroid.inference._nuts import Nuts
-from gyroid.inference._pool_result import PoolFit, pool_result
 from gyroid.inference._problem import AbstractProblem, PointEstimate
 from gyroid.models._inputs import T0_C
 from gyroid.models._priors import Flat as FlatPrior
@@ -341,9 +340,6 @@ class PoolProblem(AbstractProblem):
         """NUTS: emcee's ensemble moves do not mix this posterior (see
         :mod:`gyroid.inference._nuts`)."""
         return Nuts()
-
-    def result(self, point: PointEstimate, posterior, *, seed: int) -> PoolFit:
-        return pool_result(self, point, posterior, seed=seed)
 
     def start(self) -> np.ndarray:
         """A starting point: the spread of the runs' least-squares coefficients, and each

@@ -15,8 +15,9 @@ from scipy import stats
 
 from gyroid.inference._check_report import CheckReport
 from gyroid.inference._pool_checks import pool_checks
+from gyroid.inference._pool_problem import PoolProblem
 from gyroid.inference._posterior import Posterior, interval_summary, summarise_draws
-from gyroid.inference._problem import AbstractProblem, PointEstimate
+from gyroid.inference._problem import PointEstimate
 from gyroid.inference._result import FitResult
 from gyroid.inference._storage import inference_data
 from gyroid.models._effects import parameter
@@ -45,7 +46,7 @@ class Heterogeneity:
 class PoolFit(FitResult):
     """A pooled fit: the problem, its mode and posterior, the derived draws and checks."""
 
-    problem: AbstractProblem = field(repr=False)  # a PoolProblem
+    problem: PoolProblem = field(repr=False)
     point: PointEstimate = field(repr=False)
     posterior: Posterior = field(repr=False)
     seed: int
@@ -220,7 +221,7 @@ def heterogeneity(names: tuple[str, ...], own_mean: np.ndarray, own_sd: np.ndarr
     return out
 
 
-def pool_result(problem: AbstractProblem, point: PointEstimate, posterior: Posterior | None, *,
+def pool_result(problem: PoolProblem, point: PointEstimate, posterior: Posterior | None, *,
                 seed: int) -> PoolFit:
     """The :class:`PoolFit` of a pooled problem: the population means, the runs' and a new
     run's coefficients drawn per posterior draw, then the checks."""
@@ -238,7 +239,7 @@ def pool_result(problem: AbstractProblem, point: PointEstimate, posterior: Poste
         checks=pool_checks(problem, point, posterior, mean_draws, run_draws, summary))
 
 
-def derived_draws(problem: AbstractProblem, posterior: Posterior, *, seed: int):
+def derived_draws(problem: PoolProblem, posterior: Posterior, *, seed: int):
     """Per posterior draw of the between-run sds and noise levels: the population means
     from their exact conditional, every run's coefficients from theirs, a new run's from
     the population, and each run's log-likelihood. Returns (chains, draws, p), (M, R, p),

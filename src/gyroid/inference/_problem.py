@@ -12,11 +12,12 @@ Final subclasses: :class:`~gyroid.inference.BenchProblem` (a bench log's drift m
 :class:`~gyroid.inference.PoolProblem` (a lot of runs, partially pooled).
 :func:`~gyroid.inference.fit` fits any of them: the mode (:meth:`AbstractProblem.mode`), a
 posterior (any :class:`~gyroid.inference.AbstractSampler`), then the result with its
-self-checks (:meth:`AbstractProblem.result`), built once and frozen.
+self-checks, built once and frozen by the kind's result module, which imports its problem
+one way (:data:`gyroid.inference._fit.RESULTS`).
 
-Where a new model goes: a final subclass with its density, ``mode`` and ``result``; a new
-self-check: :mod:`gyroid.inference._checks`, read from the :class:`FitEvidence` every
-problem builds.
+Where a new model goes: a final subclass with its density and ``mode``, a result module
+importing it, and one line in ``RESULTS``; a new self-check: :mod:`gyroid.inference._checks`,
+read from the :class:`FitEvidence` every problem builds.
 """
 
 from __future__ import annotations
@@ -122,10 +123,6 @@ class AbstractProblem(eqx.Module):
         """A NumPy log-posterior of many points at once, ``u (w, d) -> (w,)``, where one
         is cheaper than a call into JAX (emcee then calls it every step); None otherwise."""
         return None
-
-    @abc.abstractmethod
-    def result(self, point: PointEstimate, posterior: Posterior | None, *, seed: int):
-        """The frozen result of this kind of fit, its self-checks computed first."""
 
     # ----- storage (ArviZ) ------------------------------------------------------------------
     @abc.abstractmethod

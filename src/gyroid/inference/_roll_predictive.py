@@ -21,9 +21,9 @@ import numpy as np
 
 from gyroid.inference._check_report import Check
 from gyroid.inference._predictive import HeldOut, part_means, predictive_check, stretches
-from gyroid.inference._problem import AbstractProblem, PointEstimate
+from gyroid.inference._problem import PointEstimate
 from gyroid.inference._roll_density import ModelDensity
-from gyroid.inference._roll_point import roll_point_estimate
+from gyroid.inference._roll_problem import RollProblem
 
 
 @eqx.filter_jit
@@ -45,7 +45,7 @@ def _expected(density: ModelDensity, u, n_model: int):
     return value, total - sigma_gs**2, sigma_gs**2, jacobian
 
 
-def roll_predictive(problem: AbstractProblem, point: PointEstimate) -> Check:
+def roll_predictive(problem: RollProblem, point: PointEstimate) -> Check:
     """The predictive check of a roll problem's fit, ``point`` its mode on the whole flight
     (see the module docstring)."""
     folds, part_s = roll_held_out(problem, point)
@@ -53,7 +53,7 @@ def roll_predictive(problem: AbstractProblem, point: PointEstimate) -> Check:
                             subject=f"held out in {len(folds or ())} stretches of the flight")
 
 
-def roll_held_out(problem: AbstractProblem, point: PointEstimate
+def roll_held_out(problem: RollProblem, point: PointEstimate
                   ) -> tuple[list[HeldOut] | None, float | None]:
     """The held-out folds of a roll fit and the median part's duration (s); None when the
     flight is too short to hold a stretch out."""
@@ -69,7 +69,7 @@ def roll_held_out(problem: AbstractProblem, point: PointEstimate
         rows = parts.rows_of_fold(k)
         held = parts.fold_of == k
         masked = eqx.tree_at(lambda q: q.density.full, problem, full.without_rows(rows))
-        fold_point = roll_point_estimate(masked)
+        fold_point = masked.mode()
         # The loop refitted, its noise levels as the fit states them: the walk is weakly
         # seen on a part of a flight (its mode can collapse on 80 % of one), and the bands
         # a user relies on are the whole fit's.

@@ -13,9 +13,10 @@ import numpy as np
 from gyroid.inference._check_report import CheckReport, FitEvidence
 from gyroid.inference._checks import fit_checks
 from gyroid.inference._posterior import Posterior, interval_summary
-from gyroid.inference._problem import AbstractProblem, PointEstimate
+from gyroid.inference._problem import PointEstimate
 from gyroid.inference._result import FitResult
 from gyroid.inference._roll_predictive import roll_predictive
+from gyroid.inference._roll_problem import RollProblem
 from gyroid.inference._storage import inference_data
 from gyroid.models._priors import prior_arrays
 from gyroid.models._roll_effects import ROLL_CONFOUNDED, roll_parameter
@@ -72,7 +73,7 @@ class RollFit(FitResult):
     """A fitted roll log: problem, mode, posterior, the encoder error's amplitude and phase,
     the confounded pairs and the self-checks."""
 
-    problem: AbstractProblem = field(repr=False)  # a RollProblem
+    problem: RollProblem = field(repr=False)
     point: PointEstimate = field(repr=False)
     posterior: Posterior = field(repr=False)
     seed: int
@@ -135,7 +136,7 @@ class RollFit(FitResult):
         }
 
 
-def roll_evidence(problem: AbstractProblem, point: PointEstimate, posterior: Posterior | None
+def roll_evidence(problem: RollProblem, point: PointEstimate, posterior: Posterior | None
                   ) -> FitEvidence:
     """What the self-checks need from a roll fit (its priors are physical, so they are also
     the identifiability yardstick)."""
@@ -154,7 +155,7 @@ def roll_evidence(problem: AbstractProblem, point: PointEstimate, posterior: Pos
     )
 
 
-def roll_result(problem: AbstractProblem, point: PointEstimate, posterior: Posterior | None, *,
+def roll_result(problem: RollProblem, point: PointEstimate, posterior: Posterior | None, *,
                 seed: int) -> RollFit:
     """The :class:`RollFit` of a roll problem (its checks, derived quantities and confounded
     pairs computed first)."""

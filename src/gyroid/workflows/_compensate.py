@@ -121,6 +121,11 @@ def _predict_draws(model: DriftModel, draws, inputs):
 WINDOW_S = 600.0
 
 
+#: What the compensated residual's Allan curve is (compensate.json's ``allan_after``).
+RESIDUAL_CURVE = ("the compensated residual (the drift less the model): its floor is what "
+                  "the compensation leaves, not the gyro's bias instability")
+
+
 def compensate(log: BenchLog, fitted: FittedDrift, *, max_draws: int = 400, seed: int = 0,
                window_s: float = WINDOW_S, turn_on: TurnOn = SAME_RUN) -> Compensation:
     """Apply a fit's posterior (``fitted``: ``BenchFit.fitted_drift()``, or a fit's folder
@@ -182,9 +187,7 @@ def compensate(log: BenchLog, fitted: FittedDrift, *, max_draws: int = 400, seed
         "model_sd_note": "drift_model_sd_deg_h is the sd of the modelled drift over posterior "
                          "draws (the model's uncertainty), without the gyro's own noise",
         "allan_before": before.summary("the measured drift (before compensation)"),
-        "allan_after": after.summary("the compensated residual (the drift less the model): "
-                                     "its floor is what the compensation leaves, not the "
-                                     "gyro's bias instability"),
+        "allan_after": after.summary(RESIDUAL_CURVE),
         "extrapolation": outside,
         "within_fitted_range": not outside,
         "terms": list(fitted.model.terms),

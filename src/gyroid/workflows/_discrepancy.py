@@ -31,8 +31,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyroid.errors import GyroidInputError
+from gyroid.inference._bench_checks import bench_checks
 from gyroid.inference._bench_problem import BenchProblem
-from gyroid.inference._bench_result import bench_checks
 from gyroid.inference._problem import PointEstimate
 from gyroid.inference._rate_window import choose_rate_window
 from gyroid.io._logs import BenchLog, block_means

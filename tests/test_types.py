@@ -1,0 +1,93 @@
+"""The library under a type checker: basedpyright in basic mode on src/gyroid (its settings
+in pyproject.toml). Issue 60 asks for no error at all; until then every module not named in
+:data:`NOT_YET_TYPED` must have none, and a named one no more than it is listed with, so
+the list only shrinks (lower a count, or drop the module, as its errors are fixed). The
+checker's version is pinned in the test extras: a new one reads differently."""
+
+import collections
+import json
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+#: Modules that basedpyright (basic) still finds errors in, with how many (issue 60): most
+#: read a density or a problem through a type that does not declare what they read (the
+#: bench density's optional representations, the thermometer's eigenbasis).
+NOT_YET_TYPED = {
+    "_compiled_programs.py": 1,
+    "_config.py": 1,
+    "cli/bench_commands.py": 16,
+    "inference/_bench_density.py": 26,
+    "inference/_bench_precompute.py": 39,
+    "inference/_bench_predictive.py": 4,
+    "inference/_bench_result.py": 5,
+    "inference/_checks.py": 1,
+    "inference/_collapsed.py": 3,
+    "inference/_emcee.py": 6,
+    "inference/_importance.py": 1,
+    "inference/_noise_choice.py": 4,
+    "inference/_noise_unit.py": 3,
+    "inference/_nuts.py": 5,
+    "inference/_point.py": 6,
+    "inference/_point_profiled.py": 7,
+    "inference/_pool_checks.py": 6,
+    "inference/_pool_fit.py": 16,
+    "inference/_pool_result.py": 4,
+    "inference/_posterior.py": 1,
+    "inference/_predictive.py": 1,
+    "inference/_rate_window.py": 5,
+    "inference/_rate_window_marginal.py": 3,
+    "inference/_residual_checks.py": 2,
+    "inference/_roll_problem.py": 2,
+    "inference/_roll_result.py": 1,
+    "inference/_starts.py": 2,
+    "inference/_storage.py": 2,
+    "io/_arviz.py": 2,
+    "io/_bench_reader.py": 1,
+    "io/_csv_reader.py": 1,
+    "io/_native.py": 8,
+    "io/_netcdf.py": 3,
+    "io/_units.py": 1,
+    "models/_design.py": 1,
+    "models/_drift.py": 7,
+    "models/_effects.py": 1,
+    "models/_prior_scales.py": 3,
+    "noise/_kinds.py": 2,
+    "pipeline/_axes.py": 5,
+    "pipeline/_batch.py": 1,
+    "pipeline/_compensate_file.py": 8,
+    "pipeline/_demo.py": 1,
+    "pipeline/_demo_study.py": 4,
+    "pipeline/_simulate_file.py": 14,
+    "plotting/_style.py": 4,
+    "reports/_reproduction.py": 7,
+    "reports/_write.py": 25,
+    "simulation/_bench.py": 1,
+    "simulation/_flight.py": 1,
+    "simulation/_lot.py": 2,
+    "simulation/_noise.py": 1,
+    "workflows/_discrepancy_report.py": 2,
+    "workflows/_export.py": 2,
+    "workflows/_residual_structure.py": 4,
+    "workflows/_roll_discrepancy.py": 2,
+}
+
+
+@pytest.mark.slow
+def test_the_library_type_checks_except_the_modules_not_yet_typed():
+    checker = shutil.which("basedpyright")
+    if checker is None:
+        pytest.skip("basedpyright is not installed: pip install -e '.[test]'")
+    run = subprocess.run([checker, "--outputjson"], cwd=ROOT, capture_output=True, text=True,
+                         timeout=600)
+    report = json.loads(run.stdout)
+    found = collections.Counter(
+        Path(d["file"]).resolve().relative_to(ROOT / "src" / "gyroid").as_posix()
+        for d in report["generalDiagnostics"] if d["severity"] == "error")
+    assert report["summary"]["filesAnalyzed"] > 150
+    new = {f: n for f, n in found.items() if n > NOT_YET_TYPED.get(f, 0)}
+    assert not new, f"type errors beyond NOT_YET_TYPED's: {new}"
