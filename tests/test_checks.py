@@ -418,3 +418,9 @@ def test_the_drifts_own_slope_within_a_block_is_no_spike(seed):
     check = spikes_within_segments(spiked, sigma_of_means=spiked.within_sd,
                                    n_means=log.n // rows)
     assert not check.passed and "row 1001 " in check.message, check.message
+    # blocks too short for a line (2 samples: the README tour's lot of half-hour runs) are
+    # read about their means, which leave one degree of freedom each
+    short = MeansOfBlocks.of(log, 2).samples
+    assert short.within_sd > 0
+    assert spikes_within_segments(short, sigma_of_means=short.within_sd,
+                                  n_means=log.n // 2).passed

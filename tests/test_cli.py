@@ -151,6 +151,13 @@ def test_reduced_demo_writes_a_report_whose_figures_exist(tmp_path):
     assert "hys_y = " in text
     rms = re.search(r"- RMS (\S+) -> (\S+) deg/h", text)
     assert rms and rms.group(1) != rms.group(2)
+    # A summary first: each answer, whether to use it (the exit code's verdict), what to do
+    summary = text[text.index("## Summary"):text.index("## 1.")]
+    assert "| answer | found | use it? | what to do |" in summary
+    for answer in ("thermal fit", "magnetic fit", "dK", "hidden effect", "compensated",
+                   "runs pooled"):
+        assert answer in summary, answer
+    assert "| parameter | unit | truth |" in text
 
 
 @pytest.fixture(scope="module")

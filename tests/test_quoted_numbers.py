@@ -1,7 +1,8 @@
-"""Every number the README quotes from a study is the one its results file holds: each test
-writes the README's phrase from `experiments/results/NAME/results.json` (which the named
-command writes) and finds it in the README, so a re-run that changes a number, or an edit
-of the README that drifts from the file, fails here. Times are excepted (they are stated
+"""Every number the documentation (the README and docs/*.md, read as one text) quotes from
+a study is the one its results file holds: each test writes the phrase from
+`experiments/results/NAME/results.json` (which the named command writes) and finds it in
+the documentation, so a re-run that changes a number, or an edit that drifts from the
+file, fails here. Times are excepted (they are stated
 with their machine and load, and change from run to run)."""
 
 import json
@@ -14,7 +15,8 @@ import pytest
 from scipy import stats
 
 ROOT = Path(__file__).parent.parent
-README = re.sub(r"\s+", " ", (ROOT / "README.md").read_text())
+README = re.sub(r"\s+", " ", " ".join(
+    path.read_text() for path in (ROOT / "README.md", *sorted((ROOT / "docs").glob("*.md")))))
 
 
 def _results(name: str) -> dict:
@@ -24,7 +26,7 @@ def _results(name: str) -> dict:
 
 def _quoted(*phrases: str) -> None:
     missing = [p for p in phrases if p not in README]
-    assert not missing, f"the README does not say what the results file holds: {missing}"
+    assert not missing, f"the documentation does not say what its results file holds: {missing}"
 
 
 def test_sbc_of_the_bench_fits():
@@ -824,6 +826,30 @@ def test_the_noise_prior_dependence_on_the_fog_benches():
     _quoted(f"it warned on {weak['noise_prior_dependence_warned']} of {weak['fits']} (w = 0.05 "
             f"deg/h) and {strong['noise_prior_dependence_warned']} of {strong['fits']} (w = "
             "0.2 deg/h)")
+
+
+def test_the_datasheet_priors_on_the_fog_benches():
+    """``--noise FILE.toml`` on the smooth FOG benches (experiments/fog_thermal_bench.py
+    --datasheet): coverage inside the binomial 99 % band at 95 %, and widths beside the
+    default fit's interval and range on the same logs."""
+    summary = _results("fog_thermal_bench_datasheet")["summary"]["smooth"]
+    fits, inside = summary["fits"], summary["inside_95"]
+    low = stats.binom.ppf(0.005, fits, 0.95)
+    assert all(low <= n <= fits for n in inside.values())
+    sheet = summary["datasheet"]
+    ratio = sheet["width_over_default_interval"].values()
+    over_range = sheet["width_over_default_range"].values()
+    z = summary["z_sd"].values()
+    runs = _results("fog_thermal_bench_datasheet")["runs"]
+    far = [r for r in runs if any(abs(v) > 3.3 for v in r["z"].values())]
+    assert [(r["seed"], r["allowed_noise"]["warned"], r["allowed_noise"]["inside_range"]["w1"])
+            for r in far] == [(25, True, True)]
+    _quoted(f"seed 25's w1 again {abs(far[0]['z']['w1']):.1f} sd away, warned")
+    _quoted(f"trusted {fits - summary['exit_3']} of {fits} and held the truths "
+            + ", ".join(str(inside[k]) for k in ("w0", "w1", "w2")) + f" and {inside['wD']} "
+            f"times of {fits} (z-scores' sd {min(z):.2f}-{max(z):.2f}",
+            f"were {min(ratio):.2f}-{max(ratio):.2f}x as wide as the default fit's",
+            f"and {min(over_range):.2f}-{max(over_range):.2f}x the default's range")
 
 
 def test_real_log_on_three_axes():

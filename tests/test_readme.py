@@ -1,5 +1,7 @@
-"""The README's commands hang together: every file or folder a command reads is in the
-repository or written by an earlier command's --out, and every command and option exists."""
+"""The README's quick start and the documentation's tour (docs/tour.md), read as one
+sequence, hang together: every file or folder a command reads is in the repository or
+written by an earlier command's --out, every command and option exists, and (slow) every
+command runs as written with the exit code it announces."""
 
 import json
 import re
@@ -14,7 +16,9 @@ from click.testing import CliRunner
 from gyroid.cli import cli
 
 ROOT = Path(__file__).parent.parent
-README = (ROOT / "README.md").read_text()
+#: What a user runs in order: the README's quick start, then the tour.
+WALKED = ("README.md", "docs/tour.md")
+README = "\n".join((ROOT / name).read_text() for name in WALKED)
 
 
 def _commands(with_exit: bool = False) -> list:
@@ -98,24 +102,26 @@ for args, expected in json.loads(sys.argv[1]):
     code = main(expanded)
     if code != expected:
         sys.exit(f"gyroid {' '.join(args)}: exit {code}, the README says {expected}")
-for block in re.findall(r"```python\n(.*?)```", open(sys.argv[2]).read(), flags=re.S):
-    exec(compile(block, "README.md", "exec"), {})
+for name in sys.argv[2:]:
+    for block in re.findall(r"```python\n(.*?)```", open(name).read(), flags=re.S):
+        exec(compile(block, name, "exec"), {})
 """
 
 
 @pytest.mark.slow
 def test_the_tour_runs_as_written(tmp_path):
-    """Every README command, top to bottom, in a fresh folder, with the exit code the README
-    announces for it (``# exit 3``: a self-check refuses the result); the Python block
-    too. In its own interpreter, as a user runs it (and so that a crash is this test's
-    failure, with its output: workers that had run other tests used to abort inside XLA
-    when they ran out of memory mappings, :mod:`gyroid._compiled_programs`)."""
+    """Every command of the README's quick start and the tour, top to bottom, in a fresh
+    folder, with the exit code the text announces for it (``# exit 3``: a self-check
+    refuses the result); the Python blocks too. In its own interpreter, as a user runs it
+    (and so that a crash is this test's failure, with its output: workers that had run
+    other tests used to abort inside XLA when they ran out of memory mappings,
+    :mod:`gyroid._compiled_programs`)."""
     for folder in ("tests", "docs"):  # the repository files the README reads
         (tmp_path / folder).symlink_to(ROOT / folder)
     commands = [[args, expected] for args, expected in _commands(with_exit=True)
                 if args[:1] != ["demo"]]  # the first set-up command; test_demo covers it
     done = subprocess.run([sys.executable, "-c", _TOUR, json.dumps(commands),
-                           str(ROOT / "README.md")], cwd=tmp_path, capture_output=True,
-                          text=True)
+                           *(str(ROOT / name) for name in WALKED)], cwd=tmp_path,
+                          capture_output=True, text=True)
     assert done.returncode == 0, (f"exit {done.returncode}\n{done.stdout[-3000:]}\n"
                                   f"{done.stderr[-3000:]}")

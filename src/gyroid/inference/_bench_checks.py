@@ -79,7 +79,9 @@ def spikes_within_segments(samples: SampleDeviations, *, sigma_of_means: float,
     their mean. A spike shifts the bias by its deviation / n; that is judged against the
     fit's sd of the bias (about ``sigma_of_means / sqrt(K)`` of the K means), not the
     samples' ``s / sqrt(n)``."""
-    ratio = (sigma_of_means / math.sqrt(n_means)) / (samples.within_sd / math.sqrt(samples.n))
+    within = samples.within_sd / math.sqrt(samples.n)
+    # samples that do not scatter about their means (z all 0) have no spike to weigh
+    ratio = (sigma_of_means / math.sqrt(n_means)) / within if within > 0 else 1.0
     return outliers_among(samples.n, samples.rows, samples.z, samples.z_sum_sq,
                           where=samples.where, name="outliers_within_segments",
                           bias_sd_ratio=max(ratio, 1e-12), sets_noise_level=False)

@@ -202,6 +202,13 @@ class BenchProblem(AbstractProblem):
         return float(self.density.rate_window_s)
 
     @property
+    def samples_behind(self) -> SampleDeviations:
+        """The samples behind a fit of means (of blocks or a burst log's segments)."""
+        if self.segments is None:
+            raise ValueError("this fit reads the log's samples, not means of them")
+        return self.segments
+
+    @property
     def sigma_known(self) -> bool:
         return self.density.sigma is not None
 

@@ -87,13 +87,13 @@ class BenchFit(FitResult):
         problem = self.problem
         return None if problem.block_rows == 1 else {
             "means": problem.n, "rows_per_mean": problem.block_rows,
-            "rows": problem.segments.n}
+            "rows": problem.samples_behind.n}
 
     @property
     def n_samples(self) -> int:
         """The log's samples fitted: for a fit of block means, the samples behind them."""
         problem = self.problem
-        return problem.segments.n if problem.block_rows > 1 else problem.n
+        return problem.samples_behind.n if problem.block_rows > 1 else problem.n
 
     @property
     def rms_residual_deg_h(self) -> float:
@@ -103,7 +103,7 @@ class BenchFit(FitResult):
         problem, rms = self.problem, self.point.rms_residual
         if problem.block_rows == 1:
             return rms
-        samples = problem.segments
+        samples = problem.samples_behind
         within = samples.z_sum_sq * samples.within_sd**2
         return math.sqrt((problem.block_rows * problem.n * rms**2 + within) / samples.n)
 

@@ -99,8 +99,10 @@ def value_hessian(values: Callable[[np.ndarray], np.ndarray], x: np.ndarray, ste
     points = np.array([x + a * steps[i] + b * steps[j] for i, j in pairs for a, b in signs])
     f = np.asarray(values(points), dtype=float).reshape(len(pairs), 4)
     hessian = np.empty((q, q))
-    for k, (i, j) in enumerate(pairs):
-        hessian[i, j] = hessian[j, i] = (f[k, 0] - f[k, 1] - f[k, 2] + f[k, 3]) / (4 * step**2)
+    with np.errstate(invalid="ignore"):  # a side where the function is -inf: no curvature, NaN
+        for k, (i, j) in enumerate(pairs):
+            hessian[i, j] = hessian[j, i] = ((f[k, 0] - f[k, 1] - f[k, 2] + f[k, 3])
+                                             / (4 * step**2))
     return hessian
 
 

@@ -42,7 +42,7 @@ class TermChoice:
 
     @property
     def best(self) -> tuple[str, ...]:
-        return max(self.weights, key=self.weights.get)
+        return max(self.weights, key=self.weights.__getitem__)
 
     def inclusion(self, name: str) -> float:
         """The posterior probability that the log's noise has term ``name``."""
@@ -134,7 +134,7 @@ def choose_terms(stats: HaarStatistics) -> TermChoice:
     kept = {names: w for names, w in raw.items() if w >= MIN_WEIGHT}
     total = sum(kept.values())
     weights = {names: w / total for names, w in sorted(kept.items(), key=lambda i: -i[1])}
-    best = max(weights, key=weights.get)
+    best = max(weights, key=weights.__getitem__)
     included = {n: sum(w for names, w in weights.items() if n in names) for n in candidates}
     bounds = {name: _upper_bound(stats, best, name, fits[best])
               for name in candidates if included[name] < 0.5 and name not in best

@@ -59,9 +59,10 @@ class RollProblem(AbstractProblem):
     @classmethod
     def from_log(cls, log: RollLog, terms="loop") -> RollProblem:
         sample_s = float(np.median(np.diff(log.time_s)))
-        has_rate = log.gs_rate_deg_s is not None
+        rate = log.gs_rate_deg_s
+        has_rate = rate is not None
         # Ideal: the platform is never left turning (the MEMS reads only its bias and noise).
-        ideal = bool(has_rate and np.percentile(np.abs(log.gs_rate_deg_s), 99) < 1.0)
+        ideal = bool(rate is not None and np.percentile(np.abs(rate), 99) < 1.0)
         terms = resolve_roll_terms(terms)
         if "gs_rate_leak" in terms and (not has_rate or ideal):
             # Without m, or with m ~ D0gs (an ideal stabiliser), D1gs cannot be seen.

@@ -150,7 +150,7 @@ def roll_evidence(problem: RollProblem, point: PointEstimate, posterior: Posteri
         residuals=residuals, sigma_given=False, correlated_noise=False,
         draws_u=None if posterior is None else problem.to_sampling_host(posterior.draws),
         summary=None if posterior is None else posterior.summary,
-        hints={n: roll_parameter(n).hint for n in problem.names if roll_parameter(n).hint},
+        hints={n: hint for n in problem.names if (hint := roll_parameter(n).hint)},
         remedies=frozenset({"discrepancy"}),
     )
 

@@ -31,6 +31,7 @@ import numpy as np
 
 from gyroid.models._effects import Parameter
 from gyroid.models._inputs import DriftInputs
+from gyroid.models._priors import LogNormal
 
 #: Multiples of a time constant's registry median tried as starting values.
 START_MULTIPLES = (0.05, 0.15, 0.4, 1.0, 2.5, 6.0, 15.0)
@@ -40,7 +41,10 @@ def log_candidates(parameter: Parameter, inputs: DriftInputs) -> np.ndarray:
     """A positive parameter's starting values, as logs."""
     if parameter.start_values is not None:
         return np.log(np.asarray(parameter.start_values(inputs), dtype=float))
-    return math.log(parameter.prior.median) + np.log(START_MULTIPLES)
+    prior = parameter.prior
+    if not isinstance(prior, LogNormal):  # a positive parameter is sampled as its log
+        raise TypeError(f"{parameter.name}: a positive parameter needs a log-normal prior")
+    return math.log(prior.median) + np.log(START_MULTIPLES)
 
 
 def start_grid(parameters: tuple[Parameter, ...], inputs: DriftInputs) -> list[np.ndarray]:

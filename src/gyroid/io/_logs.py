@@ -141,16 +141,25 @@ class SampleDeviations:
         return cls(log.n, rows, z[rows], float(z @ z), within_sd, log, log.where)
 
 
+#: The fewest samples in a block that the spike check reads about the block's line.
+LINE_FROM = 5
+
+
 def about_local_lines(drift: np.ndarray, time_s: np.ndarray) -> np.ndarray:
     """Each row of ``drift`` (blocks x samples, deg/h) about its own least-squares line in
     ``time_s`` (s): what the spike check reads of the samples behind a mean. About the
     block's mean alone, the drift's own slope across a block (a temperature ramp's) made
-    its end samples look like spikes: the README tour's bench named two samples "beyond 5.1
-    sd" whose noise was +3.4 and +3.2 sd. Two degrees of freedom per block."""
+    its end samples look like spikes: the tour's bench named two samples "beyond 5.1
+    sd" whose noise was +3.4 and +3.2 sd. Two degrees of freedom per block; a block of
+    fewer than :data:`LINE_FROM` samples cannot spare them (of two, nothing would be left to
+    test) and is read about its mean, the slope across so few samples small beside their
+    noise."""
     drift = np.atleast_2d(np.asarray(drift, dtype=float))
+    about_mean = drift - drift.mean(axis=1, keepdims=True)
+    if drift.shape[1] < LINE_FROM:
+        return about_mean
     t = np.atleast_2d(np.asarray(time_s, dtype=float))
     t = t - t.mean(axis=1, keepdims=True)
-    about_mean = drift - drift.mean(axis=1, keepdims=True)
     tt = np.sum(t * t, axis=1, keepdims=True)
     slope = np.sum(t * about_mean, axis=1, keepdims=True) / np.where(tt > 0, tt, 1.0)
     return about_mean - slope * t
@@ -158,8 +167,9 @@ def about_local_lines(drift: np.ndarray, time_s: np.ndarray) -> np.ndarray:
 
 def line_dof(counts) -> int:
     """The degrees of freedom left by :func:`about_local_lines` in blocks of ``counts``
-    samples (each line takes two, a block of one sample its one)."""
-    return int(sum(max(int(c) - 2, 0) for c in np.atleast_1d(counts)))
+    samples (a line takes two; a mean, in a block too short for a line, one)."""
+    return int(sum(int(c) - (2 if c >= LINE_FROM else 1) for c in np.atleast_1d(counts)
+                   if c > 0))
 
 
 def segment_means(log: BenchLog, segments: list[tuple[int, int]]

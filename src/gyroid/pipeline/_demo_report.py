@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from gyroid.models._effects import parameter
 from gyroid.pipeline._demo_study import Study
 
 
@@ -14,11 +15,12 @@ def _fmt(mean: float, sd: float) -> str:
 
 
 def _fit_table(fit, truth: dict[str, float]) -> list[str]:
-    rows = ["| parameter | truth | posterior mean +/- sd | 95 % interval | r_hat | ess_bulk |",
-            "|---|---|---|---|---|---|"]
+    rows = ["| parameter | unit | truth | posterior mean +/- sd | 95 % interval | r_hat | "
+            "ess_bulk |", "|---|---|---|---|---|---|---|"]
     for name in fit.model_names:
         s = fit.posterior.summary[name]
-        rows.append(f"| {name} | {truth[name]:g} | {_fmt(s['mean'], s['sd'])} | "
+        rows.append(f"| {name} | {parameter(name).unit} | {truth[name]:g} | "
+                    f"{_fmt(s['mean'], s['sd'])} | "
                     f"[{s['ci95'][0]:.4g}, {s['ci95'][1]:.4g}] | {s['r_hat']:.3f} | "
                     f"{s['ess_bulk']:.0f} |")
     return rows
@@ -43,13 +45,64 @@ class Report:
         return "\n".join(self.lines)
 
 
-def _benches_section(report: Report, study: Study) -> None:
-    thermal = study.benches["thermal"]
+def _verdict(result) -> tuple[str, str]:
+    """Whether to use a result, and what to do: its failed checks by name, errors first."""
+    failed = result.checks.failed
+    errors = [c.name for c in failed if c.severity == "error"]
+    warnings = [c.name for c in failed if c.severity == "warning"]
+    if errors:
+        return "**no** (exit 3)", f"deal with {', '.join(errors)} (docs/checks.md)"
+    if warnings:
+        return "yes", f"read the warning(s) {', '.join(warnings)} below"
+    return "yes", "nothing"
+
+
+def _held(fit, truth: dict[str, float]) -> str:
+    """How many of a fit's 95 % intervals hold their truths."""
+    held = sum(fit.posterior.summary[k]["ci95"][0] <= truth[k] <= fit.posterior.summary[k][
+        "ci95"][1] for k in fit.model_names)
+    return f"{held} of {len(fit.model_names)} 95 % intervals hold the truth"
+
+
+def _summary_section(report: Report, study: Study) -> None:
+    """What was found, which answers to trust and what to do, before the details."""
+    rows = ["| answer | found | use it? | what to do |", "|---|---|---|---|"]
+    for name in ("thermal", "magnetic"):
+        fit = study.fits[name]
+        truth = study.benches[name].truth["parameters"]
+        rows.append(f"| {name} fit (`{name}/fit/fit.json`) | {_held(fit, truth)} | "
+                    + " | ".join(_verdict(fit)) + " |")
+    dk = study.results["propagation"].to_json()["dK"]
+    rows.append(f"| paper B's dK (`propagate/propagate.json`) | {dk['mean'] * 1e6:.0f} +/- "
+                f"{dk['sd'] * 1e6:.0f} ppm | as the thermal fit | as the thermal fit |")
+    found = study.results.get("discrepancy")
+    if found is not None:
+        rows.append(f"| a hidden effect (`discrepancy/discrepancy.json`) | added: "
+                    f"{', '.join(found.added) or 'none'} | " + " | ".join(_verdict(found))
+                    + " |")
+    compensation = study.results["compensation"]
+    cs = compensation.summary
+    rows.append(f"| a second run compensated (`compensate/compensate.json`) | RMS drift "
+                f"{cs['rms_before_deg_h']:.3g} -> {cs['rms_after_deg_h']:.3g} deg/h | "
+                + " | ".join(_verdict(compensation)) + " |")
+    pooled = study.results["pooled"]
+    rows.append(f"| {len(study.results['lot'].runs)} runs pooled (`pool/pool.json`) | the "
+                "type's coefficients and a new run's | " + " | ".join(_verdict(pooled))
+                + " |")
     report.add(
         "# gyroid demo: Bayesian identification of a FOG's drift and its effect on paper "
         "B's roll correction", "",
         f"Seed {study.seed}. Everything below was computed by `gyroid demo` in this folder; "
         "each section names the files behind it.", "",
+        "## Summary", "",
+        "Each answer, whether its self-checks let you use it (as the command line's exit code "
+        "says: 0 or 3) and what to do; the sections below give the details.", "",
+        *rows, "")
+
+
+def _benches_section(report: Report, study: Study) -> None:
+    thermal = study.benches["thermal"]
+    report.add(
         "## 1. Paper A's benches, simulated with known truth", "",
         "Thermal bench: the gyro's temperature driven from 21 degC through the setpoints "
         "31...55 degC (1 h smooth transitions, 40 min soaks), 1 Hz, angle random walk "
@@ -297,5 +350,5 @@ def _check_lines(name: str, checks) -> list[str]:
 
 
 #: The report's sections, in order.
-SECTIONS = (_benches_section, _fits_section, _propagation_section, _discrepancy_section,
-            _compensation_section, _papers_section, _pool_section)
+SECTIONS = (_summary_section, _benches_section, _fits_section, _propagation_section,
+            _discrepancy_section, _compensation_section, _papers_section, _pool_section)
