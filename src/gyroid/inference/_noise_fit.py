@@ -192,7 +192,7 @@ def fit_noise(rate_deg_h: np.ndarray, sample_s: float, *,
     contiguous stretches): every set of terms the log supports sampled and averaged by
     weight, the checks of each set that matters and of the averaged model's fit to every
     averaging time."""
-    cleaned, outliers = remove_outliers(rate_deg_h, segments)
+    cleaned, outliers = remove_outliers(rate_deg_h, segments, sample_s=sample_s)
     stats, prefiltered = drop_prefiltered(haar_statistics(cleaned, sample_s, segments))
     stats = gauss_markov_time(stats)
     choice = choose_terms(stats)

@@ -4,7 +4,13 @@ Each sample is compared with the median of its ``2 k`` neighbours (``k`` either 
 left out, never across a gap): the slow processes (flicker, a random walk, a Gauss-Markov
 bias of seconds) cancel, white noise and spikes remain. The residuals' robust scale (their
 median absolute deviation, 1.4826 x) sets a threshold at which Gaussian noise would flag
-:data:`FALSE_FLAGS` samples in the whole log (5.6 robust sd for 5 x 10^5 samples). A flagged
+:data:`FALSE_FLAGS` samples in the whole log (5.6 robust sd for 5 x 10^5 samples). A
+sample so flagged is an outlier only if it also stands out from the log about a minute's
+running mean (:data:`RUNNING_MEAN_S`) by as many robust sd of that (at least
+:data:`WITHIN_MEAN_SD`): on a log filtered or decimated by its logger (a phone's IMU, 100 Hz
+low-passed forward and backward to 10 Hz, lag-1 correlation 0.86) neighbours' medians sit
+so close to each sample that their residuals' scale collapses, and 24 % of its samples
+were named outliers though none lay beyond 5 sd of a minute's mean. A flagged
 sample is replaced by its neighbours' median, so it adds nothing to N, B or any other term
 (a spike of height ``h`` adds ``h^2 tau0 / tau^2``-shaped variance, which a fit reads as
 quantisation, or lifts N). A few such samples are outliers (a warning naming their rows).
@@ -21,7 +27,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import median_filter
+from scipy.ndimage import median_filter, uniform_filter1d
 from scipy.stats import norm
 
 from gyroid.inference._check_report import Check
@@ -34,6 +40,9 @@ FALSE_FLAGS = 0.01
 MAX_OUTLIER_FRACTION = 1e-3
 #: Rows named in a message.
 NAMED_ROWS = 5
+#: The running mean a flagged sample must also stand out from (s), and the fewest of its
+#: robust sd it must stand out by.
+RUNNING_MEAN_S, WITHIN_MEAN_SD = 60.0, 5.0
 
 
 @dataclass(frozen=True)
@@ -78,28 +87,44 @@ class Outliers:
                      "before taking a datasheet value from this log")
 
 
-def remove_outliers(rate_deg_h: np.ndarray, segments: list[tuple[int, int]] | None = None
-                    ) -> tuple[np.ndarray, Outliers]:
+def _robust_scale(values: np.ndarray) -> tuple[float, float]:
+    """The centre (median) and robust sd (1.4826 median absolute deviation; for a coarsely
+    quantised rate, whose MAD may be 0, the mean absolute deviation's) of ``values``."""
+    centre = float(np.median(values))
+    scale = 1.4826 * float(np.median(np.abs(values - centre)))
+    if not scale > 0:
+        scale = float(np.mean(np.abs(values - centre))) * np.sqrt(np.pi / 2.0)
+    return centre, scale
+
+
+def remove_outliers(rate_deg_h: np.ndarray, segments: list[tuple[int, int]] | None = None,
+                    *, sample_s: float | None = None) -> tuple[np.ndarray, Outliers]:
     """The rate with its outliers replaced by their neighbours' median (as it is when they
     are too many: heavy tails, module docstring), and what was found. ``segments``: the
-    log's contiguous stretches (``[start, stop)``)."""
+    log's contiguous stretches (``[start, stop)``); ``sample_s``: its sample interval (s),
+    which sets the running mean's length in samples (without it, ``2 k + 1``)."""
     rate = np.asarray(rate_deg_h, dtype=float)
     segments = segments or [(0, rate.size)]
     footprint = np.ones(2 * NEIGHBOURS + 1, dtype=bool)
     footprint[NEIGHBOURS] = False
-    around = np.empty_like(rate)
+    window = 2 * NEIGHBOURS + 1
+    if sample_s is not None and sample_s > 0:
+        window = max(window, int(round(RUNNING_MEAN_S / sample_s)) | 1)
+    around, slow = np.empty_like(rate), np.empty_like(rate)
     for start, stop in segments:
         around[start:stop] = median_filter(rate[start:stop], footprint=footprint,
                                            mode="nearest")
+        slow[start:stop] = uniform_filter1d(rate[start:stop], min(window, stop - start),
+                                            mode="nearest")
     residual = rate - around
-    centre = np.median(residual)
-    scale = 1.4826 * float(np.median(np.abs(residual - centre)))
-    if not scale > 0:  # a coarsely quantised rate: the mean absolute deviation's scale
-        scale = float(np.mean(np.abs(residual - centre))) * np.sqrt(np.pi / 2.0)
+    centre, scale = _robust_scale(residual)
     threshold = float(norm.isf(0.5 * FALSE_FLAGS / max(rate.size, 1)))
     if not scale > 0:
         return rate, Outliers(np.zeros(0, dtype=int), threshold, 0.0, rate.size)
-    flagged = np.flatnonzero(np.abs(residual - centre) > threshold * scale)
+    about = rate - slow
+    middle, spread = _robust_scale(about)
+    far = np.abs(about - middle) > max(threshold, WITHIN_MEAN_SD) * spread
+    flagged = np.flatnonzero((np.abs(residual - centre) > threshold * scale) & far)
     found = Outliers(flagged, threshold, scale, rate.size)
     if found.fraction > MAX_OUTLIER_FRACTION:
         return rate, found
