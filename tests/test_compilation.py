@@ -48,13 +48,13 @@ def test_roll_candidate_models_share_one_optimiser(compile_log):
     fits = [RollProblem.from_log(log, terms).mode()
             for terms in ("ideal", "ideal,roll_bias", "ideal,encoder_error",
                           "ideal,roll_bias,encoder_error")]
-    assert _compilations(compile_log, "_minimise") == 1
+    assert _compilations(compile_log, "_scaled_bfgs") == 1
     # D2 (a scale factor varying with |w|) takes the per-sample path: one more compilation,
     # shared again by every model with D2.
     fits += [RollProblem.from_log(log, terms).mode()
              for terms in ("ideal,sf_nonlinearity", "ideal,roll_bias,encoder_error,"
                            "sf_nonlinearity")]
-    assert _compilations(compile_log, "_minimise") == 2
+    assert _compilations(compile_log, "_scaled_bfgs") == 2
     assert all(f.converged for f in fits)
     # The models really differ: the widest one has more parameters, all estimated.
     assert len(fits[-1].names) == len(fits[0].names) + 4

@@ -49,7 +49,7 @@ def release_if_crowded(share: float = CROWDED_SHARE) -> bool:
     while a compiled program's results are still being computed."""
     limit = mapping_limit()
     count = mapping_count() if limit is not None else None
-    if count is None or count <= share * limit:
+    if limit is None or count is None or count <= share * limit:
         return False
     import gc
 

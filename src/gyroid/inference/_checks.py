@@ -115,10 +115,11 @@ def convergence(evidence: FitEvidence) -> Check:
                      "the point estimate converged (no posterior was sampled)" if ok else
                      f"the point estimate did not converge ({evidence.point_message}); "
                      "simplify the model or check the log")
-    r_hat = max(float(s["r_hat"]) for s in evidence.summary.values())
-    ess = min(float(s["ess_bulk"]) for s in evidence.summary.values())
+    summary = evidence.summary
+    r_hat = max(float(s["r_hat"]) for s in summary.values())
+    ess = min(float(s["ess_bulk"]) for s in summary.values())
     ok = r_hat <= MAX_R_HAT and ess >= MIN_ESS
-    worst = max(evidence.summary, key=lambda k: evidence.summary[k]["r_hat"])
+    worst = max(summary, key=lambda k: summary[k]["r_hat"])
     if ok:
         message = f"the sampler converged (max r_hat {r_hat:.3f}, min ess_bulk {ess:.0f})"
         if not evidence.point_converged:  # the screen shows the mode's search as stopped

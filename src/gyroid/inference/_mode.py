@@ -124,7 +124,7 @@ def _negative_log_posterior(u, density):
 
 
 @eqx.filter_jit
-def _joint_bfgs(density, start, scale, rtol: float, atol: float, max_steps: int):
+def _scaled_bfgs(density, start, scale, rtol: float, atol: float, max_steps: int):
     def objective(z, density):
         return _negative_log_posterior(start + scale * z, density)
 
@@ -135,7 +135,7 @@ def _joint_bfgs(density, start, scale, rtol: float, atol: float, max_steps: int)
 
 
 @eqx.filter_jit
-def _joint_bfgs_plain(density, start, rtol: float, atol: float, max_steps: int):
+def _joint_bfgs(density, start, rtol: float, atol: float, max_steps: int):
     solution = optx.minimise(_negative_log_posterior, optx.BFGS(rtol=rtol, atol=atol), start,
                              args=density, max_steps=max_steps, throw=False)
     return (solution.value, solution.result,
@@ -160,10 +160,10 @@ class JointBFGS(eqx.Module):
         (a parameter known to 1e-7 beside others known to 1e-3 stops unscaled step
         tolerances far too early)."""
         if scale is None:
-            value, result, hessian = _joint_bfgs_plain(density, jnp.asarray(start),
+            value, result, hessian = _joint_bfgs(density, jnp.asarray(start),
                                                        self.rtol, self.atol, self.max_steps)
         else:
-            value, result, hessian = _joint_bfgs(density, jnp.asarray(start),
+            value, result, hessian = _scaled_bfgs(density, jnp.asarray(start),
                                                  jnp.asarray(scale), self.rtol, self.atol,
                                                  self.max_steps)
         converged, message = solver_message(result)

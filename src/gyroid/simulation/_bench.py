@@ -212,8 +212,9 @@ def _simulate(
         "drift_deg_h": true_drift + gyro,
         "temperature_C": temperature_C + thermometer,
     }
-    for k, name in enumerate(FIELD_COLUMNS if field_uT is not None else ()):
-        columns[name] = field_uT[:, k] + magnetometer[:, k]
+    if field_uT is not None:
+        for k, name in enumerate(FIELD_COLUMNS):
+            columns[name] = field_uT[:, k] + magnetometer[:, k]
     if accel_g is not None:  # drawn last: the other streams stay those of a log without it
         accelerometer = rng.standard_normal((n, 3)) * noise.accel_noise_g
         for k, name in enumerate(ACCEL_COLUMNS):

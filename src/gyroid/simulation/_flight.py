@@ -122,7 +122,8 @@ def simulate_flight(
     if drift_model is not None:
         inputs = inputs_from_arrays(time_s, temperature, temperature_rate, field_uT,
                                     origin_s=0.0)
-        drift = np.asarray(drift_model({k: jnp.asarray(v) for k, v in drift_params.items()},
+        drift = np.asarray(drift_model({k: jnp.asarray(v)
+                                        for k, v in (drift_params or {}).items()},
                                        inputs)) / 3600.0
     flight = Flight(
         roll_rate_deg_s=jnp.asarray(rate),

@@ -51,7 +51,7 @@ def gauss_markov(
     shocks[0] = rng.standard_normal() * sd
     from scipy.signal import lfilter  # here: importing scipy.signal is slow at start-up
 
-    return lfilter([1.0], [1.0, -phi], shocks)
+    return np.asarray(lfilter([1.0], [1.0, -phi], shocks))
 
 
 def rate_noise(rng: np.random.Generator, n: int, sample_s: float, noise: GyroNoise) -> np.ndarray:
