@@ -160,8 +160,8 @@ class JointBFGS(eqx.Module):
         (a parameter known to 1e-7 beside others known to 1e-3 stops unscaled step
         tolerances far too early)."""
         if scale is None:
-            value, result, hessian = _joint_bfgs(density, jnp.asarray(start),
-                                                       self.rtol, self.atol, self.max_steps)
+            value, result, hessian = _joint_bfgs(density, jnp.asarray(start), self.rtol,
+                                                 self.atol, self.max_steps)
         else:
             value, result, hessian = _scaled_bfgs(density, jnp.asarray(start),
                                                  jnp.asarray(scale), self.rtol, self.atol,
