@@ -345,15 +345,24 @@ REMEDY_FLAGS = {
 }
 
 
+#: The checks that docs/checks.md has an entry for (an anchor each; tests/test_docs.py keeps
+#: the two in step): the console names the entry beside a failed one.
+DOCUMENTED_CHECKS = frozenset({
+    "prior_data_conflict", "point_vs_posterior", "goodness_of_fit", "residual_whiteness",
+    "outliers", "identifiability", "convergence", "rate_estimate", "noise_prior_dependence"})
+
+
 def check_lines(checks, command: str) -> list[str]:
-    """One line per failed check (errors first), with the options of ``command`` that act on
-    its remedies."""
+    """One line per failed check (errors first), with its entry in the documentation's
+    check table where it has one and the options of ``command`` that act on its
+    remedies."""
     flags = REMEDY_FLAGS.get(command, {})
     lines = []
     for check in sorted(checks.failed, key=lambda c: c.severity != "error"):
         tries = [flags[code] for code in check.remedies if code in flags]
         hint = f" (try: {'; '.join(tries)})" if tries else ""
-        lines.append(f"{check.severity}: {check.name}: {check.message}{hint}")
+        entry = f" [docs/checks.md#{check.name}]" if check.name in DOCUMENTED_CHECKS else ""
+        lines.append(f"{check.severity}: {check.name}{entry}: {check.message}{hint}")
     return lines
 
 
