@@ -165,9 +165,9 @@ def _fits_section(report: Report, study: Study) -> None:
         *_check_lines("magnetic", mf.checks),
         "Paper A's classic estimator `K = |dw(+300) - dw(-300)| / 6` on the same log "
         "(signed here) uses only the two extreme dwells:", "",
-        "| axis | truth | classic K | Bayesian (all dwells) |", "|---|---|---|---|",
-        *(f"| w{a} | {magnetic.truth['parameters'][f'w{a}']:g} | {_fmt(k.signed, k.sd)} | "
-          f"{_fmt(summary[f'w{a}']['mean'], summary[f'w{a}']['sd'])} |"
+        "| axis | unit | truth | classic K | Bayesian (all dwells) |", "|---|---|---|---|---|",
+        *(f"| w{a} | {parameter(f'w{a}').unit} | {magnetic.truth['parameters'][f'w{a}']:g} | "
+          f"{_fmt(k.signed, k.sd)} | {_fmt(summary[f'w{a}']['mean'], summary[f'w{a}']['sd'])} |"
           for a, k in study.results["classic_k"].items()),
         "",
         "The Bayesian estimate is about twice as precise: it uses every dwell, not two.", "")
@@ -296,12 +296,12 @@ def _pool_section(report: Report, study: Study) -> None:
                f"a unit that was never tested. {len(lot.runs)} simulated magnetic runs "
                "(files `pool/`, "
                f"truth in `pool/lot.json`; the runs' noise {record['run_noise']}):", "",
-               "| coefficient | true mean | population mean +/- sd | true between-run sd | "
-               "between-run sd (95 %) | new run +/- sd |", "|---|---|---|---|---|---|")
+               "| coefficient | unit | true mean | population mean +/- sd | true between-run sd "
+               "| between-run sd (95 %) | new run +/- sd |", "|---|---|---|---|---|---|---|")
     for name in pooled.coefficient_names:
         m, t = record["population"][name], record["between_run_sd"][name]
         new = record["new_run_predictive"][name]
-        report.add(f"| {name} | {lot.population_mean[name]:.4g} | "
+        report.add(f"| {name} | {parameter(name).unit} | {lot.population_mean[name]:.4g} | "
                    f"{_fmt(m['mean'], m['sd'])} | {lot.between_run_sd[name]:.3g} | "
                    f"{t['mean']:.3g} ({t['ci95'][0]:.2g} ... {t['ci95'][1]:.2g}) | "
                    f"{_fmt(new['mean'], new['sd'])} |")
