@@ -34,6 +34,7 @@ RESULTS: dict[type, Callable[..., Any]] = {
     BenchProblem: bench_result, RollProblem: roll_result, PoolProblem: pool_result,
     NoiseProblem: _noise_model_result}
 
+
 def fit(problem: AbstractProblem, *, sampler: AbstractSampler | None = None, seed: int = 0,
         sample: bool = True, progress: Callable[[str], None] | None = None):
     """Fit ``problem``: the posterior mode (:meth:`~AbstractProblem.mode`), then, with
