@@ -19,8 +19,8 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from importlib.metadata import version
 
-import blackjax
 import equinox as eqx
 import jax
 import jax.numpy as jnp
@@ -53,6 +53,8 @@ class Nuts(AbstractSampler):
 
 @eqx.filter_jit
 def _run_chain(density, key, start, warmup: int, draws: int, target: float):
+    import blackjax  # loaded when a chain is first traced, not with the Nuts class
+
     def logdensity(u):
         return density.log_posterior(u)
 
@@ -109,7 +111,7 @@ def _sample(problem: AbstractProblem, point: PointEstimate, settings: Nuts, seed
         burn=settings.warmup,
         thin=1,
         acceptance=float(np.mean([np.asarray(r[2]).mean() for r in runs])),
-        method=f"nuts (blackjax {blackjax.__version__}, {settings.chains} chains)",
+        method=f"nuts (blackjax {version('blackjax')}, {settings.chains} chains)",
         summary=summary,
         divergent=divergent,
     )
