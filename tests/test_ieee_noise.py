@@ -15,11 +15,11 @@ from scipy import integrate, stats
 
 from gyroid.inference import BenchProblem, fit_log
 from gyroid.io import BenchLog
-from gyroid.noise._ieee import (
+from gyroid.noise._block_filter import (
+    block_innovations,
     flicker_times,
-    ieee_innovations,
-    ieee_mean_covariance,
-    ieee_part_covariance,
+    mean_covariance,
+    part_covariance,
 )
 
 
@@ -30,8 +30,8 @@ def _blocks(rng, n):
 def _centred_covariance(start, end, white, b, k, taus, unit, span):
     """White + flicker, and the walk centred on its span-weighted mean over the blocks:
     ``P C P'`` with ``P = I - 1 w'``, the walk's covariance from zero at time 0."""
-    stationary = ieee_mean_covariance(start, end, white, b, 0.0, taus, unit, 0.0)
-    walk = ieee_mean_covariance(start, end, np.zeros(span.size), 0.0, k, taus, unit, 0.0)
+    stationary = mean_covariance(start, end, white, [(taus, b, unit)], 0.0, 0.0)
+    walk = mean_covariance(start, end, np.zeros(span.size), [], (k / 60.0) ** 2, 0.0)
     centring = np.eye(span.size) - np.outer(np.ones(span.size), span / span.sum())
     return stationary + centring @ walk @ centring.T
 
@@ -52,14 +52,14 @@ def test_the_filter_is_the_exact_likelihood_of_block_means_of_any_lengths_and_ga
     kept = np.arange(span.size) >= held_out
     exact = stats.multivariate_normal(np.zeros(kept.sum()),
                                       cov[np.ix_(kept, kept)]).logpdf(y[kept])
-    args = (jnp.asarray(span), jnp.asarray(gap), jnp.asarray(white), b, k, jnp.asarray(taus),
-            unit, jnp.asarray(kept, dtype=float))
-    innovation, variance = ieee_innovations(jnp.asarray(y), *args)
+    args = (jnp.asarray(span), jnp.asarray(gap), jnp.asarray(white),
+            [(jnp.asarray(taus), b, unit)], (k / 60.0) ** 2, jnp.asarray(kept, dtype=float))
+    innovation, variance = block_innovations(jnp.asarray(y), *args)
     terms = innovation**2 / variance + jnp.log(2 * np.pi * variance)
     filtered = -0.5 * float(jnp.sum(jnp.where(jnp.asarray(kept), terms, 0.0)))
     assert filtered == pytest.approx(exact, rel=1e-9)
     # the filter is linear in the data: columns are filtered alike
-    both, _ = ieee_innovations(jnp.column_stack([y, -2.0 * y]), *args)
+    both, _ = block_innovations(jnp.column_stack([y, -2.0 * y]), *args)
     np.testing.assert_allclose(both[:, 1], -2.0 * np.asarray(innovation), rtol=1e-12,
                                atol=1e-12)
 
@@ -71,11 +71,11 @@ def test_a_walk_without_a_walk_is_a_constant_the_constraint_removes():
     span, gap, start, end = _blocks(rng, 40)
     white = (60.0 * 0.3) ** 2 / span
     taus, unit = flicker_times(span.min(), end[-1])
-    cov = ieee_mean_covariance(start, end, white, 6.0, 0.0, taus, unit, 0.0)
+    cov = mean_covariance(start, end, white, [(taus, 6.0, unit)], 0.0, 0.0)
     y = rng.multivariate_normal(np.zeros(span.size), cov)
-    innovation, variance = ieee_innovations(
-        jnp.asarray(y), jnp.asarray(span), jnp.asarray(gap), jnp.asarray(white), 6.0, 0.0,
-        jnp.asarray(taus), unit)
+    innovation, variance = block_innovations(
+        jnp.asarray(y), jnp.asarray(span), jnp.asarray(gap), jnp.asarray(white),
+        [(jnp.asarray(taus), 6.0, unit)], 0.0)
     filtered = -0.5 * float(jnp.sum(innovation**2 / variance + jnp.log(2 * np.pi * variance)))
     exact = stats.multivariate_normal(np.zeros(span.size), cov).logpdf(y)
     assert filtered == pytest.approx(exact, rel=1e-9)
@@ -89,8 +89,8 @@ def test_the_pairwise_covariance_integrates_the_kernels(tau, second_start):
     touching with the second's start a rounding before the first's end (as a uniform
     clock's parts are: their covariance was dropped once)."""
     a, b = np.array([2.0, second_start]), np.array([5.0, 13.0])  # [2, 5], [.., 13]; origin 0
-    exp_cov = ieee_mean_covariance(a, b, np.zeros(2), 1.0, 0.0, np.array([tau]), 1.0, 0.0)
-    walk_cov = ieee_mean_covariance(a, b, np.zeros(2), 0.0, 60.0, np.array([tau]), 1.0, 0.0)
+    exp_cov = mean_covariance(a, b, np.zeros(2), [(np.array([tau]), 1.0, 1.0)], 0.0, 0.0)
+    walk_cov = mean_covariance(a, b, np.zeros(2), [], 1.0, 0.0)  # K = 60: D = 1 (deg/h)^2/s
     def both(f, i, j):
         """The integral of f(s, t) over interval i x interval j (on the diagonal, twice
         the triangle t < s, where the kernels are smooth)."""
@@ -118,15 +118,15 @@ def test_the_covariance_of_a_uniform_clocks_parts_is_positive_definite():
     time_s = 16.74 + step * np.arange(1000)
     part = np.arange(1000) * 80 // 1000
     white = np.full(80, 1e-4)
-    cov = ieee_part_covariance(time_s, part, 80, step, white, 0.0365, 0.0097)
+    taus, unit = flicker_times(step, time_s[-1] - time_s[0] + step)
+    flicker, walk = [(taus, 0.0365, unit)], (0.0097 / 60.0) ** 2
+    cov = part_covariance(time_s, part, 80, step, white, flicker, walk)
     assert np.linalg.eigvalsh(cov).min() > 0.5 * white.min()  # the white part at least
     # the same as with the parts' ends and starts made equal
     first = step * (part.searchsorted(np.arange(80))) + time_s[0] - 0.5 * step
     ends = np.append(first[1:], time_s[-1] + 0.5 * step)
-    taus, unit = flicker_times(step, time_s[-1] - time_s[0] + step)
-    exact = ieee_mean_covariance(first, ends, white, 0.0365, 0.0097, taus, unit,
-                                 time_s[0] - 0.5 * step,
-                                 centre_span_s=time_s[-1] - time_s[0] + step)
+    exact = mean_covariance(first, ends, white, flicker, walk, time_s[0] - 0.5 * step,
+                            centre_span_s=time_s[-1] - time_s[0] + step)
     np.testing.assert_allclose(cov, exact, rtol=1e-9)
 
 
@@ -137,8 +137,8 @@ def test_the_centred_walks_dense_covariance_is_the_filters_on_tiled_blocks():
     end = np.cumsum(span)
     start = end - span
     taus, unit = flicker_times(20.0, end[-1])
-    dense = ieee_mean_covariance(start, end, np.full(30, 0.1), 0.0, 5.0, taus, unit, 0.0,
-                                 centre_span_s=end[-1])
+    dense = mean_covariance(start, end, np.full(30, 0.1), [(taus, 0.0, unit)],
+                            (5.0 / 60.0) ** 2, 0.0, centre_span_s=end[-1])
     np.testing.assert_allclose(dense, _centred_covariance(start, end, np.full(30, 0.1), 0.0,
                                                           5.0, taus, unit, span),
                                rtol=1e-9, atol=1e-12)
@@ -153,8 +153,8 @@ def test_the_flicker_sum_has_ieee_allan_floor_across_its_band():
     floor = math.sqrt(2.0 * math.log(2.0) / math.pi)
     for tau, tolerance in [(1.0, 0.07), (8.0, 0.02), (100.0, 0.02), (1000.0, 0.02),
                            (10_000.0, 0.02)]:
-        cov = ieee_mean_covariance(np.array([0.0, tau]), np.array([tau, 2.0 * tau]),
-                                   np.zeros(2), 1.0, 0.0, taus, unit, 0.0)
+        cov = mean_covariance(np.array([0.0, tau]), np.array([tau, 2.0 * tau]),
+                              np.zeros(2), [(taus, 1.0, unit)], 0.0, 0.0)
         adev = math.sqrt(0.5 * (cov[0, 0] + cov[1, 1] - 2.0 * cov[0, 1]))
         assert adev == pytest.approx(floor, rel=tolerance), tau
 

@@ -380,7 +380,7 @@ def test_white_gm_on_block_means_is_the_exact_gaussian_of_the_blocks():
     the blocks one step long after their gaps. The filter's likelihood equals the dense
     Gaussian with that covariance (written pair by pair, tested against the kernels'
     integrals in tests/test_ieee_noise.py)."""
-    from gyroid.noise._ieee import ieee_mean_covariance
+    from gyroid.noise._block_filter import mean_covariance
 
     noise = GyroNoise(bias_instability_deg_h=0.1, correlation_time_s=60.0)
     protocol = MagneticProtocol(axes=("x", "z"), dwell_s=10.0, turn_gap_s=50.0)
@@ -397,8 +397,8 @@ def test_white_gm_on_block_means_is_the_exact_gaussian_of_the_blocks():
     gap[0] = 0.0
     end = np.cumsum(gap + step)
     assert gap.max() > step  # the sweep's pauses: blocks apart as well as touching
-    cov = ieee_mean_covariance(end - step, end, np.full(problem.n, x[3] ** 2 / problem.block_rows),
-                               x[4], 0.0, np.array([x[5]]), 1.0, 0.0)
+    cov = mean_covariance(end - step, end, np.full(problem.n, x[3] ** 2 / problem.block_rows),
+                          [(np.array([x[5]]), x[4], 1.0)], 0.0, 0.0)
     exact = stats.multivariate_normal(np.zeros(problem.n), cov).logpdf(residual)
     u = problem.to_sampling(jnp.asarray(x))
     assert float(density.log_likelihood(u)) == pytest.approx(exact, rel=1e-10)

@@ -147,12 +147,12 @@ def test_static_keeps_the_still_stretches_of_a_log_that_moves(tmp_path, capsys):
 def test_a_noise_fit_becomes_the_drift_fits_noise_prior_with_the_same_intervals():
     """--noise DIR: a resolved term's 90 % interval is its prior's 90 % interval, an
     unresolved term's bound its prior's 95 % quantile (datasheet units, any sample rate)."""
-    from gyroid.models._prior_scales import priors_from_noise
+    from gyroid.noise import noise_model, priors_from_noise
 
     terms = {"N": {"resolved": True, "ci90": [0.29, 0.31]},
              "B": {"resolved": True, "ci90": [0.0, 7.0]},  # reaches 0: read as a bound
              "K": {"resolved": False, "ci90": None, "upper_bound_95": 25.0}}
-    priors = priors_from_noise(terms)
+    priors = priors_from_noise(terms, noise_model("white+flicker+rw"))
     z = stats.norm.ppf(0.95)
     n = priors["N_deg_sqrt_h"]
     np.testing.assert_allclose(np.exp(np.log(n.median) + np.array([-z, z]) * n.log_sd),

@@ -18,7 +18,7 @@ from scipy.linalg import toeplitz
 from gyroid.inference import BenchProblem
 from gyroid.io import BenchLog
 from gyroid.models._rate_error import estimator_autocovariance
-from gyroid.noise._ieee import flicker_times, ieee_innovations, ieee_mean_covariance
+from gyroid.noise._block_filter import block_innovations, flicker_times, mean_covariance
 from gyroid.noise._rate_error_process import (
     RateErrorProcess,
     block_system,
@@ -58,9 +58,9 @@ def _process(span, gap, variance=0.004, omega=0.015, quality=1.6):
 
 
 def _log_likelihood(y, span, gap, white, b, k, taus, unit, process, centred=True):
-    innovation, variance = ieee_innovations(
-        jnp.asarray(y), jnp.asarray(span), jnp.asarray(gap), jnp.asarray(white), b, k,
-        jnp.asarray(taus), unit, centred=centred, rate_error=process)
+    innovation, variance = block_innovations(
+        jnp.asarray(y), jnp.asarray(span), jnp.asarray(gap), jnp.asarray(white),
+        [(jnp.asarray(taus), b, unit)], (k / 60.0) ** 2, centred=centred, rate_error=process)
     return -0.5 * float(jnp.sum(innovation**2 / variance + jnp.log(2 * np.pi * variance)))
 
 
@@ -74,9 +74,9 @@ def test_the_filter_with_the_process_is_the_exact_likelihood_of_block_means(cent
     white = np.full(span.size, 0.002)
     b, k = 0.05, (0.2 if centred else 0.0)
     taus, unit = flicker_times(span.min(), end[-1])
-    cov = ieee_mean_covariance(start, end, white, b, 0.0, taus, unit, 0.0)
+    cov = mean_covariance(start, end, white, [(taus, b, unit)], 0.0, 0.0)
     if centred:
-        walk = ieee_mean_covariance(start, end, np.zeros(span.size), 0.0, k, taus, unit, 0.0)
+        walk = mean_covariance(start, end, np.zeros(span.size), [], (k / 60.0) ** 2, 0.0)
         centring = np.eye(span.size) - np.outer(np.ones(span.size), span / span.sum())
         cov = cov + centring @ walk @ centring.T
     cov = cov + _velocity_mean_covariance(start, end, 0.004, 0.015, 1.6)

@@ -16,8 +16,7 @@ from gyroid.errors import GyroidInputError
 from gyroid.inference import fit_log
 from gyroid.io._fitted import FittedDrift, _noise_estimate
 from gyroid.models._drift import DriftModel
-from gyroid.noise._base import NoiseEstimate
-from gyroid.noise._kinds import Ieee952, White
+from gyroid.noise import NOISE_MODELS, NoiseEstimate
 from gyroid.workflows._compensate import compensate
 from gyroid.workflows._turn_on import StartUp, TurnOn, turn_on_check, with_turn_on
 
@@ -74,9 +73,10 @@ def test_a_new_runs_noise_is_the_runs_root_mean_square():
     """A pool's runs' noise estimates drawn up for a new run: each level and the white sd
     (at the first run's sample interval) the root mean square over the runs; no span (no
     walk on from a fitted log); read back from its record unchanged."""
-    a = NoiseEstimate(Ieee952(), {"N_deg_sqrt_h": 1.0, "B_deg_h": 3.0, "K_deg_h_sqrt_h": 4.0},
+    ieee = NOISE_MODELS["white+flicker+rw"]
+    a = NoiseEstimate(ieee, {"N_deg_sqrt_h": 1.0, "B_deg_h": 3.0, "K_deg_h_sqrt_h": 4.0},
                       60.0, 1.0, 3600.0)
-    b = NoiseEstimate(Ieee952(), {"N_deg_sqrt_h": 2.0, "B_deg_h": 4.0, "K_deg_h_sqrt_h": 0.0},
+    b = NoiseEstimate(ieee, {"N_deg_sqrt_h": 2.0, "B_deg_h": 4.0, "K_deg_h_sqrt_h": 0.0},
                       60.0, 4.0, 7200.0)
     new = NoiseEstimate.of_runs([a, b])
     assert new.levels["B_deg_h"] == pytest.approx(np.sqrt(12.5))
@@ -90,9 +90,9 @@ def test_a_new_runs_noise_is_the_runs_root_mean_square():
     part = (time_s // 360).astype(int)
     walk = {"N_deg_sqrt_h": 1e-3, "B_deg_h": 0.0, "K_deg_h_sqrt_h": 10.0}
     white = np.full(10, 1e-6)
-    centred = np.diag(NoiseEstimate(Ieee952(), walk, 1e-3, 1.0, centred=True)
+    centred = np.diag(NoiseEstimate(NOISE_MODELS["white+flicker+rw"], walk, 1e-3, 1.0, centred=True)
                       .part_covariance(time_s, part, 10, 1.0, white))
-    after = np.diag(NoiseEstimate(Ieee952(), walk, 1e-3, 1.0, 3600.0)
+    after = np.diag(NoiseEstimate(NOISE_MODELS["white+flicker+rw"], walk, 1e-3, 1.0, 3600.0)
                     .part_covariance(time_s, part, 10, 1.0, white))
     assert centred[0] == pytest.approx(centred[-1], rel=1e-6) and centred[0] > centred[5]
     assert np.all(np.diff(after) > 0)
@@ -166,7 +166,7 @@ def test_a_start_up_calibration_sets_the_bias_exactly():
     rng = np.random.default_rng(1)
     draws = rng.normal(BIAS, 2.0, (400, 1))
     fitted = FittedDrift(model=DriftModel.from_terms("bias"), draws=draws, t0_C=21.0,
-                         noise=NoiseEstimate(White(), {}, 20.0, 1.0))
+                         noise=NoiseEstimate(NOISE_MODELS["white"], {}, 20.0, 1.0))
     log = BenchLog(_run(rng))
     result = compensate(log, fitted, window_s=600.0, turn_on=TurnOn(rezero_s=300.0))
     start = float(np.mean(log.drift_deg_h[:300]))

@@ -21,7 +21,7 @@ ROOT = Path(__file__).resolve().parents[1]
 NOT_YET_TYPED = {
     "_config.py": 1,
     "cli/bench_commands.py": 16,
-    "inference/_bench_density.py": 26,
+    "inference/_bench_density.py": 24,
     "inference/_bench_precompute.py": 39,
     "inference/_bench_predictive.py": 4,
     "inference/_collapsed.py": 3,
@@ -50,7 +50,6 @@ NOT_YET_TYPED = {
     "models/_drift.py": 7,
     "models/_effects.py": 1,
     "models/_prior_scales.py": 3,
-    "noise/_kinds.py": 2,
     "pipeline/_axes.py": 5,
     "pipeline/_batch.py": 1,
     "pipeline/_compensate_file.py": 8,

@@ -35,8 +35,7 @@ from gyroid.models._drift import DriftModel
 from gyroid.models._inputs import DriftInputs
 from gyroid.models._priors import Flat, LogNormal, Normal, Prior, prior_arrays
 from gyroid.models._rate_error import rate_coefficient_index
-from gyroid.noise._base import NoiseModel, RowFilter
-from gyroid.noise._kinds import White, noise_model
+from gyroid.noise._model import NoiseModel, RowFilter, noise_model
 from gyroid.noise._rate_error_process import RateErrorProcess
 
 #: Length of the blocks whose summed log-likelihood ArviZ's LOO treats as one observation, s.
@@ -127,7 +126,7 @@ class BenchDensity(eqx.Module):
         ((deg/h)^2 at lags of one row, wD^2 times the rate's) and the rows' white variance,
         carried by the noise model's filter as a process matched to it
         (:mod:`gyroid.noise._rate_error_process`; the rows then read as block means)."""
-        noise = White() if noise is None else noise_model(noise)
+        noise = noise_model(noise)
         time_s = np.asarray(log.time_s)
         steps = np.diff(time_s)
         step = float(np.median(steps)) if steps.size else 1.0
@@ -141,7 +140,7 @@ class BenchDensity(eqx.Module):
         _, block = np.unique(block, return_inverse=True)
         extra: dict = {}  # the noise model's own fields
         if rate_error_cov is not None:
-            if not isinstance(noise, White) or "temperature_rate" not in model.terms:
+            if noise.correlated or "temperature_rate" not in model.terms:
                 raise ValueError("errors in variables: white noise and a model reading dT/dt")
             extra = {"rate_error_cov": jnp.asarray(rate_error_cov),
                      "eiv_index": rate_coefficient_index(model)}

@@ -16,8 +16,7 @@ from gyroid.io._logs import BenchLog, MeansOfBlocks
 from gyroid.models._drift import DriftModel
 from gyroid.models._inputs import T0_C
 from gyroid.models._priors import Prior
-from gyroid.noise._base import NoiseModel
-from gyroid.noise._kinds import Ieee952, White, noise_model
+from gyroid.noise._model import NoiseModel, noise_choice, noise_model
 
 
 def fit_log(
@@ -44,7 +43,7 @@ def fit_log(
     progress bar unless ``progress=False``; then the self-checks).
 
     ``noise="auto"`` (the default, here as on the command line) is IEEE 952's white +
-    flicker + rate random walk (:mod:`gyroid.noise._ieee`), whatever the log: its
+    flicker + rate random walk (:mod:`gyroid.noise._block_filter`), whatever the log: its
     low-frequency processes are carried with priors that let them be negligible. It used to keep
     white noise unless the residuals' whiteness or the held-out stretches said otherwise;
     those tests have no power at the hour scales where flicker and a walk decide w0, w1 and
@@ -58,23 +57,19 @@ def fit_log(
     too long to hold is read: :func:`gyroid.io.stream_block_means`).
     ``errors_in_variables=False`` leaves the thermometer's noise in dT/dt out of the
     likelihood (:meth:`BenchProblem.from_log`)."""
-    def problem_with(kind: NoiseModel) -> BenchProblem:
-        # IEEE noise reads a log of bursts as it is: its flicker and walk are the wander
-        return BenchProblem.from_log(log, terms, noise=kind, priors=priors,
-                                     prior_set=prior_set, flat_prior=flat_prior, t0_C=t0_C,
-                                     rate_window_s=rate_window_s,
-                                     segment_means=segment_means
-                                     and not isinstance(kind, Ieee952),
-                                     errors_in_variables=errors_in_variables)
-
+    kind = noise_model(noise)
+    # a model carrying the wander reads a log of bursts as it is: its flicker or walk is
+    # the wander between bursts
+    problem = BenchProblem.from_log(log, terms, noise=kind, priors=priors,
+                                    prior_set=prior_set, flat_prior=flat_prior, t0_C=t0_C,
+                                    rate_window_s=rate_window_s,
+                                    segment_means=segment_means and not kind.wanders,
+                                    errors_in_variables=errors_in_variables)
     chosen = sampler or Importance(fallback=Emcee(progress=progress))
-    if not (isinstance(noise, str) and noise == "auto"):
-        kind = White() if noise is None else noise_model(noise)
-        return fit(problem_with(kind), sampler=chosen, seed=seed, sample=sample)
-    result = fit(problem_with(Ieee952()), sampler=chosen, seed=seed, sample=sample)
-    why = (f"auto: {Ieee952.name}, always: the flicker and the rate random walk that every "
-           "gyro has are carried with priors that let them be negligible, since a log cannot "
-           "rule them out at the scales that decide the coefficients"
-           + (" (on the samples: the noise model carries the wander between bursts)"
-              if segment_means else ""))
+    result = fit(problem, sampler=chosen, seed=seed, sample=sample)
+    why = noise_choice(noise)
+    if why is None:
+        return result
+    if segment_means and kind.wanders:
+        why += " (on the samples: the noise model carries the wander between bursts)"
     return replace(result, noise_choice=why)

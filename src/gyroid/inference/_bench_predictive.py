@@ -241,9 +241,8 @@ def _noise_covariance(density: BenchDensity, values: dict, parts: Stretches,
     counts = np.bincount(parts.part, minlength=parts.n_parts).astype(float)
     white_levels = {k: values[k] for k in density.noise_names}
     if density.sigma is not None:
-        known = np.asarray(density.noise.known_white(density.sigma))
-        white = (np.bincount(parts.part, np.broadcast_to(known, density.n) ** 2,
-                             parts.n_parts) / counts**2)
+        white = (np.bincount(parts.part, np.asarray(density.sigma) ** 2, parts.n_parts)
+                 / counts**2)
     else:
         white = float(density.noise.row_white_sd(white_levels, step_s=density.step_s,
                                                  row_scale=density.row_scale)) ** 2 / counts

@@ -45,8 +45,7 @@ from gyroid.models._rate_error import (
     rate_error_covariance,
     white_level_var,
 )
-from gyroid.noise._base import NoiseModel
-from gyroid.noise._kinds import Ieee952, White, noise_model
+from gyroid.noise._model import NoiseModel, noise_model
 
 #: The most rows a white+flicker+rw fit filters, and the most a white fit carrying the
 #: thermometer's noise holds a covariance over (longer logs: block means).
@@ -114,7 +113,7 @@ class BenchProblem(AbstractProblem):
         of the filter (:mod:`gyroid.noise._rate_error_process`), whose automatic window is
         the marginal likelihood's (:mod:`gyroid.inference._rate_window_marginal`)."""
         release_if_crowded()  # the build compiles most of a fit's programs
-        noise = White() if noise is None else noise_model(noise)
+        noise = noise_model(noise)
         cap = IEEE_MAX_ROWS if max_rows is None else max_rows
         model = terms if isinstance(terms, DriftModel) else DriftModel.from_terms(terms)
         # the thermometer's noise to carry (degC^2, a sample's), the filter's wD scaling it
@@ -352,12 +351,12 @@ def _rows_fitted(log: BenchLog | MeansOfBlocks, noise: NoiseModel, segment_means
                 f"{log.rows_per_mean} samples (it was read as a stream); leave "
                 "--segment-means out")
         log, block_rows, samples = log.log, log.rows_per_mean, log.samples
-    if isinstance(noise, Ieee952) and segment_means:
+    if noise.wanders and segment_means:
         raise GyroidInputError(
-            f"--segment-means with --noise {noise.name}: the IEEE noise model reads "
-            "a log of bursts as it is (the wander between bursts is its flicker and "
-            "random walk); fit the samples, without --segment-means")
-    if (carry_thermometer or (noise.on_block_means and not segment_means)) and log.n > cap:
+            f"--segment-means with --noise {noise.name}: this noise model reads a log of "
+            "bursts as it is (the wander between bursts is its flicker or random walk); "
+            "fit the samples, without --segment-means")
+    if (carry_thermometer or (noise.correlated and not segment_means)) and log.n > cap:
         reduced = MeansOfBlocks.of(log, -(-log.n // cap))
         log, block_rows, samples = reduced.log, reduced.rows_per_mean, reduced.samples
     if segment_means:

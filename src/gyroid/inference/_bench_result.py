@@ -24,7 +24,8 @@ from gyroid.io._logs import BenchLog
 from gyroid.models._design import rows_of
 from gyroid.models._effects import parameter
 from gyroid.models._priors import Prior
-from gyroid.noise._base import NoiseEstimate, predictive_level
+from gyroid.noise._base import predictive_level
+from gyroid.noise._estimate import NoiseEstimate
 
 
 @dataclass(frozen=True)

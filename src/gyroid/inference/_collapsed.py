@@ -26,7 +26,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from gyroid.noise._base import RowFilter
+from gyroid.noise._model import RowFilter
 
 _LOG_2PI = math.log(2.0 * math.pi)
 

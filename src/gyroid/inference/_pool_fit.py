@@ -23,8 +23,7 @@ from gyroid.models._drift import DriftModel
 from gyroid.models._inputs import T0_C
 from gyroid.models._prior_scales import reference_sd
 from gyroid.models._priors import Flat, Normal, Prior
-from gyroid.noise._base import NoiseModel
-from gyroid.noise._kinds import Ieee952, White, noise_model
+from gyroid.noise._model import NoiseModel, noise_model
 
 
 def pool_priors(problems: Sequence[BenchProblem],
@@ -126,7 +125,7 @@ def pool_problem(
             "'gyroid fit', or pool without it")
     # white noise on sufficient statistics, the thermometer's noise not carried (the pooled
     # algebra reads each run's Gram matrix; a run whose likelihood carries it has none)
-    runs = tuple(BenchProblem.from_log(log, model, noise=White(), prior_set=prior_set,
+    runs = tuple(BenchProblem.from_log(log, model, noise=None, prior_set=prior_set,
                                        t0_C=t0_C, rate_window_s=None,
                                        segment_means=segment_means,
                                        errors_in_variables=False) for log in logs)
@@ -136,7 +135,7 @@ def pool_problem(
             raise GyroidInputError(f"between-run sd scale of {name!r}: give a positive "
                                    f"scale for one of {', '.join(model.parameter_names)}")
         scales[model.parameter_names.index(name)] = scale
-    kind = run_noise_model(noise)
+    kind = noise_model(noise)
     if kind.correlated:
         return pooled_fits(logs, labels, model, kind, runs, mean_priors=mean_priors,
                            spread_scales=scales, reference=reference, prior_set=prior_set,
@@ -155,12 +154,6 @@ def pool_problem(
         noise_priors=[q.priors[p] if not q.sigma_known else None for q in runs],
         runs=runs, terms=tuple(model.terms), t0_C=t0_C, segment_means=segment_means,
         own_mean=own_mean, own_sd=own_sd, reference=reference)
-
-
-def run_noise_model(noise: str | NoiseModel) -> NoiseModel:
-    """The noise model a pool fits each run under: ``auto`` is IEEE 952's (as a single
-    fit's default), any other name or model itself."""
-    return Ieee952() if noise == "auto" else noise_model(noise)
 
 
 def fit_pool(logs: Sequence[BenchLog], labels: Sequence[str],

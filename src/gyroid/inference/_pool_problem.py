@@ -46,7 +46,6 @@ from gyroid.inference._problem import AbstractProblem, PointEstimate
 from gyroid.models._inputs import T0_C
 from gyroid.models._priors import Flat as FlatPrior
 from gyroid.models._priors import HalfNormal, LogNormal, Normal
-from gyroid.noise._kinds import White
 
 _LOG_2PI = math.log(2.0 * math.pi)
 #: Prefix of a between-run sd's name (``between_sd_w0``).
@@ -204,7 +203,7 @@ class PoolProblem(AbstractProblem):
     #: Pooling each run's own fit under correlated noise (``run_noise``, its name): each
     #: run's residual and noise checks from that fit (``runs`` then only describe the logs).
     run_reports: tuple = ()
-    run_noise: str = White.name
+    run_noise: str = "white"
     #: Those fits' noise estimates (``NoiseEstimate``s, one per run), from which a new
     #: run's noise is drawn up (``pool.json``'s ``run_noise_levels``).
     run_noise_levels: tuple = ()

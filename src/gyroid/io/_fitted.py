@@ -18,8 +18,9 @@ from gyroid.io._arviz import read_posterior
 from gyroid.models._derived import RATE_WINDOW_S
 from gyroid.models._drift import DriftModel
 from gyroid.models._inputs import T0_C
-from gyroid.noise._base import NoiseEstimate, predictive_level
-from gyroid.noise._kinds import White, recorded_model
+from gyroid.noise._base import predictive_level
+from gyroid.noise._estimate import NoiseEstimate
+from gyroid.noise._model import recorded_model
 
 
 @dataclass(frozen=True)
@@ -185,7 +186,8 @@ def _new_run_noise(pool: dict) -> NoiseEstimate | None:
     if runs:
         return NoiseEstimate.of_runs([_noise_estimate(r) for r in runs.values()])
     if pool.get("noise"):
-        return NoiseEstimate(White(), {}, float(np.median(
+        # a pool of white runs records no model: white's
+        return NoiseEstimate(recorded_model({}), {}, float(np.median(
             [s["mean"] for s in pool["noise"].values()])))
     return None
 

@@ -14,9 +14,8 @@
   (sd of first differences over sqrt 2), the Gauss-Markov level ``LogNormal(h / 3, 3)``,
   its correlation time the registry's ``LogNormal(300 s, 2)``; under IEEE 952 noise, with
   ``d = h sqrt(step)`` the white density (deg/h sqrt(s)): ``N ~ LogNormal(d / 60, 3)``
-  (deg/sqrt(h)), ``B ~ LogNormal(d / 10, 3)`` (the white's Allan deviation at 100 s, deg/h)
-  and ``K ~ LogNormal(0.1 d, 3)`` (the walk that matches the white at about 1000 s,
-  deg/h/sqrt(h)).
+  (deg/sqrt(h)), ``B`` and ``K ~ LogNormal(d / 1000, 3)`` (negligible a priori; each
+  noise term states its own: :mod:`gyroid.noise._terms`).
 
 The same scales, taken as sds in sampling coordinates, are the yardstick of the
 identifiability check (:mod:`gyroid.inference._checks`), whatever prior set the fit uses.
@@ -25,10 +24,8 @@ identifiability check (:mod:`gyroid.inference._checks`), whatever prior set the 
 ``flat``: improper flat priors on every model coefficient. A TOML file or ``--prior
 NAME=normal(MU,SD)`` overrides single parameters.
 
-A noise fit of the same gyro at rest (``gyroid noise``) gives the IEEE 952 levels' priors
-(:func:`priors_from_noise`): its posterior, read as a log-normal through the 90 % interval,
-or for a term the static log did not resolve a log-normal whose 95 % quantile is the
-static fit's upper bound.
+A noise fit of the same gyro at rest (``gyroid noise``) gives the noise levels' priors
+(:func:`gyroid.noise.priors_from_noise`).
 """
 
 from __future__ import annotations
@@ -93,41 +90,6 @@ def default_priors(model: DriftModel, inputs: DriftInputs, drift_deg_h: np.ndarr
             spans[p.name] = span
             priors[p.name] = Normal(0.0, SCALE_FACTOR * d / span)
     return priors, PriorBasis(d, h, spans)
-
-
-#: The IEEE 952 drift-noise parameters and the ``gyroid noise`` terms they are.
-NOISE_FILE_TERMS = {"N_deg_sqrt_h": "N", "B_deg_h": "B", "K_deg_h_sqrt_h": "K"}
-#: A 90 % interval spans 2 x 1.645 sd; a 95 % upper bound sits 1.645 sd above the median.
-_Z90 = 1.6448536269514722
-#: Below an unresolved term's upper bound, its prior's median (a factor of 10).
-UNRESOLVED_BELOW_BOUND = 10.0
-
-
-def priors_from_noise(terms: Mapping[str, dict]) -> dict[str, Prior]:
-    """The drift fit's IEEE 952 noise priors from a static noise fit's ``terms`` (``gyroid
-    noise``'s ``noise.json``; datasheet units, which do not depend on the sample rate). A
-    resolved term whose 90 % interval ``[lo, hi]`` is positive gets ``LogNormal(sqrt(lo hi),
-    ln(hi / lo) / 3.29)``, the same interval; a term not resolved (or whose interval reaches
-    zero, a mixture with a model without it) gets a log-normal with its 95 % quantile at the
-    upper bound and its median ten times lower."""
-    priors: dict[str, Prior] = {}
-    for name, label in NOISE_FILE_TERMS.items():
-        entry = terms.get(label)
-        if not entry:
-            raise GyroidInputError(f"the noise fit has no term {label}: run 'gyroid noise' "
-                                   "again")
-        interval = entry.get("ci90") if entry.get("resolved") else None
-        if interval and interval[0] > 0.0 and interval[1] > interval[0]:
-            low, high = float(interval[0]), float(interval[1])
-            priors[name] = LogNormal(math.sqrt(low * high), math.log(high / low) / (2 * _Z90))
-            continue
-        bound = entry.get("upper_bound_95") or (interval[1] if interval else None)
-        if not bound or not math.isfinite(bound) or bound <= 0.0:
-            raise GyroidInputError(f"the noise fit's term {label} has neither an interval "
-                                   "nor an upper bound: run 'gyroid noise' again")
-        priors[name] = LogNormal(bound / UNRESOLVED_BELOW_BOUND,
-                                 math.log(UNRESOLVED_BELOW_BOUND) / _Z90)
-    return priors
 
 
 def reference_sd(model: DriftModel, inputs: DriftInputs, drift_deg_h: np.ndarray

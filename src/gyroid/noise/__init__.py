@@ -1,12 +1,17 @@
-"""Noise models of drift logs: an abstract :class:`NoiseModel` with final kinds (white,
-white + Gauss-Markov, IEEE 952 white + flicker + rate random walk), each owning its levels,
-priors, likelihood (the filters live here) and the covariance of parts' means; a fitted one
-(:class:`NoiseEstimate`); the registry by name (:func:`noise_model`)."""
+"""Noise models of drift logs: terms (white noise, flicker, a rate random walk, a
+Gauss-Markov bias, the thermometer's rate error), each owning its levels, priors and states
+in one block filter; a model is a named tuple of them (:class:`NoiseModel`), composed into
+one likelihood and one covariance of parts' means; a fitted one (:class:`NoiseEstimate`);
+the registry by name (:func:`noise_model`)."""
 
 from gyroid._lazy import attach
 
 __getattr__, __dir__, __all__ = attach(__name__, {
-    "_base": ["NoiseEstimate", "NoiseModel", "RowClock", "RowFilter", "predictive_level"],
-    "_kinds": ["GaussMarkov", "Ieee952", "NOISE_MODELS", "White", "noise_model",
-               "recorded_model"],
+    "_base": ["RowClock", "predictive_level"],
+    "_estimate": ["NoiseEstimate"],
+    "_level_priors": ["priors_from_noise"],
+    "_model": ["DEFAULT_NOISE", "NOISE_MODELS", "NoiseModel", "RowFilter", "noise_choice",
+               "noise_model", "recorded_model"],
+    "_terms": ["AbstractNoiseTerm", "AbstractWhiteTerm", "AngleRandomWalk", "Flicker",
+               "GaussMarkovBias", "RateError", "RateRandomWalk", "SampleWhite"],
 })

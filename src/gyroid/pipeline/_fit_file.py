@@ -24,10 +24,11 @@ from gyroid.io._stream import STREAM_ROWS, stream_block_means, stream_rows
 from gyroid.io._tables import read_header, read_log_table, table_source
 from gyroid.io._units import ColumnMap
 from gyroid.models._inputs import T0_C
-from gyroid.models._prior_scales import PRIOR_SETS, priors_from_noise
+from gyroid.models._prior_scales import PRIOR_SETS
 from gyroid.models._priors import Prior
 from gyroid.models._terms import resolve_terms
-from gyroid.noise._kinds import NOISE_MODELS, Ieee952
+from gyroid.noise._level_priors import priors_from_noise
+from gyroid.noise._model import DEFAULT_NOISE, NOISE_MODELS, noise_model
 from gyroid.pipeline._axes import PerAxis, chosen_axes, write_per_axis
 
 
@@ -59,13 +60,17 @@ class FitOptions:
 
     def __post_init__(self) -> None:
         resolve_terms(self.terms)
-        if self.noise not in (*NOISE_MODELS, "auto"):
+        try:
+            model = noise_model(self.noise)
+        except GyroidInputError:
             raise GyroidInputError(f"--noise {self.noise!r}: use one of "
                                    f"{', '.join(NOISE_MODELS)}, auto, a datasheet FILE.toml "
-                                   "or the --out folder of 'gyroid noise'")
-        if self.noise_priors and self.noise != Ieee952.name:
+                                   "or the --out folder of 'gyroid noise'") from None
+        given = {n for axis in self.noise_priors.values() for n in axis}
+        if not given <= set(model.level_names):
             raise GyroidInputError(f"noise priors from {self.noise_source} are priors of "
-                                   f"the {Ieee952.name} noise model, not of {self.noise}")
+                                   f"{', '.join(sorted(given))}, which the {model.name} "
+                                   "noise model does not have")
         if not 0 <= self.seed < 2**32:
             raise GyroidInputError(f"--seed {self.seed}: give a whole number from 0 to "
                                    f"{2**32 - 1}")
@@ -82,7 +87,7 @@ def noise_datasheet_options(path: str | Path) -> dict:
     levels' priors from a gyro's datasheet (docs/formats.md section 6;
     :func:`~gyroid.io._datasheet.datasheet_priors`), the same on every axis."""
     sheet = read_datasheet(path)
-    return {"noise": Ieee952.name, "noise_source": str(path), "noise_from_datasheet": True,
+    return {"noise": DEFAULT_NOISE, "noise_source": str(path), "noise_from_datasheet": True,
             "noise_priors": {None: datasheet_priors(sheet)}}
 
 
@@ -98,8 +103,9 @@ def noise_file_options(folder: str | Path) -> dict:
                 f"--noise {where}: that noise fit is not trustworthy (it failed its own "
                 "checks), so its posterior cannot serve as a prior: fix what its noise.json "
                 "names, or use --noise auto")
-    return {"noise": Ieee952.name, "noise_source": str(folder),
-            "noise_priors": {axis: priors_from_noise(noise.terms)
+    model = noise_model(DEFAULT_NOISE)
+    return {"noise": model.name, "noise_source": str(folder),
+            "noise_priors": {axis: priors_from_noise(noise.terms, model)
                              for axis, noise in fitted.items()}}
 
 
@@ -167,7 +173,7 @@ def fit_file(path: str | Path, options: FitOptions, out: str | Path,
             given = ("datasheet" if options.noise_from_datasheet else "noise fit in")
             fit = replace(fit, noise_priors_from=NoisePriorSource(options.noise_source,
                                                                   tuple(noise_priors[axis])),
-                          noise_choice=f"asked for: {Ieee952.name}, the priors of "
+                          noise_choice=f"asked for: {fit.problem.noise.name}, the priors of "
                                        f"{', '.join(noise_priors[axis])} from the {given} "
                                        f"{options.noise_source}")
         fits[axis] = fit

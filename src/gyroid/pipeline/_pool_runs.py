@@ -8,7 +8,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from gyroid.errors import GyroidInputError
-from gyroid.inference._pool_fit import fit_pool, run_noise_model
+from gyroid.inference._pool_fit import fit_pool
 from gyroid.inference._pool_result import PoolFit
 from gyroid.io._bench_reader import bench_log_from_table
 from gyroid.io._logs import BenchLog, run_labels
@@ -17,6 +17,7 @@ from gyroid.io._tables import read_log_table
 from gyroid.io._units import ColumnMap
 from gyroid.models._inputs import T0_C
 from gyroid.models._priors import Prior
+from gyroid.noise._model import noise_model
 from gyroid.reports._write import write
 
 
@@ -31,7 +32,7 @@ def pool_to_dir(paths: tuple[Path, ...], terms: str, out: Path, *, seed: int = 0
     each run is fitted under before pooling, or ``white`` (:func:`fit_pool`)."""
     loaded, labels = pool_runs(paths, terms, maps=maps, axis=axis, instances=instances)
     rows = sum(log.n for log in loaded)
-    kind = run_noise_model(noise)
+    kind = noise_model(noise)
     say(f"pooling {terms} over {len(loaded)} runs ({rows} rows)"
         + (f", each fitted under {kind.name} noise" if kind.correlated
            else ", white noise on their sufficient statistics") + " ...")

@@ -2,7 +2,7 @@
 explains it, and how much does adding it close the gap?
 
 Evidence. Every candidate model is a :class:`~gyroid.inference.BenchProblem` under a white +
-Gauss-Markov noise model (:class:`~gyroid.noise.GaussMarkov`, flat priors on the effects'
+Gauss-Markov noise model (``white+gm``, flat priors on the effects'
 coefficients) and is fitted by the problem's own mode-finder, so slowly wandering noise
 (bias instability) is not mistaken for an effect; the log-likelihood compared is the
 problem's at that mode (a long log's rows are read as the exact block means of its
@@ -41,7 +41,7 @@ from gyroid.models._drift import DriftModel
 from gyroid.models._effects import EFFECTS, EXTRA_PREFIX, parameter
 from gyroid.models._inputs import T0_C, DriftInputs
 from gyroid.models._terms import resolve_terms
-from gyroid.noise._kinds import GaussMarkov
+from gyroid.noise._model import noise_model
 from gyroid.workflows._discrepancy_report import (
     DiscrepancyReport,
     NoiseLevels,
@@ -221,7 +221,7 @@ class _Search:
         columns) by its problem under white + Gauss-Markov noise, flat coefficient
         priors."""
         log = self.log if log is None else log
-        problem = BenchProblem.from_log(log, model, noise=GaussMarkov(), prior_set="flat",
+        problem = BenchProblem.from_log(log, model, noise=noise_model("white+gm"), prior_set="flat",
                                         t0_C=self.t0_C, rate_window_s=self.window_s,
                                         errors_in_variables=False)
         point = problem.mode()

@@ -12,7 +12,7 @@ from gyroid.inference._checks import Check
 from gyroid.inference._predictive import part_means
 from gyroid.io._fitted import FittedDrift
 from gyroid.io._logs import BenchLog
-from gyroid.noise._base import NoiseEstimate
+from gyroid.noise._estimate import NoiseEstimate
 from gyroid.workflows._turn_on import StartUp
 
 

@@ -1,11 +1,13 @@
-"""The IEEE Std 952 rate noise as a drift likelihood: white (angle random walk ``N``),
-flicker (bias instability ``B``) and rate random walk (``K``), seen through the means of
-blocks of samples, by an exact Kalman filter.
+"""The one block filter of a drift log's correlated noise: the exact Gaussian likelihood of
+means of blocks of samples under white noise plus stationary Gauss-Markov processes plus a
+rate random walk plus (optionally) the thermometer's error through dT/dt, by a Kalman filter
+whose states the noise model's terms supply (:mod:`gyroid.noise._terms`).
 
-Units: ``N`` in deg/sqrt(h) (white rate noise of two-sided density ``60 N`` deg/h sqrt(s)),
-``B`` in deg/h (flicker of two-sided density ``B**2 / (2 pi f)``, Allan floor
-``0.664 B``), ``K`` in deg/h/sqrt(h) (a rate random walk diffusing ``(K / 60)**2``
-(deg/h)^2 per second).
+IEEE Std 952's rate noise is this filter's main use: white (angle random walk ``N``),
+flicker (bias instability ``B``) and rate random walk (``K``). Units: ``N`` in deg/sqrt(h)
+(white rate noise of two-sided density ``60 N`` deg/h sqrt(s)), ``B`` in deg/h (flicker of
+two-sided density ``B**2 / (2 pi f)``, Allan floor ``0.664 B``), ``K`` in deg/h/sqrt(h) (a
+rate random walk diffusing ``(K / 60)**2`` (deg/h)^2 per second).
 
 The random walk has no anchor at the first row: its level there is diffuse (unknown, with
 no prior), and the walk is constrained to average zero over the log's blocks (each weighted
@@ -15,8 +17,9 @@ minutes, with an interval that did not describe the log (issue 42: a real 74 h t
 The filter starts the diffuse level exactly (Durbin & Koopman's exact initial filter: the
 first observed block reveals it), accumulates the walk's weighted mean as a state, and ends
 with that mean observed as zero; the constraint's innovation takes the first observed row's
-place, so the ``n`` innovations are the exact likelihood of the centred walk. The flicker is
-stationary (``w0`` is its long-run mean).
+place, so the ``n`` innovations are the exact likelihood of the centred walk. Without a walk
+term the walk's state stays at zero (``centred=False``). The Gauss-Markov processes are
+stationary (``w0`` is their long-run mean).
 
 Each observation is the mean of a block ``k`` of the log: its time span ``L_k`` (s, the
 samples' count times the sampling step) follows a gap ``g_k`` (s) after the previous block.
@@ -25,15 +28,17 @@ Flicker is a sum of ``J`` first-order Gauss-Markov (Ornstein-Uhlenbeck) processe
 correlation times spaced evenly in ``log tau`` by a ratio ``r`` from a quarter of the
 shortest block to four times the log's length, each of variance ``B**2 ln(r) / pi``:
 their summed spectrum is ``B**2 / (2 pi f)`` within a few per cent across that band (a
-classic construction, checked in the tests). For each process the block's mean and the
-state at its end are jointly Gaussian given the state at the previous block's end, with the
-exact integrals of the process over the gap and the block, so the filter's innovations give
-the exact Gaussian likelihood of the block means, for blocks of any lengths and gaps.
+classic construction, checked in the tests); a Gauss-Markov bias is one more such process
+with its own variance. For each process the block's mean and the state at its end are
+jointly Gaussian given the state at the previous block's end, with the exact integrals of
+the process over the gap and the block, so the filter's innovations give the exact Gaussian
+likelihood of the block means, for blocks of any lengths and gaps.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import jax
 import jax.numpy as jnp
@@ -44,6 +49,10 @@ from gyroid.noise._rate_error_process import RateErrorProcess
 
 #: Gauss-Markov processes summed into the flicker.
 FLICKER_PROCESSES = 6
+#: A group of stationary Gauss-Markov processes: their correlation times (s), a level
+#: (deg/h) and each one's variance per unit level squared (the flicker's ``B`` and
+#: ``ln(r) / pi``; a bias's sd and 1).
+Processes = tuple[Float[Array, " j"] | np.ndarray, Float[Array, ""] | float, float]
 
 
 def flicker_times(shortest_s: float, duration_s: float) -> tuple[np.ndarray, float]:
@@ -90,23 +99,23 @@ def block_transitions(span_s, gap_s, tau_s, variance, diffusion):
     return phi, c, qxx, qmm, qxm
 
 
-def ieee_innovations(
+def block_innovations(
     observed: Float[Array, "n ..."],
     span_s: Float[Array, " n"],
     gap_s: Float[Array, " n"],
     white_var: Float[Array, " n"],
-    bias_instability: Float[Array, ""],
-    walk: Float[Array, ""],
-    flicker_tau_s: Float[Array, " j"],
-    flicker_unit_var: Float[Array, ""],
+    processes: Sequence[Processes],
+    diffusion: Float[Array, ""] | float,
     update: Float[Array, " n"] | None = None,
     centred: bool = True,
     rate_error: RateErrorProcess | None = None,
 ) -> tuple[Float[Array, "n ..."], Float[Array, " n"]]:
     """Innovations of the block means ``observed`` (trailing columns filtered alike) and
     their variances, under white noise of per-block variance ``white_var`` ((deg/h)^2) plus
-    flicker of level ``bias_instability`` (B, deg/h) plus a rate random walk ``walk`` (K,
-    deg/h/sqrt(h)), plus ``rate_error``: the thermometer's noise through the dT/dt estimator
+    stationary Gauss-Markov processes (``processes``: groups, :data:`Processes`; the
+    flicker's, a bias's) plus a rate random walk
+    diffusing ``diffusion`` ((deg/h)^2 per s: ``(K / 60)**2``), plus ``rate_error``: the
+    thermometer's noise through the dT/dt estimator
     (:mod:`gyroid.noise._rate_error_process`, set up on these blocks), or None. Rows with
     ``update == 0`` are predicted through, not learnt from.
 
@@ -114,18 +123,24 @@ def ieee_innovations(
     docstring); the first row learnt from then carries the constraint's innovation.
     ``centred=False``: the walk from zero at the first block (for a model without a walk,
     whose filter needs no diffuse start)."""
-    variance = bias_instability**2 * flicker_unit_var
-    diffusion = (walk / 60.0) ** 2
-    # the system per unit variance and diffusion, the same for every draw of the levels;
-    # each state's new noise is its unit's times its level's scale (below), applied in the
-    # filter's step: arrays per block and draw (a dense states x states noise among them)
-    # had been most of its memory traffic
-    phi, c, qxx, qmm, qxm = block_transitions(span_s, gap_s, flicker_tau_s, 1.0, 1.0)
-    j = flicker_tau_s.size
-    r = white_var + variance * jnp.sum(qmm[:, :j], axis=1) + diffusion * qmm[:, j]
+    tau_s = jnp.concatenate([jnp.zeros(0), *(p[0] for p in processes)])
+    phi, c, qxx, qmm, qxm = block_transitions(span_s, gap_s, tau_s, 1.0, 1.0)
+    j = tau_s.size
+    variances = [level**2 * unit for _, level, unit in processes]
+    r, first = white_var, 0
+    for (taus, _, _), variance in zip(processes, variances, strict=True):
+        r = r + variance * jnp.sum(qmm[:, first:first + taus.size], axis=1)
+        first += taus.size
+    r = r + diffusion * qmm[:, j]
     update = jnp.ones_like(span_s) if update is None else update
-    start_var = jnp.concatenate([jnp.full((j,), variance), jnp.zeros(1)])
-    scale = jnp.concatenate([jnp.full((j,), variance), jnp.full((1,), diffusion)])
+
+    def per_state():  # each process state's variance (built twice: see below)
+        return [jnp.full((p[0].size,), v) for p, v in zip(processes, variances, strict=True)]
+
+    # the start's and the new noise's scale built apart: one shared array would sum their
+    # gradients in another order (1 ulp), and refactors are checked bit for bit
+    start_var = jnp.concatenate([*per_state(), jnp.zeros(1)])
+    scale = jnp.concatenate([*per_state(), jnp.full((1,), diffusion)])
     link, q_link = None, None  # the running mean's transition entry and state noise
     if centred:
         # the walk's running weighted mean over the log: each block's share of it times
@@ -258,29 +273,29 @@ def _anchored(observed, transition, c, q, qxm, r, update, start_cov, scale):
     return innovation, total
 
 
-def ieee_mean_covariance(start_s: np.ndarray, end_s: np.ndarray, white_var: np.ndarray,
-                         bias_instability: float, walk: float, flicker_tau_s: np.ndarray,
-                         flicker_unit_var: float, origin_s: float,
-                         centre_span_s: float | None = None) -> np.ndarray:
+def mean_covariance(start_s: np.ndarray, end_s: np.ndarray, white_var: np.ndarray,
+                    processes: Sequence[Processes], diffusion: float,
+                    origin_s: float, centre_span_s: float | None = None) -> np.ndarray:
     """The covariance ((deg/h)^2) of the means over time intervals ``[start_s, end_s]``
     (disjoint or touching, in time order) of the same noise, written out pair by pair
     (dense; for the predictive check's parts and for testing the filter): white variance
-    ``white_var`` per interval, each flicker process's exponential kernel integrated over
-    both intervals, and the random walk: from zero at ``origin_s`` (covariance
-    ``D min(s, t)``), or with ``centre_span_s`` centred, its mean over ``[origin_s,
-    origin_s + centre_span_s]`` zero (as the likelihood's, on a log whose blocks tile
-    that span)."""
+    ``white_var`` per interval, each Gauss-Markov process's (``processes``:
+    :data:`Processes`) exponential kernel integrated over both intervals, and the
+    random walk diffusing ``diffusion`` ((deg/h)^2 per s): from zero at ``origin_s``
+    (covariance ``D min(s, t)``), or with ``centre_span_s`` centred, its mean over
+    ``[origin_s, origin_s + centre_span_s]`` zero (as the likelihood's, on a log whose
+    blocks tile that span)."""
     a = np.asarray(start_s, dtype=float) - origin_s
     b = np.asarray(end_s, dtype=float) - origin_s
     length = b - a
     cov = np.diag(np.asarray(white_var, dtype=float))
-    var = bias_instability**2 * flicker_unit_var
     # Interval j > i comes after interval i: its order, not a comparison of end points,
     # says so. Touching intervals (a uniform clock's parts) end where the next starts, and
     # rounding put some ends a hair past the next start: their covariance, the largest
     # of all under a long correlation time, was dropped, and the matrix was indefinite.
     after = np.triu(np.ones((a.size, a.size), dtype=bool), 1)
-    for tau in np.asarray(flicker_tau_s, dtype=float):
+    for tau, var in ((float(t), level**2 * unit) for taus, level, unit in processes
+                     for t in np.asarray(taus, dtype=float).ravel()):
         u = length / tau
         # the mean of a stationary process over L: 2 var tau^2 (u - 1 + exp(-u)) / L^2
         within = 2.0 * var * tau**2 * (u + np.expm1(-u)) / length**2
@@ -293,7 +308,6 @@ def ieee_mean_covariance(start_s: np.ndarray, end_s: np.ndarray, white_var: np.n
         edge = -np.expm1(-u) / length
         cross = var * tau**2 * decay * np.outer(edge, edge)
         cov += cross + cross.T + np.diag(within)
-    diffusion = (walk / 60.0) ** 2
     mid = 0.5 * (a + b)
     walk_cov = diffusion * np.minimum.outer(mid, mid)
     walk_cov[np.diag_indices_from(walk_cov)] = diffusion * (a + length / 3.0)
@@ -307,31 +321,34 @@ def ieee_mean_covariance(start_s: np.ndarray, end_s: np.ndarray, white_var: np.n
     return cov + walk_cov
 
 
-def ieee_part_covariance(time_s: np.ndarray, part: np.ndarray, n_parts: int, step_s: float,
-                         white_var: np.ndarray, bias_instability: float, walk: float,
-                         processes: tuple[np.ndarray, float] | None = None,
-                         after_s: float | None = None) -> np.ndarray:
+def log_span_s(time_s: np.ndarray, step_s: float) -> float:
+    """A log's span (s): its rows' first to last time plus one step (each row a step's
+    mean)."""
+    time_s = np.asarray(time_s, dtype=float)
+    return float(time_s[-1] - time_s[0]) + step_s
+
+
+def part_covariance(time_s: np.ndarray, part: np.ndarray, n_parts: int, step_s: float,
+                    white_var: np.ndarray, processes: Sequence[Processes],
+                    diffusion: float, after_s: float | None = None) -> np.ndarray:
     """The covariance ((deg/h)^2) of parts' means of a log's rows (``part``: each row's
     part, -1 for none; parts contiguous and in time order), each row one sampling step
-    ``step_s`` long: ``white_var`` each part's white variance, the flicker as the drift
-    likelihood's for this log (:func:`flicker_times`; ``processes``: other correlation
-    times and their variance per unit ``bias_instability**2``, e.g. one Gauss-Markov
-    process), and the walk centred on this log (as the likelihood's), or, with
-    ``after_s``, on a log of that span just before this one (a new log compensated with a
-    fit's bias: the walk from the fitted log's mean, whose variance at its end is
-    ``D after_s / 3``, then on from zero at this log's start)."""
+    ``step_s`` long: ``white_var`` each part's white variance, the Gauss-Markov processes
+    (:func:`mean_covariance`) and the walk (``diffusion``, (deg/h)^2 per s) centred on
+    this log (as the likelihood's), or, with ``after_s``, on a log of that span just before
+    this one (a new log compensated with a fit's bias: the walk from the fitted log's mean,
+    whose variance at its end is ``D after_s / 3``, then on from zero at this log's
+    start)."""
     time_s = np.asarray(time_s, dtype=float)
     kept = part >= 0
     first = np.full(n_parts, np.inf)
     last = np.full(n_parts, -np.inf)
     np.minimum.at(first, part[kept], time_s[kept])
     np.maximum.at(last, part[kept], time_s[kept])
-    span = float(time_s[-1] - time_s[0]) + step_s
-    taus, unit = flicker_times(step_s, span) if processes is None else processes
-    cov = ieee_mean_covariance(first - 0.5 * step_s, last + 0.5 * step_s, white_var,
-                               bias_instability, walk, taus, unit,
-                               time_s[0] - 0.5 * step_s,
-                               centre_span_s=span if after_s is None else None)
+    span = log_span_s(time_s, step_s)
+    cov = mean_covariance(first - 0.5 * step_s, last + 0.5 * step_s, white_var, processes,
+                          diffusion, time_s[0] - 0.5 * step_s,
+                          centre_span_s=span if after_s is None else None)
     if after_s is not None:
-        cov = cov + (walk / 60.0) ** 2 * float(after_s) / 3.0
+        cov = cov + diffusion * float(after_s) / 3.0
     return cov
