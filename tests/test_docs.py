@@ -25,20 +25,28 @@ def test_the_documentation_site_builds_with_warnings_as_errors(tmp_path):
 
 
 def test_the_console_links_each_check_to_its_entry_in_the_check_table():
-    """``warning: NAME [docs/checks.md#NAME]: ...``: every check the console links has an
+    """``warning: NAME [docs/checks.md#ANCHOR]: ...``: every check the console links, for
+    each command (a bench fit's, a compensation's, a pool's, a static noise fit's), has an
     anchor in docs/checks.md, and every anchor there is linked."""
     import re
 
     from gyroid.cli.base import DOCUMENTED_CHECKS, check_lines
     from gyroid.inference import Check, CheckReport
 
-    anchors = set(re.findall(r'<a id="([a-z_]+)"></a>', (ROOT / "docs" / "checks.md").read_text()))
-    assert anchors == DOCUMENTED_CHECKS
+    anchors = set(re.findall(r'<a id="([a-z_-]+)"></a>',
+                             (ROOT / "docs" / "checks.md").read_text()))
+    linked = {a for command in DOCUMENTED_CHECKS.values() for a in command.values()}
+    assert anchors == linked
     failed = CheckReport((Check("outliers", False, "warning", 1.0, 0.5, "two spikes"),
                           Check("window_bands", False, "error", 0.5, 0.8, "bands missed")))
     assert check_lines(failed, "fit") == [
         "error: window_bands: bands missed",
         "warning: outliers [docs/checks.md#outliers]: two spikes"]
+    assert check_lines(failed, "compensate") == [
+        "error: window_bands [docs/checks.md#compensate-window_bands]: bands missed",
+        "warning: outliers: two spikes"]
+    assert check_lines(failed, "noise")[1] == (
+        "warning: outliers [docs/checks.md#noise-outliers]: two spikes")
 
 
 def test_the_readme_is_a_front_page_with_the_two_set_up_commands_first():

@@ -345,11 +345,22 @@ REMEDY_FLAGS = {
 }
 
 
-#: The checks that docs/checks.md has an entry for (an anchor each; tests/test_docs.py keeps
-#: the two in step): the console names the entry beside a failed one.
-DOCUMENTED_CHECKS = frozenset({
+_BENCH_CHECKS = {name: name for name in (
     "prior_data_conflict", "point_vs_posterior", "goodness_of_fit", "residual_whiteness",
-    "outliers", "identifiability", "convergence", "rate_estimate", "noise_prior_dependence"})
+    "outliers", "identifiability", "convergence", "rate_estimate", "noise_prior_dependence")}
+#: Per command, the checks that docs/checks.md has an entry for and that entry's anchor
+#: (tests/test_docs.py keeps the two in step): the console names it beside a failed one.
+DOCUMENTED_CHECKS: dict[str, dict[str, str]] = {
+    "fit": _BENCH_CHECKS, "batch": _BENCH_CHECKS, "discrepancy": _BENCH_CHECKS,
+    "compensate": {name: f"compensate-{name}" for name in (
+        "extrapolation", "compensation_gain", "fit_trustworthy", "predictive", "window_bands",
+        "turn_on_bias", "units")},
+    "pool": _BENCH_CHECKS | {name: f"pool-{name}" for name in (
+        "run_consistency", "between_run_sd_identified")},
+    "noise": {name: f"noise-{name}" for name in (
+        "outliers", "prefilter", "level_fit", "level_runs", "dispersion")} | {
+        name: name for name in ("convergence", "point_vs_posterior", "prior_data_conflict")},
+}
 
 
 def check_lines(checks, command: str) -> list[str]:
@@ -357,11 +368,13 @@ def check_lines(checks, command: str) -> list[str]:
     check table where it has one and the options of ``command`` that act on its
     remedies."""
     flags = REMEDY_FLAGS.get(command, {})
+    anchors = DOCUMENTED_CHECKS.get(command, {})
     lines = []
     for check in sorted(checks.failed, key=lambda c: c.severity != "error"):
         tries = [flags[code] for code in check.remedies if code in flags]
         hint = f" (try: {'; '.join(tries)})" if tries else ""
-        entry = f" [docs/checks.md#{check.name}]" if check.name in DOCUMENTED_CHECKS else ""
+        anchor = anchors.get(check.name)
+        entry = f" [docs/checks.md#{anchor}]" if anchor else ""
         lines.append(f"{check.severity}: {check.name}{entry}: {check.message}{hint}")
     return lines
 
