@@ -144,3 +144,18 @@ def test_the_registry_names_each_model_once():
         NoiseModel("rw", (RateRandomWalk(),))
     with pytest.raises(Exception, match="use one of white, white\\+gm, white\\+flicker\\+rw"):
         noise_model("pink")
+
+
+def test_the_drift_fit_and_the_static_fit_share_their_terms():
+    """One vocabulary: IEEE 952's N, B and K (and the Gauss-Markov bias G) are the same
+    classes in the drift likelihood and in ``gyroid noise``'s Allan variance, and the
+    levels a static fit's noise.json gives the drift fit as priors are named by those
+    terms' own letters."""
+    from gyroid.noise import STATIC_TERMS
+
+    static = {type(t): t.code for t in STATIC_TERMS}
+    ieee = noise_model("white+flicker+rw")
+    assert [static[type(t)] for t in ieee.terms] == ["N", "B", "K"]
+    assert static[type(NOISE_MODELS["white+gm"].terms[1])] == "G"
+    assert ieee.static_fit == {"N_deg_sqrt_h": "N", "B_deg_h": "B", "K_deg_h_sqrt_h": "K"}
+    assert all(static[type(t)] == t.code for t in ieee.terms)

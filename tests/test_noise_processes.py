@@ -14,7 +14,7 @@ from gyroid.cli import main
 from gyroid.inference import fit_noise, fit_unit_noise
 from gyroid.inference._haar import HaarStatistics
 from gyroid.inference._noise_levels import level_fit, level_runs
-from gyroid.inference._noise_terms import gauss_markov_avar
+from gyroid.noise._allan_terms import gauss_markov_avar
 
 
 def _white(rng, n: int, dt: float, arw: float) -> np.ndarray:

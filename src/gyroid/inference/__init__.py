@@ -24,7 +24,6 @@ __getattr__, __dir__, __all__ = attach(__name__, {
     "_roll_result": ["RollFit"],
     "_pool_problem": ["PoolProblem"],
     "_noise_problem": ["NoiseProblem"],
-    "_noise_terms": ["NOISE_TERMS"],
     "_noise_fit": ["NoiseFit", "fit_noise"],
     "_noise_model_fit": ["NoiseModelFit"],
     "_noise_unit": ["UnitNoise", "fit_unit_noise"],

@@ -36,7 +36,7 @@ class HaarStatistics:
     n_samples: int
     segments: int
     #: The correlation time of the Gauss-Markov term G fitted to these statistics, s (NaN
-    #: before it is chosen: :func:`~gyroid.inference._noise_terms.gauss_markov_time`).
+    #: before it is chosen: :func:`~gyroid.inference._noise_choice.gauss_markov_time`).
     gm_tc_s: float = float("nan")
 
     @property

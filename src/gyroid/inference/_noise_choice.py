@@ -113,10 +113,10 @@ MIN_WEIGHT = 0.01
 
 
 def choose_terms(stats: HaarStatistics) -> TermChoice:
-    """Every subset of :data:`NOISE_TERMS` weighed by BIC (``n`` the number of Haar
-    coefficients): a model-averaged fit samples the sets with weight, so a term the log
-    barely resolves neither vanishes nor biases the others; a profile-likelihood upper bound
-    for each term the log does not resolve."""
+    """Every subset of the static terms (:data:`TERM_NAMES`) weighed by BIC (``n`` the
+    number of Haar coefficients): a model-averaged fit samples the sets with weight, so a
+    term the log barely resolves neither vanishes nor biases the others; a
+    profile-likelihood upper bound for each term the log does not resolve."""
     n = float(stats.count.sum())
     candidates = TERM_NAMES if np.isfinite(stats.gm_tc_s) else tuple(
         n for n in TERM_NAMES if n != "G")

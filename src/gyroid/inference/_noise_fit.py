@@ -60,7 +60,7 @@ class NoiseFit(FitResult):
     choice: TermChoice
     stats: HaarStatistics
     models: tuple[tuple[float, NoiseModelFit], ...]
-    mixture: np.ndarray = field(repr=False)  # (draws, every term of NOISE_TERMS)
+    mixture: np.ndarray = field(repr=False)  # (draws, every static term: TERM_NAMES)
     checks: CheckReport
     label: str = ""
     #: How many times more the Allan variance scatters about the model than independent
@@ -131,7 +131,7 @@ class NoiseFit(FitResult):
 
     def _term_summary(self, name: str) -> dict:
         item = term(name)
-        entry = {"unit": item.unit, "process": item.process,
+        entry = {"unit": item.unit, "process": item.description,
                  "inclusion": round(self.choice.inclusion(name), 4)}
         if name in self.terms:
             x = self.draws(name)
@@ -150,7 +150,7 @@ class NoiseFit(FitResult):
             "terms": self.term_summaries(),
             "gauss_markov": self.gauss_markov(),
             "prefilter": self.prefilter(),
-            "model": [{"name": n, "process": term(n).process, "unit": term(n).unit}
+            "model": [{"name": n, "process": term(n).description, "unit": term(n).unit}
                       for n in self.terms],
             "models_averaged": [{"terms": list(m.terms), "weight": round(w, 6),
                                  "posterior": m.posterior.method,

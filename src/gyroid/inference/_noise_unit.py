@@ -60,7 +60,7 @@ class UnitTerm:
 
     def to_json(self) -> dict:
         item = term(self.name)
-        return {"unit": item.unit, "process": item.process,
+        return {"unit": item.unit, "process": item.description,
                 "runs": {r: {"median": m, "ci90": list(c)} for r, m, c in
                          zip(self.runs, self.run_median, self.run_ci90, strict=True)},
                 "unit_median": self.unit_median, "unit_ci90": list(self.unit_ci90),

@@ -1,13 +1,17 @@
-"""The terms a drift log's noise is made of: white noise (a sample's sd, or IEEE 952's angle
-random walk N), flicker (bias instability B), a rate random walk (K), a Gauss-Markov bias
-(G, with its correlation time) and the thermometer's error through dT/dt.
+"""The terms a gyro's rate noise is made of, for a drift log's likelihood and for a static
+log's Allan variance (``gyroid noise``): one vocabulary.
 
-Each term owns its levels' names, units and priors, where a mode-finder starts them, and
-its states in the one block filter (:mod:`gyroid.noise._block_filter`): stationary
-Gauss-Markov processes (``processes``), a random walk's diffusion (``diffusion``), or the
-rate error's two states. A noise model (:class:`~gyroid.noise._model.NoiseModel`) is a
-tuple of terms, its white term first; a new term is one final subclass here or in a user's
-own file (``tests/test_noise_models.py`` defines one).
+A term of a drift log's noise (:class:`AbstractNoiseTerm`) owns its levels' names, units and
+priors, where a mode-finder starts them, and its states in the one block filter
+(:mod:`gyroid.noise._block_filter`): stationary Gauss-Markov processes (``processes``), a
+random walk's diffusion (``diffusion``), or the rate error's two states. A noise model
+(:class:`~gyroid.noise._model.NoiseModel`) is a tuple of them, its white term first.
+
+N, B, K and G are also terms of a static log's Allan variance
+(:mod:`gyroid.noise._allan_terms`, whose table gives every term's shape): the static fit's
+amplitude is the drift likelihood's level (G's its stationary sd, its correlation time
+chosen per static log). A new term is one final subclass, here or in a user's own file
+(``tests/test_noise_models.py`` defines one).
 """
 
 from __future__ import annotations
@@ -23,6 +27,13 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from gyroid.models._priors import LogNormal, Prior
+from gyroid.noise._allan_terms import (
+    AbstractAllanTerm,
+    Prefilter,
+    Quantisation,
+    RateRamp,
+    gauss_markov_avar,
+)
 from gyroid.noise._block_filter import Processes, flicker_times
 from gyroid.noise._rate_error_process import RateErrorProcess
 
@@ -138,7 +149,7 @@ class SampleWhite(AbstractWhiteTerm):
         return float(values["sigma_deg_h"])
 
 
-class AngleRandomWalk(AbstractWhiteTerm):
+class AngleRandomWalk(AbstractWhiteTerm, AbstractAllanTerm):
     """IEEE 952's white rate noise as its angle random walk ``N_deg_sqrt_h`` (a density,
     independent of the sample rate): a row's mean over a step ``L`` has sd ``60 N /
     sqrt(L)``."""
@@ -146,6 +157,12 @@ class AngleRandomWalk(AbstractWhiteTerm):
     code: ClassVar[str] = "N"
     level_names: ClassVar[tuple[str, ...]] = ("N_deg_sqrt_h",)
     static_fit: ClassVar[dict[str, str]] = {"N_deg_sqrt_h": "N"}
+    description: ClassVar[str] = "angle random walk"
+    unit: ClassVar[str] = "deg/sqrt(h)"
+    unresolved_hint: ClassVar[str] = "another process dominates the shortest averaging times"
+
+    def allan_variance(self, tau_s, tau0_s, tc_s):
+        return 3600.0 / tau_s
     units: ClassVar[dict[str, str]] = {"N_deg_sqrt_h": "deg/sqrt(h)"}
 
     def default_priors(self, level_deg_h, step_s, rows_per_mean):
@@ -179,7 +196,7 @@ def _ieee_default(level_deg_h: float, step_s: float) -> LogNormal:
     return LogNormal(level_deg_h * math.sqrt(max(step_s, 1e-9)) / 1000.0, 3.0)
 
 
-class Flicker(AbstractNoiseTerm):
+class Flicker(AbstractNoiseTerm, AbstractAllanTerm):
     """IEEE 952's bias instability ``B_deg_h``: flicker as a sum of Gauss-Markov processes
     whose correlation times :meth:`for_log` spreads over the log
     (:func:`~gyroid.noise._block_filter.flicker_times`)."""
@@ -191,6 +208,12 @@ class Flicker(AbstractNoiseTerm):
     code: ClassVar[str] = "B"
     level_names: ClassVar[tuple[str, ...]] = ("B_deg_h",)
     static_fit: ClassVar[dict[str, str]] = {"B_deg_h": "B"}
+    description: ClassVar[str] = "bias instability"
+    unit: ClassVar[str] = "deg/h"
+    unresolved_hint: ClassVar[str] = "white noise or a random walk covers the flicker floor"
+
+    def allan_variance(self, tau_s, tau0_s, tc_s):
+        return np.full_like(tau_s, 2.0 * math.log(2.0) / math.pi)
     units: ClassVar[dict[str, str]] = {"B_deg_h": "deg/h"}
     over_spans: ClassVar[bool] = True
     wanders: ClassVar[bool] = True
@@ -218,13 +241,19 @@ class Flicker(AbstractNoiseTerm):
         return taus, float(values["B_deg_h"]), unit
 
 
-class RateRandomWalk(AbstractNoiseTerm):
+class RateRandomWalk(AbstractNoiseTerm, AbstractAllanTerm):
     """IEEE 952's rate random walk ``K_deg_h_sqrt_h``, diffusing ``(K / 60)**2``
     (deg/h)^2 per second, centred on the log (its mean over the log is the bias)."""
 
     code: ClassVar[str] = "K"
     level_names: ClassVar[tuple[str, ...]] = ("K_deg_h_sqrt_h",)
     static_fit: ClassVar[dict[str, str]] = {"K_deg_h_sqrt_h": "K"}
+    description: ClassVar[str] = "rate random walk"
+    unit: ClassVar[str] = "deg/h/sqrt(h)"
+    unresolved_hint: ClassVar[str] = "the log is too short for the walk to rise above the floor"
+
+    def allan_variance(self, tau_s, tau0_s, tc_s):
+        return (tau_s / 3.0 + tau0_s**2 / (6.0 * tau_s)) / 3600.0
     units: ClassVar[dict[str, str]] = {"K_deg_h_sqrt_h": "deg/h/sqrt(h)"}
     over_spans: ClassVar[bool] = True
     wanders: ClassVar[bool] = True
@@ -242,7 +271,7 @@ class RateRandomWalk(AbstractNoiseTerm):
         return (values["K_deg_h_sqrt_h"] / 60.0) ** 2
 
 
-class GaussMarkovBias(AbstractNoiseTerm):
+class GaussMarkovBias(AbstractNoiseTerm, AbstractAllanTerm):
     """A stationary first-order Gauss-Markov (AR(1)) bias of sd ``sigma_gm_deg_h`` and
     correlation time ``tau_gm_s`` (the usual model of a FOG's bias instability)."""
 
@@ -251,6 +280,13 @@ class GaussMarkovBias(AbstractNoiseTerm):
     units: ClassVar[dict[str, str]] = {"sigma_gm_deg_h": "deg/h", "tau_gm_s": "s"}
     over_spans: ClassVar[bool] = False
     wanders: ClassVar[bool] = False
+    description: ClassVar[str] = "Gauss-Markov bias"
+    unit: ClassVar[str] = "deg/h"
+    unresolved_hint: ClassVar[str] = ("no bump in the Allan deviation that white noise, "
+                                      "flicker and a walk leave")
+
+    def allan_variance(self, tau_s, tau0_s, tc_s):
+        return gauss_markov_avar(tau_s, tau0_s, tc_s)
 
     def default_priors(self, level_deg_h, step_s, rows_per_mean):
         return {"sigma_gm_deg_h": LogNormal(level_deg_h / 3.0, 3.0),
@@ -288,3 +324,10 @@ class RateError(AbstractNoiseTerm):
 
     def start(self, residual, white, *, step_s, row_scale, dof, alone):
         return {}, {}
+
+
+#: The terms a static log's Allan variance is fitted with (``gyroid noise``), in
+#: ``noise.json``'s order.
+STATIC_TERMS: tuple[AbstractAllanTerm, ...] = (
+    Quantisation(), AngleRandomWalk(), Flicker(), RateRandomWalk(), RateRamp(),
+    GaussMarkovBias(), Prefilter())
