@@ -31,6 +31,10 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--datasets", type=int, default=30)
     parser.add_argument("--thermometer-c", type=float, nargs="+", default=[0.01, 0.05])
+    parser.add_argument("--noise", default="white",
+                        help="the fits' noise model (white, or auto: IEEE 952's)")
+    parser.add_argument("--results", default="eiv_calibration",
+                        help="the folder under experiments/results")
     args = parser.parse_args()
     started = time.time()
     results = {}
@@ -43,7 +47,7 @@ def main() -> None:
                                          noise=GyroNoise(temperature_noise_C=thermometer))
             truth = sim.truth["parameters"]
             for way, options in WAYS.items():
-                fit = fit_log(sim.log, "thermal", noise="white", sample=False, **options)
+                fit = fit_log(sim.log, "thermal", noise=args.noise, sample=False, **options)
                 z[way].append([(fit.point.value[n] - v) / fit.point.sd[n]
                                for n, v in truth.items()])
                 whiteness[way] += "residual_whiteness" in {c.name for c in fit.checks.failed}
@@ -58,8 +62,9 @@ def main() -> None:
                   "whiteness_failed": whiteness[way] / args.datasets,
                   "trustworthy": trusted[way] / args.datasets}
             for way in WAYS}
-    save_run(results_dir("eiv_calibration"), seed=args.seed,
+    save_run(results_dir(args.results), seed=args.seed,
              config={"datasets": args.datasets, "thermometer_C": args.thermometer_c,
+                     "noise": args.noise,
                      "ways": {w: {k: str(v) for k, v in o.items()} for w, o in WAYS.items()},
                      "bench": "simulate_thermal_bench (1 Hz, paper A's truth, white gyro "
                               "noise 0.3 deg/h)"},

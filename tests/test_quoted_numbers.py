@@ -300,6 +300,23 @@ def test_the_thermometer_carried_into_dt_dt():
     assert noisy["left_out"]["trustworthy"] == 0.0
 
 
+def test_the_thermometer_carried_under_the_default_noise():
+    runs = _results("eiv_calibration_ieee")
+    n = 30
+
+    def outside(way):
+        return [round(f * n) for f in way["outside_95"].values()]
+
+    fine, noisy = runs["thermometer_0.01C"], runs["thermometer_0.05C"]
+    z_sd = noisy["carried"]["z_sd"].values()
+    fixed = noisy["carried_window_1200s"]
+    _quoted(f"with a 0.01 degC thermometer at most {max(outside(fine['carried']))} of {n}",
+            f"with 0.05 degC, up to {max(outside(noisy['carried']))} of {n}",
+            f"the z-scores' sd is {min(z_sd):.2f} to {max(z_sd):.2f}",
+            f"(z-scores' sd {min(fixed['z_sd'].values()):.2f} to "
+            f"{max(fixed['z_sd'].values()):.2f}, at most {max(outside(fixed))} of {n} outside)")
+
+
 def test_the_white_fits_that_carry_the_thermometer_pass_where_they_failed():
     runs = json.loads((ROOT / "benchmarks" / "results_scaling_eiv.json").read_text())["results"]
     assert [r["rows"] for r in runs] == [10_000, 100_000]
