@@ -49,6 +49,27 @@ def test_the_console_links_each_check_to_its_entry_in_the_check_table():
         "warning: outliers [docs/checks.md#noise-outliers]: two spikes")
 
 
+def test_a_long_check_message_is_one_line_of_what_was_found_in_the_console():
+    """The console cuts a long message at its first clause (not inside a parenthesis) and
+    says where the full text is; a short one stands whole."""
+    from gyroid.cli.base import CONSOLE_MESSAGE, check_lines, first_clause
+    from gyroid.inference import Check, CheckReport
+
+    found = ("at noise levels this log does not rule out (N_deg_sqrt_h = 0.0049 deg/sqrt(h), "
+             "B_deg_h = 0.0025 deg/h) w0's sd is 2.9x its posterior sd (95 % range over such "
+             "levels [1.154, 1.233])")
+    message = found + ": the intervals rest on the noise levels' priors; give a datasheet"
+    assert first_clause(message) == found
+    line = check_lines(CheckReport((Check("noise_prior_dependence", False, "warning", 2.9,
+                                          2.0, message),)), "fit")[0]
+    assert line.endswith(f"{found} ... (in full: fit.json)") and "\n" not in line
+    no_clause = "w " * 150  # no clause break: cut at a space before the limit
+    assert len(first_clause(no_clause)) <= CONSOLE_MESSAGE
+    opened = "a finding of some length " * 5 + "(" + "x " * 100 + ") and more"
+    assert first_clause(opened) == ("a finding of some length " * 5).rstrip()
+    assert first_clause("short: whole") == "short: whole"
+
+
 def test_the_readme_is_a_front_page_with_the_two_set_up_commands_first():
     lines = (ROOT / "README.md").read_text().splitlines()
     assert len(lines) <= 300

@@ -363,19 +363,54 @@ DOCUMENTED_CHECKS: dict[str, dict[str, str]] = {
 }
 
 
+#: Where each command writes its checks' full text.
+RESULT_FILES = {"fit": "fit.json", "batch": "fit.json", "compensate": "compensate.json",
+                "pool": "pool.json", "noise": "noise.json", "roll fit": "roll_fit.json",
+                "discrepancy": "discrepancy.json"}
+#: A check's message longer than this is cut, in the console, at its first clause ...
+CONSOLE_MESSAGE = 160
+#: ... if that clause is no longer than this.
+CLAUSE_AT_MOST = 240
+
+
+def first_clause(message: str, limit: int = CONSOLE_MESSAGE) -> str:
+    """``message`` as is when it is at most ``limit`` characters, else up to its first
+    ``: `` or ``; `` outside parentheses (what was found; the rest says why and what to
+    do) if that is within :data:`CLAUSE_AT_MOST`, else up to the last space before
+    ``limit`` (before a parenthesis still open there)."""
+    if len(message) <= limit:
+        return message
+    depth, opened, open_at_limit = 0, -1, -1  # where the outermost parenthesis opened
+    for i, char in enumerate(message[:CLAUSE_AT_MOST]):
+        if char == "(" and depth == 0:
+            opened = i
+        depth += (char == "(") - (char == ")")
+        if i == limit and depth > 0:
+            open_at_limit = opened
+        if depth == 0 and char in ":;" and message[i + 1:i + 2] == " " and i >= 20:
+            return message[:i]
+    if open_at_limit > 20:  # not inside a parenthesis: before it
+        return message[:open_at_limit].rstrip()
+    space = message.rfind(" ", 0, limit)
+    return message[:space] if space > 0 else message[:limit]
+
+
 def check_lines(checks, command: str) -> list[str]:
-    """One line per failed check (errors first), with its entry in the documentation's
-    check table where it has one and the options of ``command`` that act on its
-    remedies."""
+    """One line per failed check (errors first): its first clause, with its entry in the
+    documentation's check table where it has one, where its full text is, and the options
+    of ``command`` that act on its remedies."""
     flags = REMEDY_FLAGS.get(command, {})
     anchors = DOCUMENTED_CHECKS.get(command, {})
+    where = RESULT_FILES.get(command, "the result file")
     lines = []
     for check in sorted(checks.failed, key=lambda c: c.severity != "error"):
         tries = [flags[code] for code in check.remedies if code in flags]
         hint = f" (try: {'; '.join(tries)})" if tries else ""
         anchor = anchors.get(check.name)
         entry = f" [docs/checks.md#{anchor}]" if anchor else ""
-        lines.append(f"{check.severity}: {check.name}{entry}: {check.message}{hint}")
+        text = first_clause(check.message)
+        more = f" ... (in full: {where})" if text != check.message else ""
+        lines.append(f"{check.severity}: {check.name}{entry}: {text}{more}{hint}")
     return lines
 
 
