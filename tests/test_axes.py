@@ -113,7 +113,7 @@ def test_discrepancy_searches_each_axis(tmp_path):
 def test_the_multi_axis_verdict_names_the_axes_that_may_be_used(capsys, trusted, says):
     """Issue 43: 'axes x, y, z must not be used (exit 3); the others may' had been printed
     when there were no others."""
-    from gyroid.cli.base import report_axes
+    from gyroid.cli.report import report_axes
     from gyroid.errors import UntrustworthyResult
     from gyroid.inference import Check, CheckReport
     from gyroid.pipeline._axes import PerAxis

@@ -214,7 +214,7 @@ def test_a_noise_parameter_held_up_by_its_prior_is_only_a_warning():
 
 def test_advice_names_only_what_the_kind_of_fit_can_do():
     # A roll fit has no --noise option: its correlated residuals are not answered with one.
-    from gyroid.cli.base import check_lines
+    from gyroid.cli.report import check_lines
     from gyroid.inference import CheckReport
 
     z = _ar1(np.random.default_rng(4), 20_000, 0.9)
@@ -314,7 +314,7 @@ def test_a_white_gm_fit_that_mispredicts_is_not_told_to_use_white_gm():
     """The predictive check of a white+gm fit advises IEEE 952's terms (white + flicker +
     rate random walk), not the noise model the fit already has (measured in
     experiments/mems_thermal_bench.py: flicker and a random walk under white+gm)."""
-    from gyroid.cli.base import check_lines
+    from gyroid.cli.report import check_lines
     from gyroid.inference import CheckReport
     from gyroid.inference._predictive import HeldOut, predictive_check
     from gyroid.noise import noise_model

@@ -30,7 +30,7 @@ def test_the_console_links_each_check_to_its_entry_in_the_check_table():
     anchor in docs/checks.md, and every anchor there is linked."""
     import re
 
-    from gyroid.cli.base import DOCUMENTED_CHECKS, check_lines
+    from gyroid.cli.report import DOCUMENTED_CHECKS, check_lines
     from gyroid.inference import Check, CheckReport
 
     anchors = set(re.findall(r'<a id="([a-z_-]+)"></a>',
@@ -50,9 +50,9 @@ def test_the_console_links_each_check_to_its_entry_in_the_check_table():
 
 
 def test_a_long_check_message_is_one_line_of_what_was_found_in_the_console():
-    """The console cuts a long message at its first clause (not inside a parenthesis) and
-    says where the full text is; a short one stands whole."""
-    from gyroid.cli.base import CONSOLE_MESSAGE, check_lines, first_clause
+    """The console cuts a long warning at its first clause (not inside a parenthesis) and
+    says where the full text is; a short one, and an error, stand whole."""
+    from gyroid.cli.report import CONSOLE_MESSAGE, check_lines, first_clause
     from gyroid.inference import Check, CheckReport
 
     found = ("at noise levels this log does not rule out (N_deg_sqrt_h = 0.0049 deg/sqrt(h), "
@@ -63,6 +63,9 @@ def test_a_long_check_message_is_one_line_of_what_was_found_in_the_console():
     line = check_lines(CheckReport((Check("noise_prior_dependence", False, "warning", 2.9,
                                           2.0, message),)), "fit")[0]
     assert line.endswith(f"{found} ... (in full: fit.json)") and "\n" not in line
+    error = check_lines(CheckReport((Check("noise_prior_dependence", False, "error", 29.0,
+                                           10.0, message),)), "fit")[0]
+    assert error.endswith(message)
     no_clause = "w " * 150  # no clause break: cut at a space before the limit
     assert len(first_clause(no_clause)) <= CONSOLE_MESSAGE
     opened = "a finding of some length " * 5 + "(" + "x " * 100 + ") and more"

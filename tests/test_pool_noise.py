@@ -19,7 +19,7 @@ def test_correlated_runs_are_refused_with_advice_pool_can_follow():
     """Runs with Gauss-Markov noise: pooled as white noise (``--noise white``), whiteness
     fails and the advice names what works (the command line's hint: --noise auto, the
     default)."""
-    from gyroid.cli.base import check_lines
+    from gyroid.cli.report import check_lines
     from gyroid.simulation import GyroNoise, simulate_magnetic_bench
 
     noise = GyroNoise(arw_deg_rt_h=0.002, bias_instability_deg_h=0.3, correlation_time_s=600)

@@ -141,7 +141,7 @@ def test_bias_wander_between_bursts_is_refused_per_sample_and_covered_by_segment
     per_sample = fit_log(BenchLog(columns), "bias,temperature,temperature_sq", sampler=QUICK,
                          noise="white")
     assert not per_sample.trustworthy
-    from gyroid.cli.base import check_lines
+    from gyroid.cli.report import check_lines
 
     assert "--segment-means" in check_lines(per_sample.checks, "fit")[0]
     covered = 0

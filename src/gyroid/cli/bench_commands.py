@@ -21,12 +21,10 @@ from gyroid.cli.base import (
     parse_axes,
     parse_effects,
     parse_maps,
-    report_checks,
-    report_line,
-    report_written,
     terms_help,
     terms_option,
 )
+from gyroid.cli.report import report_checks, report_line, report_written
 from gyroid.errors import UntrustworthyResult
 
 

@@ -7,7 +7,8 @@ from pathlib import Path
 
 import click
 
-from gyroid.cli.base import cli, report_line
+from gyroid.cli.base import cli
+from gyroid.cli.report import report_line
 from gyroid.errors import UntrustworthyResult
 
 

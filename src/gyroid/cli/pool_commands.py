@@ -13,9 +13,9 @@ from gyroid.cli.base import (
     map_option,
     parse_maps,
     prior_options,
-    report_checks,
     terms_option,
 )
+from gyroid.cli.report import report_checks
 
 
 @cli.command()

@@ -6,15 +6,8 @@ from pathlib import Path
 
 import click
 
-from gyroid.cli.base import (
-    SEED,
-    cli,
-    map_option,
-    parse_assignments,
-    parse_maps,
-    report_checks,
-    report_line,
-)
+from gyroid.cli.base import SEED, cli, map_option, parse_assignments, parse_maps
+from gyroid.cli.report import report_checks, report_line
 from gyroid.errors import GyroidInputError
 
 
