@@ -38,7 +38,6 @@ NOT_YET_TYPED = {
     "inference/_predictive.py": 1,
     "inference/_rate_window.py": 5,
     "inference/_rate_window_marginal.py": 3,
-    "inference/_residual_checks.py": 2,
     "inference/_storage.py": 2,
     "io/_arviz.py": 2,
     "io/_bench_reader.py": 1,

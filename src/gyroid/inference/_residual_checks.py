@@ -57,7 +57,7 @@ def block_variance_ratios(z: np.ndarray, min_blocks: int = 16
     return out
 
 
-def segment_variance_ratio(z: np.ndarray, segments: tuple[tuple[int, int], ...]
+def segment_variance_ratio(z: np.ndarray, segments: tuple[tuple[int, int], ...] | None
                            ) -> tuple[float, int] | None:
     """(``sum n_k (mean_k - mean)**2 / ((K - 1) var(z))``, K) over the log's K contiguous
     segments: ``chi2(K-1)/(K-1)`` when ``z`` is white. None for fewer than 8 segments."""
@@ -101,11 +101,11 @@ def residual_whiteness(residuals: np.ndarray | None, *,
         return Check("residual_whiteness", True, if_failed, max(r for _, r, _ in ratios),
                      WHITENESS_INFLATION, "the residuals are consistent with white noise")
     k = max(np.flatnonzero(significant), key=lambda i: ratios[i][1])
-    m, inflation, _ = ratios[k]
+    m, inflation, count = ratios[k]
     p = float(min(1.0, p_values[k] * len(ratios)))
     severe = inflation > WHITENESS_INFLATION
     severity: Severity = "error" if severe and not correlated_noise_modelled else "warning"
-    blocks = (f"the {len(segments)} contiguous segments' means" if m == "segment" else
+    blocks = (f"the {count} contiguous segments' means" if m == "segment" else
               f"blocks of {m} samples")
     where = f"{blocks} vary {inflation:.1f}x as much as white noise would (p = {p:.1g})"
 
