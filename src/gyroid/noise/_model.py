@@ -196,9 +196,8 @@ class NoiseModel(eqx.Module):
         diffusion, centred = self._walk(values)
         if self._at_instants(clock.gap_s is not None, processes, centred):
             taus, level, unit = processes[0]
-            sd = level if unit == 1.0 else level * np.sqrt(unit)
-            return gauss_markov_innovations(observed, clock.steps_s, white, sd, taus[0],
-                                            clock.weight)
+            return gauss_markov_innovations(observed, clock.steps_s, white,
+                                            level * np.sqrt(unit), taus[0], clock.weight)
         span = jnp.full_like(clock.steps_s, clock.step_s)
         gap = jnp.zeros_like(span) if clock.gap_s is None else clock.gap_s
         return block_innovations(observed, span, gap, jnp.broadcast_to(white**2, span.shape),

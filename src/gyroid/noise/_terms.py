@@ -58,9 +58,6 @@ class AbstractNoiseTerm(eqx.Module):
     #: Whether it carries a level's wander at hour scales (flicker, a walk): a log of
     #: bursts is read as it is, the wander between bursts being the term's.
     wanders: eqx.AbstractClassVar[bool]
-    #: Its levels a static noise fit (``gyroid noise``) and a datasheet state in the same
-    #: units, by the static fit's term letter (none: a level those do not give).
-    static_fit: ClassVar[dict[str, str]] = {}
 
     @abc.abstractmethod
     def default_priors(self, level_deg_h: float, step_s: float, rows_per_mean: int
@@ -106,6 +103,16 @@ class AbstractNoiseTerm(eqx.Module):
         """A random walk's diffusion ((deg/h)^2 per s) at levels ``values``, or None."""
         del values
         return None
+
+    @property
+    def static_fit(self) -> dict[str, str]:
+        """Its level that a static noise fit (``gyroid noise``) and a datasheet state in the
+        same units, by the static fit's letter: the one level of a term that is also a
+        term of a static log's Allan variance (N, B, K); none otherwise (a sample's sd, G's
+        two levels, the rate error)."""
+        if isinstance(self, AbstractAllanTerm) and len(self.level_names) == 1:
+            return {self.level_names[0]: self.code}
+        return {}
 
 
 class AbstractWhiteTerm(AbstractNoiseTerm):
@@ -156,7 +163,6 @@ class AngleRandomWalk(AbstractWhiteTerm, AbstractAllanTerm):
 
     code: ClassVar[str] = "N"
     level_names: ClassVar[tuple[str, ...]] = ("N_deg_sqrt_h",)
-    static_fit: ClassVar[dict[str, str]] = {"N_deg_sqrt_h": "N"}
     description: ClassVar[str] = "angle random walk"
     unit: ClassVar[str] = "deg/sqrt(h)"
     unresolved_hint: ClassVar[str] = "another process dominates the shortest averaging times"
@@ -207,7 +213,6 @@ class Flicker(AbstractNoiseTerm, AbstractAllanTerm):
 
     code: ClassVar[str] = "B"
     level_names: ClassVar[tuple[str, ...]] = ("B_deg_h",)
-    static_fit: ClassVar[dict[str, str]] = {"B_deg_h": "B"}
     description: ClassVar[str] = "bias instability"
     unit: ClassVar[str] = "deg/h"
     unresolved_hint: ClassVar[str] = "white noise or a random walk covers the flicker floor"
@@ -247,7 +252,6 @@ class RateRandomWalk(AbstractNoiseTerm, AbstractAllanTerm):
 
     code: ClassVar[str] = "K"
     level_names: ClassVar[tuple[str, ...]] = ("K_deg_h_sqrt_h",)
-    static_fit: ClassVar[dict[str, str]] = {"K_deg_h_sqrt_h": "K"}
     description: ClassVar[str] = "rate random walk"
     unit: ClassVar[str] = "deg/h/sqrt(h)"
     unresolved_hint: ClassVar[str] = "the log is too short for the walk to rise above the floor"
