@@ -21,11 +21,17 @@ def report_line(line: str) -> None:
     stream = context.meta.get(REPORT_STREAM) if context is not None else None
     click.echo(line, file=stream, err=stream is None)
 
+def _current_command() -> str:
+    """The command being run, as ``REMEDY_FLAGS`` and ``DOCUMENTED_CHECKS`` name it
+    (``fit``, ``roll fit``); empty outside one."""
+    context = click.get_current_context(silent=True)
+    return " ".join(context.command_path.split()[1:]) if context is not None else ""
+
+
 def report_axes(result) -> None:
     """Print each axis's failed checks (prefixed by its axis) and a line per axis; exit 3
     when any axis must not be used (every axis's files are written first)."""
-    context = click.get_current_context(silent=True)
-    command = " ".join(context.command_path.split()[1:]) if context is not None else ""
+    command = _current_command()
     for axis, item in result.results.items():
         for line in check_lines(item.checks, command):
             report_line(f"axis {axis}: {line}")
@@ -52,6 +58,7 @@ def report_written(result, out: Path, files: tuple[str, ...]) -> None:
     click.echo(f"wrote {', '.join(str(out / name) for name in files)}")
     report_checks(result.only.checks)
 
+
 _FIT_FLAGS = {"noise_model": "--noise auto", "noise_terms": "--noise white+flicker+rw",
               "segment_means": "--segment-means",
               "discrepancy": "gyroid discrepancy", "prior": "--prior NAME=normal(MU,SD)"}
@@ -64,8 +71,6 @@ REMEDY_FLAGS = {
              "discrepancy": "gyroid discrepancy", "prior": "--prior NAME=normal(MU,SD)"},
     "roll fit": {"discrepancy": "gyroid discrepancy"},
 }
-
-
 _BENCH_CHECKS = {name: name for name in (
     "prior_data_conflict", "point_vs_posterior", "goodness_of_fit", "residual_whiteness",
     "outliers", "identifiability", "convergence", "rate_estimate", "noise_prior_dependence")}
@@ -141,8 +146,7 @@ def report_checks(checks) -> None:
     """Print every failed self-check in one line (with this command's options for its
     remedies), then the verdict; exit 3 when the result must not be used (outputs are
     written first)."""
-    context = click.get_current_context(silent=True)
-    command = " ".join(context.command_path.split()[1:]) if context is not None else ""
+    command = _current_command()
     for line in check_lines(checks, command):
         report_line(line)
     if not checks.trustworthy:

@@ -1,6 +1,7 @@
-"""The static noise fit's use of the noise terms (:mod:`gyroid.noise._terms`, whose table
-gives each term's Allan-variance shape): their letters, the sets that can be fitted
-together, their envelopes and ceilings on a log, and the Haar levels' likelihood.
+"""The static noise fit's use of the noise terms (:data:`gyroid.noise._terms.STATIC_TERMS`;
+each one's Allan-variance shape in :mod:`gyroid.noise._allan_terms`' table): their letters,
+the sets that can be fitted together, their envelopes and ceilings on a log, and the Haar
+levels' likelihood.
 
 G, a first-order Gauss-Markov bias of stationary sd ``G`` (a MEMS gyro's bump in the Allan
 deviation at some seconds to minutes, which rises as a random walk below its correlation
@@ -16,7 +17,8 @@ from __future__ import annotations
 import numpy as np
 
 from gyroid.inference._haar import HaarStatistics
-from gyroid.noise._terms import STATIC_TERMS, AbstractAllanTerm
+from gyroid.noise._allan_terms import AbstractAllanTerm
+from gyroid.noise._terms import STATIC_TERMS
 
 #: The terms' letters, in ``noise.json``'s order.
 TERM_NAMES = tuple(t.code for t in STATIC_TERMS)
