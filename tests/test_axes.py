@@ -28,6 +28,7 @@ def _three_axis_log(seed: int, n: int = 600, wander_z: float = 0.0) -> dict[str,
     return columns
 
 
+@pytest.mark.slow
 def test_three_axes_in_one_command_equal_three_logs_of_one(tmp_path):
     columns = _three_axis_log(0)
     log = write_log(tmp_path / "imu.csv", columns)
@@ -68,6 +69,7 @@ def test_three_axes_in_one_command_equal_three_logs_of_one(tmp_path):
     assert (single / "compensate.json").exists() and not (single / "axes.json").exists()
 
 
+@pytest.mark.slow
 def test_an_axis_that_must_not_be_used_is_named_and_the_others_written(tmp_path, capsys):
     log = write_log(tmp_path / "imu.csv", _three_axis_log(2, wander_z=60.0))
     out = tmp_path / "fit"

@@ -24,6 +24,7 @@ def _compile_shapes(count: int) -> None:
         _program(jnp.ones((n, 3))).block_until_ready()
 
 
+@pytest.mark.slow
 def test_a_crowded_process_drops_its_compiled_programs(monkeypatch):
     _compile_shapes(40)
     assert _program._cache_size() >= 40

@@ -143,6 +143,7 @@ def _still_bench(tmp_path, arw: float, seed: int = 4):
                                               "temperature_C": temperature})
 
 
+@pytest.mark.slow
 def test_a_datasheet_sets_the_noise_levels_priors_of_a_fit(tmp_path):
     """Contract section 7: ``gyroid fit --noise FILE.toml`` fits white + flicker + rate
     random walk, each level the datasheet gives a log-normal about its typical value (log-sd

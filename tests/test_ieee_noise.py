@@ -182,6 +182,7 @@ def _ramp_log(rng, n, *, b=0.0, k=0.0, arw=0.3, dt=1.0):
     return BenchLog({"time_s": time_s, "drift_deg_h": drift, "temperature_C": temperature})
 
 
+@pytest.mark.slow
 def test_a_long_log_is_fitted_as_block_means_and_its_samples_checked_for_spikes():
     rng = np.random.default_rng(1)
     log = _ramp_log(rng, 5000, b=3.0)
@@ -199,6 +200,7 @@ def test_a_long_log_is_fitted_as_block_means_and_its_samples_checked_for_spikes(
     assert fit.to_json()["block_means"] == {"means": 1000, "rows_per_mean": 5, "rows": 5000}
 
 
+@pytest.mark.slow
 def test_auto_carries_flicker_and_a_walk_whatever_the_log():
     """The default carries the low-frequency processes on every log, white or not: no test
     with no power at the hour scales chooses the noise model (issue 42)."""
@@ -211,6 +213,7 @@ def test_auto_carries_flicker_and_a_walk_whatever_the_log():
                    sample=False).to_json()["noise_choice"] == "asked for: white"
 
 
+@pytest.mark.slow
 def test_a_burst_log_is_read_as_it_is():
     """IEEE noise carries the wander between bursts as flicker and walk, over the gaps: asked
     with --segment-means it says to fit the samples; auto with --segment-means does so."""

@@ -110,6 +110,7 @@ def test_importance_sampling_reaches_the_exact_posterior(walked_problem, seed):
     np.testing.assert_array_equal(again.draws, posterior.draws)
 
 
+@pytest.mark.slow
 def test_kept_draws_carry_the_joint_log_posterior(walked_problem):
     """The kept draws' log-posterior, the marginal's plus the conditional Gaussian's
     (no further filter pass), is the joint density's own at every draw; and the
@@ -152,6 +153,7 @@ def test_a_problem_without_a_collapsed_form_goes_to_emcee():
     assert posterior.method.startswith("emcee")
 
 
+@pytest.mark.slow
 def test_stored_block_log_likelihoods_need_one_filter_pass_per_noise_level(walked_problem):
     """posterior.nc's block log-likelihoods of an importance posterior, computed with one
     filter pass per distinct noise level (its draws repeat them) and the filter's linearity,
@@ -169,6 +171,7 @@ def test_stored_block_log_likelihoods_need_one_filter_pass_per_noise_level(walke
     np.testing.assert_allclose(fast.reshape(direct.shape), direct, rtol=1e-9, atol=1e-9)
 
 
+@pytest.mark.slow
 def test_a_time_constant_is_sampled_as_its_exact_marginal():
     """A warm-up (2 deg/h, 400 s, on 50 min) under white + Gauss-Markov noise: importance
     sampling draws the time constant with the noise levels

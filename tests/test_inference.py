@@ -355,6 +355,7 @@ def test_fit_log_progress_can_be_switched_off(capsys, monkeypatch):
     assert "emcee" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_fit_log_defaults_to_the_command_lines_noise():
     """A script's fit_log(log, terms) gets what `gyroid fit` gives (issue 42): IEEE 952
     noise, whose rate random walk widens a temperature slope the walk can mimic, not the

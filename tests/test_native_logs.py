@@ -114,6 +114,7 @@ def test_mat_files_read_every_column_and_map_units(tmp_path):
     assert abs(w1["mean"] - 2.0) < 4 * w1["sd"]
 
 
+@pytest.mark.slow
 def test_a_ulog_is_fitted_on_every_axis_as_its_csv(tmp_path):
     """The end-to-end promise: one gyroid fit of a ULog, every axis, the same numbers as the
     CSV of the same values (to 1e-9)."""
@@ -151,6 +152,7 @@ def test_a_damaged_native_log_gets_one_clear_message(tmp_path, capsys, name, con
     assert message in err and "Traceback" not in err
 
 
+@pytest.mark.slow
 def test_the_imus_of_one_log_pool_as_runs(tmp_path, capsys):
     """Three gyros of one type in one ULog, each with its own bias and the type's 2 deg/h
     per degC: pooled as runs STEM#N of one axis, the type's temperature coefficient is

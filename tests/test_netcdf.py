@@ -61,6 +61,7 @@ def test_an_xarray_file_is_read_in_contract_units(tmp_path, engine):
     assert "gyro_x" not in table.header  # read as drift_x_deg_h only
 
 
+@pytest.mark.slow
 def test_a_netcdf_log_is_fitted_on_every_axis_without_renaming(tmp_path, capsys):
     dataset, _ = _thermal_dataset(seed=4)
     path = tmp_path / "calibration.nc"

@@ -71,6 +71,7 @@ def test_intervals_cover_at_their_nominal_rate():
     assert all(count >= low for count in inside.values()), inside
 
 
+@pytest.mark.slow
 def test_noise_command_writes_each_axis(tmp_path):
     rng = np.random.default_rng(3)
     n, dt = 50_000, 0.01

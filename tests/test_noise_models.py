@@ -70,6 +70,7 @@ def _log(seed: int, n: int = 3000) -> tuple[BenchLog, dict]:
     return BenchLog({"time_s": time_s, "drift_deg_h": drift, "temperature_C": temperature}), truth
 
 
+@pytest.mark.slow
 def test_a_noise_model_defined_outside_the_library_fits_a_log():
     log, truth = _log(seed=11)
     problem = BenchProblem.from_log(log, "bias,temperature", noise=KNOWN_TAU)

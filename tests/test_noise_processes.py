@@ -79,6 +79,7 @@ def test_a_few_spikes_are_named_by_row_and_kept_out_of_the_terms():
     assert math.sqrt(np.var(rate) * dt) / 60.0 > high
 
 
+@pytest.mark.slow
 def test_heavy_tails_are_refused_and_gaussian_noise_flags_nothing():
     rng = np.random.default_rng(6)
     dt, n = 0.01, 100_000
@@ -123,6 +124,7 @@ def _unit_runs(seed: int, runs: int, spread: float):
     return [_white(rng, n, dt, a) for a in arw], arw, dt
 
 
+@pytest.mark.slow
 def test_the_unit_interval_holds_runs_that_differ_more_than_their_own_intervals():
     rates, arw, dt = _unit_runs(7, 6, 0.05)
     fits = [fit_noise(r, dt) for r in rates]
@@ -139,6 +141,7 @@ def test_the_unit_interval_holds_runs_that_differ_more_than_their_own_intervals(
     assert outside >= 4 and n.homogeneity_p < 1e-3
 
 
+@pytest.mark.slow
 def test_noise_of_several_runs_writes_each_run_and_the_unit(tmp_path, capsys):
     rates, _, dt = _unit_runs(8, 3, 0.03)
     paths = []

@@ -75,6 +75,7 @@ def test_scenario_files_and_bad_scenarios(tmp_path):
         load_scenario("no_such_scenario")
 
 
+@pytest.mark.slow
 def test_cli_propagates_a_fitted_bench(tmp_path):
     sim, fit, out = tmp_path / "sim", tmp_path / "fit", tmp_path / "prop"
     assert main(["simulate", "thermal", "--out", str(sim), "--seed", "2"]) == 0

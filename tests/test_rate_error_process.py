@@ -176,6 +176,7 @@ def test_every_correlated_noise_model_carries_the_thermometer(noise):
         *args, block_means=True, after_s=3600.0))
 
 
+@pytest.mark.slow
 def test_a_log_of_bursts_carries_none():
     """The estimator differentiates a log of bursts on a grid across its gaps: its error
     is not the rows' kernel, and nothing is carried (as under white noise); the automatic

@@ -42,6 +42,7 @@ def bench():
     return _raised_cosine_bench(0)
 
 
+@pytest.mark.slow
 def test_the_window_under_ieee_noise_is_the_marginal_likelihoods(bench):
     """The chosen window is shorter than least squares' and its marginal is far higher;
     the walk's mode is within a few times its truth at both windows (the thermometer's
@@ -64,6 +65,7 @@ def test_the_window_under_ieee_noise_is_the_marginal_likelihoods(bench):
         assert problem.mode().value["K_deg_h_sqrt_h"] < 5.0 * WALK
 
 
+@pytest.mark.slow
 def test_without_the_thermometers_noise_the_walk_takes_it_in(bench):
     """Left out of the filter, the dT/dt estimator's error from the thermometer's noise
     (correlated over the window, above the white noise of a block mean here) is taken in
@@ -86,6 +88,7 @@ def test_a_white_fit_keeps_least_squares_window(bench):
     assert marginal_window(lambda w: white.density, white.rate_window_s, 1.0) is None
 
 
+@pytest.mark.slow
 def test_a_model_with_a_time_constant_carries_the_thermometer_and_chooses_the_same_way(
         bench):
     """A warm-up beside the thermal terms: the thermometer's noise is carried through

@@ -231,6 +231,7 @@ def test_the_real_matlab_file_reads_as_the_registry_converts_it(mpu_folder):
                                np.asarray(converted.drift_deg_h), rtol=1e-9)
 
 
+@pytest.mark.slow
 def test_under_ieee_noise_the_point_is_the_marginal_mode_the_posterior_centres_on(pan_log):
     """The real log broke this: the joint mode put the rate random walk's K 1.9 posterior sd
     below its posterior (the coefficients absorb a walk), and point_vs_posterior refused the
@@ -259,6 +260,7 @@ def test_under_ieee_noise_the_point_is_the_marginal_mode_the_posterior_centres_o
     assert point.value["K_deg_h_sqrt_h"] > 10.0  # the walk is there (posterior 33 +/- 7)
 
 
+@pytest.mark.slow
 def test_a_real_allan_variance_the_noise_terms_cannot_describe_is_refused():
     """The MPU6050 logged still with x pointing up: read as independent Haar coefficients,
     its z axis gave N 44 % above the Allan-slope reading with a 1 % interval and exit 0.

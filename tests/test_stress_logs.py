@@ -45,6 +45,7 @@ def test_mems_gyro_under_fog_priors_is_refused(tmp_path, capsys):
     assert fit["checks"]["prior_data_conflict"]["passed"] is False
 
 
+@pytest.mark.slow
 def test_fast_ramps_are_recovered_or_refused():
     """Case 2: 15-minute ramps. The fixed 1200 s window smears every kink: the checks must
     refuse that fit; the automatic window must recover the truth or refuse too."""
