@@ -98,7 +98,7 @@ _IMPORTS = {
     "fit_modules": (
         "import gyroid._config; gyroid._config.configure()\n"
         "import gyroid.pipeline._fit_file, gyroid.reports._write, gyroid.plotting\n"
-        "from gyroid.io._arviz import arviz; arviz()\n"
+        "from gyroid.io._arviz import load_arviz; load_arviz()\n"
         "import dask, distributed"),
 }
 

@@ -316,37 +316,25 @@ def noise(data, out, seed, mappings, axes, instance, static_deg_s, datasheet) ->
     deficit F; terms it cannot resolve get an upper bound. Several DATA logs are runs of one
     unit (or lot): each is fitted, then the unit's terms with the run-to-run spread and the
     interval a new run should land in. Exit code 3 when a self-check says not to use it."""
-    from gyroid.pipeline._noise_file import noise_file, noise_unit_files
+    from gyroid.pipeline._noise_file import NoiseOptions, noise_file, noise_unit_files
 
-    options = dict(seed=seed, maps=parse_maps(mappings), axes=parse_axes(axes),
-                   instance=instance, static_deg_s=static_deg_s, datasheet=datasheet)
+    options = NoiseOptions(seed=seed, maps=parse_maps(mappings), axes=parse_axes(axes),
+                           instance=instance, static_deg_s=static_deg_s, datasheet=datasheet)
     if len(data) > 1:
-        runs = noise_unit_files(data, out, **options, say=lambda m: click.echo(m, err=True))
+        runs = noise_unit_files(data, out, options, say=lambda m: click.echo(m, err=True))
         for axis, unit in runs.unit.results.items():
             which = f"axis {axis}: " if runs.unit.several else ""
             click.echo(which + unit.summary().replace("\n", "\n" + which))
         report_written(runs.unit, out / "unit", ("unit.json", "unit.png"))
         return
     click.echo(f"fitting the noise of {data[0]} ...", err=True)
-    result = noise_file(data[0], out, **options)
+    result = noise_file(data[0], out, options)
     kept = result.source.get("static")
-    if kept:
+    if isinstance(kept, dict):
         click.echo(f"--static {kept['threshold_deg_s']:g}: kept {kept['rows_kept']} of "
                    f"{kept['rows']} rows in {kept['stretches']} still stretch(es)", err=True)
     for axis, item in result.results.items():
         which = f"axis {axis}: " if result.several else ""
-        for name, entry in item.reported_terms().items():
-            when = f", correlation time {entry['tau_s']:.3g} s" if name == "G" else ""
-            if entry["resolved"]:
-                lo, hi = entry["ci90"]
-                click.echo(f"{which}{name} = {entry['mean']:.4g} [{lo:.4g}, {hi:.4g}] "
-                           f"{entry['unit']} ({entry['process']}{when})")
-            elif entry["upper_bound_95"] is not None:
-                click.echo(f"{which}{name}: not resolved, below {entry['upper_bound_95']:.3g} "
-                           f"{entry['unit']} (95 %; {entry['why']})")
-        for name, verdict in (item.spec or {}).items():
-            lo, hi = verdict["measured"]
-            click.echo(f"{which}{name} against the datasheet's {verdict['datasheet']:.4g} "
-                       f"{verdict['unit']}: {verdict['verdict']} (measured {lo:.4g} ... "
-                       f"{hi:.4g})")
+        for line in (*item.term_lines(), *item.spec_lines()):
+            click.echo(which + line)
     report_written(result, out, ("noise.json", "allan.png"))

@@ -65,7 +65,7 @@ from gyroid.inference._marginal_target import MarginalTarget
 from gyroid.inference._posterior import Posterior, summarise_draws
 from gyroid.inference._problem import AbstractProblem, AbstractSampler, PointEstimate
 from gyroid.inference._proposals import Blend, Kernels, StudentMixture
-from gyroid.io._arviz import arviz
+from gyroid.io._arviz import load_arviz
 
 #: Pareto shape above which importance sampling's averages are not trusted (PSIS paper).
 MAX_PARETO_K = 0.7
@@ -216,7 +216,7 @@ def _smoothed(draws: np.ndarray, solved: np.ndarray, log_weight: np.ndarray
     if finite.sum() < log_weight.size // 2:
         return None
     floor = np.min(log_weight[finite]) - 1e3  # a zero weight, in what PSIS accepts
-    smoothed, pareto_k = arviz().psislw(np.where(finite, log_weight, floor))
+    smoothed, pareto_k = load_arviz().psislw(np.where(finite, log_weight, floor))
     w = np.where(finite, np.exp(smoothed - np.max(smoothed)), 0.0)
     w /= w.sum()
     return _Weighted(draws, solved, w, float(pareto_k), float(1.0 / np.sum(w**2)))

@@ -89,20 +89,35 @@ class NoiseFit(FitResult):
         a = float(np.median(self.draws(name)))
         return a**2 * shapes(_at(self.stats, np.asarray(tau_s)), (name,))[:, 0]
 
-    def summary(self) -> str:
-        """Each term the log resolves (mean, 90 % interval) or its upper bound, and the
-        failed checks."""
-        lines = [f"noise of {self.label or 'the log'}; terms (datasheet units):"]
+    def term_lines(self) -> list[str]:
+        """One line per term (:meth:`reported_terms` and F): its mean, 90 % interval, unit
+        and process where the log resolves it, else its 95 % upper bound and why not."""
+        lines = []
         for name, entry in (self.reported_terms() | {"F": self.prefilter()}).items():
             when = f", correlation time {entry['tau_s']:.3g} s" if name == "G" else ""
             if entry["resolved"]:
                 lo, hi = entry["ci90"]
-                lines.append(f"  {name} = {entry['mean']:.4g} {entry['unit']} "
-                             f"(90 %: {lo:.4g} ... {hi:.4g}{when})")
+                lines.append(f"{name} = {entry['mean']:.4g} [{lo:.4g}, {hi:.4g}] "
+                             f"{entry['unit']} ({entry['process']}{when})")
             elif entry["upper_bound_95"] is not None:
-                lines.append(f"  {name} < {entry['upper_bound_95']:.4g} {entry['unit']} "
-                             f"(95 %; not resolved{when})")
-        return "\n".join([*lines, *(f"  {line}" for line in self.checks.lines()),
+                why = f"; {entry['why']}" if entry.get("why") else ""
+                lines.append(f"{name}: not resolved, below {entry['upper_bound_95']:.3g} "
+                             f"{entry['unit']} (95 %{why})")
+        return lines
+
+    def spec_lines(self) -> list[str]:
+        """One line per term a datasheet gives: its value against the measured interval."""
+        return [f"{name} against the datasheet's {verdict['datasheet']:.4g} {verdict['unit']}: "
+                f"{verdict['verdict']} (measured {verdict['measured'][0]:.4g} ... "
+                f"{verdict['measured'][1]:.4g})" for name, verdict in (self.spec or {}).items()]
+
+    def summary(self) -> str:
+        """Each term the log resolves (mean, 90 % interval) or its upper bound, the
+        datasheet's verdicts, and the failed checks."""
+        lines = [f"noise of {self.label or 'the log'}; terms (datasheet units):",
+                 *self.term_lines(), *self.spec_lines()]
+        return "\n".join([lines[0], *(f"  {line}" for line in lines[1:]),
+                          *(f"  {line}" for line in self.checks.lines()),
                           f"  {self.checks.verdict()}"])
 
     def term_summaries(self) -> dict[str, dict]:

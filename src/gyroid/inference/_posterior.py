@@ -11,7 +11,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from gyroid.inference._checks import MAX_R_HAT, MIN_ESS
-from gyroid.io._arviz import arviz
+from gyroid.io._arviz import load_arviz
 
 
 @dataclass(frozen=True, eq=False)
@@ -71,7 +71,7 @@ def interval_summary(values: np.ndarray) -> dict:
 def summarise_draws(draws: np.ndarray, names: tuple[str, ...]) -> dict[str, dict]:
     """Mean, sd, 95 % interval, r_hat and bulk ESS of each parameter of (chains, draws, d)
     natural-unit draws."""
-    az = arviz()
+    az = load_arviz()
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message="More chains .* than draws")
         idata = az.from_dict(posterior={n: draws[..., i] for i, n in enumerate(names)})

@@ -11,7 +11,7 @@ import numpy as np
 from gyroid.inference._batching import in_chunks, problem_batcher
 from gyroid.inference._posterior import Posterior
 from gyroid.inference._problem import AbstractProblem
-from gyroid.io._arviz import arviz
+from gyroid.io._arviz import load_arviz
 
 _LOG_2PI = math.log(2.0 * math.pi)
 
@@ -31,7 +31,7 @@ def inference_data(problem: AbstractProblem, posterior: Posterior, *,
     names = problem.names
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", message="More chains .* than draws")
-        return arviz().from_dict(
+        return load_arviz().from_dict(
             posterior={n: posterior.draws[..., i] for i, n in enumerate(names)}
             | (extra_posterior or {}),
             log_likelihood=log_likelihood,

@@ -8,7 +8,7 @@ import warnings
 import numpy as np
 
 
-def arviz():
+def load_arviz():
     """The arviz module (imported here: it costs seconds, and only storage needs it)."""
     with warnings.catch_warnings():
         warnings.filterwarnings("ignore", category=FutureWarning)

@@ -38,21 +38,23 @@ def compensate_file(path: str | Path, fit_dir: str | Path, out: str | Path, *, s
     fits = fitted_axes(fit_dir)
     if None in fits:  # a fit of one axis: the log's one drift column, or one chosen axis
         chosen = chosen_axes(table, axes)
-        if len(chosen) > 1:
+        if len(chosen) != 1:
             raise GyroidInputError(
                 f"{fit_dir} is a fit of one axis and {table.label} has {len(chosen)} "
-                f"({', '.join(chosen)}): choose the one it was fitted to with --axes")
+                f"({', '.join(a for a in chosen if a)}): choose the one it was fitted to "
+                "with --axes")
         pairs = {chosen[0]: fits[None]}
     else:
+        named = {axis: fitted for axis, fitted in fits.items() if axis is not None}
         if table.has("drift_deg_h") and not table.axes():
-            raise GyroidInputError(f"{fit_dir} is a fit of axes {', '.join(fits)} and "
+            raise GyroidInputError(f"{fit_dir} is a fit of axes {', '.join(named)} and "
                                    f"{table.label} has one drift column: give the fit of "
                                    "one axis (its folder, e.g. FIT_DIR/x)")
-        chosen = chosen_axes(table, axes or tuple(fits))
-        missing = [axis for axis in chosen if axis not in fits]
+        chosen = chosen_axes(table, axes or tuple(named))
+        missing = [axis for axis in chosen if axis not in named]
         if missing:
             raise GyroidInputError(f"{fit_dir} has no fit of axis {missing[0]!r} (it has "
-                                   f"{', '.join(fits)}); fit that axis or leave it out of "
+                                   f"{', '.join(named)}); fit that axis or leave it out of "
                                    "--axes")
         pairs = {axis: fits[axis] for axis in chosen}
     results = {axis: compensate(bench_log_from_table(table, fitted.model, axis=axis), fitted,

@@ -35,7 +35,7 @@ from gyroid.simulation._lot import simulate_lot
 from gyroid.workflows._compensate import compensate
 from gyroid.workflows._discrepancy import find_discrepancies
 from gyroid.workflows._propagate import propagate
-from gyroid.workflows._scenarios import PRESETS
+from gyroid.workflows._scenarios import SCENARIOS
 
 
 @dataclass(frozen=True)
@@ -96,7 +96,7 @@ class Study:
         self.echo("[3/6] propagating the thermal fit to paper B's dK ...")
         fitted = FittedDrift.from_dir(self.stage / "thermal" / "fit")
         self.results["fitted"] = fitted
-        self.results["scenario"] = PRESETS["paper_b_worked"]
+        self.results["scenario"] = SCENARIOS["paper_b_worked"]
         propagation = propagate(fitted, self.results["scenario"],
                                 draws=self.size.propagate_draws, seed=self.seed,
                                 sobol_n=self.size.sobol_samples)

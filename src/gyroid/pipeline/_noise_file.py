@@ -30,6 +30,21 @@ STILL_WINDOW_S = 1.0
 MIN_STILL_S = 10.0
 
 
+@dataclass(frozen=True)
+class NoiseOptions:
+    """How ``gyroid noise`` reads and fits a static log: ``maps`` (vendors' columns),
+    ``axes`` (None: every axis the log has), ``instance`` (a native log's IMU; None: its
+    first), ``static_deg_s`` (keep only still stretches, :func:`still_rows`; None: every
+    row), ``datasheet`` (a TOML file each term is judged against) and the ``seed``."""
+
+    seed: int = 0
+    maps: tuple[ColumnMap, ...] = ()
+    axes: tuple[str, ...] | None = None
+    instance: int | None = None
+    static_deg_s: float | None = None
+    datasheet: str | Path | None = None
+
+
 def still_rows(time_s: np.ndarray, rates_deg_h: list[np.ndarray], threshold_deg_s: float
                ) -> np.ndarray:
     """The rows of still stretches: every axis's rate, averaged over ``STILL_WINDOW_S``,
@@ -54,16 +69,12 @@ def still_rows(time_s: np.ndarray, rates_deg_h: list[np.ndarray], threshold_deg_
     return still
 
 
-def noise_file(path: str | Path, out: str | Path, *, seed: int = 0,
-               maps: tuple[ColumnMap, ...] = (), axes: tuple[str, ...] | None = None,
-               instance: int | None = None, static_deg_s: float | None = None,
-               datasheet: str | Path | None = None) -> PerAxis[NoiseFit]:
-    """Fit the noise of a static log's axes (``axes``; default every axis it has) and write
-    ``noise.json`` and ``allan.png`` per axis to ``out``. ``static_deg_s``: keep only the
-    still stretches of a log that moves (:func:`still_rows` over every chosen axis);
-    ``datasheet``: judge each term against it (``noise.json``'s ``spec``)."""
-    per_axis = noise_fits(path, seed=seed, maps=maps, axes=axes, instance=instance,
-                          static_deg_s=static_deg_s, datasheet=datasheet)
+def noise_file(path: str | Path, out: str | Path, options: NoiseOptions = NoiseOptions()
+               ) -> PerAxis[NoiseFit]:
+    """Fit the noise of a static log's axes and write ``noise.json`` and ``allan.png`` per
+    axis to ``out`` (``options``: :class:`NoiseOptions`; a datasheet's verdicts are
+    ``noise.json``'s ``spec``)."""
+    per_axis = noise_fits(path, options)
     write_per_axis(out, per_axis)
     return per_axis
 
@@ -81,10 +92,8 @@ class UnitRuns:
         return self.unit.trustworthy
 
 
-def noise_unit_files(paths: Sequence[str | Path], out: str | Path, *, seed: int = 0,
-                     maps: tuple[ColumnMap, ...] = (), axes: tuple[str, ...] | None = None,
-                     instance: int | None = None, static_deg_s: float | None = None,
-                     datasheet: str | Path | None = None,
+def noise_unit_files(paths: Sequence[str | Path], out: str | Path,
+                     options: NoiseOptions = NoiseOptions(), *,
                      say: Callable[[str], None] = lambda _m: None) -> UnitRuns:
     """Fit each static run in ``paths`` (as :func:`noise_file`) and the unit behind them,
     per axis the runs share; write each run's files to ``out/LABEL/`` (labels as
@@ -94,15 +103,14 @@ def noise_unit_files(paths: Sequence[str | Path], out: str | Path, *, seed: int 
     runs = {}
     for path, label in zip(paths, labels, strict=True):
         say(f"fitting the noise of {path} ...")
-        runs[label] = noise_fits(path, seed=seed, maps=maps, axes=axes, instance=instance,
-                                 static_deg_s=static_deg_s, datasheet=datasheet)
+        runs[label] = noise_fits(path, options)
     shared = [a for a in next(iter(runs.values())).results
               if all(a in r.results for r in runs.values())]
     if not shared:
         raise GyroidInputError("the runs share no gyro axis: give --axes, or logs of one "
                                "gyro type")
     unit = PerAxis({axis: fit_unit_noise([r.results[axis] for r in runs.values()], labels,
-                                         seed=seed) for axis in shared},
+                                         seed=options.seed) for axis in shared},
                    {"runs": {label: r.source for label, r in runs.items()}})
     with output_dir(out) as stage:
         for label, per_axis in runs.items():
@@ -113,35 +121,33 @@ def noise_unit_files(paths: Sequence[str | Path], out: str | Path, *, seed: int 
     return UnitRuns(runs, unit)
 
 
-def noise_fits(path: str | Path, *, seed: int = 0, maps: tuple[ColumnMap, ...] = (),
-               axes: tuple[str, ...] | None = None, instance: int | None = None,
-               static_deg_s: float | None = None, datasheet: str | Path | None = None
-               ) -> PerAxis[NoiseFit]:
+def noise_fits(path: str | Path, options: NoiseOptions = NoiseOptions()) -> PerAxis[NoiseFit]:
     """The noise fits of a static log's axes (:func:`noise_file`, nothing written); with a
-    ``datasheet`` (a TOML file), each fit's verdict per term against it."""
-    sheet = read_datasheet(datasheet) if datasheet is not None else None
-    table = read_log_table(path, maps, instance)
-    chosen = chosen_axes(table, axes)
+    datasheet, each fit's verdict per term against it."""
+    o = options
+    sheet = read_datasheet(o.datasheet) if o.datasheet is not None else None
+    table = read_log_table(path, o.maps, o.instance)
+    chosen = chosen_axes(table, o.axes)
     logs = {axis: bench_log_from_table(table, None, axis=axis) for axis in chosen}
     source = table_source(table)
     time_s = np.asarray(logs[chosen[0]].time_s)  # every axis's: the table's one clock
     keep = np.ones(time_s.size, dtype=bool)
-    if static_deg_s is not None:
+    if o.static_deg_s is not None:
         keep = still_rows(time_s, [np.asarray(log.drift_deg_h) for log in logs.values()],
-                          static_deg_s)
+                          o.static_deg_s)
         stretches = len(contiguous_segments(time_s[keep])) if keep.any() else 0
-        source["static"] = {"threshold_deg_s": static_deg_s, "window_s": STILL_WINDOW_S,
+        source["static"] = {"threshold_deg_s": o.static_deg_s, "window_s": STILL_WINDOW_S,
                             "min_stretch_s": MIN_STILL_S, "rows_kept": int(keep.sum()),
                             "rows": int(keep.size), "stretches": stretches}
         if not keep.any():
             raise GyroidInputError(
                 f"{table.label}: no still stretch of {MIN_STILL_S:g} s or more, the rate "
-                f"within {static_deg_s:g} deg/s of its median on every axis; raise --static, "
+                f"within {o.static_deg_s:g} deg/s of its median on every axis; raise --static, "
                 "or give a log recorded with the gyro still")
     segments, step = _regular_clock(time_s[keep], table.label)
     rows = np.flatnonzero(keep)
     results = {axis: fit_noise(np.asarray(log.drift_deg_h)[keep], step, segments=segments,
-                               seed=seed, label=table.label,
+                               seed=o.seed, label=table.label,
                                where=lambda i, log=log: log.where(int(rows[i])))
                for axis, log in logs.items()}
     if sheet is not None:

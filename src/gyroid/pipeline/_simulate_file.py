@@ -68,32 +68,36 @@ def simulate_to_dir(bench: str, out: Path, options: SimulateOptions,
         return _simulate_lot(bench, out, o)
     if o.orientations is not None and bench != "overload":
         raise GyroidInputError("--orientations is for the overload bench")
-    if bench == "overload":
-        protocol = OverloadProtocol(**({"orientations": o.orientations} if o.orientations
-                                       else {})).stretched(o.hours, o.rate_hz)
-    else:
-        protocol = (ThermalProtocol() if bench == "thermal" else MagneticProtocol()).stretched(
-            o.hours, o.rate_hz)
     log_name = f"bench.{o.log_format}"
+    thermal = ThermalProtocol().stretched(o.hours, o.rate_hz)
     # the module's constant read at the call (a test lowers it)
-    if bench == "thermal" and thermal_bench_rows(protocol) > _stream.STREAM_ROWS:
+    if bench == "thermal" and thermal_bench_rows(thermal) > _stream.STREAM_ROWS:
         if o.average_s:
             raise GyroidInputError(
-                f"--average on a log of {thermal_bench_rows(protocol)} rows: its window "
+                f"--average on a log of {thermal_bench_rows(thermal)} rows: its window "
                 "means are those of a slower log; simulate at a lower --rate-hz with --average")
-        return _simulate_streamed(out, log_name, protocol, o, say)
-    simulator = {"thermal": simulate_thermal_bench, "magnetic": simulate_magnetic_bench,
-                 "overload": simulate_overload_bench}[bench]
-    sim = simulator(parameters=o.parameters, effects=o.effects, noise=o.noise, seed=o.seed,
-                    average_s=o.average_s, protocol=protocol, say=say)
+        return _simulate_streamed(out, log_name, thermal, o, say)
+    if bench == "thermal":
+        sim = simulate_thermal_bench(parameters=o.parameters, effects=o.effects, noise=o.noise,
+                                     seed=o.seed, average_s=o.average_s, protocol=thermal,
+                                     say=say)
+        fig = _thermal_figure(sim.log, None if o.average_s else sim.true_drift_deg_h, thermal)
+    elif bench == "magnetic":
+        sim = simulate_magnetic_bench(parameters=o.parameters, effects=o.effects,
+                                      noise=o.noise, seed=o.seed, average_s=o.average_s,
+                                      protocol=MagneticProtocol().stretched(o.hours, o.rate_hz),
+                                      say=say)
+        fig = magnetic_sweep(sim.log)
+    else:
+        tumble = (OverloadProtocol(orientations=o.orientations) if o.orientations
+                  else OverloadProtocol())
+        sim = simulate_overload_bench(parameters=o.parameters, effects=o.effects,
+                                      noise=o.noise, seed=o.seed, average_s=o.average_s,
+                                      protocol=tumble.stretched(o.hours, o.rate_hz), say=say)
+        fig = overload_run(sim.log)
     with output_dir(out) as stage:
         write_bench_log(stage / log_name, sim.log.columns, sim.log.comments)
         (stage / "truth.json").write_text(json_text(sim.truth))
-        if bench == "thermal":
-            fig = _thermal_figure(sim.log, None if o.average_s else sim.true_drift_deg_h,
-                                  protocol)
-        else:
-            fig = (magnetic_sweep if bench == "magnetic" else overload_run)(sim.log)
         save(fig, stage / "bench.png")
     return f"wrote {out / log_name} ({sim.log.n} rows) and {out / 'truth.json'}"
 

@@ -1,9 +1,6 @@
 """Writing results: :func:`write` (one entry point for every kind of result) and the
 reproduction of both papers' files."""
 
-from gyroid._lazy import attach
+import lazy_loader
 
-__getattr__, __dir__, __all__ = attach(__name__, {
-    "_write": ["write_compensated_csv", "write"],
-    "_reproduction": ["write_reproduction"],
-})
+__getattr__, __dir__, __all__ = lazy_loader.attach_stub(__name__, __file__)

@@ -44,7 +44,7 @@ class Scenario:
         return asdict(self)
 
 
-PRESETS = {
+SCENARIOS = {
     "paper_b_worked": Scenario(),
     "paper_b_worked_stabiliser": Scenario(name="paper_b_worked_stabiliser",
                                           fitted_gyro_role="stabiliser"),
@@ -58,13 +58,13 @@ PRESETS = {
 def load_scenario(spec: str | None) -> Scenario:
     """A preset name, or a JSON/TOML file of Scenario fields (unknown keys are refused)."""
     if spec is None:
-        return PRESETS["paper_b_worked"]
-    if spec in PRESETS:
-        return PRESETS[spec]
+        return SCENARIOS["paper_b_worked"]
+    if spec in SCENARIOS:
+        return SCENARIOS[spec]
     path = Path(spec)
     if not path.is_file():
         raise GyroidInputError(f"--scenario {spec!r} is neither a preset "
-                               f"({', '.join(PRESETS)}) nor a file")
+                               f"({', '.join(SCENARIOS)}) nor a file")
     try:
         text = path.read_text(encoding="utf-8")
         data = tomllib.loads(text) if path.suffix == ".toml" else json.loads(text)
@@ -80,7 +80,7 @@ def load_scenario(spec: str | None) -> Scenario:
                                f"{', '.join(sorted(known))}")
     values = {"name": path.stem} | {key: _checked(path.name, key, value)
                                     for key, value in data.items()}
-    scenario = replace(PRESETS["paper_b_worked"], **values)
+    scenario = replace(SCENARIOS["paper_b_worked"], **values)
     if scenario.period_s > scenario.duration_s or scenario.sample_s > scenario.period_s:
         raise GyroidInputError(f"{path.name}: need sample_s <= period_s <= duration_s (here "
                                f"{scenario.sample_s:g}, {scenario.period_s:g}, "
@@ -96,7 +96,7 @@ _NOT_NEGATIVE = ("uncompensated_sd_deg_s", "mems_sf_error_sd", "mems_bias_sd_deg
 
 def _checked(file: str, key: str, value):
     """A scenario field's value of the right kind (one message naming the key if not)."""
-    default = getattr(PRESETS["paper_b_worked"], key)
+    default = getattr(SCENARIOS["paper_b_worked"], key)
 
     def refuse(what: str):
         return GyroidInputError(f"{file}: scenario key {key!r} = {value!r}: {what}")

@@ -1,0 +1,40 @@
+"""Public names of :mod:`gyroid.io` for type checkers; at run time the package reads this
+file (lazy_loader) and imports each name on first use."""
+
+from ._arviz import load_arviz as load_arviz
+from ._arviz import read_posterior as read_posterior
+from ._arviz import write_netcdf as write_netcdf
+from ._bench_reader import bench_log_from_table as bench_log_from_table
+from ._bench_reader import load_bench_log as load_bench_log
+from ._datasets import DATASETS as DATASETS
+from ._datasets import data_home as data_home
+from ._datasets import dataset_logs as dataset_logs
+from ._datasets import fetch as fetch
+from ._datasets import missing as missing
+from ._fitted import FittedDrift as FittedDrift
+from ._log_writer import bench_log_text as bench_log_text
+from ._log_writer import write_bench_log as write_bench_log
+from ._logs import BENCH_COLUMNS as BENCH_COLUMNS
+from ._logs import BenchLog as BenchLog
+from ._logs import MeansOfBlocks as MeansOfBlocks
+from ._logs import contiguous_segments as contiguous_segments
+from ._logs import gap_threshold as gap_threshold
+from ._logs import run_labels as run_labels
+from ._outputs import atomic_write_text as atomic_write_text
+from ._outputs import json_text as json_text
+from ._outputs import output_dir as output_dir
+from ._outputs import output_lock as output_lock
+from ._paper_tables import paper_a_magnetic_coefficients as paper_a_magnetic_coefficients
+from ._paper_tables import paper_a_table_log as paper_a_table_log
+from ._paper_tables import paper_a_thermal_coefficients as paper_a_thermal_coefficients
+from ._paper_tables import paper_a_thermal_table as paper_a_thermal_table
+from ._roll_log import RollLog as RollLog
+from ._roll_log import load_roll_log as load_roll_log
+from ._stream import STREAM_ROWS as STREAM_ROWS
+from ._stream import parquet_rows as parquet_rows
+from ._stream import stream_block_means as stream_block_means
+from ._tables import log_kind as log_kind
+from ._tables import read_header as read_header
+from ._tables import read_log_table as read_log_table
+from ._units import ColumnMap as ColumnMap
+from ._units import parse_column_maps as parse_column_maps

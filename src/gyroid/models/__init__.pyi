@@ -1,0 +1,45 @@
+"""Public names of :mod:`gyroid.models` for type checkers; at run time the package reads this
+file (lazy_loader) and imports each name on first use."""
+
+from ._change_signs import field_change_sign as field_change_sign
+from ._change_signs import temperature_change_sign as temperature_change_sign
+from ._derived import HYSTERESIS_DEADBAND_UT as HYSTERESIS_DEADBAND_UT
+from ._derived import RATE_WINDOW_S as RATE_WINDOW_S
+from ._derived import lagged_temperature as lagged_temperature
+from ._derived import temperature_rate_deg_c_per_h as temperature_rate_deg_c_per_h
+from ._design import BLOCK_ROWS as BLOCK_ROWS
+from ._design import least_squares_from_r as least_squares_from_r
+from ._design import row_blocks as row_blocks
+from ._design import with_rows as with_rows
+from ._drift import DriftModel as DriftModel
+from ._effects import CANDIDATES as CANDIDATES
+from ._effects import EFFECTS as EFFECTS
+from ._effects import EXTRA_PREFIX as EXTRA_PREFIX
+from ._effects import PARAMETERS as PARAMETERS
+from ._effects import Effect as Effect
+from ._effects import Parameter as Parameter
+from ._effects import effect as effect
+from ._effects import parameter as parameter
+from ._inputs import FIELD_COLUMNS as FIELD_COLUMNS
+from ._inputs import H0_UT as H0_UT
+from ._inputs import T0_C as T0_C
+from ._inputs import DriftInputs as DriftInputs
+from ._inputs import build_inputs as build_inputs
+from ._inputs import inputs_from_arrays as inputs_from_arrays
+from ._paper_b import G as G
+from ._priors import Flat as Flat
+from ._priors import HalfNormal as HalfNormal
+from ._priors import LogNormal as LogNormal
+from ._priors import Normal as Normal
+from ._priors import Prior as Prior
+from ._roll import Flight as Flight
+from ._roll import RollParams as RollParams
+from ._roll import constant_flight as constant_flight
+from ._roll import correction_coefficients as correction_coefficients
+from ._roll import navigation_errors as navigation_errors
+from ._roll import run_loop as run_loop
+from ._roll_effects import ROLL_EFFECTS as ROLL_EFFECTS
+from ._roll_effects import ROLL_PRESETS as ROLL_PRESETS
+from ._roll_effects import resolve_roll_terms as resolve_roll_terms
+from ._terms import PRESETS as PRESETS
+from ._terms import resolve_terms as resolve_terms
