@@ -86,7 +86,7 @@ def test_the_likelihood_is_the_dense_gaussian(sigma_known):
         wd = theta[problem.names.index("wD")]
         white = (np.asarray(density.sigma) ** 2 if sigma_known
                  else np.full(problem.n, np.exp(2 * u[-1]) / m))
-        covariance = np.diag(white) + wd**2 * np.asarray(density.rate_error_cov)
+        covariance = np.diag(white) + wd**2 * np.asarray(density.eiv.covariance)
         residual = np.asarray(density.drift) - np.asarray(density.predict(jnp.asarray(u)))
         dense = multivariate_normal(np.zeros(problem.n), covariance).logpdf(residual)
         assert float(density.log_likelihood(jnp.asarray(u))) == pytest.approx(dense, abs=1e-6)
@@ -120,7 +120,7 @@ def test_the_standardised_residuals_are_the_whitened_residuals():
     u = np.asarray(problem.mode().u)
     m = problem.block_rows
     covariance = (np.exp(2 * u[-1]) / m * np.eye(problem.n)
-                  + u[problem.names.index("wD")] ** 2 * np.asarray(density.rate_error_cov))
+                  + u[problem.names.index("wD")] ** 2 * np.asarray(density.eiv.covariance))
     residual = np.asarray(density.drift) - np.asarray(density.predict(jnp.asarray(u)))
     expected = np.linalg.solve(np.linalg.cholesky(covariance), residual)
     np.testing.assert_allclose(problem.standardised_residuals(u), expected, atol=1e-8)

@@ -16,22 +16,18 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 
 #: Modules that basedpyright (basic) still finds errors in, with how many (issue 60): most
-#: read a density or a problem through a type that does not declare what they read (the
-#: bench density's optional representations, the thermometer's eigenbasis).
+#: read a density or a problem through a type that does not declare what they read.
 NOT_YET_TYPED = {
     "_config.py": 1,
-    "inference/_bench_density.py": 24,
-    "inference/_bench_precompute.py": 39,
-    "inference/_bench_predictive.py": 4,
+    "inference/_bench_predictive.py": 3,
     "inference/_collapsed.py": 3,
     "inference/_emcee.py": 6,
     "inference/_importance.py": 1,
     "inference/_noise_unit.py": 3,
     "inference/_nuts.py": 5,
-    "inference/_point.py": 6,
+    "inference/_point.py": 4,
     "inference/_point_profiled.py": 7,
     "inference/_pool_checks.py": 6,
-    "inference/_pool_fit.py": 16,
     "inference/_pool_result.py": 4,
     "inference/_posterior.py": 1,
     "inference/_predictive.py": 1,

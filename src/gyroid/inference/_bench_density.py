@@ -24,11 +24,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
 
-from gyroid.inference._bench_precompute import (
-    host_log_posterior,
-    with_errors_in_variables,
-    with_sufficient_statistics,
-)
+from gyroid.inference._white_rows import HostPrior, SufficientStatistics, ThermometerEigenbasis
 from gyroid.io._logs import BenchLog
 from gyroid.models._derived import RATE_WINDOW_S
 from gyroid.models._drift import DriftModel
@@ -66,18 +62,9 @@ class BenchDensity(eqx.Module):
     step_s: float = eqx.field(static=True)
     #: An array, not a static field: logs whose chosen windows differ share a compilation.
     rate_window_s: Float[Array, ""] | float = RATE_WINDOW_S
-    # Linear-Gaussian fast path: (X'WX, weighted LS solution, residual sum at it).
-    gram: Float[Array, "p p"] | None = None
-    solution: Float[Array, " p"] | None = None
-    rss_min: Float[Array, ""] | None = None
-    log_sigma_sum: Float[Array, ""] | None = None
-    # ... and the same per LOO block, about the solution: (B, p, p), (B, p), (B,), and the
-    # block's row count and sum of log sigma (B,): block log-likelihoods without the rows.
-    block_gram: Float[Array, "b p p"] | None = None
-    block_xr: Float[Array, "b p"] | None = None
-    block_rr: Float[Array, " b"] | None = None
-    block_count: Float[Array, " b"] | None = None
-    block_log_sigma: Float[Array, " b"] | None = None
+    #: A linear model's white-noise likelihood on its sufficient statistics (None: other
+    #: models and noise, held-out rows, or ``fast=False``).
+    stats: SufficientStatistics | None = None
     #: Rows the likelihood reads (1) or leaves out (0): held-out stretches of a predictive
     #: check, kept in place so that every fold shares one compilation. None: every row.
     weight: Float[Array, " n"] | None = None
@@ -87,20 +74,9 @@ class BenchDensity(eqx.Module):
     #: A row's white sd per sample's (1/sqrt(m) for a row that is the mean of m samples):
     #: ``sigma_deg_h`` is always a sample's.
     row_scale: float = eqx.field(static=True, default=1.0)
-    # Errors in variables (white noise, a model reading dT/dt; :mod:`gyroid.models._rate_error`):
-    # the covariance is  s^2 D0 + wD^2 M  with M the rate error's covariance ((degC/h)^2) and
-    # D0 the white part per unit s^2 (a row's known variance, s = 1; else row_scale^2). With
-    # A = D0^-1/2 M D0^-1/2 = V diag(lam) V', ``eiv_basis`` is W = V' D0^-1/2 (rows of
-    # held-out coordinates zero, ``eiv_on`` 0), so that r' C^-1 r = sum (W r)^2 / (s^2 +
-    # wD^2 lam) and log det C = sum log D0 + sum log(s^2 + wD^2 lam).
-    rate_error_cov: Float[Array, "n n"] | None = None
-    eiv_basis: Float[Array, "n n"] | None = None
-    eiv_lambda: Float[Array, " n"] | None = None
-    eiv_on: Float[Array, " n"] | None = None
-    eiv_log_d0: Float[Array, ""] | None = None
-    eiv_y: Float[Array, " n"] | None = None  # W drift
-    eiv_x: Float[Array, "n p"] | None = None  # W design (a linear model)
-    eiv_index: int = eqx.field(static=True, default=-1)  # wD among the parameters
+    #: The thermometer's noise through dT/dt carried as a covariance over the rows (white
+    #: noise, a model reading dT/dt; errors in variables), None otherwise.
+    eiv: ThermometerEigenbasis | None = None
 
     @classmethod
     def from_log(
@@ -138,17 +114,15 @@ class BenchDensity(eqx.Module):
         block_s = max(LOO_BLOCK_S, step, duration / MAX_LOO_BLOCKS * 1.0001)
         block = np.floor((time_s - time_s[0]) / block_s).astype(int)
         _, block = np.unique(block, return_inverse=True)
-        extra: dict = {}  # the noise model's own fields
-        if rate_error_cov is not None:
-            if noise.correlated or "temperature_rate" not in model.terms:
-                raise ValueError("errors in variables: white noise and a model reading dT/dt")
-            extra = {"rate_error_cov": jnp.asarray(rate_error_cov),
-                     "eiv_index": rate_coefficient_index(model)}
+        if rate_error_cov is not None and (noise.correlated
+                                           or "temperature_rate" not in model.terms):
+            raise ValueError("errors in variables: white noise and a model reading dT/dt")
         noise = noise.for_log(step, duration)
+        gap_s = None
         if noise.rows_as_means(rows_per_mean) or rate_error is not None:
             # block means: each row the mean over one step, after a gap (a pause)
             gap = np.maximum(np.concatenate([[0.0], steps]) - step, 0.0)
-            extra = {"gap_s": jnp.asarray(gap)}
+            gap_s = jnp.asarray(gap)
             if rate_error is not None:
                 noise = noise.with_rate_error(RateErrorProcess.matched(
                     rate_error[0], step, rate_error[1], np.full(gap.size, step), gap))
@@ -167,18 +141,48 @@ class BenchDensity(eqx.Module):
             step_s=step,
             rate_window_s=jnp.asarray(float(rate_window_s)),
             row_scale=1.0 / math.sqrt(rows_per_mean),
-            **extra,
+            gap_s=gap_s,
         )
         if rate_error_cov is not None:
-            return with_errors_in_variables(problem)
+            return problem._with_eigenbasis(rate_error_cov)
         if fast and model.is_linear and not noise.correlated:
-            problem = with_sufficient_statistics(problem)
+            return eqx.tree_at(lambda q: q.stats, problem, problem._sufficient_statistics(),
+                               is_leaf=lambda x: x is None)
         return problem
+
+    def _sufficient_statistics(self) -> SufficientStatistics:
+        """:class:`SufficientStatistics` of these rows (a linear model, white noise)."""
+        y = np.asarray(self.drift)
+        w = None if self.sigma is None else 1.0 / np.asarray(self.sigma)
+
+        def weighted_blocks():
+            for rows, x in self.model.design_blocks(self.inputs):
+                if w is None:
+                    yield rows, x, y[rows]
+                else:
+                    yield rows, x * w[rows, None], y[rows] * w[rows]
+
+        log_sigma = (np.zeros_like(y) if self.sigma is None
+                     else np.log(np.asarray(self.sigma)))
+        return SufficientStatistics.of(weighted_blocks, self.n_model, np.asarray(self.block),
+                                       self.n_blocks, log_sigma)
+
+    def _with_eigenbasis(self, covariance: np.ndarray) -> BenchDensity:
+        """This density carrying the thermometer's noise (the rate error's covariance over
+        the rows, (degC/h)^2) in its eigenbasis over the rows the likelihood reads."""
+        keep = (np.ones(self.n, dtype=bool) if self.weight is None
+                else np.asarray(self.weight) > 0)
+        design = (np.asarray(self.model.design(self.inputs)) if self.model.is_linear
+                  else None)
+        eiv = ThermometerEigenbasis.of(np.asarray(covariance), np.asarray(self.white_d0()),
+                                       keep, np.asarray(self.drift), design,
+                                       rate_coefficient_index(self.model))
+        return eqx.tree_at(lambda q: q.eiv, self, eiv, is_leaf=lambda x: x is None)
 
     @property
     def errors_in_variables(self) -> bool:
         """Whether the thermometer's noise in dT/dt is carried in the likelihood."""
-        return self.rate_error_cov is not None
+        return self.eiv is not None
 
     def white_d0(self) -> Float[Array, " n"]:
         """The white covariance's diagonal per unit of the sampled level (the known
@@ -193,13 +197,10 @@ class BenchDensity(eqx.Module):
         through them without an observation (exact: the marginal likelihood of the rows
         kept). The sufficient statistics, which sum every row, are dropped too."""
         weight = jnp.asarray(~np.asarray(held_out, dtype=bool), dtype=float)
-        none = (None,) * 9
-        out = eqx.tree_at(
-            lambda q: (q.weight, q.gram, q.solution, q.rss_min, q.log_sigma_sum, q.block_gram,
-                       q.block_xr, q.block_rr, q.block_count, q.block_log_sigma),
-            self, (weight, *none), is_leaf=lambda x: x is None)
+        out = eqx.tree_at(lambda q: (q.weight, q.stats), self, (weight, None),
+                          is_leaf=lambda x: x is None)
         # errors in variables: the marginal of the rows kept, in their own eigenbasis
-        return with_errors_in_variables(out) if self.errors_in_variables else out
+        return out if self.eiv is None else out._with_eigenbasis(np.asarray(self.eiv.covariance))
 
     # ----- parameter bookkeeping -------------------------------------------------------
     @property
@@ -279,8 +280,8 @@ class BenchDensity(eqx.Module):
         residual = self.drift - self.predict(u)
         white, values = self._noise_levels(u)
         filtered = self.innovations(residual, white, values)
-        if self.errors_in_variables:
-            rows = self._leave_one_out_rows(u, residual)
+        if self.eiv is not None:
+            rows = self.eiv.leave_one_out_rows(*self._eiv_projection(self.eiv, u))
         elif filtered is None:
             rows = -0.5 * (residual / white) ** 2 - jnp.log(white) - 0.5 * _LOG_2PI
         else:
@@ -293,8 +294,8 @@ class BenchDensity(eqx.Module):
         theirs: independent N(0, 1) when the model and its noise model are right."""
         residual = self.drift - self.predict(u)
         white, values = self._noise_levels(u)
-        if self.errors_in_variables:  # sequential innovations: time-ordered, white if right
-            chol = jnp.linalg.cholesky(self._covariance(u))
+        if self.eiv is not None:  # sequential innovations: time-ordered, white if right
+            chol = jnp.linalg.cholesky(self.eiv_covariance(u))
             return jax.scipy.linalg.solve_triangular(chol, residual, lower=True)
         filtered = self.innovations(residual, white, values)
         if filtered is None:
@@ -303,44 +304,24 @@ class BenchDensity(eqx.Module):
         return innovation / jnp.sqrt(variance)
 
     # ----- errors in variables ------------------------------------------------------------
-    def _eiv_levels(self, u: Float[Array, " d"]):
+    def _eiv_levels(self, eiv: ThermometerEigenbasis, u: Float[Array, " d"]):
         """(s^2, wD^2) of the errors-in-variables covariance at ``u``."""
         s2 = (jnp.ones(()) if self.sigma is not None
               else jnp.exp(2.0 * u[self.n_model]))
-        return s2, self.to_natural(u)[self.eiv_index] ** 2
+        return s2, self.to_natural(u)[eiv.index] ** 2
 
-    def _covariance(self, u: Float[Array, " d"]) -> Float[Array, "n n"]:
-        """The rows' noise covariance under errors in variables, (deg/h)^2."""
-        s2, a2 = self._eiv_levels(u)
-        return jnp.diag(s2 * self.white_d0()) + a2 * self.rate_error_cov
+    def eiv_covariance(self, u: Float[Array, " d"]) -> Float[Array, "n n"]:
+        """The rows' noise covariance under errors in variables at ``u``, (deg/h)^2."""
+        if self.eiv is None:
+            raise ValueError("this density carries no thermometer noise (errors in variables)")
+        s2, a2 = self._eiv_levels(self.eiv, u)
+        return jnp.diag(s2 * self.white_d0()) + a2 * self.eiv.covariance
 
-    def _eiv_projection(self, u: Float[Array, " d"]):
+    def _eiv_projection(self, eiv: ThermometerEigenbasis, u: Float[Array, " d"]):
         """The residual in the eigenbasis and each coordinate's variance."""
-        s2, a2 = self._eiv_levels(u)
-        if self.eiv_x is not None:
-            projected = self.eiv_y - self.eiv_x @ self.to_natural(u)[: self.n_model]
-        else:
-            projected = self.eiv_basis @ (self.drift - self.predict(u))
-        return projected, s2 + a2 * self.eiv_lambda
-
-    def _eiv_log_likelihood(self, u: Float[Array, " d"]) -> Float[Array, ""]:
-        projected, variance = self._eiv_projection(u)
-        terms = self.eiv_on * (projected**2 / variance + jnp.log(variance) + _LOG_2PI)
-        return -0.5 * (jnp.sum(terms) + self.eiv_log_d0)
-
-    def _leave_one_out_rows(self, u: Float[Array, " d"], residual) -> Float[Array, " n"]:
-        """Each row's density given every other row (Burkner, Gabry & Vehtari 2021, for
-        non-factorised normal models): with ``g = C^-1 r`` and ``c = diag(C^-1)``, row i's
-        log density is ``-0.5 log 2pi + 0.5 log c_i - 0.5 g_i^2 / c_i``. ``residual`` is
-        unused (the eigenbasis holds it); 0 for a row left out."""
-        del residual
-        projected, variance = self._eiv_projection(u)
-        inverse = self.eiv_on / variance
-        g = self.eiv_basis.T @ (projected * inverse)
-        c = (self.eiv_basis**2).T @ inverse
-        safe = jnp.where(c > 0, c, 1.0)
-        rows = -0.5 * _LOG_2PI + 0.5 * jnp.log(safe) - 0.5 * g**2 / safe
-        return jnp.where(c > 0, rows, 0.0)
+        s2, a2 = self._eiv_levels(eiv, u)
+        theta = self.to_natural(u)[: self.n_model]
+        return eiv.projected(theta, self.drift - self.predict(u)), s2 + a2 * eiv.lam
 
     def innovations(self, residual, white, values):
         """Innovations of the residual (or of columns) and their variances under the noise
@@ -350,35 +331,43 @@ class BenchDensity(eqx.Module):
 
     def log_likelihood(self, u: Float[Array, " d"]) -> Float[Array, ""]:
         """Total log-likelihood (the sufficient-statistics path where it applies)."""
-        if self.gram is not None:
-            theta = u[: self.n_model]
-            delta = theta - self.solution
-            rss = self.rss_min + delta @ self.gram @ delta
-            if self.sigma is not None:
-                return -0.5 * rss - self.log_sigma_sum - 0.5 * self.n * _LOG_2PI
-            sd = jnp.exp(u[self.n_model]) * self.row_scale
-            return -0.5 * rss / sd**2 - self.n * jnp.log(sd) - 0.5 * self.n * _LOG_2PI
-        if self.errors_in_variables:
-            return self._eiv_log_likelihood(u)
+        if self.stats is not None:
+            return self.stats.log_likelihood(u[: self.n_model], self._row_sd(u), self.n)
+        if self.eiv is not None:
+            return self.eiv.log_likelihood(*self._eiv_projection(self.eiv, u))
         return jnp.sum(self.log_likelihood_rows(u))
 
+    def sufficient_statistics(self) -> SufficientStatistics:
+        """:attr:`stats`, which a linear model under white noise has on every row (a pooled
+        run's): ValueError where it has none."""
+        if self.stats is None:
+            raise ValueError("this density has no sufficient statistics (a linear model "
+                             "under white noise, every row read)")
+        return self.stats
+
+    def _row_sd(self, u: Float[Array, " d"]) -> Float[Array, ""] | None:
+        """A row's white sd at ``u`` (deg/h); None where the log gives each row's."""
+        return None if self.sigma is not None else jnp.exp(u[self.n_model]) * self.row_scale
+
     def host_log_posterior(self):
-        """:func:`~gyroid.inference._bench_precompute.host_log_posterior` of this density."""
-        return host_log_posterior(self)
+        """The log-posterior of many walkers in NumPy, ``u (w, d) -> (w,)``, where a host
+        form exists (:class:`SufficientStatistics`, or a linear model's
+        :class:`ThermometerEigenbasis`): what emcee calls every step; None otherwise."""
+        prior = HostPrior(np.asarray(self.prior_loc), np.asarray(self.prior_scale),
+                          np.asarray(self.prior_on))
+        if self.eiv is not None and self.eiv.x is not None:
+            return self.eiv.host_log_posterior(prior, self.sigma is not None)
+        if self.stats is not None:
+            return self.stats.host_log_posterior(prior, self.n, self.row_scale,
+                                                 self.sigma is not None)
+        return None
 
     def log_likelihood_blocks(self, u: Float[Array, " d"]) -> Float[Array, " b"]:
         """Log-likelihood summed over blocks of ``LOO_BLOCK_S`` (what LOO leaves out); from
         the blocks' sufficient statistics where the likelihood is linear-Gaussian."""
-        if self.block_gram is None:
+        if self.stats is None:
             return jax.ops.segment_sum(self.log_likelihood_rows(u), self.block, self.n_blocks)
-        delta = u[: self.n_model] - self.solution
-        rss = (self.block_rr - 2.0 * self.block_xr @ delta
-               + jnp.einsum("bij,i,j->b", self.block_gram, delta, delta))
-        constant = 0.5 * self.block_count * _LOG_2PI
-        if self.sigma is not None:
-            return -0.5 * rss - self.block_log_sigma - constant
-        sd = jnp.exp(u[self.n_model]) * self.row_scale
-        return -0.5 * rss / sd**2 - self.block_count * jnp.log(sd) - constant
+        return self.stats.log_likelihood_blocks(u[: self.n_model], self._row_sd(u))
 
     def prior_residuals(self, u: Float[Array, " d"]) -> Float[Array, " d"]:
         """Standardised prior residuals: ``-0.5 * sum(r**2)`` is the log prior + const."""

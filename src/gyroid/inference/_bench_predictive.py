@@ -52,9 +52,9 @@ def bench_held_out(density: BenchDensity, time_s: np.ndarray,
     parts = stretches(density.n, segments if len(segments) > 1 else None)
     if parts is None:
         return None, None
-    if density.gram is not None:
+    if density.stats is not None:
         folds = _linear_folds(density, parts)
-    elif point_u is not None and density.eiv_x is not None:
+    elif point_u is not None and density.eiv is not None and density.eiv.x is not None:
         folds = _eiv_folds(density, parts, time_s, np.asarray(point_u))
     elif point_u is not None and density.noise.correlated:
         folds = _collapsed_folds(density, parts, time_s, np.asarray(point_u))
@@ -189,7 +189,7 @@ def _eiv_folds(density: BenchDensity, parts: Stretches, time_s: np.ndarray,
     design = np.asarray(density.model.design(density.inputs))
     design_means = np.column_stack([part_means(design[:, i], parts.part, parts.n_parts)
                                     for i in range(p)])
-    covariance_rows = np.asarray(density._covariance(jnp.asarray(point_u)))
+    covariance_rows = np.asarray(density.eiv_covariance(jnp.asarray(point_u)))
     precision, prior_mean = _coefficient_prior(density)
     values = dict(zip(density.names, np.asarray(density.to_natural(jnp.asarray(point_u))),
                       strict=True))
@@ -249,8 +249,8 @@ def _noise_covariance(density: BenchDensity, values: dict, parts: Stretches,
     covariance = density.noise.part_covariance(time_s, parts.part, parts.n_parts,
                                                density.step_s, white, white_levels,
                                                block_means=density.gap_s is not None)
-    if density.errors_in_variables:  # wD^2 times the parts' means of the rate error
-        wd = values[density.names[density.eiv_index]]
-        covariance = covariance + wd**2 * parts_mean_covariance(density.rate_error_cov,
+    if density.eiv is not None:  # wD^2 times the parts' means of the rate error
+        wd = values[density.names[density.eiv.index]]
+        covariance = covariance + wd**2 * parts_mean_covariance(density.eiv.covariance,
                                                                 parts.part, parts.n_parts)
     return covariance

@@ -37,6 +37,7 @@ from gyroid.inference._mode import JointBFGS, LeastSquares, safe_inverse
 from gyroid.inference._point_profiled import profiled_mode
 from gyroid.inference._problem import PointEstimate
 from gyroid.inference._starts import grid_points, start_grid
+from gyroid.inference._white_rows import SufficientStatistics
 from gyroid.models._priors import Normal, natural_with_sd
 
 
@@ -96,13 +97,12 @@ def _starts(problem: BenchDensity) -> list[np.ndarray]:
     return starts
 
 
-def _linear_gaussian(problem: BenchDensity) -> PointEstimate:
+def _linear_gaussian(problem: BenchDensity, stats: SufficientStatistics) -> PointEstimate:
     """Closed form for a linear model with white noise: the posterior mode and covariance
-    from the sufficient statistics (exact; no iterations)."""
+    from its sufficient statistics (exact; no iterations)."""
     n, p = problem.n, problem.n_model
     theta, scale, covariance = _gaussian_coefficients(
-        problem, np.asarray(problem.gram), np.asarray(problem.solution),
-        float(problem.rss_min), n)
+        problem, np.asarray(stats.gram), np.asarray(stats.solution), float(stats.rss_min), n)
     u, cov = theta, covariance
     if problem.noise_names:
         noise_u = np.array([math.log(scale / problem.row_scale)])  # a sample's sd
@@ -184,8 +184,8 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3,
     docstring); ``noise_start``: a collapsed problem's noise levels at their marginal mode,
     found already (:func:`marginal_mode`, while choosing the dT/dt window): the only
     start."""
-    if problem.gram is not None:
-        return _linear_gaussian(problem)
+    if problem.stats is not None:
+        return _linear_gaussian(problem, problem.stats)
     if problem.errors_in_variables and problem.model.is_linear:
         # a linear model carrying the thermometer: BFGS from its white mode (NumPy)
         found = _JOINT.minimise(problem, _white_start(problem))

@@ -260,7 +260,8 @@ def run_checks(problem: PoolProblem, u_mean: np.ndarray, pooled_mean: np.ndarray
                   # pooling assumes must describe what each run does not show
                   bench_predictive(q.density, np.asarray(q.log.time_s))]
         if q.segments is not None:
-            sigma = float(np.sqrt(float(q.density.rss_min) / max(q.n - q.n_model, 1)))
+            rss = float(q.density.sufficient_statistics().rss_min)
+            sigma = float(np.sqrt(rss / max(q.n - q.n_model, 1)))
             checks.append(spikes_within_segments(q.segments, n_means=q.n,
                                                  sigma_of_means=sigma))
         per_run[problem.run_labels[r]] = CheckReport(tuple(checks))

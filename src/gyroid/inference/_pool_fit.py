@@ -41,9 +41,9 @@ def pool_priors(problems: Sequence[BenchProblem],
     priors: list[Prior] = []
     scales = np.empty(p)
     for k in range(p):
-        run_priors = [q.priors[k] for q in problems]
-        if all(isinstance(pr, Normal) for pr in run_priors):
-            widest = max(run_priors, key=lambda pr: pr.scale)
+        normal = [pr for q in problems if isinstance(pr := q.priors[k], Normal)]
+        if len(normal) == len(problems):
+            widest = max(normal, key=lambda pr: pr.scale)
             priors.append(Normal(widest.loc, widest.scale))
             scales[k] = widest.scale
         else:
@@ -67,16 +67,17 @@ def _own_estimates(problems: Sequence[BenchProblem]) -> tuple[np.ndarray, np.nda
     the log does not give it); nan sd where the run does not identify a coefficient."""
     means, sds = [], []
     for q in problems:
-        gram = np.asarray(q.density.gram)
+        stats = q.density.sufficient_statistics()
+        gram = np.asarray(stats.gram)
         p = gram.shape[0]
-        scale = 1.0 if q.sigma_known else float(q.density.rss_min) / max(q.n - p, 1)
+        scale = 1.0 if q.sigma_known else float(stats.rss_min) / max(q.n - p, 1)
         if np.linalg.matrix_rank(gram) < p:
             inverse = np.linalg.pinv(gram)
             unidentified = np.abs(np.diag(gram @ inverse) - 1.0) > 1e-6
         else:
             inverse, unidentified = np.linalg.inv(gram), np.zeros(p, bool)
         sd = np.sqrt(np.clip(np.diag(inverse) * scale, 0.0, None))
-        means.append(np.where(unidentified, np.nan, np.asarray(q.density.solution)))
+        means.append(np.where(unidentified, np.nan, np.asarray(stats.solution)))
         sds.append(np.where(unidentified, np.nan, sd))
     return np.array(means), np.array(sds)
 
@@ -143,12 +144,13 @@ def pool_problem(
                            progress=progress)
     p = len(model.parameter_names)
     own_mean, own_sd = _own_estimates(runs)
+    stats = [q.density.sufficient_statistics() for q in runs]
     return PoolProblem.from_statistics(
         model.parameter_names, tuple(labels),
-        gram=np.stack([np.asarray(q.density.gram) for q in runs]),
-        solution=np.stack([np.asarray(q.density.solution) for q in runs]),
-        rss=[float(q.density.rss_min) for q in runs], n_rows=[q.n for q in runs],
-        log_sigma_sum=[float(q.density.log_sigma_sum) for q in runs],
+        gram=np.stack([np.asarray(s.gram) for s in stats]),
+        solution=np.stack([np.asarray(s.solution) for s in stats]),
+        rss=[float(s.rss_min) for s in stats], n_rows=[q.n for q in runs],
+        log_sigma_sum=[float(s.log_sigma_sum) for s in stats],
         sigma_known=[q.sigma_known for q in runs],
         mean_priors=mean_priors, spread_scales=scales,
         noise_priors=[q.priors[p] if not q.sigma_known else None for q in runs],
@@ -189,6 +191,8 @@ def pooled_fits(logs: Sequence[BenchLog], labels: Sequence[str], model: DriftMod
     for k, log in enumerate(logs):
         single = fit_log(log, model, noise=noise, seed=seed + k, prior_set=prior_set,
                          t0_C=t0_C, segment_means=segment_means, progress=False)
+        if single.posterior is None:
+            raise ValueError(f"{log.source}: a run's fit under {noise.name} gave no posterior")
         draws = single.posterior.draws.reshape(-1, len(single.posterior.names))[:, :p]
         means.append(draws.mean(axis=0))
         covariances.append(np.atleast_2d(np.cov(draws.T)))

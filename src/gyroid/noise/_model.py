@@ -166,7 +166,7 @@ class NoiseModel(eqx.Module):
         return values, variances
 
     # ----- the white level --------------------------------------------------------------
-    def row_white_sd(self, values: Mapping, *, step_s: float, row_scale: float):
+    def row_white_sd(self, values: Mapping, *, step_s: float, row_scale: float) -> Array:
         """The white sd of a row (deg/h; traceable) when the log does not give it."""
         return self.white.row_white_sd(values, step_s=step_s, row_scale=row_scale)
 
@@ -269,7 +269,7 @@ class RowFilter(eqx.Module):
     def clock(self) -> RowClock:
         return RowClock(self.steps_s, self.step_s, self.gap_s, self.weight)
 
-    def levels_of(self, noise_u: Float[Array, " k"]):
+    def levels_of(self, noise_u: Float[Array, " k"]) -> tuple[Array, dict[str, Array]]:
         """The white sd a row's likelihood uses (deg/h; per row or one) and every level by
         name (natural units), from the levels' sampling coordinates ``noise_u``."""
         values = dict(zip(self.names, jnp.exp(noise_u), strict=True))

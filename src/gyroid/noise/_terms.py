@@ -123,7 +123,7 @@ class AbstractWhiteTerm(AbstractNoiseTerm):
     wanders: ClassVar[bool] = False
 
     @abc.abstractmethod
-    def row_white_sd(self, values: Mapping, *, step_s: float, row_scale: float):
+    def row_white_sd(self, values: Mapping, *, step_s: float, row_scale: float) -> Array:
         """The white sd of a row (deg/h; traceable): rows ``step_s`` apart, each the mean
         of ``1 / row_scale**2`` samples."""
 
