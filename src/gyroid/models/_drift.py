@@ -85,11 +85,11 @@ class DriftModel(eqx.Module):
                 values = np.asarray(values)
                 out[name] = [float(values.min()), float(values.max())]
         for k, name in enumerate(FIELD_COLUMNS):
-            if name in self.columns:
+            if name in self.columns and inputs.field_rel is not None:
                 h = np.asarray(inputs.field_rel[:, k]) * H0_UT
                 out[name] = [float(h.min()), float(h.max())]
         for k, name in enumerate(ACCEL_COLUMNS):
-            if name in self.columns:
+            if name in self.columns and inputs.accel_g is not None:
                 a = np.asarray(inputs.accel_g[:, k])
                 out[name] = [float(a.min()), float(a.max())]
         time_h = np.asarray(inputs.time_h)
@@ -101,7 +101,7 @@ class DriftModel(eqx.Module):
         if not self.is_linear:
             nonlinear = [e.name for e in self.effects if not e.linear]
             raise ValueError(f"the model is not linear: {', '.join(nonlinear)}")
-        return jnp.concatenate([e.design(inputs) for e in self.effects], axis=1)
+        return jnp.concatenate([e.design_columns(inputs) for e in self.effects], axis=1)
 
     def columns_at(self, inputs: DriftInputs, u_positive: Float[Array, " q"]
                    ) -> tuple[Float[Array, " n"], Float[Array, "n r"]]:
@@ -128,7 +128,8 @@ class DriftModel(eqx.Module):
         effects = self.effects if effects is None else tuple(effects)
         for sl in row_blocks(inputs.n, rows):
             part = rows_of(inputs, sl)
-            yield sl, np.concatenate([np.asarray(e.design(part)) for e in effects], axis=1)
+            yield sl, np.concatenate([np.asarray(e.design_columns(part)) for e in effects],
+                                     axis=1)
 
     def check_identifiable(self, inputs: DriftInputs, available: set[str] | frozenset[str]) -> None:
         """Refuse a log that cannot identify every coefficient, naming the column at fault."""
@@ -153,6 +154,8 @@ class DriftModel(eqx.Module):
             r = with_rows(r, block)
             low, high = np.minimum(low, block.min(axis=0)), np.maximum(high, block.max(axis=0))
             first = block[0] if first is None else first
+        if r is None or first is None:  # no rows
+            return
         for j, name in enumerate(names):
             if name == "w0":
                 continue

@@ -102,6 +102,13 @@ class Effect:
         """True when the contribution is linear in this effect's own parameters."""
         return self.design is not None
 
+    def design_columns(self, inputs: DriftInputs) -> Float[Array, "n k"]:
+        """The effect's design columns (one per parameter) at ``inputs``: its contribution
+        is their product with the coefficients. ValueError for a nonlinear effect."""
+        if self.design is None:
+            raise ValueError(f"{self.name} is not linear in its coefficients: it has no design")
+        return self.design(inputs)
+
     def contribution(self, params: Params, inputs: DriftInputs) -> Float[Array, " n"]:
         """The effect's additive contribution to the drift, deg/h."""
         if self.design is not None:
@@ -344,6 +351,8 @@ EXTRA_PREFIX = "extra:"
 def extra_effect(column: str) -> Effect:
     """``extra:COLUMN``: linear in the column's deviation from its mean."""
     def design(x: DriftInputs) -> Float[Array, "n 1"]:
+        if x.extra is None:
+            raise ValueError(f"the inputs hold no extra column {column!r}")
         k = x.extra_names.index(column)
         return x.extra[:, k : k + 1]
 

@@ -80,7 +80,7 @@ def default_priors(model: DriftModel, inputs: DriftInputs, drift_deg_h: np.ndarr
     priors: dict[str, Prior] = {}
     spans: dict[str, float] = {}
     for effect in model.effects:
-        ranges = (np.ptp(np.asarray(effect.design(inputs)), axis=0) if effect.linear
+        ranges = (np.ptp(np.asarray(effect.design_columns(inputs)), axis=0) if effect.linear
                   else np.zeros(len(effect.parameters)))
         for p, seen in zip(effect.parameters, ranges, strict=True):
             if p.positive:
@@ -130,7 +130,7 @@ def identifiability_hints(model: DriftModel, inputs: DriftInputs) -> dict[str, s
                     "exponential warm-up)")
         elif p.regressor == "temperature_C":
             seen = f" (it spans {np.ptp(np.asarray(inputs.temperature_C)):.3g} degC here)"
-        elif p.regressor in FIELD_COLUMNS:
+        elif p.regressor in FIELD_COLUMNS and inputs.field_rel is not None:
             k = FIELD_COLUMNS.index(p.regressor)
             seen = f" (it spans {100 * np.ptp(np.asarray(inputs.field_rel[:, k])):.3g} uT here)"
         elif p.regressor == "time_s":

@@ -6,14 +6,22 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Generic, TypeVar
+from typing import Generic, Protocol, TypeVar
 
 from gyroid.errors import GyroidInputError
 from gyroid.io._log_table import LogTable
 from gyroid.io._outputs import json_text, output_dir
 from gyroid.reports._write import write
 
-R = TypeVar("R")
+
+class Judged(Protocol):
+    """A result a command writes: its self-checks' verdict."""
+
+    @property
+    def trustworthy(self) -> bool: ...
+
+
+R = TypeVar("R", bound=Judged)
 
 
 @dataclass(frozen=True)
@@ -79,6 +87,8 @@ def write_axes(folder: Path, per_axis: PerAxis, **context) -> None:
         write(folder, per_axis.only, **context)
         return
     for axis, result in per_axis.results.items():
+        if axis is None:
+            raise ValueError("a log's one drift column among several axes")
         (folder / axis).mkdir()
         write(folder / axis, result, **context)
     (folder / "axes.json").write_text(json_text(per_axis.to_json()))

@@ -91,7 +91,7 @@ def _run_in_two_processes(study: Study) -> None:
             # to load (the likely cause of a segmentation fault seen under pytest-xdist).
             with one_core_environment():
                 side = pool.submit(_side_steps, study.stage, study.seed, study.size,
-                                   jax.config.jax_compilation_cache_dir)
+                                   jax.config.values["jax_compilation_cache_dir"])
             try:
                 for step in main_steps:
                     step()

@@ -4,27 +4,33 @@ logs to at most 5000 drawn points."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, Literal
 
 import matplotlib
 import numpy as np
+from cycler import cycler
 from matplotlib.figure import Figure
 
 from gyroid.io._logs import gap_threshold
 
+if TYPE_CHECKING:
+    from matplotlib.typing import RcKeyType  # matplotlib >= 3.9
+
 #: Figures are drawn inside this style and saved after it (:func:`save`), at the figure's
 #: own resolution: ``figure.dpi`` (a savefig.dpi here would never apply).
-STYLE = {
+STYLE: dict[RcKeyType, Any] = {
     "figure.dpi": 110,
     "axes.grid": True,
     "grid.linestyle": ":",
     "grid.color": "0.7",
-    "axes.prop_cycle": matplotlib.cycler(color=["0.0", "0.45", "0.65"])
-    + matplotlib.cycler(linestyle=["-", "--", ":"]),
+    "axes.prop_cycle": cycler(color=["0.0", "0.45", "0.65"])
+    + cycler(linestyle=["-", "--", ":"]),
     "font.size": 9,
 }
 
 
-def subplots(*args, figsize: tuple[float, float], layout: str | None = None, **kwargs):
+def subplots(*args, figsize: tuple[float, float],
+             layout: Literal["constrained", "compressed", "tight"] | None = None, **kwargs):
     """A figure and its axes, as ``pyplot.subplots`` makes them but without pyplot: no
     backend is chosen and no global figure registry is kept (a figure is a plain object,
     freed when dropped, and saved by :func:`save`)."""
@@ -32,7 +38,7 @@ def subplots(*args, figsize: tuple[float, float], layout: str | None = None, **k
     return fig, fig.subplots(*args, **kwargs)
 
 
-def figure_style(overrides: dict | None = None):
+def figure_style(overrides: dict[RcKeyType, Any] | None = None):
     """The context in which every gyroid figure is drawn (:data:`STYLE`, with
     ``overrides``)."""
     return matplotlib.rc_context(STYLE | (overrides or {}))
