@@ -167,6 +167,7 @@ def simulated_magnetic(tmp_path_factory):
     return out / "bench.csv"
 
 
+@pytest.mark.slow
 def test_progress_in_a_log_file_is_plain_lines(tmp_path, simulated_magnetic, capsys,
                                                monkeypatch):
     """stderr redirected to a file (not a terminal): the sampler's progress is whole lines,

@@ -185,6 +185,7 @@ def test_the_rate_errors_covariance_is_solved_by_its_band_as_densely(window_s):
                                rtol=1e-8, atol=1e-10 * np.abs(expected).max())
 
 
+@pytest.mark.slow
 def test_rate_window_of_a_model_with_a_time_constant_is_its_profiled_least_squares():
     """A model reading dT/dt with a warm-up (a time constant): each window's score is the
     least residual sum of squares over the time constant, the coefficients by least squares

@@ -175,6 +175,7 @@ def test_exports_refuse_the_wrong_kind_of_fit(noise_dir, fit_dir, tmp_path, caps
     assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
 
 
+@pytest.mark.slow
 def test_an_untrustworthy_fit_is_exported_with_exit_3(tmp_path, capsys):
     """An exponential warm-up: dT/dt is a linear function of T, so w1 and wD are not
     identified; the fit says so (exit 3), and so does the export of it."""

@@ -130,6 +130,7 @@ def test_kept_draws_carry_the_joint_log_posterior(walked_problem):
     assert np.all(np.abs(z.var(axis=0) - 1.0) < 4.5 * np.sqrt(2.0 / n)), z.var(axis=0)
 
 
+@pytest.mark.slow
 def test_unreliable_weights_go_to_emcee(walked_problem):
     """A proposal a thousandth of the mode's covariance misses the posterior's bulk: its
     Pareto k is far above 0.7, and the fallback (emcee, cut short here: on this posterior,

@@ -24,6 +24,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
 
+from gyroid.inference._problem import AbstractDensity
 from gyroid.inference._white_rows import HostPrior, SufficientStatistics, ThermometerEigenbasis
 from gyroid.io._logs import BenchLog
 from gyroid.models._derived import RATE_WINDOW_S
@@ -41,7 +42,7 @@ MAX_LOO_BLOCKS = 500
 _LOG_2PI = math.log(2.0 * math.pi)
 
 
-class BenchDensity(eqx.Module):
+class BenchDensity(AbstractDensity):
     """Everything the posterior of one bench log computes with; built by
     :meth:`from_log` (what :class:`~gyroid.inference.BenchProblem` does)."""
 

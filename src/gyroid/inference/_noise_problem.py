@@ -31,7 +31,7 @@ from gyroid.inference._noise_terms import (
     level_log_likelihood,
     shapes,
 )
-from gyroid.inference._problem import AbstractProblem, PointEstimate
+from gyroid.inference._problem import AbstractDensity, AbstractProblem, PointEstimate
 from gyroid.models._priors import Normal, natural_with_sd
 
 PRIOR_BELOW_ENVELOPE = math.log(10.0)
@@ -42,7 +42,7 @@ _SEARCH = BoundedGradientSearch(gtol=1e-8, ftol=1e-15, max_steps=5000, polish_st
 _SCORING = FisherScoring(max_steps=500, tol=1e-12)
 
 
-class NoiseDensity(eqx.Module):
+class NoiseDensity(AbstractDensity):
     """The JAX part of a noise problem: log-amplitudes ``u`` to a log-posterior."""
 
     shape: Float[Array, "levels terms"]

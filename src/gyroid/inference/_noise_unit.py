@@ -133,7 +133,10 @@ def pool_term(name: str, labels: Sequence[str], y: np.ndarray, s: np.ndarray,
         UNIT_DRAWS)
     w0 = 1.0 / s**2
     cochran = float(np.sum(w0 * (y - (w0 @ y) / w0.sum()) ** 2))
-    q = lambda x: tuple(float(v) for v in np.exp(np.quantile(x, [0.05, 0.95])))  # noqa: E731
+    def q(x: np.ndarray) -> tuple[float, float]:
+        low, high = np.exp(np.quantile(x, [0.05, 0.95]))
+        return float(low), float(high)
+
     return UnitTerm(name, tuple(labels), tuple(float(v) for v in np.exp(y)),
                     tuple((float(a), float(b)) for a, b in intervals),
                     float(np.exp(np.median(mu))), q(mu), float(np.exp(np.median(tau_draws))),

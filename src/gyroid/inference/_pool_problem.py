@@ -42,7 +42,7 @@ from jaxtyping import Array, Float
 
 from gyroid.inference._mode import JointBFGS, safe_inverse
 from gyroid.inference._nuts import Nuts
-from gyroid.inference._problem import AbstractProblem, PointEstimate
+from gyroid.inference._problem import AbstractDensity, AbstractProblem, PointEstimate
 from gyroid.models._inputs import T0_C
 from gyroid.models._priors import Flat as FlatPrior
 from gyroid.models._priors import HalfNormal, LogNormal, Normal
@@ -56,7 +56,7 @@ SPREAD_PREFIX = "between_sd_"
 _FINDER = JointBFGS(rtol=1e-9, atol=1e-9, max_steps=5000)
 
 
-class PoolDensity(eqx.Module):
+class PoolDensity(AbstractDensity):
     """The arrays of a pooled posterior (what is jit-compiled): see the module docstring.
 
     Sampled coordinates ``u = (log tau, log sigma_r of the runs whose log lacks sigma)``;

@@ -29,6 +29,7 @@ from dataclasses import dataclass, field
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, Float
 
 from gyroid.inference._posterior import Posterior
 from gyroid.models._priors import Prior, natural_from_sampling
@@ -54,10 +55,19 @@ class PointEstimate:
         return "\n".join([f"point estimate ({status}, {self.n_starts} start(s))", *rows])
 
 
+class AbstractDensity(eqx.Module):
+    """A problem's JAX part: arrays, and methods jit-compiled and vmapped over draws (a
+    sampler reads :meth:`log_posterior`). Subclasses are final."""
+
+    @abc.abstractmethod
+    def log_posterior(self, u: Float[Array, " d"]) -> Float[Array, ""]:
+        """The log-posterior at sampling coordinates ``u``; -inf where it is not finite."""
+
+
 class AbstractProblem(eqx.Module):
     """A posterior to fit (see the module docstring). Subclasses are final."""
 
-    density: eqx.AbstractVar[eqx.Module]
+    density: eqx.AbstractVar[AbstractDensity]
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}(parameters={', '.join(self.names)})"

@@ -128,7 +128,7 @@ def choose_rate_window(log: BenchLog, model: DriftModel, *, t0_C: float,
         for window in windows:
             trial = eqx.tree_at(lambda x: x.rate_C_h, inputs, jnp.asarray(rate(window)))
             scores[float(window)] = grid_least_squares(model, trial, y, weights)[0]
-    best = min(scores, key=scores.get)
+    best = min(scores, key=lambda w: scores[w])
     if thermometer_var_C2 > 0 and model.is_linear and weights is None:
         shorter = np.sort([w for w in scores if w <= best])
         return _least_biased(log, model, inputs, shorter, thermometer_var_C2)

@@ -100,5 +100,5 @@ def marginal_window(density_at: Callable[[float], object], least_squares_s: floa
             break  # past the maximum: the smearing's cost only falls as the window shortens
     if not scores or not np.isfinite(max(scores.values())):
         return None
-    best = max(scores, key=scores.get)
+    best = max(scores, key=lambda w: scores[w])
     return best, scores, levels[best]

@@ -11,7 +11,9 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jaxtyping import Array, Float
 
+from gyroid.inference._problem import AbstractDensity
 from gyroid.io._roll_log import RollLog
 from gyroid.models._priors import prior_arrays
 from gyroid.models._roll import encoder_error_deg, sins_scale
@@ -134,7 +136,7 @@ class RollDensity(eqx.Module):
         return jnp.where(jnp.isfinite(value), value, -jnp.inf)
 
 
-class ModelDensity(eqx.Module):
+class ModelDensity(AbstractDensity):
     """A model's densities on its own sampling coordinates ``u``: ``u[i]`` is entry
     ``slot[i]`` of the full vector of ``RollDensity`` (what the sampler sees)."""
 
@@ -165,7 +167,7 @@ class ModelDensity(eqx.Module):
     def log_prior(self, u):
         return self.full.log_prior(self.spread(u))
 
-    def log_posterior(self, u):
+    def log_posterior(self, u: Float[Array, " d"]) -> Float[Array, ""]:
         return self.full.log_posterior(self.spread(u))
 
 

@@ -57,7 +57,7 @@ class RollProblem(AbstractProblem):
     parameter_positive: tuple[bool, ...]
 
     @classmethod
-    def from_log(cls, log: RollLog, terms="loop") -> RollProblem:
+    def from_log(cls, log: RollLog, terms: str | tuple[str, ...] = "loop") -> RollProblem:
         sample_s = float(np.median(np.diff(log.time_s)))
         rate = log.gs_rate_deg_s
         has_rate = rate is not None

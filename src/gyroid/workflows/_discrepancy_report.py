@@ -143,7 +143,7 @@ def add_while_evidence(
             trials[name] = trial
         if not scores:
             break
-        best = max(scores, key=scores.get)
+        best = max(scores, key=lambda n: scores[n])
         if scores[best] <= threshold:
             break
         rivals = [name for name, s in scores.items()

@@ -78,7 +78,7 @@ def axis_polynomial(axis: str | None, fitted: FittedDrift) -> AxisPolynomial:
         if effect in terms:
             draws[:, power] = fitted.draws[:, names.index(name)]
     left_out = tuple(t for t in terms if t not in POLYNOMIAL)
-    return AxisPolynomial(axis, draws, fitted.t0_C, tuple(fitted.input_ranges["temperature_C"]),
+    return AxisPolynomial(axis, draws, fitted.t0_C, _low_high(fitted.input_ranges["temperature_C"]),
                           left_out, _truncation(fitted, left_out), fitted.trustworthy)
 
 
@@ -240,3 +240,9 @@ def _comments(target, polynomials, tref, by_axis) -> tuple[str, ...]:
     if None in polynomials:
         out.append("the fit is of one drift column, exported as the x axis")
     return tuple(out)
+
+
+def _low_high(pair: list[float]) -> tuple[float, float]:
+    """A [low, high] list (fit.json's input ranges) as a pair."""
+    low, high = pair
+    return float(low), float(high)

@@ -37,17 +37,20 @@ def regressors(x: DriftInputs) -> dict[str, np.ndarray]:
         "elapsed time": time_h,
         "start-up transient": np.exp(-time_h / 0.33),
     }
-    for k, axis in enumerate("xyz" if x.field_rel is not None else ""):
-        out[f"H{axis}"] = np.asarray(x.field_rel[:, k])
-        if x.field_sign is not None:
-            out[f"sign of the last H{axis} change"] = np.asarray(x.field_sign[:, k])
+    if x.field_rel is not None:
+        for k, axis in enumerate("xyz"):
+            out[f"H{axis}"] = np.asarray(x.field_rel[:, k])
+            if x.field_sign is not None:
+                out[f"sign of the last H{axis} change"] = np.asarray(x.field_sign[:, k])
     if x.temperature_sign is not None:
         out["sign of the last temperature change"] = np.asarray(x.temperature_sign)
-    for k, axis in enumerate("xyz" if x.accel_g is not None else ""):
-        out[f"a{axis}"] = np.asarray(x.accel_g[:, k])
-        out[f"a{axis}^2"] = np.asarray(x.accel_g[:, k]) ** 2
-    for k, name in enumerate(x.extra_names):
-        out[name] = np.asarray(x.extra[:, k])
+    if x.accel_g is not None:
+        for k, axis in enumerate("xyz"):
+            out[f"a{axis}"] = np.asarray(x.accel_g[:, k])
+            out[f"a{axis}^2"] = np.asarray(x.accel_g[:, k]) ** 2
+    if x.extra is not None:
+        for k, name in enumerate(x.extra_names):
+            out[name] = np.asarray(x.extra[:, k])
     return out
 
 
