@@ -19,17 +19,19 @@ def test_every_fit_result_shares_one_base():
 
 
 def test_every_result_reads_its_problem_by_its_concrete_type():
-    """A result reads its problem's own attributes (the log, the model, the segments): its
-    ``problem`` field has the problem's concrete type, which a type checker follows (typed
-    as AbstractProblem, 69 reads were of attributes the abstract class never declares)."""
+    """A result reads its problem's own attributes (the log, the model, the segments): it is
+    a ``Fit`` of the problem's concrete type, which a type checker follows (typed as
+    AbstractProblem, 69 reads were of attributes the abstract class never declares)."""
     import typing
 
     from gyroid.inference import BenchProblem, PoolProblem, RollProblem
     from gyroid.inference._fit import RESULTS
+    from gyroid.inference._result import Fit
 
     for result, problem in ((BenchFit, BenchProblem), (RollFit, RollProblem),
                             (PoolFit, PoolProblem)):
-        assert typing.get_type_hints(result)["problem"] is problem, result
+        base = next(b for b in result.__orig_bases__ if typing.get_origin(b) is Fit)
+        assert typing.get_args(base) == (problem,), result
     assert set(RESULTS) >= {BenchProblem, RollProblem, PoolProblem}
 
 

@@ -14,10 +14,9 @@ from gyroid.inference._allowed_noise import AllowedNoise, allowed_noise
 from gyroid.inference._batching import problem_batcher
 from gyroid.inference._bench_checks import bench_checks
 from gyroid.inference._bench_problem import BenchProblem
-from gyroid.inference._check_report import CheckReport
 from gyroid.inference._posterior import Posterior
 from gyroid.inference._problem import PointEstimate
-from gyroid.inference._result import FitResult
+from gyroid.inference._result import Fit
 from gyroid.inference._storage import inference_data
 from gyroid.io._fitted import FittedDrift
 from gyroid.io._logs import BenchLog
@@ -38,15 +37,10 @@ class NoisePriorSource:
 
 
 @dataclass(frozen=True, eq=False)
-class BenchFit(FitResult):
+class BenchFit(Fit[BenchProblem]):
     """A fitted bench log: its problem, point estimate, posterior (None when only the mode
     was asked for) and self-checks."""
 
-    problem: BenchProblem = field(repr=False)
-    point: PointEstimate = field(repr=False)
-    posterior: Posterior | None = field(repr=False)
-    seed: int
-    checks: CheckReport = field(repr=False)
     #: How the noise model was chosen: asked for by name, or by ``--noise auto`` and why.
     noise_choice: str = ""
     #: Each coefficient's range over the noise levels the log cannot rule out (None under

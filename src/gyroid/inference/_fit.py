@@ -13,26 +13,18 @@ from typing import Any
 from gyroid._compiled_programs import release_if_crowded
 from gyroid.inference._bench_problem import BenchProblem
 from gyroid.inference._bench_result import bench_result
-from gyroid.inference._noise_model_fit import NoiseModelFit, noise_model_result
+from gyroid.inference._noise_model_fit import noise_model_result
 from gyroid.inference._noise_problem import NoiseProblem
 from gyroid.inference._pool_problem import PoolProblem
 from gyroid.inference._pool_result import pool_result
-from gyroid.inference._posterior import Posterior
-from gyroid.inference._problem import AbstractProblem, AbstractSampler, PointEstimate
+from gyroid.inference._problem import AbstractProblem, AbstractSampler
 from gyroid.inference._roll_problem import RollProblem
 from gyroid.inference._roll_result import roll_result
-
-
-def _noise_model_result(problem: NoiseProblem, point: PointEstimate,
-                        posterior: Posterior | None, *, seed: int) -> NoiseModelFit:
-    del seed  # a noise model's result draws nothing of its own
-    return noise_model_result(problem, point, posterior)
-
 
 #: Each kind of problem's result: its frozen result type, built with its self-checks.
 RESULTS: dict[type, Callable[..., Any]] = {
     BenchProblem: bench_result, RollProblem: roll_result, PoolProblem: pool_result,
-    NoiseProblem: _noise_model_result}
+    NoiseProblem: noise_model_result}
 
 
 def fit(problem: AbstractProblem, *, sampler: AbstractSampler | None = None, seed: int = 0,

@@ -168,9 +168,9 @@ class NoiseFit(FitResult):
             "model": [{"name": n, "process": term(n).description, "unit": term(n).unit}
                       for n in self.terms],
             "models_averaged": [{"terms": list(m.terms), "weight": round(w, 6),
-                                 "posterior": m.posterior.method,
+                                 "posterior": m.sampled.method,
                                  "r_hat_max": max(v["r_hat"] for v in
-                                                  m.posterior.summary.values())}
+                                                  m.sampled.summary.values())}
                                 for w, m in self.models],
             "allan": {"tau_s": self.stats.tau_s.tolist(),
                       "adev_deg_h": np.sqrt(self.stats.avar).tolist(),
@@ -227,7 +227,7 @@ def fit_noise(rate_deg_h: np.ndarray, sample_s: float, *,
                                                choice.argmax.get(names, ()))
         model = fit(problem, sampler=sampler, seed=seed + k)
         models.append((weight, model))
-        draws = model.posterior.draws.reshape(-1, len(names))
+        draws = model.sampled.draws.reshape(-1, len(names))
         take = rng.integers(0, draws.shape[0], int(round(weight * MIXTURE_DRAWS)))
         block = np.zeros((take.size, len(TERM_NAMES)))
         block[:, [TERM_NAMES.index(n) for n in names]] = draws[take]

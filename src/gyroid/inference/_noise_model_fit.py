@@ -15,37 +15,37 @@ from gyroid.inference._noise_problem import NoiseProblem
 from gyroid.inference._noise_terms import term
 from gyroid.inference._posterior import Posterior
 from gyroid.inference._problem import PointEstimate
-from gyroid.inference._result import FitResult
+from gyroid.inference._result import Fit
 
 #: The checks a noise fit keeps of those every fit has (the others read a drift's residuals).
 POSTERIOR_CHECKS = ("convergence", "point_vs_posterior", "prior_data_conflict")
 
 
 @dataclass(frozen=True, eq=False)
-class NoiseModelFit(FitResult):
+class NoiseModelFit(Fit[NoiseProblem]):
     """One set of noise terms' posterior (log-amplitudes sampled) and its checks."""
 
-    terms: tuple[str, ...]
-    point: PointEstimate
-    posterior: Posterior
-    checks: CheckReport
+    @property
+    def terms(self) -> tuple[str, ...]:
+        return self.problem.terms
 
     def summary(self) -> str:
         lines = [f"noise terms {', '.join(self.terms)}; posterior mean +/- sd:"]
         lines += [f"  {name:>4s} = {entry['mean']:.4g} +/- {entry['sd']:.2g} {term(name).unit}"
-                  for name, entry in self.posterior.summary.items()]
+                  for name, entry in self.sampled.summary.items()]
         return "\n".join([*lines, *(f"  {line}" for line in self.checks.lines()),
                           f"  {self.checks.verdict()}"])
 
     def to_json(self) -> dict:
-        return {"terms": list(self.terms), "posterior": self.posterior.summary,
+        return {"terms": list(self.terms), "posterior": self.sampled.summary,
                 **self.checks.to_json()}
 
 
 
 def noise_model_result(problem: NoiseProblem, point: PointEstimate,
-                       posterior: Posterior | None) -> NoiseModelFit:
-    """The frozen :class:`NoiseModelFit` of one sampled set of terms, checks first."""
+                       posterior: Posterior | None, *, seed: int = 0) -> NoiseModelFit:
+    """The frozen :class:`NoiseModelFit` of one sampled set of terms, checks first
+    (``seed``: the sampler's; the result draws nothing of its own)."""
     if posterior is None:
         raise ValueError("a noise fit reports posterior intervals: sample it")
     # Every term is a noise level (n_model 0): as for a bench fit's levels, a term whose
@@ -63,4 +63,5 @@ def noise_model_result(problem: NoiseProblem, point: PointEstimate,
     # reference scales, which a noise fit does not have (level_fit and the terms' inclusion
     # do their work): only the checks of the posterior itself are kept.
     kept = tuple(c for c in fit_checks(evidence).checks if c.name in POSTERIOR_CHECKS)
-    return NoiseModelFit(problem.terms, point, posterior, CheckReport(kept))
+    return NoiseModelFit(problem=problem, point=point, posterior=posterior, seed=seed,
+                         checks=CheckReport(kept))

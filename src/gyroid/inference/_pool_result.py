@@ -13,12 +13,11 @@ import jax.numpy as jnp
 import numpy as np
 from scipy import stats
 
-from gyroid.inference._check_report import CheckReport
 from gyroid.inference._pool_checks import pool_checks
 from gyroid.inference._pool_problem import PoolProblem
 from gyroid.inference._posterior import Posterior, interval_summary, summarise_draws
 from gyroid.inference._problem import PointEstimate
-from gyroid.inference._result import FitResult
+from gyroid.inference._result import Fit
 from gyroid.inference._storage import inference_data
 from gyroid.models._effects import parameter
 
@@ -43,20 +42,15 @@ class Heterogeneity:
 
 
 @dataclass(frozen=True, eq=False)
-class PoolFit(FitResult):
+class PoolFit(Fit[PoolProblem]):
     """A pooled fit: the problem, its mode and posterior, the derived draws and checks."""
 
-    problem: PoolProblem = field(repr=False)
-    point: PointEstimate = field(repr=False)
-    posterior: Posterior = field(repr=False)
-    seed: int
     mean_draws: np.ndarray = field(repr=False)  # (chains, draws, p) the population means
     run_draws: np.ndarray = field(repr=False)  # (M, R, p) each run's, M = chains x draws
     new_run_draws: np.ndarray = field(repr=False)  # (M, p) a new run's coefficients
     run_log_likelihood: np.ndarray = field(repr=False)  # (chains, draws, R) given mu, tau
     posterior_summary: dict[str, dict] = field(repr=False)  # of mu, tau and sigma
     heterogeneity: dict[str, Heterogeneity] = field(repr=False)
-    checks: CheckReport = field(repr=False)
 
     def __repr__(self) -> str:
         verdict = "trustworthy" if self.trustworthy else "NOT trustworthy"
@@ -124,7 +118,7 @@ class PoolFit(FitResult):
         run's pooled coefficients (``run_<name>``, dims chain, draw, run) and a new run's
         (``new_run_<name>``); each run's log-likelihood (LOO leaves out runs)."""
         shape = self.mean_draws.shape[:2]
-        post = self.posterior
+        post = self.sampled
         posterior = {n: self.mean_draws[..., k] for k, n in enumerate(self.coefficient_names)}
         posterior |= {n: post.draws[..., i] for i, n in enumerate(self.problem.names)}
         for k, name in enumerate(self.coefficient_names):
@@ -178,11 +172,11 @@ class PoolFit(FitResult):
             "convergence": {
                 "point_estimate": self.point.message,
                 "sampler": {
-                    "method": self.posterior.method,
-                    "chains": int(self.posterior.draws.shape[0]),
-                    "steps": self.posterior.n_steps,
-                    "divergent": self.posterior.divergent,
-                    "draws_kept": int(np.prod(self.posterior.draws.shape[:2])),
+                    "method": self.sampled.method,
+                    "chains": int(self.sampled.draws.shape[0]),
+                    "steps": self.sampled.n_steps,
+                    "divergent": self.sampled.divergent,
+                    "draws_kept": int(np.prod(self.sampled.draws.shape[:2])),
                     "r_hat_max": max(s["r_hat"] for s in summary.values()),
                     "ess_bulk_min": min(s["ess_bulk"] for s in summary.values()),
                 },

@@ -14,7 +14,7 @@ from gyroid.inference._check_report import CheckReport, FitEvidence
 from gyroid.inference._checks import fit_checks
 from gyroid.inference._posterior import Posterior, interval_summary
 from gyroid.inference._problem import PointEstimate
-from gyroid.inference._result import FitResult
+from gyroid.inference._result import Fit
 from gyroid.inference._roll_predictive import roll_predictive
 from gyroid.inference._roll_problem import RollProblem
 from gyroid.inference._storage import inference_data
@@ -69,17 +69,12 @@ def confounded_pairs(names: tuple[str, ...], draws: np.ndarray) -> tuple[Confoun
 
 
 @dataclass(frozen=True, eq=False)
-class RollFit(FitResult):
+class RollFit(Fit[RollProblem]):
     """A fitted roll log: problem, mode, posterior, the encoder error's amplitude and phase,
     the confounded pairs and the self-checks."""
 
-    problem: RollProblem = field(repr=False)
-    point: PointEstimate = field(repr=False)
-    posterior: Posterior = field(repr=False)
-    seed: int
     derived: dict[str, dict] = field(repr=False)  # Denc, encoder_phase_rad summaries
     confounded: tuple[Confounded, ...] = field(repr=False)
-    checks: CheckReport = field(repr=False)
 
     def __repr__(self) -> str:
         verdict = "trustworthy" if self.trustworthy else "NOT trustworthy"
@@ -93,7 +88,7 @@ class RollFit(FitResult):
     @property
     def parameter_summaries(self) -> dict[str, dict]:
         """The loop's parameters (and Denc) as reported: posterior mean, sd, 95 % interval."""
-        summary = {k: dict(v) for k, v in self.posterior.summary.items()} | self.derived
+        summary = {k: dict(v) for k, v in self.sampled.summary.items()} | self.derived
         shown = (*self.loop_names, *(["Denc"] if self.derived else []))
         return {n: summary[n] for n in shown}
 
@@ -108,11 +103,11 @@ class RollFit(FitResult):
         return "\n".join([*lines, f"  {self.checks.verdict()}"])
 
     def inference_data(self):
-        return inference_data(self.problem, self.posterior)
+        return inference_data(self.problem, self.sampled)
 
     def to_json(self) -> dict:
         """``roll_fit.json``."""
-        problem, post = self.problem, self.posterior
+        problem, post = self.problem, self.sampled
         summary = {k: dict(v) for k, v in post.summary.items()} | self.derived
         return {
             "terms": list(problem.terms),

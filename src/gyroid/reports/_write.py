@@ -88,7 +88,7 @@ def _roll_fit(folder: Path, result: RollFit) -> list[Path]:
                                     np.asarray(problem.predict(result.point.u))),
                     folder / "roll_fit")
     loop = [n for n in ("D0", "D1", "D0gs", "D1gs", "enc_a", "enc_b") if n in problem.names]
-    flat = result.posterior.draws.reshape(-1, len(problem.names))
+    flat = result.sampled.draws.reshape(-1, len(problem.names))
     draws = flat[:, [problem.names.index(n) for n in loop]]
     written += save(pair_plot(draws, loop, summary["units"]), folder / "pair")
     return written
