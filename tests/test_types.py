@@ -19,13 +19,12 @@ ROOT = Path(__file__).resolve().parents[1]
 #: read a density or a problem through a type that does not declare what they read.
 NOT_YET_TYPED = {
     "_config.py": 1,
-    "inference/_bench_predictive.py": 3,
-    "inference/_collapsed.py": 3,
+    "inference/_bench_predictive.py": 2,
     "inference/_emcee.py": 4,
     "inference/_importance.py": 1,
     "inference/_nuts.py": 5,
     "inference/_point.py": 4,
-    "inference/_point_profiled.py": 7,
+    "inference/_point_profiled.py": 1,
     "inference/_pool_checks.py": 6,
     "inference/_pool_result.py": 4,
     "inference/_posterior.py": 1,

@@ -14,7 +14,7 @@ import scipy.linalg
 from gyroid.inference._bench_density import BenchDensity
 from gyroid.inference._check_report import Check
 from gyroid.inference._collapsed import (
-    collapse,
+    collapsed_form,
     columns_at,
     conditional_solution,
     split_parameters,
@@ -160,8 +160,8 @@ def _collapsed_folds(density: BenchDensity, parts: Stretches, time_s: np.ndarray
     folds = []
     for k in range(int(parts.fold_of.max()) + 1):
         held = parts.fold_of == k
-        kept = collapse(density.without_rows(parts.rows_of_fold(k)), columns,
-                        None if columns is None else real)
+        kept = collapsed_form(density.without_rows(parts.rows_of_fold(k)), columns,
+                              None if columns is None else real)
         mean, factor = conditional_solution(kept, v)
         factor = np.asarray(factor)
         covariance = np.linalg.inv(factor @ factor.T)

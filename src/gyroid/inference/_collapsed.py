@@ -47,9 +47,13 @@ class CollapsedCoefficients(eqx.Module):
     noise_scale: Float[Array, " k"]
     noise_on: Float[Array, " k"]
 
-    def _innovations(self, v: Float[Array, " k"]):
-        """Every column filtered by the density's own noise model at the levels ``v``."""
-        return self.row_filter.innovations(self.columns, *self.row_filter.levels_of(v))
+    def _innovations(self, v: Float[Array, " k"]) -> tuple[Array, Array]:
+        """Every column filtered by the density's own noise model at the levels ``v``: the
+        innovations and their variances."""
+        filtered = self.row_filter.innovations(self.columns, *self.row_filter.levels_of(v))
+        if filtered is None:  # collapse() builds this form for correlated noise only
+            raise ValueError("a collapsed form filters correlated noise; this noise is white")
+        return filtered
 
     def _solve(self, v: Float[Array, " k"]):
         innovation, variance = self._innovations(v)
@@ -249,3 +253,14 @@ def collapse(density, columns: Float[Array, "n 1+r"] | None = None,
         beta_loc=loc[real], beta_precision=precision,
         beta_log_norm=log_norm, noise_loc=loc[p:],
         noise_scale=scale[p:], noise_on=on[p:])
+
+
+def collapsed_form(density, columns: Float[Array, "n 1+r"] | None = None,
+                   real: np.ndarray | None = None) -> CollapsedCoefficients:
+    """:func:`collapse` where the caller needs the form (a correlated noise model, a model
+    linear in its real coefficients): ValueError where there is none."""
+    form = collapse(density, columns, real)
+    if form is None:
+        raise ValueError("this density has no collapsed form: its coefficients integrate out "
+                         "exactly under a correlated noise model only")
+    return form

@@ -38,7 +38,7 @@ import numpy as np
 
 from gyroid.inference._collapsed import (
     chunks,
-    collapse,
+    collapsed_form,
     columns_at,
     conditional_solution,
     log_posteriors_at,
@@ -80,7 +80,7 @@ class _Profile:
         self.grid = start_grid(density.model.parameters, density.inputs)
         self.points = np.stack(list(grid_points(self.grid)))
         raw = self._model_columns(self.points)
-        self.base = collapse(density, jnp.asarray(raw[0]), self.real)
+        self.base = collapsed_form(density, jnp.asarray(raw[0]), self.real)
         self.template = padded(self.base)
         self.grid_columns = self._padded(raw)
 
@@ -104,12 +104,12 @@ class _Profile:
         of ``points`` and the noise levels ``v`` (given their ``columns``, read from
         there)."""
         columns = self.columns(points) if columns is None else columns
-        v = jnp.asarray(v, dtype=float)
+        levels = jnp.asarray(v, dtype=float)
         if len(points) == 1:
-            found = np.asarray(log_posteriors_at(self.template, jnp.asarray(columns), v))
+            found = np.asarray(log_posteriors_at(self.template, jnp.asarray(columns), levels))
         else:
             found = np.concatenate([np.asarray(log_posteriors_at(
-                self.template, jnp.asarray(chunk), v)) for chunk in chunks(columns)])
+                self.template, jnp.asarray(chunk), levels)) for chunk in chunks(columns)])
         return found[: len(points)] + positive_log_prior(self.density, points)
 
     def value(self, point, v: np.ndarray) -> float:
@@ -155,8 +155,8 @@ def collapsed_log_likelihood(density, u: np.ndarray) -> float:
     p = density.n_model
     u = np.asarray(u, dtype=float)
     collapsed = padded(
-        collapse(density, jnp.asarray(columns_at(density, u[positive])[0]), real)
-        if positive.size else collapse(density))
+        collapsed_form(density, jnp.asarray(columns_at(density, u[positive])[0]), real)
+        if positive.size else collapsed_form(density))
     beta = np.zeros(collapsed.beta_loc.size)
     beta[:real.size] = u[real]
     return float(_log_likelihood(collapsed, jnp.asarray(np.concatenate([beta, u[p:]]))))
