@@ -15,8 +15,12 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
-#: Modules that basedpyright (basic) still finds errors in, with how many (issue 60): most
-#: read a density or a problem through a type that does not declare what they read.
+#: Modules that basedpyright (basic) still finds errors in, with how many (issue 60). What
+#: is left: the pooled problem's optional per-run estimates (both constructions set them:
+#: one construction will make them fields), NumPy arrays passed where JAX's are annotated
+#: and back, Optionals a caller knows are set (the rate window's grid, emcee's chain), and
+#: third-party annotations narrower than their use (blackjax's NUTS state, rosbags'
+#: messages, dask's dashboard_address=None, numpy.linalg.qr(mode="r"), jax.config).
 NOT_YET_TYPED = {
     "_config.py": 1,
     "inference/_bench_predictive.py": 2,
