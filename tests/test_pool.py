@@ -41,7 +41,8 @@ def _small_lot(seed: int = 1):
     problem = PoolProblem.from_statistics(
         ("a", "b", "c"), ("r0", "r1", "r2"), **stats, n_rows=[n] * r, log_sigma_sum=[0] * r,
         sigma_known=[False] * r, mean_priors=[prior] * p, spread_scales=[1.0] * p,
-        noise_priors=[LogNormal(0.3, 2.0)] * r)
+        noise_priors=[LogNormal(0.3, 2.0)] * r, own_mean=np.stack(stats["solution"]),
+        own_sd=np.full((r, p), np.nan), reference=np.ones(p))
     return problem, design, ys, tau, sigma, prior
 
 

@@ -16,8 +16,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 
 #: Modules that basedpyright (basic) still finds errors in, with how many (issue 60). What
-#: is left: the pooled problem's optional per-run estimates (both constructions set them:
-#: one construction will make them fields), NumPy arrays passed where JAX's are annotated
+#: is left: NumPy arrays passed where JAX's are annotated
 #: and back, Optionals a caller knows are set (the rate window's grid, emcee's chain), and
 #: third-party annotations narrower than their use (blackjax's NUTS state, rosbags'
 #: messages, dask's dashboard_address=None, numpy.linalg.qr(mode="r"), jax.config).
@@ -29,8 +28,7 @@ NOT_YET_TYPED = {
     "inference/_nuts.py": 5,
     "inference/_point.py": 4,
     "inference/_point_profiled.py": 1,
-    "inference/_pool_checks.py": 6,
-    "inference/_pool_result.py": 4,
+    "inference/_pool_checks.py": 1,
     "inference/_posterior.py": 1,
     "inference/_predictive.py": 1,
     "inference/_rate_window.py": 3,

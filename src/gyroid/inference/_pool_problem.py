@@ -188,6 +188,11 @@ class PoolProblem(AbstractProblem):
     run_labels: tuple[str, ...]
     noisy_runs: tuple[int, ...]  # runs whose sigma is sampled
     ranks: tuple[int, ...]  # rank of each run's X'WX
+    #: Each run's own least-squares coefficients and their sds (R, p; nan where a run does
+    #: not identify one), and each population mean's identifiability yardstick (p,).
+    own_mean: np.ndarray
+    own_sd: np.ndarray
+    reference: np.ndarray
     #: Pooling logs: each run's single-fit problem (its log, inputs, priors), the drift
     #: model's terms, t0 and whether burst logs were pooled on their segment means. Empty
     #: when a paper's published estimates are pooled.
@@ -195,11 +200,6 @@ class PoolProblem(AbstractProblem):
     terms: tuple[str, ...] = ()
     t0_C: float = T0_C
     segment_means: bool = False
-    #: Each run's own least-squares coefficients and their sds (R, p; nan where a run does
-    #: not identify one), and each population mean's identifiability yardstick (p,).
-    own_mean: np.ndarray | None = None
-    own_sd: np.ndarray | None = None
-    reference: np.ndarray | None = None
     #: Pooling each run's own fit under correlated noise (``run_noise``, its name): each
     #: run's residual and noise checks from that fit (``runs`` then only describe the logs).
     run_reports: tuple = ()
