@@ -21,6 +21,7 @@ def report_line(line: str) -> None:
     stream = context.meta.get(REPORT_STREAM) if context is not None else None
     click.echo(line, file=stream, err=stream is None)
 
+
 def _current_command() -> str:
     """The command being run, as ``REMEDY_FLAGS`` and ``DOCUMENTED_CHECKS`` name it
     (``fit``, ``roll fit``); empty outside one."""

@@ -322,7 +322,7 @@ class BenchDensity(AbstractDensity):
         """The residual in the eigenbasis and each coordinate's variance."""
         s2, a2 = self._eiv_levels(eiv, u)
         theta = self.to_natural(u)[: self.n_model]
-        return eiv.projected(theta, self.drift - self.predict(u)), s2 + a2 * eiv.lam
+        return eiv.projected(theta, lambda: self.drift - self.predict(u)), s2 + a2 * eiv.lam
 
     def innovations(self, residual, white, values):
         """Innovations of the residual (or of columns) and their variances under the noise

@@ -183,13 +183,14 @@ class ThermometerEigenbasis(eqx.Module):
                    jnp.asarray(basis @ drift),
                    None if design is None else jnp.asarray(basis @ design), index)
 
-    def projected(self, theta: Float[Array, " p"], residual: Float[Array, " n"]
+    def projected(self, theta: Float[Array, " p"], residual: Callable[[], Float[Array, " n"]]
                   ) -> Float[Array, " n"]:
-        """The residual in the eigenbasis (from the projected design where the model is
-        linear, else from ``residual``, the rows' drift less the model's)."""
+        """The residual in the eigenbasis: from the projected design where the model is
+        linear, else from ``residual()``, the rows' drift less the model's (called only
+        then)."""
         if self.x is not None:
             return self.y - self.x @ theta
-        return self.basis @ residual
+        return self.basis @ residual()
 
     def log_likelihood(self, projected: Float[Array, " n"], variance: Float[Array, " n"]
                        ) -> Float[Array, ""]:

@@ -7,6 +7,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypedDict
 
 from gyroid.errors import GyroidInputError
 from gyroid.io import _stream
@@ -47,6 +48,17 @@ class SimulateOptions:
     orientations: tuple[str, ...] | None = None
 
 
+class _RunOptions(TypedDict):
+    """What every bench simulator takes beside its protocol."""
+
+    parameters: dict[str, float]
+    effects: dict[str, dict[str, float]]
+    noise: GyroNoise
+    seed: int
+    average_s: float | None
+    say: Callable[[str], None]
+
+
 def simulate_to_dir(bench: str, out: Path, options: SimulateOptions,
                     say: Callable[[str], None] = lambda _m: None) -> str:
     """Simulate ``bench`` ("thermal", "magnetic" or "overload") into the folder ``out``;
@@ -69,31 +81,27 @@ def simulate_to_dir(bench: str, out: Path, options: SimulateOptions,
     if o.orientations is not None and bench != "overload":
         raise GyroidInputError("--orientations is for the overload bench")
     log_name = f"bench.{o.log_format}"
-    thermal = ThermalProtocol().stretched(o.hours, o.rate_hz)
-    # the module's constant read at the call (a test lowers it)
-    if bench == "thermal" and thermal_bench_rows(thermal) > _stream.STREAM_ROWS:
-        if o.average_s:
-            raise GyroidInputError(
-                f"--average on a log of {thermal_bench_rows(thermal)} rows: its window "
-                "means are those of a slower log; simulate at a lower --rate-hz with --average")
-        return _simulate_streamed(out, log_name, thermal, o, say)
+    run = _RunOptions(parameters=o.parameters, effects=o.effects, noise=o.noise, seed=o.seed,
+                      average_s=o.average_s, say=say)
     if bench == "thermal":
-        sim = simulate_thermal_bench(parameters=o.parameters, effects=o.effects, noise=o.noise,
-                                     seed=o.seed, average_s=o.average_s, protocol=thermal,
-                                     say=say)
+        thermal = ThermalProtocol().stretched(o.hours, o.rate_hz)
+        rows = thermal_bench_rows(thermal)
+        if rows > _stream.STREAM_ROWS:  # the module's constant read here (a test lowers it)
+            if o.average_s:
+                raise GyroidInputError(
+                    f"--average on a log of {rows} rows: its window means are those of a "
+                    "slower log; simulate at a lower --rate-hz with --average")
+            return _simulate_streamed(out, log_name, thermal, o, say)
+        sim = simulate_thermal_bench(**run, protocol=thermal)
         fig = _thermal_figure(sim.log, None if o.average_s else sim.true_drift_deg_h, thermal)
     elif bench == "magnetic":
-        sim = simulate_magnetic_bench(parameters=o.parameters, effects=o.effects,
-                                      noise=o.noise, seed=o.seed, average_s=o.average_s,
-                                      protocol=MagneticProtocol().stretched(o.hours, o.rate_hz),
-                                      say=say)
+        sim = simulate_magnetic_bench(**run,
+                                      protocol=MagneticProtocol().stretched(o.hours, o.rate_hz))
         fig = magnetic_sweep(sim.log)
     else:
         tumble = (OverloadProtocol(orientations=o.orientations) if o.orientations
                   else OverloadProtocol())
-        sim = simulate_overload_bench(parameters=o.parameters, effects=o.effects,
-                                      noise=o.noise, seed=o.seed, average_s=o.average_s,
-                                      protocol=tumble.stretched(o.hours, o.rate_hz), say=say)
+        sim = simulate_overload_bench(**run, protocol=tumble.stretched(o.hours, o.rate_hz))
         fig = overload_run(sim.log)
     with output_dir(out) as stage:
         write_bench_log(stage / log_name, sim.log.columns, sim.log.comments)
