@@ -21,7 +21,7 @@ def enable_float64() -> None:
     """Turn on JAX's 64-bit mode (idempotent)."""
     import jax
 
-    if not jax.config.jax_enable_x64:
+    if not jax.config.read("jax_enable_x64"):
         jax.config.update("jax_enable_x64", True)
 
 

@@ -15,6 +15,7 @@ from concurrent.futures import ThreadPoolExecutor
 import equinox as eqx
 import jax
 import numpy as np
+from jax.typing import ArrayLike
 
 from gyroid._config import compute_threads
 
@@ -68,7 +69,7 @@ def problem_batcher(method: Callable[[jax.Array], jax.Array]):
     return lambda u: _batched_method(static, treedef, function, leaves, u)
 
 
-def in_chunks(batch: Callable[[np.ndarray], jax.Array], rows: np.ndarray, chunk: int
+def in_chunks(batch: Callable[[np.ndarray], ArrayLike], rows: np.ndarray, chunk: int
               ) -> np.ndarray:
     """``batch`` (e.g. a :func:`problem_batcher`) over ``rows`` ``chunk`` at a time, the
     last chunk padded with copies of the last row (one compiled shape): the memory of one

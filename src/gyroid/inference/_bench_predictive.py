@@ -221,7 +221,7 @@ def _refit_folds(density: BenchDensity, parts: Stretches, time_s: np.ndarray
     for k in range(int(parts.fold_of.max()) + 1):
         held = parts.fold_of == k
         point = point_estimate(density.without_rows(parts.rows_of_fold(k)))
-        predicted = part_means(np.asarray(density.predict(point.u)), parts.part,
+        predicted = part_means(np.asarray(density.predict(jnp.asarray(point.u))), parts.part,
                                parts.n_parts)
         jacobian = mean_jacobian(density.predict, point.u[:p], point.u[p:], parts.part,
                                  parts.n_parts)[held]

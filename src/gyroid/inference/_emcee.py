@@ -278,8 +278,9 @@ def _advance(sampler: emcee.EnsembleSampler, state, steps: int, bar) -> emcee.St
 def _thinned(sampler: emcee.EnsembleSampler, burn: int, tau: np.ndarray):
     """Draws after burn-in, thinned by half the shortest autocorrelation time (or more, to
     keep at most ``MAX_STORED_SAMPLES``): (walkers, draws, d), (walkers, draws), thin."""
-    chain = sampler.get_chain(discard=burn)  # (steps, walkers, d)
-    lp = sampler.get_log_prob(discard=burn)
+    # emcee's getters are typed by inference as possibly None (for blobs); these are arrays
+    chain = np.asarray(sampler.get_chain(discard=burn))  # (steps, walkers, d)
+    lp = np.asarray(sampler.get_log_prob(discard=burn))
     steps, walkers, _ = chain.shape
     thin = max(1, int(0.5 * np.min(tau)), math.ceil(steps * walkers / MAX_STORED_SAMPLES))
     return np.transpose(chain[::thin], (1, 0, 2)), lp[::thin].T, thin

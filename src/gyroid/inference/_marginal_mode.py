@@ -96,7 +96,8 @@ def marginal_mode(collapsed, noise_u: np.ndarray, correlated: tuple[int, ...] = 
 
 
 def collapsed_mode(collapsed, u_model: np.ndarray, noise_u: np.ndarray,
-                   correlated: tuple[int, ...] = (), *, lanes: int | None = None):
+                   correlated: tuple[int, ...] = (), *, lanes: int | None = None
+                   ) -> tuple[np.ndarray, np.ndarray, bool, str]:
     """The mode of a collapsed problem's noise levels (their marginal posterior, the
     coefficients integrated out) and the coefficients' conditional mean there: the point
     the sampled posterior is centred on. The joint mode's noise levels are biased low
@@ -113,7 +114,8 @@ def collapsed_mode(collapsed, u_model: np.ndarray, noise_u: np.ndarray,
         collapsed, marginal_mode(collapsed, noise_u, correlated, lanes=lanes)[0], u_model)
 
 
-def at_marginal_mode(collapsed, solution: Optimum, u_model: np.ndarray):
+def at_marginal_mode(collapsed, solution: Optimum, u_model: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray, bool, str]:
     """The joint point at a marginal mode ``solution`` (:func:`marginal_mode`'s): the
     coefficients' conditional mean (``u_model`` where that is not finite) and the noise
     levels, their covariance, whether it converged and the solver's message."""
@@ -123,7 +125,8 @@ def at_marginal_mode(collapsed, solution: Optimum, u_model: np.ndarray):
     hessian = marginal_hessian(collapsed, v)
     mean, factor = conditional_solution(collapsed, jnp.asarray(v))
     mean, factor = np.asarray(mean)[:r], np.asarray(factor)
-    covariance = block_diag(safe_inverse(factor @ factor.T)[:r, :r], safe_inverse(hessian))
+    covariance = np.asarray(block_diag(safe_inverse(factor @ factor.T)[:r, :r],
+                                       safe_inverse(hessian)))
     if not np.all(np.isfinite(mean)):
         return np.concatenate([u_model, v]), covariance, False, solution.message
     return np.concatenate([mean, v]), covariance, solution.converged, solution.message

@@ -64,13 +64,15 @@ def _run_chain(density, key, start, warmup: int, draws: int, target: float):
         adapt = blackjax.window_adaptation(blackjax.nuts, logdensity,
                                            target_acceptance_rate=target)
         warm_key, run_key = jax.random.split(key)
-        (state, parameters), _ = adapt.run(warm_key, start, num_steps=warmup)
+        # blackjax's protocols omit the window adaptation's num_steps and type a step's
+        # state and info as bare NamedTuples (they are HMCState and NUTSInfo)
+        (state, parameters), _ = adapt.run(warm_key, start, num_steps=warmup)  # pyright: ignore[reportCallIssue]
         kernel = blackjax.nuts(logdensity, **parameters)
 
         def step(state, key):
             state, info = kernel.step(key, state)
-            return state, (state.position, state.logdensity, info.acceptance_rate,
-                           info.is_divergent)
+            return state, (state.position, state.logdensity,  # pyright: ignore[reportAttributeAccessIssue]
+                           info.acceptance_rate, info.is_divergent)  # pyright: ignore[reportAttributeAccessIssue]
 
         _, (positions, logdensities, acceptance, divergent) = jax.lax.scan(
             step, state, jax.random.split(run_key, draws))

@@ -107,7 +107,7 @@ def _linear_gaussian(problem: BenchDensity, stats: SufficientStatistics) -> Poin
     if problem.noise_names:
         noise_u = np.array([math.log(scale / problem.row_scale)])  # a sample's sd
         u = np.concatenate([theta, noise_u])
-        cov = block_diag(covariance, np.array([[1.0 / (2.0 * max(n - p, 1))]]))
+        cov = np.asarray(block_diag(covariance, np.array([[1.0 / (2.0 * max(n - p, 1))]])))
     x, sd = natural_with_sd(u, cov, problem.positive)
     # One compiled call (shared by logs of this shape), not op-by-op JAX on every row.
     prediction = np.asarray(problem_batcher(problem.predict)(u[None, :]))[0]
@@ -204,7 +204,8 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3,
         return _profiled(problem)
     n, p = problem.n_observed, problem.n_model
     known = problem.sigma is not None and not problem.noise.correlated
-    weights = 1.0 / problem.sigma if known else jnp.ones(problem.n)
+    weights = (1.0 / problem.sigma if problem.sigma is not None and known
+               else jnp.ones(problem.n))
     if problem.weight is not None:  # rows left out (a predictive check's training fit)
         weights = weights * problem.weight
     candidates = []
@@ -240,7 +241,7 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3,
     if problem.noise_names:
         noise_u, noise_cov = _noise_start(problem, residual, scale)
         u = np.concatenate([u_model, noise_u])
-        covariance = block_diag(covariance_model, noise_cov)
+        covariance = np.asarray(block_diag(covariance_model, noise_cov))
     if problem.noise.correlated or problem.errors_in_variables:
         found = _JOINT.minimise(problem, u)
         u, converged, message = found.value, found.converged, found.message

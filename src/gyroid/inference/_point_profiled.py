@@ -128,6 +128,8 @@ class _Profile:
         density = self.density
         keep = slice(None) if density.weight is None else np.asarray(density.weight) > 0
         index, rss, _, residual = best_least_squares(c[keep] for c in self.grid_columns)
+        if residual is None:
+            raise ValueError("no point of the start grid gives finite model columns")
         scale = math.sqrt(rss / max(density.n_observed - density.n_model, 1))
         return self.points[index], np.asarray(noise_start(residual, scale), dtype=float)
 

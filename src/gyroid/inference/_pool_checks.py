@@ -91,7 +91,7 @@ def population_identified(check: Check, run_sd_ratio: dict[str, float]) -> Check
     pin down is an error when the runs themselves do not identify the coefficient (their
     median own sd above half the reference scale: no run exercises it), else a warning
     (the runs scatter widely for their number; its interval says so honestly)."""
-    if check.passed:
+    if check.passed or check.value is None:
         return check
     unexercised = [n for n, r in run_sd_ratio.items() if not np.isfinite(r) or r > 0.5]
     if unexercised:

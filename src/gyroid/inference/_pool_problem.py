@@ -45,7 +45,7 @@ from gyroid.inference._nuts import Nuts
 from gyroid.inference._problem import AbstractDensity, AbstractProblem, PointEstimate
 from gyroid.models._inputs import T0_C
 from gyroid.models._priors import Flat as FlatPrior
-from gyroid.models._priors import HalfNormal, LogNormal, Normal
+from gyroid.models._priors import HalfNormal, LogNormal, Normal, prior_arrays
 
 _LOG_2PI = math.log(2.0 * math.pi)
 #: Prefix of a between-run sd's name (``between_sd_w0``).
@@ -223,12 +223,7 @@ class PoolProblem(AbstractProblem):
         noisy = tuple(i for i in range(r) if not sigma_known[i])
         index = np.full(r, -1.0)
         index[list(noisy)] = np.arange(len(noisy))
-        loc, scale, on = [], [], []
-        for prior in mean_priors:
-            if isinstance(prior, Normal):
-                loc.append(prior.loc), scale.append(prior.scale), on.append(1.0)
-            else:
-                loc.append(0.0), scale.append(1.0), on.append(0.0)
+        loc, scale, on = prior_arrays(mean_priors, [False] * len(mean_priors))
         centre = solution.mean(axis=0)
         density = PoolDensity(
             gram=jnp.asarray(gram), offset=jnp.asarray(solution - centre),

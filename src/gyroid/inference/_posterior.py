@@ -72,20 +72,19 @@ def summarise_draws(draws: np.ndarray, names: tuple[str, ...]) -> dict[str, dict
     """Mean, sd, 95 % interval, r_hat and bulk ESS of each parameter of (chains, draws, d)
     natural-unit draws."""
     az = load_arviz()
-    with warnings.catch_warnings():
-        warnings.filterwarnings("ignore", message="More chains .* than draws")
-        idata = az.from_dict(posterior={n: draws[..., i] for i, n in enumerate(names)})
-        r_hat = az.rhat(idata)
-        ess = az.ess(idata, method="bulk")
     out = {}
     for i, name in enumerate(names):
-        values = draws[..., i].reshape(-1)
+        chains = draws[..., i]  # ArviZ's diagnostics of a (chains, draws) array: a float
+        values = chains.reshape(-1)
         lo, hi = np.percentile(values, [2.5, 97.5])
+        with warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message="More chains .* than draws")
+            r_hat, ess = az.rhat(chains), az.ess(chains, method="bulk")
         out[name] = {
             "mean": float(values.mean()),
             "sd": float(values.std(ddof=1)),
             "ci95": [float(lo), float(hi)],
-            "r_hat": float(r_hat[name]),
-            "ess_bulk": float(ess[name]),
+            "r_hat": float(r_hat),
+            "ess_bulk": float(ess),
         }
     return out

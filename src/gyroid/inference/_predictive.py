@@ -238,10 +238,9 @@ def mean_jacobian(predict, u_model: np.ndarray, noise_u: np.ndarray, part: np.nd
                   n_parts: int) -> np.ndarray:
     """d(parts' mean predictions) / d(model coordinates): (P, p), one forward pass per
     coordinate, each reduced to the parts at once (memory O(n))."""
-    u_model = jnp.asarray(u_model)
-    full = jnp.concatenate([u_model, jnp.asarray(noise_u)])
+    full = jnp.concatenate([jnp.asarray(u_model), jnp.asarray(noise_u)])
     columns = []
-    for i in range(u_model.size):
+    for i in range(np.size(u_model)):
         tangent = jnp.zeros_like(full).at[i].set(1.0)
         _, derivative = jax.jvp(predict, (full,), (tangent,))
         columns.append(part_means(np.asarray(derivative), part, n_parts))

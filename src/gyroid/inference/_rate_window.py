@@ -115,6 +115,8 @@ def choose_rate_window(log: BenchLog, model: DriftModel, *, t0_C: float,
         for rows, block in model.design_blocks(inputs, others):
             fixed[rows] = block if weights is None else block * weights[rows, None]
             r_fixed = with_rows(r_fixed, np.column_stack([fixed[rows], y[rows]]))
+        if r_fixed is None:
+            raise ValueError("the log has no rows to choose a window on")
         k = fixed.shape[1]
         factor, q_y = r_fixed[:k, :k], r_fixed[:k, k]  # A = Q factor; Q'y = q_y
         y_perp2 = float(r_fixed[k, k] ** 2)  # |y - Q Q'y|^2

@@ -83,9 +83,12 @@ def marginal_window(density_at: Callable[[float], object], least_squares_s: floa
     windows = np.geomspace(shortest, least_squares_s, CANDIDATES)[::-1]
 
     def mode_at(window: float):
-        trial = collapsed if window == least_squares_s else _collapsed(
-            density_at(float(window)))[0]
-        return marginal_mode(trial, guess, correlated)
+        if window == least_squares_s:
+            return marginal_mode(collapsed, guess, correlated)
+        other = _collapsed(density_at(float(window)))
+        if other is None:  # a window changes dT/dt's values, never the density's kind
+            raise ValueError(f"the density at a {window:.0f} s window has no collapsed form")
+        return marginal_mode(other[0], guess, correlated)
 
     # the first two windows are always compared: their searches run side by side
     with ThreadPoolExecutor(min(2, compute_threads())) as pool:

@@ -5,8 +5,10 @@ from __future__ import annotations
 
 import math
 import warnings
+from typing import Protocol, runtime_checkable
 
 import numpy as np
+from jaxtyping import Array, Float
 
 from gyroid.inference._batching import in_chunks, problem_batcher
 from gyroid.inference._posterior import Posterior
@@ -14,6 +16,14 @@ from gyroid.inference._problem import AbstractProblem
 from gyroid.io._arviz import load_arviz
 
 _LOG_2PI = math.log(2.0 * math.pi)
+
+
+@runtime_checkable
+class BlockedDensity(Protocol):
+    """A density whose log-likelihood is a sum over blocks of rows, the units leave-one-out
+    leaves out (a pool's runs are drawn with the population mean: it passes its own)."""
+
+    def log_likelihood_blocks(self, u: Float[Array, " d"]) -> Float[Array, " b"]: ...
 
 
 def inference_data(problem: AbstractProblem, posterior: Posterior, *,
@@ -54,7 +64,11 @@ def block_log_likelihood(problem: AbstractProblem, posterior: Posterior, chunk: 
     if collapsed is not None:  # a linear model under correlated noise (a bench density)
         return _by_noise_level(problem.density, collapsed, flat, chunk).reshape(
             walkers, draws, -1)
-    blocks = problem_batcher(problem.density.log_likelihood_blocks)
+    density = problem.density
+    if not isinstance(density, BlockedDensity):
+        raise TypeError(f"{type(density).__name__} has no blocks of rows: pass the fit's "
+                        "log_likelihood to inference_data")
+    blocks = problem_batcher(density.log_likelihood_blocks)
     return in_chunks(blocks, flat, chunk).reshape(walkers, draws, -1)
 
 

@@ -7,6 +7,8 @@ import warnings
 
 import numpy as np
 
+from gyroid.errors import GyroidInputError
+
 
 def load_arviz():
     """The arviz module (imported here: it costs seconds, and only storage needs it)."""
@@ -29,7 +31,10 @@ def read_posterior(path) -> dict[str, np.ndarray]:
     import h5py
 
     with h5py.File(path, "r") as handle:
-        group = handle["posterior"]
+        group = handle.get("posterior")
+        if not isinstance(group, h5py.Group):
+            raise GyroidInputError(f"{path} has no posterior group: it is not a posterior.nc "
+                                   "gyroid wrote")
         return {name: np.asarray(data[...]) for name, data in group.items()
                 if isinstance(data, h5py.Dataset)
                 and data.attrs.get("CLASS") != b"DIMENSION_SCALE"}

@@ -101,7 +101,7 @@ def _for_axis(table: LogTable, axis: str | None) -> tuple[LogTable, str | None]:
     ``drift_deg_h``), and that axis; a log of one drift column as it is."""
     axes = table.axes()
     if axis is None:
-        if table.has("drift_deg_h") or not axes:
+        if table.has("drift_deg_h") or len(axes) == 0:
             return table, None
         if len(axes) > 1:
             raise GyroidInputError(

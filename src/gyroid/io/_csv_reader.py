@@ -103,7 +103,7 @@ def read_csv(path: Path) -> ParsedCsv:
     # usual (body None): pyarrow reads the file in blocks from disk
     table = _read_arrow_csv(path, offset, body, delimiter, names, decimal_comma)
     if table is None:
-        if lines is None:
+        if body is None or lines is None:
             with (gzip.open(path) if is_gzip(path) else path.open("rb")) as handle:
                 handle.read(offset)
                 _raise_bad_row(path, handle, delimiter, len(names), header_line, None)

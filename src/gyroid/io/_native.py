@@ -19,7 +19,9 @@ and naming what it picked (docs/formats.md section 5):
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
+from typing import Protocol, cast
 
 import numpy as np
 
@@ -124,6 +126,37 @@ def _dataflash_streams(path: Path, instance: int) -> ImuStreams:
     return ImuStreams(time_s, values[:, 1:4], time_s, values[:, 4], picked, accel=accel)
 
 
+class _Stamp(Protocol):
+    sec: int
+    nanosec: int
+
+
+class _Header(Protocol):
+    stamp: _Stamp
+
+
+class _Vector(Protocol):
+    x: float
+    y: float
+    z: float
+
+
+class _ImuMessage(Protocol):
+    """The fields of ``sensor_msgs/Imu`` read here (rosbags deserialises to ``object``)."""
+
+    header: _Header
+    angular_velocity: _Vector
+    linear_acceleration: _Vector
+    linear_acceleration_covariance: Sequence[float]
+
+
+class _TemperatureMessage(Protocol):
+    """The fields of ``sensor_msgs/Temperature`` read here."""
+
+    header: _Header
+    temperature: float
+
+
 def _ros_streams(path: Path, instance: int) -> ImuStreams:
     from rosbags.highlevel import AnyReader
     from rosbags.typesys import Stores, get_typestore
@@ -138,7 +171,7 @@ def _ros_streams(path: Path, instance: int) -> ImuStreams:
                            key=lambda c: c.topic)
             gyro, accel, time_s, no_accel = [], [], [], False
             for connection, _, raw in reader.messages(connections=[imu]):
-                msg = reader.deserialize(raw, connection.msgtype)
+                msg = cast(_ImuMessage, reader.deserialize(raw, connection.msgtype))
                 time_s.append(msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec)
                 w, a = msg.angular_velocity, msg.linear_acceleration
                 gyro.append((w.x, w.y, w.z))
@@ -148,9 +181,10 @@ def _ros_streams(path: Path, instance: int) -> ImuStreams:
             t_temp, temperature = [], []
             if temps:
                 for connection, _, raw in reader.messages(connections=[temps[0]]):
-                    msg = reader.deserialize(raw, connection.msgtype)
-                    t_temp.append(msg.header.stamp.sec + 1e-9 * msg.header.stamp.nanosec)
-                    temperature.append(msg.temperature)
+                    reading = cast(_TemperatureMessage,
+                                   reader.deserialize(raw, connection.msgtype))
+                    t_temp.append(reading.header.stamp.sec + 1e-9 * reading.header.stamp.nanosec)
+                    temperature.append(reading.temperature)
     except GyroidInputError:
         raise
     except Exception as error:  # noqa: BLE001 - rosbags raises many kinds on a bad bag

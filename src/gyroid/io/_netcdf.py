@@ -16,6 +16,7 @@ only; one a map names is not recognised as anything else. A mapped variable's un
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
 
@@ -24,7 +25,7 @@ import numpy as np
 from gyroid.errors import GyroidInputError
 from gyroid.io._log_table import LogTable
 from gyroid.io._unit_names import canonical_unit, quantity
-from gyroid.io._units import ColumnMap, conversions
+from gyroid.io._units import ColumnMap, conversions, converter
 
 #: File suffixes read as netCDF.
 NETCDF_SUFFIXES = (".nc", ".nc4", ".netcdf", ".cdf")
@@ -66,7 +67,7 @@ def read_netcdf(path: Path, maps: tuple[ColumnMap, ...] = ()) -> LogTable:
     raw = {"time_s": time_s}
     picked = {"format": "netCDF", "time": f"{time_name} (dimension {time_dim})"}
     for target, (source, unit) in recognised.items():
-        raw[target] = conversions(target)[unit](columns[source])
+        raw[target] = converter(target, unit)(columns[source])
         picked[target] = f"{origins[source]} ({units[source]})"
     taken = {source for source, _ in recognised.values()}
     for name, values in columns.items():  # the rest, for --map and --extra-columns
@@ -140,7 +141,7 @@ def _columns(dataset, time_dim: str, time_name: str):
     return columns, units, origins
 
 
-def _axis_labels(dataset, variable, time_dim: str, width: int) -> list[str | None]:
+def _axis_labels(dataset, variable, time_dim: str, width: int) -> Sequence[str | None]:
     others = [d for d in variable.dims if d != time_dim]
     if not others:
         return [None]
@@ -221,7 +222,7 @@ def _recognise(units, mapped: set[str], path: Path) -> dict[str, tuple[str, str]
     for column, text in units.items():
         unit = canonical_unit(text)
         kind = quantity(unit)
-        if kind not in _TARGETS:
+        if unit is None or kind not in _TARGETS:
             continue
         targets = _TARGETS[kind]
         axis = _axis_of(column) if set(targets) - {None} else None

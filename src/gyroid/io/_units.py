@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -45,11 +45,20 @@ CONVERSIONS = {
 AXIS_COLUMN = re.compile(r"^drift_([a-z0-9]+)_deg_h$")
 
 
-def conversions(target: str) -> dict | None:
+def conversions(target: str) -> dict[str, Callable[[np.ndarray], np.ndarray]] | None:
     """The unit conversions of a contract column (an axis's drift column included)."""
     if AXIS_COLUMN.match(target):
         return CONVERSIONS["drift_deg_h"]
     return CONVERSIONS.get(target)
+
+
+def converter(target: str, unit: str) -> Callable[[np.ndarray], np.ndarray]:
+    """The function taking ``unit`` to the contract column ``target``'s unit; a clear error
+    where it is not one of that column's units."""
+    table = conversions(target)
+    if table is None or unit not in table:
+        raise GyroidInputError(f"{unit!r} is not a unit of {target}{unit_list(target)}")
+    return table[unit]
 
 
 def unit_list(target: str) -> str:
@@ -74,7 +83,7 @@ class ColumnMap:
     def convert(self, values: np.ndarray) -> np.ndarray:
         if self.unit is None:
             return values
-        return conversions(self.target)[self.unit](values)
+        return converter(self.target, self.unit)(values)
 
 
 def parse_column_maps(items: Iterable[str]) -> tuple[ColumnMap, ...]:

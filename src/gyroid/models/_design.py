@@ -38,7 +38,8 @@ def with_rows(r: np.ndarray | None, block: np.ndarray) -> np.ndarray:
     them: upper triangular, p x p (fewer rows while there are fewer than p rows). Folded
     over a matrix's blocks it gives ``np.linalg.qr(matrix, mode="r")`` up to row signs."""
     block = np.asarray(block, dtype=float)
-    return np.linalg.qr(block if r is None else np.vstack([r, block]), mode="r")
+    # NumPy's stubs type every mode's result as QRResult; mode "r" returns the R array
+    return np.linalg.qr(block if r is None else np.vstack([r, block]), mode="r")  # pyright: ignore[reportReturnType]
 
 
 def least_squares_from_r(r_augmented: np.ndarray) -> tuple[np.ndarray, float]:

@@ -108,8 +108,11 @@ def reference_sd(model: DriftModel, inputs: DriftInputs, drift_deg_h: np.ndarray
         prior = priors[p.name]
         if isinstance(prior, Normal):
             out[p.name] = prior.scale * (1.0 if p.name == "w0" else variation)
-        else:
+        elif isinstance(prior, LogNormal):
             out[p.name] = prior.log_sd
+        else:
+            raise ValueError(f"{p.name}: a default prior is normal or log-normal, "
+                             f"not {prior.describe()}")
     return out
 
 

@@ -105,18 +105,19 @@ def natural_with_sd(u, covariance, positive) -> tuple[np.ndarray, np.ndarray]:
 def prior_arrays(priors, positive) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Priors to (loc, scale, on) of normal densities on the sampling coordinates (``on``
     0 for a flat prior); a prior that does not suit its parameter is refused."""
-    loc, scale, on = [], [], []
+    rows: list[tuple[float, float, float]] = []  # (loc, scale, on) per parameter
     for prior, pos in zip(priors, positive, strict=True):
         if isinstance(prior, Flat):
-            loc.append(0.0), scale.append(1.0), on.append(0.0)
+            rows.append((0.0, 1.0, 0.0))
         elif isinstance(prior, LogNormal):
             if not pos:
                 raise GyroidInputError(f"a log-normal prior ({prior.describe()}) needs a "
                                        "positive parameter; use normal(MU,SD)")
-            loc.append(math.log(prior.median)), scale.append(prior.log_sd), on.append(1.0)
+            rows.append((math.log(prior.median), prior.log_sd, 1.0))
         else:
             if pos:
                 raise GyroidInputError(f"a normal prior ({prior.describe()}) on a positive "
                                        "parameter: use lognormal(MEDIAN,LOG_SD)")
-            loc.append(prior.loc), scale.append(prior.scale), on.append(1.0)
-    return np.asarray(loc), np.asarray(scale), np.asarray(on)
+            rows.append((prior.loc, prior.scale, 1.0))
+    loc, scale, on = np.asarray(rows, dtype=float).reshape(-1, 3).T
+    return loc, scale, on

@@ -9,6 +9,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
+from jax.typing import ArrayLike
 from jaxtyping import Array, Float
 
 
@@ -25,7 +26,7 @@ class RowClock:
     weight: Float[Array, " n"] | None = None
 
 
-def parts_mean_covariance(row_covariance: np.ndarray, part: np.ndarray, n_parts: int
+def parts_mean_covariance(row_covariance: ArrayLike, part: np.ndarray, n_parts: int
                           ) -> np.ndarray:
     """The covariance of parts' means given the rows' covariance ``row_covariance``
     (``part``: each row's part, -1 for none): ``A C A'``, ``A`` averaging each part's

@@ -117,7 +117,9 @@ def run_batch(paths: Sequence[str | Path], options: FitOptions, out: Path, *,
         where = scheduler
     else:
         cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                               dashboard_address=None, silence_logs=logging.ERROR)
+                               # no dashboard (dask's stubs type the address str only)
+                               dashboard_address=None,  # pyright: ignore[reportArgumentType]
+                               silence_logs=logging.ERROR)
         client = Client(cluster)
         where = "LocalCluster"
     try:

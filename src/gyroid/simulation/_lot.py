@@ -7,6 +7,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
@@ -85,16 +86,19 @@ def simulate_lot(
     rng = np.random.default_rng(seeds[0])
     names = list(population)
     coefficients = rng.standard_normal((n_runs, len(names)))
-    simulator = simulate_thermal_bench if bench == "thermal" else simulate_magnetic_bench
-    protocol = (ThermalProtocol() if bench == "thermal" else MagneticProtocol()).stretched(
-        hours, rate_hz)
+    if bench == "thermal":
+        simulator = partial(simulate_thermal_bench,
+                            protocol=ThermalProtocol().stretched(hours, rate_hz))
+    else:
+        simulator = partial(simulate_magnetic_bench,
+                            protocol=MagneticProtocol().stretched(hours, rate_hz))
     width = max(2, len(str(n_runs)))
     labels = tuple(f"run_{i + 1:0{width}d}" for i in range(n_runs))
     runs = []
     for i in range(n_runs):
         values = {n: population[n] + sds[n] * coefficients[i, k] for k, n in enumerate(names)}
         run_seed = int(seeds[i + 1].generate_state(1)[0])
-        runs.append(simulator(parameters=values, protocol=protocol, noise=noise,
+        runs.append(simulator(parameters=values, noise=noise,
                               seed=run_seed, average_s=average_s))
     return SimulatedLot(bench=bench, runs=tuple(runs), labels=labels,
                         population_mean={k: float(v) for k, v in population.items()},

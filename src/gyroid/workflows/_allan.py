@@ -157,7 +157,7 @@ def _pooled(rate, sample_s, segments, points_per_decade) -> AllanDeviation:
     lengths = np.array([b - a for a, b in segments])
     m_grid = _tau_grid(int(lengths.max()) // 4, points_per_decade)
     phases = [np.concatenate([[0.0], np.cumsum(rate[a:b])]) * sample_s for a, b in segments]
-    taus, adev, lower, upper, clusters, edfs = [], [], [], [], [], []
+    rows: list[tuple[float, float, float, float, int, float]] = []
     for m in m_grid:
         total, count, edf = 0.0, 0, 0.0
         for x in phases:
@@ -173,11 +173,10 @@ def _pooled(rate, sample_s, segments, points_per_decade) -> AllanDeviation:
         tau = m * sample_s
         dev = float(np.sqrt(total / (2.0 * tau**2 * count)))
         lo, hi = allantools.confidence_interval(dev, edf)
-        taus.append(tau), adev.append(dev), lower.append(lo), upper.append(hi)
-        clusters.append(count), edfs.append(edf)
-    return AllanDeviation(np.asarray(taus), np.asarray(adev), np.asarray(lower),
-                          np.asarray(upper), np.asarray(clusters), np.asarray(edfs),
-                          segments=len(segments))
+        rows.append((tau, dev, lo, hi, count, edf))
+    taus, adev, lower, upper, clusters, edfs = (np.asarray(column) for column in
+                                                (zip(*rows, strict=True) if rows else [()] * 6))
+    return AllanDeviation(taus, adev, lower, upper, clusters, edfs, segments=len(segments))
 
 
 def _single_segment(rate, sample_s, points_per_decade) -> AllanDeviation:

@@ -164,7 +164,7 @@ def _by_axis(polynomials: dict[str | None, AxisPolynomial]) -> dict[str, AxisPol
     if unknown:
         raise GyroidInputError(f"axis {unknown[0]!r}: a firmware's gyro has axes x, y, z; "
                                "name the fit's axes so (drift_x_deg_h, ...)")
-    return dict(polynomials)
+    return {axis: p for axis, p in polynomials.items() if axis is not None}
 
 
 def _px4(coefficients, instance, device_id, tref, low, high):
