@@ -28,7 +28,6 @@ import numpy as np
 from scipy.stats import chi2
 
 from gyroid.inference._check_report import Check, CheckReport
-from gyroid.inference._emcee import Emcee
 from gyroid.inference._fit import fit
 from gyroid.inference._haar import HaarStatistics, haar_statistics
 from gyroid.inference._noise_choice import TermChoice, choose_terms, deviance, gauss_markov_time
@@ -220,7 +219,6 @@ def fit_noise(rate_deg_h: np.ndarray, sample_s: float, *,
         if dispersion > DISPERSION_MAX:  # refused: its best set alone is sampled, to show
             choice = replace(choice, weights={choice.best: 1.0})
     rng = np.random.default_rng(seed)
-    sampler = sampler if sampler is not None else Emcee(progress=False)
     models, blocks = [], []
     for k, (names, weight) in enumerate(choice.weights.items()):
         problem = NoiseProblem.from_statistics(fitted, names, label,
