@@ -190,8 +190,8 @@ class Importance(AbstractSampler):
             acceptance=weighted.effective / n,
             method=(f"importance sampling of the {target.describe} (PSIS, Pareto k "
                     f"{weighted.pareto_k:.2f}, {n} draws in {n // self.n_draws} stage(s) of "
-                    f"Student-t's, {weighted.effective:.0f} effective); coefficients exact "
-                    "given each"),
+                    f"Student-t's, {weighted.effective:.0f} effective)"
+                    + ("; coefficients exact given each" if target.real.size else "")),
             summary=summary,
             move="psis",
             evaluated=(weighted.draws, weighted.solved),

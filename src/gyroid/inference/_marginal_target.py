@@ -20,6 +20,7 @@ import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
+from jax.typing import ArrayLike
 
 from gyroid.inference._batching import problem_batcher
 from gyroid.inference._collapsed import (
@@ -46,10 +47,13 @@ class MarginalTarget:
     solved: Callable[[np.ndarray], np.ndarray]
     tails: list[tuple[int, float, float]]
     n_positive: int = 0  # the marginal coordinates' first ones: positive parameters
+    what: str = ""  # what the coordinates are, where the problem says (a whole posterior)
 
     @property
     def describe(self) -> str:
         """What the marginal coordinates are, in words."""
+        if self.what:
+            return self.what
         levels = len(self.marginal) - self.n_positive
         return ("noise levels" if self.n_positive == 0
                 else f"noise levels and {self.n_positive} positive parameter(s)"
@@ -79,6 +83,20 @@ def _tails(collapsed, offset: int) -> list[tuple[int, float, float]]:
 def _solved_at(base, columns, levels):
     """:meth:`solved` of ``base`` with each of ``columns`` at the matching noise levels."""
     return jax.vmap(lambda c, v: with_columns(base, c).solved(v))(columns, levels)
+
+
+def whole_posterior(size: int, log_posterior: Callable[[np.ndarray], ArrayLike],
+                    tails: list[tuple[int, float, float]], what: str) -> MarginalTarget:
+    """The target of a problem with no coefficient to integrate out: each of its ``size``
+    coordinates is a marginal one, ``log_posterior`` the batched log-posterior (``u (m,
+    size) -> (m,)``) and ``tails`` the coordinates whose prior the posterior may keep a
+    tail of (index, the prior's median in sampling coordinates, its sd there): a static
+    log's noise terms, a roll loop's noise levels; ``what``: the coordinates, in words."""
+
+    def solved(u: np.ndarray) -> np.ndarray:
+        return np.asarray(log_posterior(u), dtype=float)[:, None]
+
+    return MarginalTarget(np.arange(size), np.zeros(0, dtype=int), solved, tails, what=what)
 
 
 def marginal_target(density) -> MarginalTarget | None:

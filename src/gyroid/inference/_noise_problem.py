@@ -25,7 +25,7 @@ from jaxtyping import Array, Float
 from gyroid.inference._emcee import Emcee
 from gyroid.inference._haar import HaarStatistics
 from gyroid.inference._importance import Importance
-from gyroid.inference._marginal_target import MarginalTarget
+from gyroid.inference._marginal_target import MarginalTarget, whole_posterior
 from gyroid.inference._mode import BoundedGradientSearch, FisherScoring, value_hessian
 from gyroid.inference._noise_terms import (
     ceiling,
@@ -141,12 +141,11 @@ class NoiseProblem(AbstractProblem):
         """Every coordinate is a term's log-amplitude, each with its prior: importance
         sampling integrates the whole posterior (there is no coefficient to draw given
         them), on the host, a thousand draws in one NumPy call."""
-        log_posterior = self.host_log_posterior()
         loc, scale = np.asarray(self.density.prior_loc), np.asarray(self.density.prior_scale)
-        return MarginalTarget(marginal=np.arange(len(self.terms)), real=np.zeros(0, dtype=int),
-                              solved=lambda u: log_posterior(u)[:, None],
-                              tails=[(i, float(a), float(b))
-                                     for i, (a, b) in enumerate(zip(loc, scale, strict=True))])
+        return whole_posterior(len(self.terms), self.host_log_posterior(),
+                               [(i, float(a), float(b))
+                                for i, (a, b) in enumerate(zip(loc, scale, strict=True))],
+                               "terms' log-amplitudes")
 
     def default_sampler(self) -> Importance:
         return Importance(fallback=Emcee(progress=False))

@@ -13,6 +13,7 @@ from gyroid.io._roll_log import RollLog
 
 def fit_roll_log(log: RollLog, *, terms="loop", seed: int = 0,
                  sampler: AbstractSampler | None = None) -> RollFit:
-    """Fit paper B's loop (``terms``, default ``loop``) to a roll log: the mode, the emcee
-    posterior (or ``sampler``'s), the self-checks."""
+    """Fit paper B's loop (``terms``, default ``loop``) to a roll log: the mode, the
+    posterior (importance sampling, emcee where its weights fail; or ``sampler``'s), the
+    self-checks."""
     return fit(RollProblem.from_log(log, terms), sampler=sampler, seed=seed)

@@ -18,10 +18,15 @@ difference.
 """
 from __future__ import annotations
 
+import math
+
 import jax.numpy as jnp
 import numpy as np
 
+from gyroid.inference._batching import problem_batcher
 from gyroid.inference._emcee import Emcee
+from gyroid.inference._importance import Importance
+from gyroid.inference._marginal_target import MarginalTarget, whole_posterior
 from gyroid.inference._mode import JointBFGS, safe_inverse
 from gyroid.inference._problem import AbstractProblem, PointEstimate
 from gyroid.inference._roll_density import (
@@ -171,8 +176,17 @@ class RollProblem(AbstractProblem):
             start["D0"] = start["D0gs"] - coef[2]
         return start
 
-    def default_sampler(self) -> Emcee:
-        return Emcee()
+    def marginal_target(self) -> MarginalTarget:
+        """Every parameter drawn by importance sampling (none integrates out: the loop is
+        nonlinear in D1 and the encoder's phase), the noise levels' log-normal priors as
+        the tails the posterior may keep."""
+        tails = [(i, math.log(prior.median), prior.log_sd)
+                 for i, prior in enumerate(self.priors) if isinstance(prior, LogNormal)]
+        return whole_posterior(len(self.names), problem_batcher(self.density.log_posterior),
+                               tails, "loop's parameters and noise levels")
+
+    def default_sampler(self) -> Importance:
+        return Importance(fallback=Emcee())
 
     # ----- ArviZ hooks -----------------------------------------------------------------------
     def observed_data(self):

@@ -7,6 +7,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from gyroid.inference._emcee import Emcee
+from gyroid.inference._importance import Importance
 from gyroid.inference._roll_fit import fit_roll_log
 from gyroid.inference._roll_result import RollFit
 from gyroid.io._outputs import json_text, output_dir
@@ -34,12 +35,14 @@ def roll_fit_file(path: Path, out: Path, *, maps: tuple[ColumnMap, ...] = (), se
                   ) -> RollFit:
     """Fit paper B's loop to the roll log at ``path`` and write ``roll_fit.json``,
     ``posterior.nc`` and the figures to ``out``. ``say`` receives the log's notes and
-    progress lines; ``progress`` shows the sampler's bar."""
+    progress lines; ``progress`` shows emcee's bar where it walks (importance sampling,
+    the default, takes seconds)."""
     log = load_roll_log(path, maps)
     for note in log.notes:
         say(f"note: {note}")
     say(f"fitting the roll loop to {path} ({log.n} rows) ...")
-    result = fit_roll_log(log, seed=seed, sampler=Emcee(progress=progress))
+    result = fit_roll_log(log, seed=seed,
+                          sampler=Importance(fallback=Emcee(progress=progress)))
     with output_dir(out) as stage:
         write(stage, result)
     return result
