@@ -207,8 +207,9 @@ def test_fit_writes_the_contract_outputs(tmp_path, simulated_magnetic):
     assert set(names) <= set(idata.posterior.data_vars)
     assert "log_likelihood" in idata.groups() and "observed_data" in idata.groups()
     # How the draws were made travels with them.
-    assert fit["convergence"]["sampler"]["move"] == "de"
-    assert idata.attrs["sampler"].startswith("emcee") and "de move" in idata.attrs["sampler"]
+    assert fit["convergence"]["sampler"]["move"] == "psis"
+    assert idata.attrs["sampler"].startswith("importance sampling of the coefficients and "
+                                             "noise level (PSIS")
     loo = az.loo(idata)
     assert np.isfinite(loo.elpd_loo)
 

@@ -144,14 +144,23 @@ def test_unreliable_weights_go_to_emcee(walked_problem):
     assert posterior.n_steps == 200
 
 
-def test_a_problem_without_a_collapsed_form_goes_to_emcee():
-    """White noise offers no collapsed form: the fallback walks every parameter."""
+def test_a_problem_without_a_collapsed_form_is_weighed_whole():
+    """White noise of unknown level offers no collapsed form: importance sampling weighs
+    every parameter (on the sufficient statistics). A constant bias under white noise and
+    weak priors: w0's posterior is Student's t about the rows' mean, sd
+    s / sqrt(n) * sqrt((n - 1) / (n - 3)) (s the rows' sd), to within 4 Monte-Carlo
+    standard errors."""
     rng = np.random.default_rng(2)
-    log = BenchLog(columns={"time_s": np.arange(300.0),
-                            "drift_deg_h": 1.0 + rng.normal(0.0, 0.3, 300)})
+    drift = 1.0 + rng.normal(0.0, 0.3, 300)
+    log = BenchLog(columns={"time_s": np.arange(300.0), "drift_deg_h": drift})
     problem = BenchProblem.from_log(log, "bias", noise="white")
     posterior = Importance().sample(problem, problem.mode(), seed=0)
-    assert posterior.method.startswith("emcee")
+    assert posterior.move == "psis" and "coefficients and noise level" in posterior.method
+    w0 = posterior.summary["w0"]
+    n = drift.size
+    sd = drift.std(ddof=1) / np.sqrt(n) * np.sqrt((n - 1) / (n - 3))
+    assert abs(w0["mean"] - drift.mean()) < 4 * sd / np.sqrt(w0["ess_bulk"])
+    assert abs(w0["sd"] / sd - 1) < 4 / np.sqrt(2 * w0["ess_bulk"])
 
 
 @pytest.mark.slow

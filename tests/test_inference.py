@@ -43,10 +43,15 @@ def _exact_gaussian(problem: BenchProblem):
     return mean, covariance
 
 
-def test_linear_gaussian_flat_prior_posterior_is_exact():
+@pytest.mark.parametrize("sampler", ["emcee", "default"])
+def test_linear_gaussian_flat_prior_posterior_is_exact(sampler):
+    """White noise of known sd: the posterior is Gaussian, computed here; emcee's and the
+    default's (importance sampling of the whole posterior) draws reach it."""
     theta = {"w0": 1.2, **PAPER_A_DEVICE_2}
     log = _heteroscedastic_magnetic_log(1, theta)
-    result = fit_log(log, "magnetic", flat_prior=True, seed=2, sampler=QUICK, noise="white")
+    result = fit_log(log, "magnetic", flat_prior=True, seed=2,
+                     sampler=QUICK if sampler == "emcee" else None, noise="white")
+    assert (result.posterior.move == "psis") == (sampler == "default")
     mean, covariance = _exact_gaussian(result.problem)
     sd = np.sqrt(np.diag(covariance))
     names = result.model_names
@@ -54,7 +59,7 @@ def test_linear_gaussian_flat_prior_posterior_is_exact():
     np.testing.assert_allclose([result.point.value[n] for n in names], mean, rtol=1e-8,
                                atol=1e-10)
     np.testing.assert_allclose([result.point.sd[n] for n in names], sd, rtol=1e-6)
-    # emcee's mean and sd agree within Monte-Carlo error set by the effective sample size:
+    # the draws' mean and sd agree within Monte-Carlo error set by the effective sample size:
     # se(mean) = sd / sqrt(ess), se(sd) ~ sd / sqrt(2 ess); 4.5 standard errors each.
     for i, name in enumerate(names):
         summary = result.posterior.summary[name]
@@ -341,11 +346,14 @@ def test_every_mode_finder_starts_on_one_grid():
 
 
 def test_fit_log_progress_can_be_switched_off(capsys, monkeypatch):
-    """The Python API's fit_log shows the sampler's progress unless progress=False (here
-    as plain lines: stderr is captured, not a terminal)."""
+    """The Python API's fit_log shows emcee's progress, where importance sampling's weights
+    send it there (forced here), unless progress=False (here as plain lines: stderr is
+    captured, not a terminal)."""
     import gyroid.inference._emcee as emcee_module
+    from gyroid.inference._importance import Importance
 
     monkeypatch.setattr(emcee_module, "PLAIN_EVERY_S", 0.0)
+    monkeypatch.setattr(Importance, "_weighted", lambda *_args, **_kwargs: None)
     rng = np.random.default_rng(3)
     log = BenchLog(columns={"time_s": np.arange(500.0),
                             "drift_deg_h": 1.0 + rng.normal(0.0, 0.3, 500)})

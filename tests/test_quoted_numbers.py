@@ -30,19 +30,31 @@ def _quoted(*phrases: str) -> None:
 
 
 def test_sbc_of_the_bench_fits():
+    """Uniform ranks for every coefficient: the smallest of their KS p-values above 1 % over
+    their number (Bonferroni: a calibrated sampler fails this one run in a hundred; the
+    smallest of 8 uniform p-values lies below 0.2 five runs in six, so the observed
+    smallest is quoted, not asserted)."""
     results = _results("sbc")
     cases = results.values()
     names = [{k: v for k, v in case.items() if k != "trustworthy_fraction"} for case in cases]
     coefficients = [p for case in names for k, p in case.items() if k != "sigma_deg_h"]
     ks = min(p["ks_pvalue"] for p in coefficients)
     cover = [p["coverage"]["90%"] for case in names for p in case.values()]
-    assert ks > 0.2 and all(case["trustworthy_fraction"] == 1.0 for case in cases)
+    assert ks > 0.01 / len(coefficients)
+    assert all(case["trustworthy_fraction"] == 1.0 for case in cases)
     sigma = results["thermal_sampled_sigma"]["sigma_deg_h"]
-    _quoted("every coefficient's rank histogram is uniform (KS p > 0.2)",
+    _quoted(f"every coefficient's rank histogram is uniform (KS p >= {_floor(ks, 2)})",
             f"cover the truth {100 * min(cover):.3g}-{100 * max(cover):.3g} % of the time",
             f"all {200 * len(names)} fits call themselves trustworthy",
             f"covers at {100 * sigma['coverage']['90%']:.3g} % but its ranks lean low "
             f"(KS p {sigma['ks_pvalue']:.2g}, mean rank {_sigma_mean_rank():.2f})")
+
+
+def _floor(value: float, digits: int) -> str:
+    """``value`` rounded down to ``digits`` decimals, as text (a quoted lower bound)."""
+    import math
+
+    return f"{math.floor(value * 10**digits) / 10**digits:.{digits}f}"
 
 
 def _sigma_mean_rank() -> float:

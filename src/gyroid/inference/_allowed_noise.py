@@ -116,7 +116,7 @@ def allowed_noise(problem, posterior, seed: int = 0) -> AllowedNoise | None:
     if posterior is None or not problem.noise.correlated:
         return None
     target = problem.marginal_target()
-    if target is None:
+    if target is None or not target.real.size:  # no coefficient integrated out
         return None
     rng = np.random.default_rng([seed, 952])
     names = list(problem.names)

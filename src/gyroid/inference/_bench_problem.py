@@ -17,6 +17,7 @@ from gyroid.inference._bench_density import BenchDensity
 from gyroid.inference._check_report import FitEvidence
 from gyroid.inference._emcee import Emcee
 from gyroid.inference._importance import Importance
+from gyroid.inference._marginal_target import MarginalTarget, marginal_target
 from gyroid.inference._point import point_estimate
 from gyroid.inference._point_profiled import collapsed_log_likelihood
 from gyroid.inference._problem import AbstractProblem, PointEstimate
@@ -238,9 +239,7 @@ class BenchProblem(AbstractProblem):
 
         return collapse(self.density)
 
-    def marginal_target(self):
-        from gyroid.inference._marginal_target import marginal_target
-
+    def marginal_target(self) -> MarginalTarget:
         return marginal_target(self.density)
 
     def evidence(self, point: PointEstimate, posterior) -> FitEvidence:

@@ -85,6 +85,16 @@ def _solved_at(base, columns, levels):
     return jax.vmap(lambda c, v: with_columns(base, c).solved(v))(columns, levels)
 
 
+def _whole(density) -> MarginalTarget:
+    """:func:`whole_posterior` of a bench density (see :func:`marginal_target`)."""
+    tails = [(i, float(loc), float(scale)) for i, (positive, loc, scale, on) in enumerate(zip(
+        density.positive, np.asarray(density.prior_loc), np.asarray(density.prior_scale),
+        np.asarray(density.prior_on), strict=True)) if positive and on > 0]
+    batch = density.host_log_posterior() or problem_batcher(density.log_posterior)
+    return whole_posterior(len(density.names), batch, tails, "coefficients and noise level"
+                           if density.noise_names else "coefficients")
+
+
 def whole_posterior(size: int, log_posterior: Callable[[np.ndarray], ArrayLike],
                     tails: list[tuple[int, float, float]], what: str) -> MarginalTarget:
     """The target of a problem with no coefficient to integrate out: each of its ``size``
@@ -99,19 +109,23 @@ def whole_posterior(size: int, log_posterior: Callable[[np.ndarray], ArrayLike],
     return MarginalTarget(np.arange(size), np.zeros(0, dtype=int), solved, tails, what=what)
 
 
-def marginal_target(density) -> MarginalTarget | None:
-    """The target of a bench density under correlated noise whose model is linear in its
-    real coefficients given its positive ones; None otherwise (white noise, or the
-    thermometer's noise carried through dT/dt)."""
+def marginal_target(density) -> MarginalTarget:
+    """What importance sampling weighs for a bench density: under correlated noise, with a
+    model linear in its real coefficients given its positive ones, the noise levels (and
+    those positive parameters) with the coefficients integrated out; otherwise (white
+    noise, whose unknown level leaves nothing to integrate out exactly; the thermometer's
+    noise carried through dT/dt) the whole posterior, on the host where the density has a
+    NumPy form (sufficient statistics, the thermometer's eigenbasis), each positive
+    parameter's prior (the white level's, a time constant's) a tail it may keep."""
     if not density.noise.correlated or density.errors_in_variables:
-        return None
+        return _whole(density)
     real, positive = split_parameters(density)
     p, k = density.n_model, len(density.noise_names)
     levels = np.arange(p, p + k)
     if positive.size == 0:
         collapsed = collapse(density)
         if collapsed is None:
-            return None
+            return _whole(density)
         return MarginalTarget(levels, real, problem_batcher(collapsed.solved),
                               _tails(collapsed, 0))
     q = positive.size
