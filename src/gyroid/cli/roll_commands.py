@@ -54,7 +54,7 @@ def roll_simulate(out, seed, overrides, roll_profile, rate, duration, period, ov
 @click.argument("data", type=click.Path(path_type=Path))
 @click.option("--out", "out", required=True, type=click.Path(file_okay=False, path_type=Path),
               help="Folder for roll_fit.json, posterior.nc and figures.")
-@click.option("--seed", default=0, show_default=True, type=SEED, help="Random seed of emcee.")
+@click.option("--seed", default=0, show_default=True, type=SEED, help="Random seed of the sampler.")
 @map_option
 @click.option("--progress/--no-progress", default=True, show_default=True,
               help="Show the sampler's progress bar.")

@@ -30,9 +30,10 @@ RESULTS: dict[type, Callable[..., Any]] = {
 def fit(problem: AbstractProblem, *, sampler: AbstractSampler | None = None, seed: int = 0,
         sample: bool = True, progress: Callable[[str], None] | None = None):
     """Fit ``problem``: the posterior mode (:meth:`~AbstractProblem.mode`), then, with
-    ``sample=True``, its posterior by ``sampler`` (default: the problem's own, emcee for
-    bench and roll logs, NUTS for a pooled lot) seeded by ``seed``, then the result, whose
-    self-checks are computed before it is built (a frozen result of the problem's kind,
+    ``sample=True``, its posterior by ``sampler`` (default: the problem's own, importance
+    sampling for bench, roll and static-noise logs, NUTS for a pooled lot) seeded by
+    ``seed``, then the result, whose self-checks are computed before it is built (a frozen
+    result of the problem's kind,
     :data:`RESULTS`: :class:`~gyroid.inference.BenchFit`, :class:`~gyroid.inference.RollFit`,
     :class:`~gyroid.inference.PoolFit` or a noise model's fit). ``progress`` receives plain
     progress lines."""

@@ -1,5 +1,8 @@
-"""Posterior draws of a collapsed problem by Pareto-smoothed importance sampling
-(:class:`Importance`), with emcee where that is not reliable.
+"""Posterior draws by Pareto-smoothed importance sampling (:class:`Importance`), with emcee
+where that is not reliable: of a collapsed problem's noise levels (below), or of a whole
+posterior where nothing integrates out (:func:`~gyroid.inference._marginal_target.
+whole_posterior`: a white-noise bench fit, a roll log, a static log's noise terms), the same
+proposals and stages with every coordinate a marginal one.
 
 A drift model under correlated noise has its real coefficients integrated out exactly
 (:mod:`gyroid.inference._collapsed`): what is left to integrate numerically is the
@@ -82,10 +85,10 @@ KERNELS = 200
 
 @dataclass(frozen=True)
 class Importance(AbstractSampler):
-    """Pareto-smoothed importance sampling of a collapsed problem's noise levels from
-    Student-t's about the mode and the levels' priors, adapted in stages (module
-    docstring); ``fallback`` for any other problem and wherever the smoothed weights stay
-    unreliable."""
+    """Pareto-smoothed importance sampling of a problem's marginal target (a collapsed
+    problem's noise levels, or a whole posterior) from Student-t's about the mode and the
+    levels' priors, adapted in stages (module docstring); ``fallback`` for a problem with
+    no target and wherever the smoothed weights stay unreliable."""
 
     n_draws: int = 4000
     df: float = 4.0  # the proposal's degrees of freedom

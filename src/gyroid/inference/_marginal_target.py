@@ -1,5 +1,9 @@
 """What importance sampling (:mod:`gyroid.inference._importance`) integrates numerically
-for a bench problem under correlated noise, and how a draw becomes a full parameter vector.
+for a problem, and how a draw becomes a full parameter vector.
+
+Where nothing integrates out exactly (a bench fit under white noise, whose level is
+unknown; paper B's roll loop; a static log's noise terms) the target is the whole
+posterior (:func:`whole_posterior`). Under correlated noise:
 
 The real coefficients are integrated out exactly (:mod:`gyroid.inference._collapsed`). What
 is left, the *marginal coordinates*, is the noise levels for a linear model, and the

@@ -140,7 +140,7 @@ class NoiseProblem(AbstractProblem):
     def marginal_target(self) -> MarginalTarget:
         """Every coordinate is a term's log-amplitude, each with its prior: importance
         sampling integrates the whole posterior (there is no coefficient to draw given
-        them), on the host, a thousand draws in one NumPy call."""
+        them), in NumPy on the host."""
         loc, scale = np.asarray(self.density.prior_loc), np.asarray(self.density.prior_scale)
         return whole_posterior(len(self.terms), self.host_log_posterior(),
                                [(i, float(a), float(b))

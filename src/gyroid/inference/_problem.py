@@ -116,8 +116,9 @@ class AbstractProblem(eqx.Module):
 
     @abc.abstractmethod
     def default_sampler(self) -> AbstractSampler:
-        """The sampler :func:`~gyroid.inference.fit` uses unless given one (emcee for bench
-        and roll logs, NUTS for a pooled lot)."""
+        """The sampler :func:`~gyroid.inference.fit` uses unless given one (importance
+        sampling, emcee where its weights fail, for bench, roll and static-noise logs;
+        NUTS for a pooled lot)."""
 
     def collapsed(self):
         """The problem with its linear coefficients integrated out, where that is exact and
