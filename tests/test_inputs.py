@@ -185,3 +185,13 @@ def test_extra_column_terms_are_fitted_but_refused_where_they_cannot_apply(tmp_p
                  "--out", str(tmp_path / "c")]) == 2
     assert "extra:pressure" in capsys.readouterr().err
     assert main(["propagate", str(tmp_path / "fit"), "--out", str(tmp_path / "p")]) == 2
+
+
+def test_a_unit_that_is_not_its_columns_is_one_clear_error():
+    """Converting a column from a unit it does not have names the column and its units."""
+    from gyroid.io._units import converter
+
+    np.testing.assert_allclose(converter("temperature_C", "K")(np.array([273.15])), [0.0])
+    with pytest.raises(GyroidInputError, match=r"'furlong' is not a unit of temperature_C "
+                                               r"\(units degC, C, K, degF, F\)"):
+        converter("temperature_C", "furlong")
