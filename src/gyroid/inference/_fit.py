@@ -33,10 +33,9 @@ def fit(problem: AbstractProblem, *, sampler: AbstractSampler | None = None, see
     ``sample=True``, its posterior by ``sampler`` (default: the problem's own, importance
     sampling for bench, roll and static-noise logs, NUTS for a pooled lot) seeded by
     ``seed``, then the result, whose self-checks are computed before it is built (a frozen
-    result of the problem's kind,
-    :data:`RESULTS`: :class:`~gyroid.inference.BenchFit`, :class:`~gyroid.inference.RollFit`,
-    :class:`~gyroid.inference.PoolFit` or a noise model's fit). ``progress`` receives plain
-    progress lines."""
+    result of the problem's kind, :data:`RESULTS`: :class:`~gyroid.inference.BenchFit`,
+    :class:`~gyroid.inference.RollFit`, :class:`~gyroid.inference.PoolFit` or a noise
+    model's fit). ``progress`` receives plain progress lines."""
     release_if_crowded()  # a long loop of fits must not exhaust the process's mappings
     point = problem.mode()
     posterior = None

@@ -17,7 +17,7 @@ conditional_draws` draws them.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import equinox as eqx
@@ -91,26 +91,30 @@ def _solved_at(base, columns, levels):
 
 def _whole(density) -> MarginalTarget:
     """:func:`whole_posterior` of a bench density (see :func:`marginal_target`)."""
-    tails = [(i, float(loc), float(scale)) for i, (positive, loc, scale, on) in enumerate(zip(
-        density.positive, np.asarray(density.prior_loc), np.asarray(density.prior_scale),
-        np.asarray(density.prior_on), strict=True)) if positive and on > 0]
     batch = density.host_log_posterior() or problem_batcher(density.log_posterior)
-    return whole_posterior(len(density.names), batch, tails, "coefficients and noise level"
+    return whole_posterior(batch, density.positive, density.prior_loc, density.prior_scale,
+                           density.prior_on, "coefficients and noise level"
                            if density.noise_names else "coefficients")
 
 
-def whole_posterior(size: int, log_posterior: Callable[[np.ndarray], ArrayLike],
-                    tails: list[tuple[int, float, float]], what: str) -> MarginalTarget:
-    """The target of a problem with no coefficient to integrate out: each of its ``size``
-    coordinates is a marginal one, ``log_posterior`` the batched log-posterior (``u (m,
-    size) -> (m,)``) and ``tails`` the coordinates whose prior the posterior may keep a
-    tail of (index, the prior's median in sampling coordinates, its sd there): a static
-    log's noise terms, a roll loop's noise levels; ``what``: the coordinates, in words."""
+def whole_posterior(log_posterior: Callable[[np.ndarray], ArrayLike],
+                    positive: Sequence[bool], prior_loc: ArrayLike, prior_scale: ArrayLike,
+                    prior_on: ArrayLike, what: str) -> MarginalTarget:
+    """The target of a problem with no coefficient to integrate out: every coordinate is a
+    marginal one, ``log_posterior`` the batched log-posterior (``u (m, d) -> (m,)``). Each
+    positive parameter with a prior (``prior_on``; its median's log ``prior_loc`` and
+    log-sd ``prior_scale``, the sampling coordinates') is a tail the posterior may keep:
+    a noise level, a time constant, a static log's noise term. ``what``: the coordinates,
+    in words. A white-noise bench fit, a roll loop, a static log's noise terms."""
+    loc, scale, on = (np.asarray(a, dtype=float) for a in (prior_loc, prior_scale, prior_on))
+    tails = [(i, float(loc[i]), float(scale[i]))
+             for i, kept in enumerate(np.asarray(positive, dtype=bool) & (on > 0)) if kept]
 
     def solved(u: np.ndarray) -> np.ndarray:
         return np.asarray(log_posterior(u), dtype=float)[:, None]
 
-    return MarginalTarget(np.arange(size), np.zeros(0, dtype=int), solved, tails, what=what)
+    return MarginalTarget(np.arange(len(positive)), np.zeros(0, dtype=int), solved, tails,
+                          what=what)
 
 
 def marginal_target(density) -> MarginalTarget:

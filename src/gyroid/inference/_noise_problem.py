@@ -141,10 +141,9 @@ class NoiseProblem(AbstractProblem):
         """Every coordinate is a term's log-amplitude, each with its prior: importance
         sampling integrates the whole posterior (there is no coefficient to draw given
         them), in NumPy on the host."""
-        loc, scale = np.asarray(self.density.prior_loc), np.asarray(self.density.prior_scale)
-        return whole_posterior(len(self.terms), self.host_log_posterior(),
-                               [(i, float(a), float(b))
-                                for i, (a, b) in enumerate(zip(loc, scale, strict=True))],
+        density = self.density
+        return whole_posterior(self.host_log_posterior(), self.positive, density.prior_loc,
+                               density.prior_scale, np.ones(len(self.terms)),
                                "terms' log-amplitudes")
 
     def default_sampler(self) -> Importance:

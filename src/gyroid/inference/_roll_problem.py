@@ -18,8 +18,6 @@ difference.
 """
 from __future__ import annotations
 
-import math
-
 import jax.numpy as jnp
 import numpy as np
 
@@ -36,7 +34,7 @@ from gyroid.inference._roll_density import (
 )
 from gyroid.io._roll_log import RollLog
 from gyroid.models._paper_b import DEG
-from gyroid.models._priors import LogNormal, Prior, natural_with_sd
+from gyroid.models._priors import LogNormal, Prior, natural_with_sd, prior_arrays
 from gyroid.models._roll_effects import ROLL_EFFECTS, ROLL_NUISANCE, resolve_roll_terms
 
 #: The mode: BFGS in standardised coordinates (v = v0 + scale z) over all of
@@ -180,10 +178,9 @@ class RollProblem(AbstractProblem):
         """Every parameter drawn by importance sampling (none integrates out: the loop is
         nonlinear in D1 and the encoder's phase), the noise levels' log-normal priors as
         the tails the posterior may keep."""
-        tails = [(i, math.log(prior.median), prior.log_sd)
-                 for i, prior in enumerate(self.priors) if isinstance(prior, LogNormal)]
-        return whole_posterior(len(self.names), problem_batcher(self.density.log_posterior),
-                               tails, "loop's parameters and noise levels")
+        return whole_posterior(problem_batcher(self.density.log_posterior), self.positive,
+                               *prior_arrays(self.priors, self.positive),
+                               "loop's parameters and noise levels")
 
     def default_sampler(self) -> Importance:
         return Importance(fallback=Emcee())
