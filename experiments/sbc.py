@@ -4,8 +4,10 @@ Truth drawn from the priors; a short bench simulated per draw and written as a l
 thermal case with a noisy thermometer, whose error reaches dT/dt: errors in variables); the
 logs fitted by ``gyroid batch``'s runner (Dask, one full fit per log: point estimate, emcee,
 checks, posterior.nc); rank of the truth among each posterior's draws and coverage of the
-50 / 90 / 95 % intervals recorded. Two cases: magnetic sweep with known sigma (linear-
-Gaussian), thermal bench with the noise level sampled.
+50 / 90 / 95 % intervals recorded. Three cases: magnetic sweep with known sigma (linear-
+Gaussian), the same with the noise level sampled (the coefficients integrated out on the
+rows' sufficient statistics, the level weighed alone), thermal bench with the noise level
+sampled (the thermometer's noise carried: the whole posterior weighed).
 
     python experiments/sbc.py --seed 0 --datasets 200 --workers 2
 """
@@ -46,6 +48,7 @@ from gyroid.simulation import (  # noqa: E402
 az = load_arviz()
 
 LEVELS = (0.5, 0.9, 0.95)
+CASES = ("magnetic_known_sigma", "magnetic_sampled_sigma", "thermal_sampled_sigma")
 THERMAL = ThermalProtocol(setpoints_C=(31.0, 40.0, 55.0), soak_min=30.0, sample_s=10.0)
 MAGNETIC = MagneticProtocol(dwell_s=60.0, sample_s=5.0, turn_gap_s=100.0)
 SIGMA_PRIOR = LogNormal(0.2, 0.3)  # deg/h, for the unknown-noise case
@@ -64,6 +67,19 @@ def draw_case(case: str, rng: np.random.Generator, seed: int):
         sim.log.columns["sigma_deg_h"] = np.full(sim.log.n, sigma)
         return sim.log, "magnetic", truth, {}
     sigma = float(np.exp(rng.normal(np.log(SIGMA_PRIOR.median), SIGMA_PRIOR.log_sd)))
+    if case == "magnetic_sampled_sigma":
+        truth = {"w0": rng.normal(0, 10), "wx": rng.normal(0, 2), "wy": rng.normal(0, 2),
+                 "wz": rng.normal(0, 2)}
+        sim = simulate_magnetic_bench(parameters=truth, protocol=MAGNETIC, seed=seed,
+                                      noise=GyroNoise(arw_deg_rt_h=0.0), average_s=None)
+        model = DriftModel.from_terms("magnetic")
+        clean = np.asarray(model.predict(jnp.asarray([truth[n] for n in model.parameter_names]),
+                                         sim.log.inputs()))
+        columns = dict(sim.log.columns)
+        noise = np.random.default_rng(seed)
+        columns["drift_deg_h"] = clean + sigma * noise.standard_normal(clean.size)
+        return (BenchLog(columns=columns), "magnetic", truth | {"sigma_deg_h": sigma},
+                {"sigma_deg_h": SIGMA_PRIOR})
     truth = {"w0": rng.normal(0, 10), "w1": rng.normal(0, 1), "w2": rng.normal(0, 0.1),
              "wD": rng.normal(0, 10)}
     # Data from the model as the fit sees it: the drift reads the *logged* temperature (the
@@ -103,11 +119,10 @@ def main() -> None:
     rng = np.random.default_rng(args.seed)
     out = results_dir("sbc")
     results = {}
-    fig, axes = plt.subplots(1, 2, figsize=(8, 3.2))
+    fig, axes = plt.subplots(1, 3, figsize=(11, 3.2))
     all_ranks: dict[str, dict[str, np.ndarray]] = {}
     with tempfile.TemporaryDirectory() as tmp:
-        for ax, case in zip(axes, ("magnetic_known_sigma", "thermal_sampled_sigma"),
-                            strict=True):
+        for ax, case in zip(axes, CASES, strict=True):
             folder = Path(tmp) / case
             folder.mkdir()
             paths, truths = [], []

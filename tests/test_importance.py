@@ -144,10 +144,10 @@ def test_unreliable_weights_go_to_emcee(walked_problem):
     assert posterior.n_steps == 200
 
 
-def test_a_problem_without_a_collapsed_form_is_weighed_whole():
-    """White noise of unknown level offers no collapsed form: importance sampling weighs
-    every parameter (on the sufficient statistics). A constant bias under white noise and
-    weak priors: w0's posterior is Student's t about the rows' mean, sd
+def test_white_noise_integrates_the_coefficients_out_on_sufficient_statistics():
+    """White noise of unknown level: the coefficients integrate out on the rows' sufficient
+    statistics, and importance sampling weighs the level alone. A constant bias under white
+    noise and weak priors: w0's posterior is Student's t about the rows' mean, sd
     s / sqrt(n) * sqrt((n - 1) / (n - 3)) (s the rows' sd), to within 4 Monte-Carlo
     standard errors."""
     rng = np.random.default_rng(2)
@@ -155,12 +155,46 @@ def test_a_problem_without_a_collapsed_form_is_weighed_whole():
     log = BenchLog(columns={"time_s": np.arange(300.0), "drift_deg_h": drift})
     problem = BenchProblem.from_log(log, "bias", noise="white")
     posterior = Importance().sample(problem, problem.mode(), seed=0)
-    assert posterior.move == "psis" and "coefficients and noise level" in posterior.method
+    assert posterior.move == "psis" and "of the noise level (" in posterior.method
     w0 = posterior.summary["w0"]
     n = drift.size
     sd = drift.std(ddof=1) / np.sqrt(n) * np.sqrt((n - 1) / (n - 3))
     assert abs(w0["mean"] - drift.mean()) < 4 * sd / np.sqrt(w0["ess_bulk"])
     assert abs(w0["sd"] / sd - 1) < 4 / np.sqrt(2 * w0["ess_bulk"])
+
+
+@pytest.mark.parametrize("sigma_given", [False, True])
+def test_the_white_marginal_and_conditional_are_the_joint_density(sigma_given):
+    """The white rows' marginal (:class:`SufficientCoefficients`) and the coefficients'
+    conditional Gaussian multiply to the joint posterior density at any point, with the
+    level sampled or each row's sd given; a log that gives each row's sd leaves no level
+    to weigh, and its coefficients are weighed whole."""
+    from gyroid.inference._collapsed import SufficientCoefficients, collapse, conditional_draws
+
+    rng = np.random.default_rng(3)
+    n = 400
+    time_s = np.arange(n, dtype=float)
+    temperature = 20.0 + 10.0 * np.sin(time_s / 80.0)
+    columns = {"time_s": time_s, "temperature_C": temperature,
+               "drift_deg_h": 0.5 + 0.02 * temperature + rng.normal(0.0, 0.1, n)}
+    if sigma_given:
+        columns["sigma_deg_h"] = rng.uniform(0.05, 0.2, n)
+    problem = BenchProblem.from_log(BenchLog(columns=columns), "bias,temperature",
+                                    noise="white", errors_in_variables=False)
+    form = collapse(problem.density)
+    assert isinstance(form, SufficientCoefficients)
+    point, p = problem.mode(), problem.n_model
+    for _ in range(4):
+        u = point.u + 3.0 * rng.standard_normal(point.u.size) * np.sqrt(
+            np.diag(point.covariance_u))
+        row = np.asarray(form.solved(u[p:]))
+        factor = row[1 + p:].reshape(p, p)
+        z = factor.T @ (u[:p] - row[1:1 + p])
+        joint = float(problem.density.log_posterior(u))
+        np.testing.assert_allclose(conditional_draws(row[None], z[None])[1][0], joint,
+                                   rtol=1e-12, atol=1e-9)
+    described = problem.marginal_target().describe
+    assert described == ("coefficients" if sigma_given else "noise level")
 
 
 @pytest.mark.slow

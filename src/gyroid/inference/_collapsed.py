@@ -1,24 +1,31 @@
-"""A linear drift model under correlated noise with its coefficients integrated out.
+"""A linear drift model with its coefficients integrated out: the bench posterior as one
+marginal, over the noise levels, with two implementations.
 
 Given the noise levels ``v`` (sampling coordinates: the logs of the noise model's levels),
-the likelihood is Gaussian in the coefficients ``beta``: one
-Kalman pass over the data and every column of the design gives the whitened data ``a`` and
-design ``A`` (``-0.5 |a - A beta|^2`` plus the innovations' log-variances), and with the
-coefficients' normal (or flat) priors, precision ``L0`` about ``m0``,
+the likelihood is Gaussian in the coefficients ``beta``: whitened data ``a`` and design
+``A`` (``-0.5 |a - A beta|^2`` plus the rows' log-variances), and with the coefficients'
+normal (or flat) priors, precision ``L0`` about ``m0``,
 
     P = A'A + L0,  beta_hat = P^-1 (A'a + L0 m0),
     log p(v | data) = log p(v) - 0.5 sum log(2 pi var) - 0.5 (a'a + m0'L0 m0 - b'beta_hat)
                       - 0.5 log|P| + const,
 
 and ``beta | v, data ~ N(beta_hat, P^-1)``. Both are exact: sampling ``v`` from its
-marginal (three dimensions instead of three plus the coefficients) and then ``beta`` given
-each draw gives draws of the same posterior as sampling them jointly, with far shorter
-autocorrelation times (:mod:`gyroid.inference._emcee`).
+marginal (three dimensions for IEEE 952 noise, one for white noise's unknown level,
+instead of those plus the coefficients) and then ``beta`` given each draw gives draws of
+the same posterior as sampling them jointly.
+
+* :class:`CollapsedCoefficients`: correlated noise, one Kalman pass over the data and every
+  column of the design giving ``a`` and ``A`` (O(n p) an evaluation);
+* :class:`SufficientCoefficients`: white rows, ``A'A`` and ``A'a`` from the rows' Gram
+  matrix and least-squares solution (O(p^2) an evaluation, whatever the log's length).
 """
 
 from __future__ import annotations
 
+import abc
 import math
+from collections.abc import Callable
 
 import equinox as eqx
 import jax
@@ -29,11 +36,72 @@ from jaxtyping import Array, Float
 from gyroid.noise._model import RowFilter
 
 _LOG_2PI = math.log(2.0 * math.pi)
+#: ``A'A``, ``A'a``, the whitened residual's sum of squares at given coefficients, and the
+#: rows' log normalising constant (:meth:`AbstractMarginal._normal_equations`).
+NormalEquations = tuple[Array, Array, Callable[[Array], Array], Array]
 
 
-class CollapsedCoefficients(eqx.Module):
+class AbstractMarginal(eqx.Module):
     """The marginal posterior of a bench density's noise levels and the conditional
-    posterior of its coefficients (module docstring); built by :func:`collapse`."""
+    posterior of its coefficients (module docstring); built by :func:`collapse`. An
+    implementation gives the whitened normal equations at the noise levels."""
+
+    beta_loc: eqx.AbstractVar[Float[Array, " p"]]
+    beta_precision: eqx.AbstractVar[Float[Array, " p"]]  # 1/scale^2 of a normal prior, 0: flat
+    beta_log_norm: eqx.AbstractVar[Float[Array, ""]]  # the normal priors' log constant
+    noise_loc: eqx.AbstractVar[Float[Array, " k"]]
+    noise_scale: eqx.AbstractVar[Float[Array, " k"]]
+    noise_on: eqx.AbstractVar[Float[Array, " k"]]
+
+    @abc.abstractmethod
+    def _normal_equations(self, v: Float[Array, " k"]) -> NormalEquations:
+        """At the noise levels ``v``: ``A'A`` (p, p), ``A'a`` (p,), the whitened residual's
+        sum of squares at given coefficients (a function, summed without cancellation) and
+        the rows' log normalising constant ``-0.5 sum (log var + log 2 pi)``."""
+
+    def _solve(self, v: Float[Array, " k"]):
+        gram, right, residual_sq, log_norm = self._normal_equations(v)
+        precision = gram + jnp.diag(self.beta_precision)
+        b = right + self.beta_precision * self.beta_loc
+        factor = jnp.linalg.cholesky(precision)
+        mean = jax.scipy.linalg.cho_solve((factor, True), b)
+        log_det = 2.0 * jnp.sum(jnp.log(jnp.diag(factor)))
+        # a'a + m0'L0 m0 - b'beta_hat, summed as the residuals' squares: the same number,
+        # without the cancellation that made it thousands below zero where a whitened row is
+        # huge (a random walk's mean constrained with variance 3e-17, far in the tails);
+        # an inexact solution can then only lower the likelihood
+        quadratic = residual_sq(mean) + jnp.sum(self.beta_precision
+                                                * (mean - self.beta_loc) ** 2)
+        log_lik = (log_norm - 0.5 * quadratic - 0.5 * log_det
+                   + 0.5 * mean.size * _LOG_2PI + self.beta_log_norm)
+        return mean, factor, log_lik
+
+    def log_posterior(self, v: Float[Array, " k"]) -> Float[Array, ""]:
+        """The noise levels' marginal log-posterior (coefficients integrated out)."""
+        r = self.noise_on * (v - self.noise_loc) / self.noise_scale
+        log_prior = jnp.sum(-0.5 * r**2 - self.noise_on * (jnp.log(self.noise_scale)
+                                                           + 0.5 * _LOG_2PI))
+        value = self._solve(v)[2] + log_prior
+        return jnp.where(jnp.isfinite(value), value, -jnp.inf)
+
+    def solved(self, v: Float[Array, " k"]) -> Float[Array, " 1+p+p*p"]:
+        """The marginal log-posterior at ``v``, then the coefficients' conditional mean and
+        the Cholesky factor of their precision (row by row): all a draw of the joint
+        posterior needs (:func:`conditional_draws`), from one evaluation."""
+        mean, factor, _ = self._solve(v)
+        return jnp.concatenate([self.log_posterior(v)[None], mean, factor.ravel()])
+
+    def conditional(self, vz: Float[Array, " k_plus_p"]) -> Float[Array, " p"]:
+        """A draw of the coefficients given the noise levels ``vz[:k]``, from standard
+        normal deviates ``vz[k:]``: ``beta_hat + P^(-1/2) z``."""
+        k = self.noise_loc.size
+        mean, factor, _ = self._solve(vz[:k])
+        return mean + jax.scipy.linalg.solve_triangular(factor.T, vz[k:], lower=False)
+
+
+class CollapsedCoefficients(AbstractMarginal):
+    """The marginal under correlated noise: the drift and the design filtered by the
+    density's noise model."""
 
     columns: Float[Array, "n 1+p"]  # the drift, then the design's columns
     #: The density's noise model on its rows (no drift model: candidates' fits on one log's
@@ -41,8 +109,8 @@ class CollapsedCoefficients(eqx.Module):
     row_filter: RowFilter
     weight: Float[Array, " n"]
     beta_loc: Float[Array, " p"]
-    beta_precision: Float[Array, " p"]  # 1/scale^2 of a normal prior, 0 for a flat one
-    beta_log_norm: Float[Array, ""]  # the normal priors' log normalising constant
+    beta_precision: Float[Array, " p"]
+    beta_log_norm: Float[Array, ""]
     noise_loc: Float[Array, " k"]
     noise_scale: Float[Array, " k"]
     noise_on: Float[Array, " k"]
@@ -55,26 +123,17 @@ class CollapsedCoefficients(eqx.Module):
             raise ValueError("a collapsed form filters correlated noise; this noise is white")
         return filtered
 
-    def _solve(self, v: Float[Array, " k"]):
+    def _normal_equations(self, v: Float[Array, " k"]) -> NormalEquations:
         innovation, variance = self._innovations(v)
         scale = jnp.sqrt(self.weight / variance)
         a, design = innovation[:, 0] * scale, innovation[:, 1:] * scale[:, None]
-        precision = design.T @ design + jnp.diag(self.beta_precision)
-        b = design.T @ a + self.beta_precision * self.beta_loc
-        factor = jnp.linalg.cholesky(precision)
-        mean = jax.scipy.linalg.cho_solve((factor, True), b)
-        log_det = 2.0 * jnp.sum(jnp.log(jnp.diag(factor)))
-        # a'a + m0'L0 m0 - b'beta_hat, summed as the residuals' squares: the same number,
-        # without the cancellation that made it thousands below zero where a whitened row is
-        # huge (a random walk's mean constrained with variance 3e-17, far in the tails);
-        # an inexact solution can then only lower the likelihood
-        residual = a - design @ mean
-        quadratic = residual @ residual + jnp.sum(self.beta_precision
-                                                  * (mean - self.beta_loc) ** 2)
-        log_lik = (-0.5 * jnp.sum(self.weight * (jnp.log(variance) + _LOG_2PI))
-                   - 0.5 * quadratic - 0.5 * log_det + 0.5 * mean.size * _LOG_2PI
-                   + self.beta_log_norm)
-        return mean, factor, log_lik
+
+        def residual_sq(beta):
+            residual = a - design @ beta
+            return residual @ residual
+
+        log_norm = -0.5 * jnp.sum(self.weight * (jnp.log(variance) + _LOG_2PI))
+        return design.T @ design, design.T @ a, residual_sq, log_norm
 
     def log_likelihood(self, u: Float[Array, " p_plus_k"]) -> Float[Array, ""]:
         """The log-likelihood at sampling coordinates ``u`` (coefficients, then noise
@@ -92,27 +151,41 @@ class CollapsedCoefficients(eqx.Module):
         innovation, variance = self._innovations(v)
         return jnp.column_stack([innovation, variance])
 
-    def log_posterior(self, v: Float[Array, " k"]) -> Float[Array, ""]:
-        """The noise levels' marginal log-posterior (coefficients integrated out)."""
-        r = self.noise_on * (v - self.noise_loc) / self.noise_scale
-        log_prior = jnp.sum(-0.5 * r**2 - self.noise_on * (jnp.log(self.noise_scale)
-                                                           + 0.5 * _LOG_2PI))
-        value = self._solve(v)[2] + log_prior
-        return jnp.where(jnp.isfinite(value), value, -jnp.inf)
 
-    def solved(self, v: Float[Array, " k"]) -> Float[Array, " 1+p+p*p"]:
-        """The marginal log-posterior at ``v``, then the coefficients' conditional mean and
-        the Cholesky factor of their precision (row by row): all a draw of the joint
-        posterior needs (:func:`conditional_draws`), from one pass of the filter."""
-        mean, factor, _ = self._solve(v)
-        return jnp.concatenate([self.log_posterior(v)[None], mean, factor.ravel()])
+class SufficientCoefficients(AbstractMarginal):
+    """The marginal under white noise, on the rows' sufficient statistics
+    (:class:`~gyroid.inference._white_rows.SufficientStatistics`: ``X'WX``, the weighted
+    least-squares solution and the residual sum there). The noise level, when the log does
+    not give each row's sd, is a sample's log sd; a row's is that times ``row_scale``."""
 
-    def conditional(self, vz: Float[Array, " k_plus_p"]) -> Float[Array, " p"]:
-        """A draw of the coefficients given the noise levels ``vz[:k]``, from standard
-        normal deviates ``vz[k:]``: ``beta_hat + P^(-1/2) z``."""
-        k = self.noise_loc.size
-        mean, factor, _ = self._solve(vz[:k])
-        return mean + jax.scipy.linalg.solve_triangular(factor.T, vz[k:], lower=False)
+    gram: Float[Array, "p p"]
+    solution: Float[Array, " p"]
+    rss_min: Float[Array, ""]
+    n: Float[Array, ""]
+    log_sigma_sum: Float[Array, ""]  # the rows' sum of log sd where the log gives them
+    beta_loc: Float[Array, " p"]
+    beta_precision: Float[Array, " p"]
+    beta_log_norm: Float[Array, ""]
+    noise_loc: Float[Array, " k"]
+    noise_scale: Float[Array, " k"]
+    noise_on: Float[Array, " k"]
+    row_scale: float = eqx.field(static=True, default=1.0)
+
+    def _normal_equations(self, v: Float[Array, " k"]) -> NormalEquations:
+        if self.noise_loc.size:  # the level sampled: a row's variance s^2
+            log_sd = v[0] + math.log(self.row_scale)
+            inverse = jnp.exp(-2.0 * log_sd)
+            log_norm = -self.n * (log_sd + 0.5 * _LOG_2PI)
+        else:  # each row's sd given, in the statistics' weights
+            inverse = jnp.ones(())
+            log_norm = -self.log_sigma_sum - 0.5 * self.n * _LOG_2PI
+
+        def residual_sq(beta):
+            delta = beta - self.solution
+            return (self.rss_min + delta @ self.gram @ delta) * inverse
+
+        return (self.gram * inverse, self.gram @ self.solution * inverse, residual_sq,
+                log_norm)
 
 
 #: A collapsed form's columns are padded to a multiple of this where its mode is found
@@ -221,9 +294,48 @@ def log_posteriors_at(template: CollapsedCoefficients, columns: Float[Array, "m 
     return jax.vmap(lambda c: with_columns(template, c).log_posterior(v))(columns)
 
 
-def collapse(density, columns: Float[Array, "n 1+r"] | None = None,
-             real: np.ndarray | None = None) -> CollapsedCoefficients | None:
-    """The collapsed form of a :class:`~gyroid.inference._bench_density.BenchDensity`: a
+def collapse(density) -> AbstractMarginal | None:
+    """The marginal of a :class:`~gyroid.inference._bench_density.BenchDensity` whose
+    model is linear: on its sufficient statistics where it has them (white rows), else
+    filtered (:func:`filtered_form`); None for any other density (a model with positive
+    parameters, the thermometer's noise carried under white noise, held-out rows under
+    white noise)."""
+    if density.stats is None:
+        model = density.model
+        if not model.is_linear or any(q.positive for q in model.parameters):
+            return None
+        return filtered_form(density)
+    p = density.n_model
+    stats = density.stats
+    beta_loc, precision, log_norm = _coefficient_priors(density, np.arange(p))
+    loc, scale, on = _prior_arrays(density)
+    return SufficientCoefficients(
+        gram=stats.gram, solution=stats.solution, rss_min=stats.rss_min,
+        n=jnp.asarray(float(density.n)), log_sigma_sum=stats.log_sigma_sum,
+        beta_loc=beta_loc, beta_precision=precision, beta_log_norm=log_norm,
+        noise_loc=loc[p:], noise_scale=scale[p:], noise_on=on[p:],
+        row_scale=density.row_scale)
+
+
+def _prior_arrays(density):
+    return tuple(jnp.asarray(a, dtype=float) for a in (
+        density.prior_loc, density.prior_scale, density.prior_on))
+
+
+def _coefficient_priors(density, real: np.ndarray):
+    """The real coefficients' priors: their locations, precisions (0 for a flat prior) and
+    the normal priors' log normalising constant."""
+    loc, scale, on = _prior_arrays(density)
+    normal = on[real] > 0
+    safe = jnp.where(normal, scale[real], 1.0)
+    precision = jnp.where(normal, 1.0 / safe**2, 0.0)
+    log_norm = -jnp.sum(jnp.where(normal, jnp.log(safe) + 0.5 * _LOG_2PI, 0.0))
+    return loc[real], precision, log_norm
+
+
+def filtered_form(density, columns: Float[Array, "n 1+r"] | None = None,
+                  real: np.ndarray | None = None) -> CollapsedCoefficients | None:
+    """The filtered marginal of a :class:`~gyroid.inference._bench_density.BenchDensity`: a
     linear model (every coefficient real) under a correlated noise model; None
     otherwise. With ``columns`` (the drift less the model at zero real coefficients, then
     the model's derivatives in them) and ``real`` (their indices among the model's
@@ -238,28 +350,24 @@ def collapse(density, columns: Float[Array, "n 1+r"] | None = None,
         columns = jnp.column_stack([density.drift, model.design(density.inputs)])
         real = np.arange(density.n_model)
     p = density.n_model
-    loc, scale, on = (jnp.asarray(a, dtype=float) for a in (
-        density.prior_loc, density.prior_scale, density.prior_on))
-    normal = on[real] > 0
-    safe = jnp.where(normal, scale[real], 1.0)
-    precision = jnp.where(normal, 1.0 / safe**2, 0.0)
-    log_norm = -jnp.sum(jnp.where(normal, jnp.log(safe) + 0.5 * _LOG_2PI, 0.0))
+    beta_loc, precision, log_norm = _coefficient_priors(density, np.asarray(real))
+    loc, scale, on = _prior_arrays(density)
     weight = (jnp.ones_like(density.drift) if density.weight is None
               else jnp.asarray(density.weight))
     return CollapsedCoefficients(
         columns=columns,
         row_filter=density.row_filter,
         weight=weight,
-        beta_loc=loc[real], beta_precision=precision,
+        beta_loc=beta_loc, beta_precision=precision,
         beta_log_norm=log_norm, noise_loc=loc[p:],
         noise_scale=scale[p:], noise_on=on[p:])
 
 
 def collapsed_form(density, columns: Float[Array, "n 1+r"] | None = None,
                    real: np.ndarray | None = None) -> CollapsedCoefficients:
-    """:func:`collapse` where the caller needs the form (a correlated noise model, a model
-    linear in its real coefficients): ValueError where there is none."""
-    form = collapse(density, columns, real)
+    """:func:`filtered_form` where the caller needs the form (a correlated noise model, a
+    model linear in its real coefficients): ValueError where there is none."""
+    form = filtered_form(density, columns, real)
     if form is None:
         raise ValueError("this density has no collapsed form: its coefficients integrate out "
                          "exactly under a correlated noise model only")

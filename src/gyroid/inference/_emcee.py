@@ -6,15 +6,16 @@ is at least ``tau_factor`` integrated autocorrelation times long and every param
 ``max_steps``. After the first chunk each chunk is sized from the current autocorrelation
 time to reach ``tau_factor`` times it, so few checks are needed. The log-posterior is the
 problem's density, jit-compiled and vmapped over walkers (``vectorize=True``), or its NumPy
-form where that is cheaper (a linear model with white noise: sufficient statistics).
+form where that is cheaper (sufficient statistics where each row's sd is given, the
+thermometer's eigenbasis).
 
-A linear drift model under correlated noise is sampled collapsed
-(:mod:`gyroid.inference._collapsed`): emcee walks the noise levels' marginal posterior,
-and each kept draw gets its coefficients from their exact Gaussian conditional; the same
-posterior, with a fraction of the steps. Its three dimensions are walked by 16 walkers, not
-32: the autocorrelation time in steps is the same (the demo's thermal fit under
-white+flicker+rw: 12 steps either way, 986 and 1058 steps run) at half the cost per step
-(12 s against 22 s).
+A linear drift model is sampled collapsed (:mod:`gyroid.inference._collapsed`: filtered
+under correlated noise, on sufficient statistics under white noise): emcee walks the noise
+levels' marginal posterior (white noise's unknown level alone), and each kept draw gets its
+coefficients from their exact Gaussian conditional; the same posterior, with a fraction of
+the steps. IEEE 952's three dimensions are walked by 16 walkers, not 32: the autocorrelation
+time in steps is the same (the demo's thermal fit under white+flicker+rw: 12 steps either
+way, 986 and 1058 steps run) at half the cost per step (12 s against 22 s).
 
 The default move is emcee's differential-evolution move (``DEMove``): on the nearly
 Gaussian, correlated posteriors of drift models its autocorrelation time is about a third
@@ -183,7 +184,7 @@ class Walked:
     def of(cls, problem: AbstractProblem, point: PointEstimate, rng: np.random.Generator,
            chunk: int = 16) -> Walked:
         collapsed = problem.collapsed()
-        if collapsed is None:
+        if collapsed is None or not collapsed.noise_loc.size:
             # A linear-Gaussian problem's log-posterior runs on the host (NumPy on its
             # sufficient statistics): cheaper per emcee step than a call into JAX.
             batch = problem.host_log_posterior() or problem_batcher(

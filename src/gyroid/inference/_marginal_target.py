@@ -32,6 +32,7 @@ from gyroid.inference._collapsed import (
     chunks,
     collapse,
     columns_at,
+    filtered_form,
     split_parameters,
     with_columns,
 )
@@ -59,7 +60,7 @@ class MarginalTarget:
         if self.what:
             return self.what
         levels = len(self.marginal) - self.n_positive
-        return ("noise levels" if self.n_positive == 0
+        return (("noise level" if levels == 1 else "noise levels") if self.n_positive == 0
                 else f"noise levels and {self.n_positive} positive parameter(s)"
                 if levels else "positive parameters")
 
@@ -118,27 +119,29 @@ def whole_posterior(log_posterior: Callable[[np.ndarray], ArrayLike],
 
 
 def marginal_target(density) -> MarginalTarget:
-    """What importance sampling weighs for a bench density: under correlated noise, with a
-    model linear in its real coefficients given its positive ones, the noise levels (and
-    those positive parameters) with the coefficients integrated out; otherwise (white
-    noise, whose unknown level leaves nothing to integrate out exactly; the thermometer's
-    noise carried through dT/dt) the whole posterior, on the host where the density has a
-    NumPy form (sufficient statistics, the thermometer's eigenbasis), each positive
-    parameter's prior (the white level's, a time constant's) a tail it may keep."""
-    if not density.noise.correlated or density.errors_in_variables:
-        return _whole(density)
+    """What importance sampling weighs for a bench density: with a model linear in its
+    real coefficients given its positive ones, the noise levels (and those positive
+    parameters) with the coefficients integrated out (:func:`~gyroid.inference._collapsed.
+    collapse`: on sufficient statistics under white noise, filtered under correlated
+    noise); otherwise (the thermometer's noise carried through dT/dt under white noise, a
+    model with positive parameters under white noise, every row's sd given) the whole
+    posterior, on the host where the density has a NumPy form (sufficient statistics, the
+    thermometer's eigenbasis), each positive parameter's prior (the white level's, a time
+    constant's) a tail it may keep."""
     real, positive = split_parameters(density)
     p, k = density.n_model, len(density.noise_names)
     levels = np.arange(p, p + k)
     if positive.size == 0:
         collapsed = collapse(density)
-        if collapsed is None:
+        if collapsed is None or k == 0:
             return _whole(density)
         return MarginalTarget(levels, real, problem_batcher(collapsed.solved),
                               _tails(collapsed, 0))
     q = positive.size
     probe = np.zeros((1, q))  # any point: the form's columns are replaced at every draw
-    base = collapse(density, jnp.asarray(columns_at(density, probe)[0]), real)
+    base = filtered_form(density, jnp.asarray(columns_at(density, probe)[0]), real)
+    if base is None:
+        return _whole(density)
 
     def solved(x: np.ndarray) -> np.ndarray:
         x = np.asarray(x, dtype=float)

@@ -31,7 +31,7 @@ from scipy.linalg import block_diag
 
 from gyroid.inference._batching import problem_batcher
 from gyroid.inference._bench_density import BenchDensity
-from gyroid.inference._collapsed import collapse, model_columns, split_parameters
+from gyroid.inference._collapsed import filtered_form, model_columns, split_parameters
 from gyroid.inference._marginal_mode import collapsed_mode
 from gyroid.inference._mode import JointBFGS, LeastSquares, safe_inverse
 from gyroid.inference._point_profiled import profiled_mode
@@ -191,7 +191,7 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3,
         found = _JOINT.minimise(problem, _white_start(problem))
         return _point(problem, found.value, safe_inverse(found.curvature), found.converged,
                       found.message, n_starts=1)
-    collapsed = collapse(problem)
+    collapsed = filtered_form(problem)
     if collapsed is not None:  # a linear model under correlated noise: its marginal's mode
         guess, correlated = noise_guess(problem)
         start, raised = ((guess, correlated) if noise_start is None

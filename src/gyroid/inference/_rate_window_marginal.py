@@ -37,7 +37,7 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from gyroid._config import compute_threads
-from gyroid.inference._collapsed import collapse, split_parameters
+from gyroid.inference._collapsed import filtered_form, split_parameters
 from gyroid.inference._marginal_mode import marginal_mode
 from gyroid.inference._point import correlated_levels, noise_from_residual, noise_guess
 from gyroid.inference._point_profiled import collapsed_at_white_start
@@ -52,7 +52,7 @@ def _collapsed(density):
     correlated levels; for a model with positive parameters (time constants, a step's
     time), the form at the start grid's best white least-squares point (those held there:
     the windows are compared as for a linear model); None without correlated noise."""
-    collapsed = collapse(density)
+    collapsed = filtered_form(density)
     if collapsed is not None:
         return (collapsed, *noise_guess(density))
     if (not density.noise.correlated or density.errors_in_variables

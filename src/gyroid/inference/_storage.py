@@ -11,6 +11,7 @@ import numpy as np
 from jaxtyping import Array, Float
 
 from gyroid.inference._batching import in_chunks, problem_batcher
+from gyroid.inference._collapsed import CollapsedCoefficients
 from gyroid.inference._posterior import Posterior
 from gyroid.inference._problem import AbstractProblem
 from gyroid.io._arviz import load_arviz
@@ -61,7 +62,7 @@ def block_log_likelihood(problem: AbstractProblem, posterior: Posterior, chunk: 
     walkers, draws, d = posterior.draws.shape
     flat = np.asarray(problem.to_sampling_host(posterior.draws.reshape(-1, d)))
     collapsed = problem.collapsed()
-    if collapsed is not None:  # a linear model under correlated noise (a bench density)
+    if isinstance(collapsed, CollapsedCoefficients):  # a linear model, correlated noise
         return _by_noise_level(problem.density, collapsed, flat, chunk).reshape(
             walkers, draws, -1)
     density = problem.density
