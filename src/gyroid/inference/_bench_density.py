@@ -352,16 +352,13 @@ class BenchDensity(AbstractDensity):
 
     def host_log_posterior(self):
         """The log-posterior of many walkers in NumPy, ``u (w, d) -> (w,)``, where a host
-        form exists (:class:`SufficientStatistics`, or a linear model's
-        :class:`ThermometerEigenbasis`): what emcee calls every step; None otherwise."""
+        form exists (a linear model's :class:`ThermometerEigenbasis`): what emcee calls
+        every step; None otherwise."""
+        if self.eiv is None or self.eiv.x is None:
+            return None
         prior = HostPrior(np.asarray(self.prior_loc), np.asarray(self.prior_scale),
                           np.asarray(self.prior_on))
-        if self.eiv is not None and self.eiv.x is not None:
-            return self.eiv.host_log_posterior(prior, self.sigma is not None)
-        if self.stats is not None:
-            return self.stats.host_log_posterior(prior, self.n, self.row_scale,
-                                                 self.sigma is not None)
-        return None
+        return self.eiv.host_log_posterior(prior, self.sigma is not None)
 
     def log_likelihood_blocks(self, u: Float[Array, " d"]) -> Float[Array, " b"]:
         """Log-likelihood summed over blocks of ``LOO_BLOCK_S`` (what LOO leaves out); from

@@ -105,6 +105,8 @@ class Importance(AbstractSampler):
         target = problem.marginal_target()
         if target is None:
             return self.fallback.sample(problem, point, seed=seed, progress=progress)
+        if not target.marginal.size:  # nothing to weigh: the coefficients' exact Gaussian
+            return self._posterior(problem, target, _exact(target.solved), rng)
         # the mode's marginal coordinates and their covariance
         at = target.marginal
         mode = (np.asarray(point.u, dtype=float)[at],
@@ -194,11 +196,23 @@ class Importance(AbstractSampler):
             method=(f"importance sampling of the {target.describe} (PSIS, Pareto k "
                     f"{weighted.pareto_k:.2f}, {n} draws in {n // self.n_draws} stage(s) of "
                     f"Student-t's, {weighted.effective:.0f} effective)"
-                    + ("; coefficients exact given each" if target.real.size else "")),
+                    + ("; coefficients exact given each" if target.real.size else "")
+                    if target.marginal.size else
+                    "exact draws of the coefficients' Gaussian posterior (every row's sd "
+                    "given: nothing to weigh)"),
             summary=summary,
             move="psis",
             evaluated=(weighted.draws, weighted.solved),
         )
+
+
+def _exact(solved: Callable[[np.ndarray], np.ndarray]) -> _Weighted:
+    """The one "draw" of a target with no marginal coordinate (a linear model whose rows'
+    sds are all given): its coefficients' Gaussian, weight 1; the kept draws are then
+    independent draws of it."""
+    at = np.zeros((1, 0))
+    return _Weighted(at, np.asarray(solved(at)), np.ones(1), -np.inf,
+                     float(MAX_STORED_SAMPLES))
 
 
 def _kernels(weighted: _Weighted, df: float, rng: np.random.Generator) -> Kernels:

@@ -133,7 +133,7 @@ def marginal_target(density) -> MarginalTarget:
     levels = np.arange(p, p + k)
     if positive.size == 0:
         collapsed = collapse(density)
-        if collapsed is None or k == 0:
+        if collapsed is None:
             return _whole(density)
         return MarginalTarget(levels, real, problem_batcher(collapsed.solved),
                               _tails(collapsed, 0))

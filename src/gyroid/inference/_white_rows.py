@@ -4,7 +4,8 @@ does not apply):
 
 * :class:`SufficientStatistics`: a linear model's likelihood on its rows' Gram matrix and
   least-squares solution (and the same per LOO block), so that an evaluation costs
-  ``O(p^2)`` whatever the log's length; and the NumPy log-posterior emcee calls on them.
+  ``O(p^2)`` whatever the log's length (its coefficients integrate out on them:
+  :class:`~gyroid.inference._collapsed.SufficientCoefficients`).
 * :class:`ThermometerEigenbasis`: the thermometer's noise carried through dT/dt (errors in
   variables) as a covariance over the rows, in the eigenbasis of that covariance over the
   white part (one eigendecomposition; each evaluation is then ``O(n)``).
@@ -117,33 +118,6 @@ class SufficientStatistics(eqx.Module):
             return -0.5 * rss - self.block_log_sigma - constant
         return -0.5 * rss / sd**2 - self.block_count * jnp.log(sd) - constant
 
-    def host_log_posterior(self, prior: HostPrior, n: int, row_scale: float, known: bool
-                           ) -> Callable[[np.ndarray], np.ndarray]:
-        """The log-posterior of many walkers, ``u (w, d) -> (w,)``, in NumPy: what emcee
-        calls every step. A step then costs a (w, p) x (p, p) product and no JAX dispatch,
-        whose overhead had made gyroid's steps 1.7x dearer than a NumPy script's
-        (benchmarks/run.py). ``known``: the rows' sds are given (else the sampled
-        coordinate after the coefficients is a row's log sd over ``row_scale``)."""
-        gram, solution = np.asarray(self.gram), np.asarray(self.solution)
-        rss_min, p = float(self.rss_min), solution.size
-        constant = prior.constant - 0.5 * n * _LOG_2PI
-        log_sigma_sum = float(self.log_sigma_sum)
-
-        def log_posterior(u: np.ndarray) -> np.ndarray:
-            u = np.atleast_2d(np.asarray(u, dtype=float))
-            delta = u[:, :p] - solution
-            rss = rss_min + np.einsum("ki,ij,kj->k", delta, gram, delta)
-            if known:
-                log_lik = -0.5 * rss - log_sigma_sum
-            else:
-                log_sd = u[:, p] + math.log(row_scale)
-                log_lik = -0.5 * rss * np.exp(-2.0 * log_sd) - n * log_sd
-            with np.errstate(over="ignore", invalid="ignore"):
-                value = log_lik + prior.log_density(u) + constant
-            return np.where(np.isfinite(value), value, -np.inf)
-
-        return log_posterior
-
 
 class ThermometerEigenbasis(eqx.Module):
     """The thermometer's noise through dT/dt as a covariance over the rows (white noise, a
@@ -214,8 +188,10 @@ class ThermometerEigenbasis(eqx.Module):
 
     def host_log_posterior(self, prior: HostPrior, known: bool
                            ) -> Callable[[np.ndarray], np.ndarray]:
-        """:meth:`SufficientStatistics.host_log_posterior` under errors in variables (a
-        linear model): a step costs a (w, p) x (p, n) product."""
+        """The log-posterior of many walkers, ``u (w, d) -> (w,)``, in NumPy, under errors in
+        variables (a linear model): what emcee and importance sampling call, a step a
+        (w, p) x (p, n) product and no JAX dispatch. ``known``: the rows' sds are given
+        (else the sampled coordinate after the coefficients is the white level's log)."""
         if self.x is None:
             raise ValueError("the host log-posterior needs a linear model's projected design")
         y, x = np.asarray(self.y), np.asarray(self.x)
