@@ -155,6 +155,7 @@ def main() -> None:
             }
             results[case]["trustworthy_fraction"] = float(np.mean(
                 [o.trustworthy for o in batch.outcomes]))
+            results[case]["untrusted_by"] = _untrusted_by(folder / "fits", paths)
             for (name, values), style in zip(ranks.items(), STYLES, strict=False):
                 ax.hist(values, bins=10, range=(0, 1), histtype="step", label=name,
                         color=style[0], ls=style[1], lw=1.2)
@@ -171,6 +172,20 @@ def main() -> None:
     config = {"datasets": args.datasets, "levels": LEVELS, "move": Emcee().move,
               "runner": f"gyroid batch (Dask LocalCluster, {args.workers} workers)"}
     save_run(out, seed=args.seed, config=config, results=results, started=started)
+
+
+def _untrusted_by(fits: Path, paths: list[Path]) -> dict[str, int]:
+    """How many fits each error-severity check called untrustworthy (a fit may count for
+    several): each check's false alarms, the data being the model's own."""
+    import json
+
+    counts: dict[str, int] = {}
+    for label in run_labels(paths):
+        checks = json.loads((fits / label / "fit.json").read_text())["checks"]
+        for name, check in checks.items():
+            if check["severity"] == "error" and not check["passed"]:
+                counts[name] = counts.get(name, 0) + 1
+    return counts
 
 
 def _ranks_and_coverage(fits: Path, paths: list[Path], truths: list[dict]):

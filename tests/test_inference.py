@@ -105,12 +105,17 @@ def test_sufficient_statistics_equal_the_direct_sum(known_sigma):
                                    np.asarray(direct.density.log_likelihood_blocks(u)),
                                    rtol=1e-10, atol=1e-7)
     assert fast.density.sufficient_statistics().block_gram.shape[0] == fast.density.n_blocks > 1
-    # The coefficients integrate out on these statistics (the one marginal's white form);
-    # without them nothing integrates out (the whole posterior is weighed).
+    # The coefficients integrate out on these statistics (the one marginal's white form),
+    # the same as on the rows' own columns.
     from gyroid.inference._collapsed import SufficientCoefficients
 
-    assert isinstance(fast.collapsed(), SufficientCoefficients)
-    assert direct.collapsed() is None and direct.host_log_posterior() is None
+    on_statistics, on_rows = fast.collapsed(), direct.collapsed()
+    assert isinstance(on_statistics, SufficientCoefficients) and on_statistics.row_weight is None
+    assert isinstance(on_rows, SufficientCoefficients) and on_rows.row_weight is not None
+    for v in rng.normal(size=(3, on_rows.noise_loc.size)) * 0.3:
+        np.testing.assert_allclose(np.asarray(on_statistics.solved(jnp.asarray(v))),
+                                   np.asarray(on_rows.solved(jnp.asarray(v))),
+                                   rtol=1e-8, atol=1e-8)
 
 
 def test_correlated_noise_likelihood_is_the_exact_gaussian():

@@ -13,12 +13,8 @@ import scipy.linalg
 
 from gyroid.inference._bench_density import BenchDensity
 from gyroid.inference._check_report import Check
-from gyroid.inference._collapsed import (
-    collapsed_form,
-    columns_at,
-    conditional_solution,
-    split_parameters,
-)
+from gyroid.inference._collapsed import collapsed_form, conditional_solution
+from gyroid.inference._model_columns import columns_at, split_parameters
 from gyroid.inference._point import point_estimate
 from gyroid.inference._predictive import (
     HeldOut,

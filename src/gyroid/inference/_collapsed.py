@@ -59,6 +59,12 @@ class AbstractMarginal(eqx.Module):
         sum of squares at given coefficients (a function, summed without cancellation) and
         the rows' log normalising constant ``-0.5 sum (log var + log 2 pi)``."""
 
+    @abc.abstractmethod
+    def with_columns(self, columns: Float[Array, "n 1+r"]) -> AbstractMarginal:
+        """This form on other columns (the drift less the model at zero real coefficients,
+        then the model's derivatives in them: a model's positive parameters moved), the
+        priors kept (traceable)."""
+
     def _solve(self, v: Float[Array, " k"]):
         gram, right, residual_sq, log_norm = self._normal_equations(v)
         precision = gram + jnp.diag(self.beta_precision)
@@ -135,6 +141,13 @@ class CollapsedCoefficients(AbstractMarginal):
         log_norm = -0.5 * jnp.sum(self.weight * (jnp.log(variance) + _LOG_2PI))
         return design.T @ design, design.T @ a, residual_sq, log_norm
 
+    def with_columns(self, columns: Float[Array, "n 1+r"]) -> CollapsedCoefficients:
+        """(See :meth:`AbstractMarginal.with_columns`.) Zero columns appended to this
+        form's width (a padded form, :func:`padded`)."""
+        extra = self.columns.shape[1] - columns.shape[1]
+        columns = jnp.concatenate([columns, jnp.zeros((columns.shape[0], extra))], axis=1)
+        return eqx.tree_at(lambda t: t.columns, self, columns)
+
     def log_likelihood(self, u: Float[Array, " p_plus_k"]) -> Float[Array, ""]:
         """The log-likelihood at sampling coordinates ``u`` (coefficients, then noise
         levels): the density's, from this form's filter."""
@@ -153,15 +166,13 @@ class CollapsedCoefficients(AbstractMarginal):
 
 
 class SufficientCoefficients(AbstractMarginal):
-    """The marginal under white noise, on the rows' sufficient statistics
-    (:class:`~gyroid.inference._white_rows.SufficientStatistics`: ``X'WX``, the weighted
-    least-squares solution and the residual sum there). The noise level, when the log does
-    not give each row's sd, is a sample's log sd; a row's is that times ``row_scale``."""
+    """The marginal under white noise, on the R factor of the rows' weighted ``[X, y]``
+    (their sufficient statistics: ``|y - X beta|^2 = |R (beta, -1)|^2``, O(p^2) an
+    evaluation, whatever the log's length). The noise level, when the log does not give
+    each row's sd, is a sample's log sd; a row's is that times ``row_scale``."""
 
-    gram: Float[Array, "p p"]
-    solution: Float[Array, " p"]
-    rss_min: Float[Array, ""]
-    n: Float[Array, ""]
+    factor: Float[Array, "1+p 1+p"]
+    n: Float[Array, ""]  # the rows the likelihood reads
     log_sigma_sum: Float[Array, ""]  # the rows' sum of log sd where the log gives them
     beta_loc: Float[Array, " p"]
     beta_precision: Float[Array, " p"]
@@ -169,23 +180,42 @@ class SufficientCoefficients(AbstractMarginal):
     noise_loc: Float[Array, " k"]
     noise_scale: Float[Array, " k"]
     noise_on: Float[Array, " k"]
+    #: Each row's weight in ``[X, y]`` (1/sd where the log gives it; 0 for a row left
+    #: out), to rebuild the factor on other columns; None where built from the statistics.
+    row_weight: Float[Array, " n"] | None = None
     row_scale: float = eqx.field(static=True, default=1.0)
+
+    @staticmethod
+    def factor_of(columns: Float[Array, "n 1+p"], row_weight: Float[Array, " n"]
+                  ) -> Float[Array, "1+p 1+p"]:
+        """The R factor of the weighted ``[X, y]`` from ``columns`` (``y`` first), as the
+        Cholesky factor of their cross-products (in float64 the residual sum loses some
+        ``1e-16 |y|^2 / rss`` of itself; a QR factor, batched, deadlocked when two threads
+        ran it: jaxlib 0.10.2's LAPACK call on the CPU)."""
+        weighted = columns * row_weight[:, None]
+        stacked = jnp.column_stack([weighted[:, 1:], weighted[:, 0]])
+        return jnp.linalg.cholesky(stacked.T @ stacked).T
+
+    def with_columns(self, columns: Float[Array, "n 1+r"]) -> SufficientCoefficients:
+        if self.row_weight is None:
+            raise ValueError("a form built from sufficient statistics has no rows to refactor")
+        return eqx.tree_at(lambda t: t.factor, self, self.factor_of(columns, self.row_weight))
 
     def _normal_equations(self, v: Float[Array, " k"]) -> NormalEquations:
         if self.noise_loc.size:  # the level sampled: a row's variance s^2
             log_sd = v[0] + math.log(self.row_scale)
             inverse = jnp.exp(-2.0 * log_sd)
             log_norm = -self.n * (log_sd + 0.5 * _LOG_2PI)
-        else:  # each row's sd given, in the statistics' weights
+        else:  # each row's sd given, in the rows' weights
             inverse = jnp.ones(())
             log_norm = -self.log_sigma_sum - 0.5 * self.n * _LOG_2PI
+        design, data = self.factor[:, :-1], self.factor[:, -1]
 
         def residual_sq(beta):
-            delta = beta - self.solution
-            return (self.rss_min + delta @ self.gram @ delta) * inverse
+            residual = design @ beta - data
+            return (residual @ residual) * inverse
 
-        return (self.gram * inverse, self.gram @ self.solution * inverse, residual_sq,
-                log_norm)
+        return design.T @ design * inverse, design.T @ data * inverse, residual_sq, log_norm
 
 
 #: A collapsed form's columns are padded to a multiple of this where its mode is found
@@ -237,83 +267,52 @@ def conditional_draws(solved: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np
     return beta, solved[:, 0] + log_conditional
 
 
-def split_parameters(density) -> tuple[np.ndarray, np.ndarray]:
-    """The indices of a density's real model parameters and of its positive ones (time
-    constants, a step's time: entered through their logs)."""
-    positive = np.array([q.positive for q in density.model.parameters], dtype=bool)
-    return np.flatnonzero(~positive), np.flatnonzero(positive)
-
-
-def model_columns(density, u_positive: Float[Array, " q"]) -> Float[Array, "n 1+r"]:
-    """The drift less the model at zero real coefficients, then the model's derivatives in
-    them (exact: every effect is linear in its real coefficients), at positive parameters
-    ``u_positive`` (logs): what :func:`collapse` integrates the coefficients out of."""
-    offset, design = density.model.columns_at(density.inputs, u_positive)
-    return jnp.column_stack([density.drift - offset, design])
-
-
-_columns_at = eqx.filter_jit(eqx.filter_vmap(model_columns, in_axes=(None, 0)))
-#: Points of positive parameters whose columns are computed side by side (fewer are
-#: padded: one compilation per model).
-COLUMN_BATCH = 32
-
-
-def chunks(rows: np.ndarray, size: int = COLUMN_BATCH):
-    """``rows`` in runs of ``size``, the last padded by repeating its first row."""
-    for start in range(0, len(rows), size):
-        chunk = rows[start:start + size]
-        if len(chunk) < size:
-            chunk = np.concatenate([chunk, np.repeat(chunk[:1], size - len(chunk), axis=0)])
-        yield chunk
-
-
-def columns_at(density, points: np.ndarray) -> np.ndarray:
-    """:func:`model_columns` at each row of ``points`` (positive parameters, logs), computed
-    :data:`COLUMN_BATCH` rows at a time."""
-    points = np.atleast_2d(np.asarray(points, dtype=float))
-    return np.concatenate([np.asarray(_columns_at(density, jnp.asarray(chunk)))
-                           for chunk in chunks(points)])[: len(points)]
-
-
-def with_columns(template: CollapsedCoefficients, columns: Float[Array, "n 1+r"]
-                 ) -> CollapsedCoefficients:
-    """``template`` (a collapsed form, padded or not) with its columns replaced by
-    ``columns``, zero columns appended to its width (traceable)."""
-    extra = template.columns.shape[1] - columns.shape[1]
-    columns = jnp.concatenate([columns, jnp.zeros((columns.shape[0], extra))], axis=1)
-    return eqx.tree_at(lambda t: t.columns, template, columns)
-
-
 @eqx.filter_jit
 def log_posteriors_at(template: CollapsedCoefficients, columns: Float[Array, "m n 1+r"],
                       v: Float[Array, " k"]) -> Float[Array, " m"]:
     """The marginal log-posterior at noise levels ``v`` of ``template`` with its columns
-    replaced by each of ``columns`` (:func:`with_columns`): a model's profile over its
-    positive parameters, compiled once per log shape, padded width and batch, whatever the
-    model."""
-    return jax.vmap(lambda c: with_columns(template, c).log_posterior(v))(columns)
+    replaced by each of ``columns`` (:meth:`~CollapsedCoefficients.with_columns`): a model's
+    profile over its positive parameters, compiled once per log shape, padded width and
+    batch, whatever the model."""
+    return jax.vmap(lambda c: template.with_columns(c).log_posterior(v))(columns)
 
 
-def collapse(density) -> AbstractMarginal | None:
-    """The marginal of a :class:`~gyroid.inference._bench_density.BenchDensity` whose
-    model is linear: on its sufficient statistics where it has them (white rows), else
-    filtered (:func:`filtered_form`); None for any other density (a model with positive
-    parameters, the thermometer's noise carried under white noise, held-out rows under
-    white noise)."""
-    if density.stats is None:
-        model = density.model
-        if not model.is_linear or any(q.positive for q in model.parameters):
-            return None
-        return filtered_form(density)
+def collapse(density, columns: Float[Array, "n 1+r"] | None = None,
+             real: np.ndarray | None = None) -> AbstractMarginal | None:
+    """The marginal (module docstring) of a :class:`~gyroid.inference._bench_density.
+    BenchDensity` whose model is linear: filtered under correlated noise
+    (:func:`filtered_form`), on the rows' sufficient statistics under white noise (those
+    the density holds where it has them: O(p^2) an evaluation, whatever the log's length).
+    With ``columns`` (the drift less the model at zero real coefficients, then the model's
+    derivatives in them) and ``real`` (their indices among the model's parameters), the
+    form at given positive parameters of any model linear in its real ones (traceable).
+    None for a model with positive parameters and no ``columns``, and where the
+    thermometer's noise is carried under white noise (its covariance holds wD: no
+    coefficient integrates out exactly)."""
+    if columns is None and (not density.model.is_linear
+                            or any(q.positive for q in density.model.parameters)):
+        return None
+    filtered = filtered_form(density, columns, real)
+    if filtered is not None or density.errors_in_variables:
+        return filtered
     p = density.n_model
-    stats = density.stats
-    beta_loc, precision, log_norm = _coefficient_priors(density, np.arange(p))
+    real = np.arange(p) if real is None else np.asarray(real)
+    beta_loc, precision, log_norm = _coefficient_priors(density, real)
     loc, scale, on = _prior_arrays(density)
+    kept = (jnp.ones_like(density.drift) if density.weight is None
+            else jnp.asarray(density.weight))
+    log_sd = 0.0 if density.sigma is None else jnp.log(density.sigma)
+    row_weight = jnp.sqrt(kept) * jnp.exp(-log_sd)
+    if columns is None and density.stats is not None:
+        factor, row_weight = density.stats.factor, None
+    else:
+        if columns is None:
+            columns = jnp.column_stack([density.drift, density.model.design(density.inputs)])
+        factor = SufficientCoefficients.factor_of(columns, row_weight)
     return SufficientCoefficients(
-        gram=stats.gram, solution=stats.solution, rss_min=stats.rss_min,
-        n=jnp.asarray(float(density.n)), log_sigma_sum=stats.log_sigma_sum,
+        factor=factor, n=jnp.sum(kept), log_sigma_sum=jnp.sum(kept * log_sd),
         beta_loc=beta_loc, beta_precision=precision, beta_log_norm=log_norm,
-        noise_loc=loc[p:], noise_scale=scale[p:], noise_on=on[p:],
+        noise_loc=loc[p:], noise_scale=scale[p:], noise_on=on[p:], row_weight=row_weight,
         row_scale=density.row_scale)
 
 

@@ -31,9 +31,10 @@ from scipy.linalg import block_diag
 
 from gyroid.inference._batching import problem_batcher
 from gyroid.inference._bench_density import BenchDensity
-from gyroid.inference._collapsed import filtered_form, model_columns, split_parameters
+from gyroid.inference._collapsed import filtered_form
 from gyroid.inference._marginal_mode import collapsed_mode
 from gyroid.inference._mode import JointBFGS, LeastSquares, safe_inverse
+from gyroid.inference._model_columns import model_columns, split_parameters
 from gyroid.inference._point_profiled import profiled_mode
 from gyroid.inference._problem import PointEstimate
 from gyroid.inference._starts import grid_points, start_grid

@@ -37,17 +37,14 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyroid.inference._collapsed import (
-    chunks,
     collapsed_form,
-    columns_at,
     conditional_solution,
     log_posteriors_at,
     padded,
-    split_parameters,
-    with_columns,
 )
 from gyroid.inference._marginal_mode import at_marginal_mode, marginal_mode
 from gyroid.inference._mode import BoundedSearch, safe_inverse, value_hessian
+from gyroid.inference._model_columns import chunks, columns_at, split_parameters
 from gyroid.inference._starts import best_least_squares, grid_points, start_grid
 
 #: The local search's bounds about the grid: a fifth of its least value to 3.3 times its
@@ -117,7 +114,7 @@ class _Profile:
 
     def at(self, point: np.ndarray):
         """The collapsed form at the positive parameters ``point``."""
-        return with_columns(self.base, jnp.asarray(self._model_columns(point[None, :])[0]))
+        return self.base.with_columns(jnp.asarray(self._model_columns(point[None, :])[0]))
 
     def white_guess(self, noise_start: Callable[[np.ndarray, float], np.ndarray]
                     ) -> tuple[np.ndarray, np.ndarray]:

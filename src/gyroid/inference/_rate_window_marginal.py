@@ -37,8 +37,9 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from gyroid._config import compute_threads
-from gyroid.inference._collapsed import filtered_form, split_parameters
+from gyroid.inference._collapsed import filtered_form
 from gyroid.inference._marginal_mode import marginal_mode
+from gyroid.inference._model_columns import split_parameters
 from gyroid.inference._point import correlated_levels, noise_from_residual, noise_guess
 from gyroid.inference._point_profiled import collapsed_at_white_start
 from gyroid.models._derived import RATE_POLY_DEGREE

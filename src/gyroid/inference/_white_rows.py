@@ -57,6 +57,7 @@ class SufficientStatistics(eqx.Module):
     rows' count and sum of log sigma per block."""
 
     gram: Float[Array, "p p"]
+    factor: Float[Array, "1+p 1+p"]  # the R factor of the weighted [X, y]
     solution: Float[Array, " p"]
     rss_min: Float[Array, ""]
     log_sigma_sum: Float[Array, ""]
@@ -79,6 +80,8 @@ class SufficientStatistics(eqx.Module):
             raise ValueError("a density of no rows has no sufficient statistics")
         solution, rss = least_squares_from_r(r)
         gram = r[:, :p].T @ r[:, :p]
+        factor = np.zeros((p + 1, p + 1))
+        factor[: r.shape[0]] = r
         gram_b = np.zeros((n_blocks, p, p))
         xr_b = np.zeros((n_blocks, p))
         rr_b = np.zeros(n_blocks)
@@ -91,7 +94,8 @@ class SufficientStatistics(eqx.Module):
                     gram_b[:, i, j] += np.bincount(index, xw[:, i] * xw[:, j], n_blocks)
                     gram_b[:, j, i] = gram_b[:, i, j]
             rr_b += np.bincount(index, r0**2, n_blocks)
-        return cls(jnp.asarray(gram), jnp.asarray(solution), jnp.asarray(rss),
+        return cls(jnp.asarray(gram), jnp.asarray(factor), jnp.asarray(solution),
+                   jnp.asarray(rss),
                    jnp.asarray(float(np.sum(log_sigma))), jnp.asarray(gram_b),
                    jnp.asarray(xr_b), jnp.asarray(rr_b),
                    jnp.asarray(np.bincount(block, minlength=n_blocks).astype(float)),
