@@ -119,10 +119,9 @@ def main() -> None:
     rng = np.random.default_rng(args.seed)
     out = results_dir("sbc")
     results = {}
-    fig, axes = plt.subplots(1, 3, figsize=(11, 3.2))
     all_ranks: dict[str, dict[str, np.ndarray]] = {}
     with tempfile.TemporaryDirectory() as tmp:
-        for ax, case in zip(axes, CASES, strict=True):
+        for case in CASES:
             folder = Path(tmp) / case
             folder.mkdir()
             paths, truths = [], []
@@ -156,22 +155,33 @@ def main() -> None:
             results[case]["trustworthy_fraction"] = float(np.mean(
                 [o.trustworthy for o in batch.outcomes]))
             results[case]["untrusted_by"] = _untrusted_by(folder / "fits", paths)
-            for (name, values), style in zip(ranks.items(), STYLES, strict=False):
-                ax.hist(values, bins=10, range=(0, 1), histtype="step", label=name,
-                        color=style[0], ls=style[1], lw=1.2)
             all_ranks[case] = {name: np.asarray(values) for name, values in ranks.items()}
-            ax.axhline(args.datasets / 10, color="0.0", ls=":", lw=1)
-            ax.set_xlabel("rank of the truth among posterior draws, fraction")
-            ax.set_ylabel("datasets per bin, count")
-            ax.set_title(case.replace("_", " "), fontsize=9)
-            ax.legend(fontsize=7, frameon=False)
-    fig.tight_layout()
-    fig.savefig(out / "sbc_ranks.png", dpi=150)
     np.savez(out / "ranks.npz", **{f"{case}:{name}": values for case, by_name in
                                    all_ranks.items() for name, values in by_name.items()})
+    plot_ranks(out)
     config = {"datasets": args.datasets, "levels": LEVELS, "move": Emcee().move,
               "runner": f"gyroid batch (Dask LocalCluster, {args.workers} workers)"}
     save_run(out, seed=args.seed, config=config, results=results, started=started)
+
+
+def plot_ranks(out: Path) -> None:
+    """``sbc_ranks.png``: each case's rank histograms, from ``ranks.npz`` in ``out``."""
+    saved = np.load(out / "ranks.npz")
+    fig, axes = plt.subplots(1, len(CASES), figsize=(11, 3.4))
+    for ax, case in zip(axes, CASES, strict=True):
+        names = [key.split(":", 1)[1] for key in saved.files if key.startswith(case + ":")]
+        for name, style in zip(names, STYLES, strict=False):
+            ax.hist(saved[f"{case}:{name}"], bins=10, range=(0, 1), histtype="step",
+                    label=name, color=style[0], ls=style[1], lw=1.2)
+        datasets = saved[f"{case}:{names[0]}"].size
+        ax.axhline(datasets / 10, color="0.0", ls=":", lw=1)
+        ax.set_xlabel("truth's rank among the draws, fraction")
+        ax.set_ylabel("datasets per bin, count")
+        ax.set_title(case.replace("_", " "), fontsize=9)
+        ax.legend(fontsize=7, frameon=False)
+    fig.tight_layout()
+    fig.savefig(out / "sbc_ranks.png", dpi=150)
+    plt.close(fig)
 
 
 def _untrusted_by(fits: Path, paths: list[Path]) -> dict[str, int]:

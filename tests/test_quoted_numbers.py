@@ -32,20 +32,32 @@ def _quoted(*phrases: str) -> None:
 def test_sbc_of_the_bench_fits():
     """Uniform ranks for every coefficient: the smallest of their KS p-values above 1 % over
     their number (Bonferroni: a calibrated sampler fails this one run in a hundred; the
-    smallest of 8 uniform p-values lies below 0.2 five runs in six, so the observed
-    smallest is quoted, not asserted)."""
+    smallest of 13 uniform p-values lies below 0.2 most runs, so the observed smallest is
+    quoted, not asserted). The data are each model's own, so a fit called untrustworthy is
+    a check's false alarm: only the predictive check's (family rate
+    :data:`~gyroid.inference._predictive.PREDICTIVE_P`), as often as its binomial 99.9 %
+    bound allows."""
+    from scipy import stats
+
+    from gyroid.inference._predictive import PREDICTIVE_P
+
     results = _results("sbc")
     cases = results.values()
-    names = [{k: v for k, v in case.items() if k != "trustworthy_fraction"} for case in cases]
+    extra = ("trustworthy_fraction", "untrusted_by")
+    names = [{k: v for k, v in case.items() if k not in extra} for case in cases]
     coefficients = [p for case in names for k, p in case.items() if k != "sigma_deg_h"]
     ks = min(p["ks_pvalue"] for p in coefficients)
     cover = [p["coverage"]["90%"] for case in names for p in case.values()]
     assert ks > 0.01 / len(coefficients)
-    assert all(case["trustworthy_fraction"] == 1.0 for case in cases)
+    fits = 200 * len(names)
+    untrusted = round(sum(200 * (1 - case["trustworthy_fraction"]) for case in cases))
+    alarms = {name for case in cases for name in case["untrusted_by"]}
+    assert alarms <= {"predictive"}
+    assert untrusted <= stats.binom.ppf(0.999, fits, PREDICTIVE_P)
     sigma = results["thermal_sampled_sigma"]["sigma_deg_h"]
     _quoted(f"every coefficient's rank histogram is uniform (KS p >= {_floor(ks, 2)})",
             f"cover the truth {100 * min(cover):.3g}-{100 * max(cover):.3g} % of the time",
-            f"all {200 * len(names)} fits call themselves trustworthy",
+            f"{fits - untrusted} of the {fits} fits call themselves trustworthy",
             f"covers at {100 * sigma['coverage']['90%']:.3g} % but its ranks lean low "
             f"(KS p {sigma['ks_pvalue']:.2g}, mean rank {_sigma_mean_rank():.2f})")
 
