@@ -47,7 +47,6 @@ KIND_SITES = {
     "inference/_bench_predictive.py": 1,
     "inference/_bench_problem.py": 10,
     "inference/_collapsed.py": 1,
-    "inference/_marginal_target.py": 1,
     "inference/_point.py": 3,
     "inference/_pool_fit.py": 2,
     "inference/_pool_problem.py": 1,
