@@ -205,39 +205,6 @@ def test_the_white_marginal_and_conditional_are_the_joint_density(sigma_given):
             assert abs(error) < 4 * point.sd[name] / np.sqrt(n_draws), name
 
 
-def test_a_white_noise_time_constant_is_weighed_with_the_coefficients_integrated_out():
-    """A warm-up under white noise: the target is its time constant and the white level,
-    the coefficients integrated out on each draw's columns (the marginal and conditional
-    multiply to the joint density, to rounding); its posterior agrees with emcee's walk of
-    every parameter (means within 4 Monte-Carlo standard errors of their difference, each
-    side's effective draws at least 400)."""
-    import jax.numpy as jnp
-
-    from gyroid.inference._collapsed import conditional_draws
-
-    rng = np.random.default_rng(1)
-    t = np.arange(2000.0) * 5.0
-    drift = 0.3 + 2.0 * np.exp(-t / 1500.0) + rng.normal(0.0, 0.2, t.size)
-    problem = BenchProblem.from_log(BenchLog(columns={"time_s": t, "drift_deg_h": drift}),
-                                    "bias,warmup", noise="white")
-    target, point = problem.marginal_target(), problem.mode()
-    assert [problem.names[i] for i in target.marginal] == ["tau_warmup_min", "sigma_deg_h"]
-    x = point.u[target.marginal] + 0.1 * rng.standard_normal((3, 2))
-    beta, log_joint = conditional_draws(target.solved(x), rng.standard_normal((3, 2)))
-    u = target.assemble(beta, x)
-    np.testing.assert_allclose(
-        log_joint, [float(problem.density.log_posterior(jnp.asarray(r))) for r in u],
-        rtol=1e-12, atol=1e-8)
-    weighed = Importance().sample(problem, point, seed=2)
-    walked = Emcee(progress=False).sample(problem, point, seed=2)
-    assert weighed.move == "psis" and "1 positive parameter" in weighed.method
-    for name in problem.names:
-        a, b = weighed.summary[name], walked.summary[name]
-        error = np.hypot(a["sd"] / np.sqrt(a["ess_bulk"]), b["sd"] / np.sqrt(b["ess_bulk"]))
-        assert abs(a["mean"] - b["mean"]) < 4 * error, name
-        assert min(a["ess_bulk"], b["ess_bulk"]) >= 400
-
-
 @pytest.mark.slow
 def test_stored_block_log_likelihoods_need_one_filter_pass_per_noise_level(walked_problem):
     """posterior.nc's block log-likelihoods of an importance posterior, computed with one

@@ -110,8 +110,8 @@ def test_sufficient_statistics_equal_the_direct_sum(known_sigma):
     from gyroid.inference._collapsed import SufficientCoefficients
 
     on_statistics, on_rows = fast.collapsed(), direct.collapsed()
-    assert isinstance(on_statistics, SufficientCoefficients) and on_statistics.row_weight is None
-    assert isinstance(on_rows, SufficientCoefficients) and on_rows.row_weight is not None
+    assert isinstance(on_statistics, SufficientCoefficients)
+    assert isinstance(on_rows, SufficientCoefficients)
     for v in rng.normal(size=(3, on_rows.noise_loc.size)) * 0.3:
         np.testing.assert_allclose(np.asarray(on_statistics.solved(jnp.asarray(v))),
                                    np.asarray(on_rows.solved(jnp.asarray(v))),

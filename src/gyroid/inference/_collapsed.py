@@ -59,12 +59,6 @@ class AbstractMarginal(eqx.Module):
         sum of squares at given coefficients (a function, summed without cancellation) and
         the rows' log normalising constant ``-0.5 sum (log var + log 2 pi)``."""
 
-    @abc.abstractmethod
-    def with_columns(self, columns: Float[Array, "n 1+r"]) -> AbstractMarginal:
-        """This form on other columns (the drift less the model at zero real coefficients,
-        then the model's derivatives in them: a model's positive parameters moved), the
-        priors kept (traceable)."""
-
     def _solve(self, v: Float[Array, " k"]):
         gram, right, residual_sq, log_norm = self._normal_equations(v)
         precision = gram + jnp.diag(self.beta_precision)
@@ -142,8 +136,9 @@ class CollapsedCoefficients(AbstractMarginal):
         return design.T @ design, design.T @ a, residual_sq, log_norm
 
     def with_columns(self, columns: Float[Array, "n 1+r"]) -> CollapsedCoefficients:
-        """(See :meth:`AbstractMarginal.with_columns`.) Zero columns appended to this
-        form's width (a padded form, :func:`padded`)."""
+        """This form on other columns (the drift less the model at zero real coefficients,
+        then the model's derivatives in them: a model's positive parameters moved), zero
+        columns appended to its width (a padded form, :func:`padded`); traceable."""
         extra = self.columns.shape[1] - columns.shape[1]
         columns = jnp.concatenate([columns, jnp.zeros((columns.shape[0], extra))], axis=1)
         return eqx.tree_at(lambda t: t.columns, self, columns)
@@ -169,7 +164,10 @@ class SufficientCoefficients(AbstractMarginal):
     """The marginal under white noise, on the R factor of the rows' weighted ``[X, y]``
     (their sufficient statistics: ``|y - X beta|^2 = |R (beta, -1)|^2``, O(p^2) an
     evaluation, whatever the log's length). The noise level, when the log does not give
-    each row's sd, is a sample's log sd; a row's is that times ``row_scale``."""
+    each row's sd, is a sample's log sd; a row's is that times ``row_scale``. (Rebuilt on a
+    model's columns at each draw's time constants it cost a warm white warm-up fit 2.4x its
+    whole posterior's weighing, 0.74 s against 0.31 s, and more compilations: a white
+    model with time constants is weighed whole.)"""
 
     factor: Float[Array, "1+p 1+p"]
     n: Float[Array, ""]  # the rows the likelihood reads
@@ -180,9 +178,6 @@ class SufficientCoefficients(AbstractMarginal):
     noise_loc: Float[Array, " k"]
     noise_scale: Float[Array, " k"]
     noise_on: Float[Array, " k"]
-    #: Each row's weight in ``[X, y]`` (1/sd where the log gives it; 0 for a row left
-    #: out), to rebuild the factor on other columns; None where built from the statistics.
-    row_weight: Float[Array, " n"] | None = None
     row_scale: float = eqx.field(static=True, default=1.0)
 
     @staticmethod
@@ -195,11 +190,6 @@ class SufficientCoefficients(AbstractMarginal):
         weighted = columns * row_weight[:, None]
         stacked = jnp.column_stack([weighted[:, 1:], weighted[:, 0]])
         return jnp.linalg.cholesky(stacked.T @ stacked).T
-
-    def with_columns(self, columns: Float[Array, "n 1+r"]) -> SufficientCoefficients:
-        if self.row_weight is None:
-            raise ValueError("a form built from sufficient statistics has no rows to refactor")
-        return eqx.tree_at(lambda t: t.factor, self, self.factor_of(columns, self.row_weight))
 
     def _normal_equations(self, v: Float[Array, " k"]) -> NormalEquations:
         if self.noise_loc.size:  # the level sampled: a row's variance s^2
@@ -277,42 +267,36 @@ def log_posteriors_at(template: CollapsedCoefficients, columns: Float[Array, "m 
     return jax.vmap(lambda c: template.with_columns(c).log_posterior(v))(columns)
 
 
-def collapse(density, columns: Float[Array, "n 1+r"] | None = None,
-             real: np.ndarray | None = None) -> AbstractMarginal | None:
+def collapse(density) -> AbstractMarginal | None:
     """The marginal (module docstring) of a :class:`~gyroid.inference._bench_density.
     BenchDensity` whose model is linear: filtered under correlated noise
-    (:func:`filtered_form`), on the rows' sufficient statistics under white noise (those
-    the density holds where it has them: O(p^2) an evaluation, whatever the log's length).
-    With ``columns`` (the drift less the model at zero real coefficients, then the model's
-    derivatives in them) and ``real`` (their indices among the model's parameters), the
-    form at given positive parameters of any model linear in its real ones (traceable).
-    None for a model with positive parameters and no ``columns``, and where the
+    (:func:`filtered_form`), on the rows' sufficient statistics under white noise (the
+    density's own where it holds them: O(p^2) an evaluation, whatever the log's length;
+    else from its rows, held-out ones weighing 0). None for a model with positive
+    parameters (under correlated noise :func:`filtered_form` at given ones; under white
+    noise the whole posterior is weighed, :class:`SufficientCoefficients`), and where the
     thermometer's noise is carried under white noise (its covariance holds wD: no
     coefficient integrates out exactly)."""
-    if columns is None and (not density.model.is_linear
-                            or any(q.positive for q in density.model.parameters)):
+    if not density.model.is_linear or any(q.positive for q in density.model.parameters):
         return None
-    filtered = filtered_form(density, columns, real)
+    filtered = filtered_form(density)
     if filtered is not None or density.errors_in_variables:
         return filtered
     p = density.n_model
-    real = np.arange(p) if real is None else np.asarray(real)
-    beta_loc, precision, log_norm = _coefficient_priors(density, real)
+    beta_loc, precision, log_norm = _coefficient_priors(density, np.arange(p))
     loc, scale, on = _prior_arrays(density)
     kept = (jnp.ones_like(density.drift) if density.weight is None
             else jnp.asarray(density.weight))
     log_sd = 0.0 if density.sigma is None else jnp.log(density.sigma)
-    row_weight = jnp.sqrt(kept) * jnp.exp(-log_sd)
-    if columns is None and density.stats is not None:
-        factor, row_weight = density.stats.factor, None
+    if density.stats is not None:
+        factor = density.stats.factor
     else:
-        if columns is None:
-            columns = jnp.column_stack([density.drift, density.model.design(density.inputs)])
-        factor = SufficientCoefficients.factor_of(columns, row_weight)
+        columns = jnp.column_stack([density.drift, density.model.design(density.inputs)])
+        factor = SufficientCoefficients.factor_of(columns, jnp.sqrt(kept) * jnp.exp(-log_sd))
     return SufficientCoefficients(
         factor=factor, n=jnp.sum(kept), log_sigma_sum=jnp.sum(kept * log_sd),
         beta_loc=beta_loc, beta_precision=precision, beta_log_norm=log_norm,
-        noise_loc=loc[p:], noise_scale=scale[p:], noise_on=on[p:], row_weight=row_weight,
+        noise_loc=loc[p:], noise_scale=scale[p:], noise_on=on[p:],
         row_scale=density.row_scale)
 
 

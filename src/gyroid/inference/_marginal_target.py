@@ -3,17 +3,18 @@ for a problem, and how a draw becomes a full parameter vector.
 
 A bench fit's real coefficients are integrated out exactly (the one marginal of
 :mod:`gyroid.inference._collapsed`: filtered under correlated noise, on sufficient
-statistics under white noise). What is left, the *marginal coordinates*, is the noise
-levels for a linear model, and the positive parameters (time constants, a step's time;
-logs) with them for a model linear in its real coefficients given those (every catalogued
-effect): the marginal is then rebuilt at each draw's positive parameters from the model's
-columns there, and their prior joins it. Either way, one evaluation per draw gives the
-marginal log-posterior and the coefficients' conditional Gaussian, from which
+statistics under white noise). What is left, the *marginal coordinates*, is the noise levels
+for a linear model, and the positive parameters (time constants, a step's time; logs) with
+them for a model linear in its real coefficients given those (every catalogued effect; under
+correlated noise): the marginal is then rebuilt at each draw's positive parameters from the
+model's columns there, and their prior joins it. Either way, one evaluation per draw gives
+the marginal log-posterior and the coefficients' conditional Gaussian, from which
 :func:`~gyroid.inference._collapsed.conditional_draws` draws them.
 
 Where nothing integrates out exactly (the thermometer's noise carried through dT/dt under
 white noise, whose covariance holds wD; paper B's roll loop; a static log's noise terms)
-the target is the whole posterior (:func:`whole_posterior`).
+the target is the whole posterior (:func:`whole_posterior`); so it is for a white model
+with time constants, whose weighing on the rebuilt marginal cost more than it saved.
 """
 
 from __future__ import annotations
@@ -28,7 +29,7 @@ import numpy as np
 from jax.typing import ArrayLike
 
 from gyroid.inference._batching import problem_batcher
-from gyroid.inference._collapsed import collapse
+from gyroid.inference._collapsed import collapse, filtered_form
 from gyroid.inference._model_columns import COLUMN_BATCH, chunks, columns_at, split_parameters
 from gyroid.inference._point_profiled import positive_log_prior
 
@@ -113,13 +114,13 @@ def whole_posterior(log_posterior: Callable[[np.ndarray], ArrayLike],
 
 
 def marginal_target(density) -> MarginalTarget:
-    """What importance sampling weighs for a bench density: the noise levels and the
-    model's positive parameters, the real coefficients integrated out
-    (:func:`~gyroid.inference._collapsed.collapse`; nothing left to weigh where every row's
-    sd is given and the model is linear); where they do not integrate out (the
-    thermometer's noise carried under white noise) the whole posterior, on the host in the
-    thermometer's eigenbasis for a linear model, each positive parameter's prior (the white
-    level's, a time constant's) a tail it may keep."""
+    """What importance sampling weighs for a bench density: the noise levels (and under
+    correlated noise the model's positive parameters), the real coefficients integrated
+    out (:func:`~gyroid.inference._collapsed.collapse`; nothing left to weigh where every
+    row's sd is given and the model is linear); otherwise (the thermometer's noise carried
+    under white noise, a white model with time constants) the whole posterior, on the host
+    in the thermometer's eigenbasis for a linear model, each positive parameter's prior (the
+    white level's, a time constant's) a tail it may keep."""
     real, positive = split_parameters(density)
     p, k = density.n_model, len(density.noise_names)
     levels = np.arange(p, p + k)
@@ -131,7 +132,7 @@ def marginal_target(density) -> MarginalTarget:
                               _tails(collapsed, 0))
     q = positive.size
     probe = np.zeros((1, q))  # any point: the form's columns are replaced at every draw
-    base = collapse(density, jnp.asarray(columns_at(density, probe)[0]), real)
+    base = filtered_form(density, jnp.asarray(columns_at(density, probe)[0]), real)
     if base is None:
         return _whole(density)
 
