@@ -17,8 +17,8 @@ the same posterior as sampling them jointly.
 
 * :class:`CollapsedCoefficients`: correlated noise, one Kalman pass over the data and every
   column of the design giving ``a`` and ``A`` (O(n p) an evaluation);
-* :class:`SufficientCoefficients`: white rows, ``A'A`` and ``A'a`` from the rows' Gram
-  matrix and least-squares solution (O(p^2) an evaluation, whatever the log's length).
+* :class:`SufficientCoefficients`: white rows, ``A'A`` and ``A'a`` from the R factor of the
+  rows' weighted design and drift (O(p^2) an evaluation, whatever the log's length).
 """
 
 from __future__ import annotations
@@ -46,12 +46,12 @@ class AbstractMarginal(eqx.Module):
     posterior of its coefficients (module docstring); built by :func:`collapse`. An
     implementation gives the whitened normal equations at the noise levels."""
 
-    beta_loc: eqx.AbstractVar[Float[Array, " p"]]
-    beta_precision: eqx.AbstractVar[Float[Array, " p"]]  # 1/scale^2 of a normal prior, 0: flat
-    beta_log_norm: eqx.AbstractVar[Float[Array, ""]]  # the normal priors' log constant
-    noise_loc: eqx.AbstractVar[Float[Array, " k"]]
-    noise_scale: eqx.AbstractVar[Float[Array, " k"]]
-    noise_on: eqx.AbstractVar[Float[Array, " k"]]
+    beta_loc: Float[Array, " p"]
+    beta_precision: Float[Array, " p"]  # 1/scale^2 of a normal prior, 0 for a flat one
+    beta_log_norm: Float[Array, ""]  # the normal priors' log normalising constant
+    noise_loc: Float[Array, " k"]  # the noise levels' priors (sampling coordinates)
+    noise_scale: Float[Array, " k"]
+    noise_on: Float[Array, " k"]
 
     @abc.abstractmethod
     def _normal_equations(self, v: Float[Array, " k"]) -> NormalEquations:
@@ -108,12 +108,6 @@ class CollapsedCoefficients(AbstractMarginal):
     #: rows with as many coefficients share every compiled program).
     row_filter: RowFilter
     weight: Float[Array, " n"]
-    beta_loc: Float[Array, " p"]
-    beta_precision: Float[Array, " p"]
-    beta_log_norm: Float[Array, ""]
-    noise_loc: Float[Array, " k"]
-    noise_scale: Float[Array, " k"]
-    noise_on: Float[Array, " k"]
 
     def _innovations(self, v: Float[Array, " k"]) -> tuple[Array, Array]:
         """Every column filtered by the density's own noise model at the levels ``v``: the
@@ -172,12 +166,6 @@ class SufficientCoefficients(AbstractMarginal):
     factor: Float[Array, "1+p 1+p"]
     n: Float[Array, ""]  # the rows the likelihood reads
     log_sigma_sum: Float[Array, ""]  # the rows' sum of log sd where the log gives them
-    beta_loc: Float[Array, " p"]
-    beta_precision: Float[Array, " p"]
-    beta_log_norm: Float[Array, ""]
-    noise_loc: Float[Array, " k"]
-    noise_scale: Float[Array, " k"]
-    noise_on: Float[Array, " k"]
     row_scale: float = eqx.field(static=True, default=1.0)
 
     @staticmethod

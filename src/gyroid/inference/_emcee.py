@@ -6,8 +6,7 @@ is at least ``tau_factor`` integrated autocorrelation times long and every param
 ``max_steps``. After the first chunk each chunk is sized from the current autocorrelation
 time to reach ``tau_factor`` times it, so few checks are needed. The log-posterior is the
 problem's density, jit-compiled and vmapped over walkers (``vectorize=True``), or its NumPy
-form where that is cheaper (sufficient statistics where each row's sd is given, the
-thermometer's eigenbasis).
+form where that is cheaper (the thermometer's eigenbasis).
 
 A linear drift model is sampled collapsed (:mod:`gyroid.inference._collapsed`: filtered
 under correlated noise, on sufficient statistics under white noise): emcee walks the noise
@@ -185,8 +184,8 @@ class Walked:
            chunk: int = 16) -> Walked:
         collapsed = problem.collapsed()
         if collapsed is None or not collapsed.noise_loc.size:
-            # A linear-Gaussian problem's log-posterior runs on the host (NumPy on its
-            # sufficient statistics): cheaper per emcee step than a call into JAX.
+            # Every parameter walked (nothing integrates out, or nothing is left to walk),
+            # on the host where the density has a NumPy form: cheaper per step than JAX.
             batch = problem.host_log_posterior() or problem_batcher(
                 problem.density.log_posterior)
             return cls(batch, point.u, point.covariance_u, lambda draws: draws)
