@@ -273,16 +273,18 @@ def collapse(density) -> AbstractMarginal | None:
     p = density.n_model
     beta_loc, precision, log_norm = _coefficient_priors(density, np.arange(p))
     loc, scale, on = _prior_arrays(density)
-    kept = (jnp.ones_like(density.drift) if density.weight is None
-            else jnp.asarray(density.weight))
-    log_sd = 0.0 if density.sigma is None else jnp.log(density.sigma)
-    if density.stats is not None:
-        factor = density.stats.factor
+    stats = density.stats
+    if stats is not None:  # the statistics hold all a whole log's marginal reads
+        factor, n, log_sigma_sum = stats.factor, jnp.asarray(float(density.n)), stats.log_sigma_sum
     else:
+        kept = (jnp.ones_like(density.drift) if density.weight is None
+                else jnp.asarray(density.weight))
+        log_sd = 0.0 if density.sigma is None else jnp.log(density.sigma)
         columns = jnp.column_stack([density.drift, density.model.design(density.inputs)])
         factor = SufficientCoefficients.factor_of(columns, jnp.sqrt(kept) * jnp.exp(-log_sd))
+        n, log_sigma_sum = jnp.sum(kept), jnp.sum(kept * log_sd)
     return SufficientCoefficients(
-        factor=factor, n=jnp.sum(kept), log_sigma_sum=jnp.sum(kept * log_sd),
+        factor=factor, n=n, log_sigma_sum=log_sigma_sum,
         beta_loc=beta_loc, beta_precision=precision, beta_log_norm=log_norm,
         noise_loc=loc[p:], noise_scale=scale[p:], noise_on=on[p:],
         row_scale=density.row_scale)

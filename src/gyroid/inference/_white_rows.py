@@ -51,12 +51,12 @@ class HostPrior:
 
 
 class SufficientStatistics(eqx.Module):
-    """A linear model's white-noise likelihood on sufficient statistics: X'WX, the weighted
-    least-squares solution and the residual sum there, for the whole log and for each LOO
+    """A linear model's white-noise likelihood on sufficient statistics: the R factor of the
+    weighted ``[X, y]`` (X'WX its design part's ``R'R``), the weighted least-squares
+    solution and the residual sum there, for the whole log and for each LOO
     block about that solution (which keeps the block sums well conditioned), with the
     rows' count and sum of log sigma per block."""
 
-    gram: Float[Array, "p p"]
     factor: Float[Array, "1+p 1+p"]  # the R factor of the weighted [X, y]
     solution: Float[Array, " p"]
     rss_min: Float[Array, ""]
@@ -79,7 +79,6 @@ class SufficientStatistics(eqx.Module):
         if r is None:
             raise ValueError("a density of no rows has no sufficient statistics")
         solution, rss = least_squares_from_r(r)
-        gram = r[:, :p].T @ r[:, :p]
         factor = np.zeros((p + 1, p + 1))
         factor[: r.shape[0]] = r
         gram_b = np.zeros((n_blocks, p, p))
@@ -94,12 +93,17 @@ class SufficientStatistics(eqx.Module):
                     gram_b[:, i, j] += np.bincount(index, xw[:, i] * xw[:, j], n_blocks)
                     gram_b[:, j, i] = gram_b[:, i, j]
             rr_b += np.bincount(index, r0**2, n_blocks)
-        return cls(jnp.asarray(gram), jnp.asarray(factor), jnp.asarray(solution),
-                   jnp.asarray(rss),
+        return cls(jnp.asarray(factor), jnp.asarray(solution), jnp.asarray(rss),
                    jnp.asarray(float(np.sum(log_sigma))), jnp.asarray(gram_b),
                    jnp.asarray(xr_b), jnp.asarray(rr_b),
                    jnp.asarray(np.bincount(block, minlength=n_blocks).astype(float)),
                    jnp.asarray(np.bincount(block, log_sigma, n_blocks)))
+
+    @property
+    def gram(self) -> Float[Array, "p p"]:
+        """X'WX, from the factor (``R'R`` of its design columns)."""
+        design = self.factor[:, :-1]
+        return design.T @ design
 
     def log_likelihood(self, theta: Float[Array, " p"], sd: Float[Array, ""] | None,
                        n: int) -> Float[Array, ""]:
