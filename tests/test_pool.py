@@ -130,6 +130,12 @@ def test_pool_refuses_what_it_cannot_pool():
         fit_pool(logs, lot.labels, "magnetic,warmup")
     with pytest.raises(GyroidInputError, match="same name"):
         fit_pool(logs, ("a", "a"), "magnetic")
+    # a misspelt option is named before any run is fitted (under the default noise each
+    # run's own fit comes first)
+    with pytest.raises(GyroidInputError, match="no coefficient named 'wq'"):
+        fit_pool(logs, lot.labels, "magnetic", priors={"wq": Normal(0.0, 1.0)})
+    with pytest.raises(GyroidInputError, match="between-run sd scale of 'w0'"):
+        fit_pool(logs, lot.labels, "magnetic", spread_scales={"w0": -1.0})
 
 
 def test_run_labels_from_paths(tmp_path):

@@ -94,14 +94,18 @@ def test_segment_means_reach_each_runs_correlated_noise_fit():
 
     logs = [BenchLog(columns=mems_burst_log(seed, hours=1.0, wander_deg_h=40.0)[0])
             for seed in (1, 2)]
-    terms = "bias,temperature"
+    terms = "bias,temperature,temperature_rate"
     result = fit_pool(logs, ("a", "b"), terms, seed=0, noise="white+flicker+rw",
                       segment_means=True)
     assert result.to_json()["segment_means"] is True
     alone = fit_log(logs[0], terms, noise="white+flicker+rw", seed=0, segment_means=True,
                     progress=False)
-    mean = alone.posterior.draws.reshape(-1, len(alone.posterior.names))[:, :2].mean(axis=0)
+    mean = alone.posterior.draws.reshape(-1, len(alone.posterior.names))[:, :3].mean(axis=0)
     np.testing.assert_allclose(result.problem.own_mean[0], mean, rtol=1e-12)
+    # each run is described by its own fit (built once), so the pool reports the dT/dt
+    # window and rows that fit used, not those of a white build made beside it
+    assert result.rate_window_s[0] == alone.problem.rate_window_s
+    assert result.n_samples[0] == alone.problem.n
 
 
 @pytest.mark.slow

@@ -13,6 +13,7 @@ import numpy as np
 from gyroid.errors import GyroidInputError
 from gyroid.inference._bench_fit import fit_log
 from gyroid.inference._bench_problem import BenchProblem
+from gyroid.inference._bench_result import BenchFit
 from gyroid.inference._check_report import CheckReport
 from gyroid.inference._fit import fit
 from gyroid.inference._pool_problem import PoolProblem
@@ -49,10 +50,7 @@ def pool_priors(problems: Sequence[BenchProblem],
         else:
             priors.append(Flat())
             scales[k] = reference[k]
-    for name, prior in (overrides or {}).items():
-        if name not in names:
-            raise GyroidInputError(f"--prior: no coefficient named {name!r} in this model (it "
-                                   f"has {', '.join(names)})")
+    for name, prior in (overrides or {}).items():  # names checked by pool_problem
         if not isinstance(prior, Normal | Flat):
             raise GyroidInputError(f"--prior {name}: a population mean takes normal(MU,SD) "
                                    "or flat()")
@@ -124,24 +122,35 @@ def pool_problem(
             f"pooling takes effects linear in their coefficients; {', '.join(nonlinear)} "
             "has a time constant or time of its own: fit those runs one by one with "
             "'gyroid fit', or pool without it")
-    # white noise on sufficient statistics, the thermometer's noise not carried (the pooled
-    # algebra reads each run's Gram matrix; a run whose likelihood carries it has none)
-    runs = tuple(BenchProblem.from_log(log, model, noise=None, prior_set=prior_set,
-                                       t0_C=t0_C, rate_window_s=None,
-                                       segment_means=segment_means,
-                                       errors_in_variables=False) for log in logs)
+    names = model.parameter_names
+    for name, scale in (spread_scales or {}).items():
+        if name not in names or not scale > 0:
+            raise GyroidInputError(f"between-run sd scale of {name!r}: give a positive "
+                                   f"scale for one of {', '.join(names)}")
+    unknown = sorted(set(priors or {}) - set(names))
+    if unknown:  # before any run is fitted
+        raise GyroidInputError(f"--prior: no coefficient named {unknown[0]!r} in this model "
+                               f"(it has {', '.join(names)})")
+    kind = noise_model(noise)
+    # Each run is built once: under correlated noise by its own fit (which chooses its
+    # dT/dt window under that noise), under white noise on sufficient statistics with the
+    # thermometer's noise not carried (the pooled algebra reads each run's Gram matrix; a
+    # run whose likelihood carries it has none).
+    fits = (tuple(_run_fits(logs, labels, model, kind, prior_set=prior_set, t0_C=t0_C,
+                            seed=seed, segment_means=segment_means, progress=progress))
+            if kind.correlated else ())
+    runs = (tuple(f.problem for f in fits) if fits else
+            tuple(BenchProblem.from_log(log, model, noise=None, prior_set=prior_set,
+                                        t0_C=t0_C, rate_window_s=None,
+                                        segment_means=segment_means,
+                                        errors_in_variables=False) for log in logs))
     mean_priors, scales, reference = pool_priors(runs, priors)
     for name, scale in (spread_scales or {}).items():
-        if name not in model.parameter_names or not scale > 0:
-            raise GyroidInputError(f"between-run sd scale of {name!r}: give a positive "
-                                   f"scale for one of {', '.join(model.parameter_names)}")
-        scales[model.parameter_names.index(name)] = scale
-    kind = noise_model(noise)
-    if kind.correlated:
-        return pooled_fits(logs, labels, model, kind, runs, mean_priors=mean_priors,
-                           spread_scales=scales, reference=reference, prior_set=prior_set,
-                           t0_C=t0_C, seed=seed, segment_means=segment_means,
-                           progress=progress)
+        scales[names.index(name)] = scale
+    if fits:
+        return pooled_fits(fits, labels, model, kind, mean_priors=mean_priors,
+                           spread_scales=scales, reference=reference, t0_C=t0_C,
+                           segment_means=segment_means)
     p = len(model.parameter_names)
     own_mean, own_sd = _own_estimates(runs)
     stats = [q.density.sufficient_statistics() for q in runs]
@@ -175,40 +184,48 @@ RUN_RESIDUAL_CHECKS = frozenset({"goodness_of_fit", "residual_whiteness", "outli
                                  "noise_prior_dependence"})
 
 
-def pooled_fits(logs: Sequence[BenchLog], labels: Sequence[str], model: DriftModel,
-                noise: NoiseModel, white_runs: Sequence[BenchProblem], *, mean_priors,
-                spread_scales: np.ndarray, reference: np.ndarray, prior_set: str,
-                t0_C: float, seed: int, segment_means: bool = False,
-                progress: Callable[[str], None] | None = None) -> PoolProblem:
-    """Each log fitted on its own under ``noise`` (on its segments' means with
-    ``segment_means``; every other default of ``fit_log``), its
-    coefficients' posterior mean and covariance taken as one Gaussian observation of its
-    run's coefficients (their weakly informative single-fit priors counted once more:
-    negligible where the run identifies a coefficient), pooled by
-    :meth:`PoolProblem.from_estimates`; each run's residual and noise checks kept."""
-    p = len(model.parameter_names)
-    means, covariances, reports, levels = [], [], [], []
+def _run_fits(logs: Sequence[BenchLog], labels: Sequence[str], model: DriftModel,
+              noise: NoiseModel, *, prior_set: str, t0_C: float, seed: int,
+              segment_means: bool, progress: Callable[[str], None] | None):
+    """Each log fitted on its own under ``noise`` (seeds ``seed``, ``seed + 1``, ...; on its
+    segments' means with ``segment_means``; every other default of ``fit_log``)."""
     for k, log in enumerate(logs):
         single = fit_log(log, model, noise=noise, seed=seed + k, prior_set=prior_set,
                          t0_C=t0_C, segment_means=segment_means, progress=False)
         if single.posterior is None:
             raise ValueError(f"{log.source}: a run's fit under {noise.name} gave no posterior")
+        if progress is not None:
+            progress(f"  {labels[k]} fitted ({k + 1} of {len(logs)})")
+        yield single
+
+
+def pooled_fits(fits: Sequence[BenchFit], labels: Sequence[str], model: DriftModel,
+                noise: NoiseModel, *, mean_priors, spread_scales: np.ndarray,
+                reference: np.ndarray, t0_C: float, segment_means: bool = False
+                ) -> PoolProblem:
+    """Each run's own fit under ``noise`` (:func:`_run_fits`): its coefficients'
+    posterior mean and covariance taken as one Gaussian observation of its run's
+    coefficients (their weakly informative single-fit priors counted once more:
+    negligible where the run identifies a coefficient), pooled by
+    :meth:`PoolProblem.from_estimates`; each run's residual and noise checks kept, and its
+    fitted problem as the run's description."""
+    p = len(model.parameter_names)
+    means, covariances, reports, levels = [], [], [], []
+    for single in fits:
         draws = single.posterior.draws.reshape(-1, len(single.posterior.names))[:, :p]
         means.append(draws.mean(axis=0))
         covariances.append(np.atleast_2d(np.cov(draws.T)))
         reports.append(CheckReport(tuple(c for c in single.checks.checks
                                          if c.name in RUN_RESIDUAL_CHECKS)))
         levels.append(single.noise_estimate())
-        if progress is not None:
-            progress(f"  {labels[k]} fitted ({k + 1} of {len(logs)})")
     means, covariances = np.array(means), np.array(covariances)
     sds = np.sqrt(np.diagonal(covariances, axis1=1, axis2=2))
     return PoolProblem.from_estimates(
         model.parameter_names, tuple(labels), means, covariances, mean_priors=mean_priors,
         spread_scales=spread_scales, terms=tuple(model.terms), t0_C=t0_C,
-        own_mean=means, own_sd=sds, reference=reference, runs=tuple(white_runs),
-        run_reports=tuple(reports), run_noise=noise.name, run_noise_levels=tuple(levels),
-        segment_means=segment_means)
+        own_mean=means, own_sd=sds, reference=reference,
+        runs=tuple(f.problem for f in fits), run_reports=tuple(reports),
+        run_noise=noise.name, run_noise_levels=tuple(levels), segment_means=segment_means)
 
 
 def pool_estimates(names: tuple[str, ...], labels: tuple[str, ...], estimates: np.ndarray,
