@@ -71,6 +71,32 @@ def test_pinned_levels_leave_the_posterior_sd_and_weak_priors_warn():
         allowed.widening[name] * default.posterior.summary[name]["sd"], rel=0.12)
 
 
+def test_a_white_fit_is_weighed_by_the_same_check():
+    """Under white noise the rows pin the one level: the check runs (the same code as for
+    correlated noise, on the sufficient statistics' marginal), passes, and each
+    coefficient's sd over the allowed levels is its posterior sd, its range holding the
+    posterior's interval."""
+    rng = np.random.default_rng(5)
+    n = 4000
+    t = 20.0 * np.sin(2.0 * math.pi * np.arange(n) / n)
+    drift = TRUTH["w0"] + TRUTH["w1"] * t + TRUTH["w2"] * t**2 + rng.normal(0.0, 0.3, n)
+    log = BenchLog({"time_s": np.arange(n, dtype=float), "drift_deg_h": drift,
+                    "temperature_C": 21.0 + t})
+    result = fit_log(log, "bias,temperature,temperature_sq", noise="white", seed=1,
+                     progress=False)
+    check = next(c for c in result.checks.checks if c.name == "noise_prior_dependence")
+    assert check.passed and "do not rest" in check.message
+    allowed = result.allowed_noise
+    # sigma from 4000 rows has a relative sd of 1 %: the region's sds within ~3 % of the
+    # posterior's, which has its own Monte Carlo error of a few %
+    for name in TRUTH:
+        assert allowed.widening[name] == pytest.approx(1.0, abs=0.08), name
+        low, high = allowed.ranges[name]
+        ci = result.posterior.summary[name]["ci95"]
+        spread = result.posterior.summary[name]["sd"]
+        assert low <= ci[0] + 0.1 * spread and high >= ci[1] - 0.1 * spread, name
+
+
 @pytest.mark.parametrize(("factor", "passed", "severity"), [
     (1.5, True, "warning"), (2.0, False, "warning"), (10.0, False, "warning"),
     (10.5, False, "error"), (695.0, False, "error")])
@@ -88,4 +114,5 @@ def test_an_interval_that_could_be_ten_times_wider_is_not_trustworthy(factor, pa
     assert (check.passed, check.severity) == (passed, severity)
     assert CheckReport((check,)).trustworthy == (severity == "warning")
     assert ("not an answer" in check.message) == (severity == "error")
+    assert ("do not rest" in check.message) == passed
     assert "w0's sd" in check.message and "[-6.1, 8.3]" in check.message
