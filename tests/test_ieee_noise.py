@@ -6,6 +6,7 @@ floor, the block-mean reduction, and ``--noise auto``'s choice."""
 from __future__ import annotations
 
 import math
+import pickle
 
 import jax.numpy as jnp
 import numpy as np
@@ -193,6 +194,10 @@ def test_a_long_log_is_fitted_as_block_means_and_its_samples_checked_for_spikes(
                                     noise="white+flicker+rw", max_rows=1000)
     assert problem.block_rows == 5 and problem.n == 1000
     assert problem.density.step_s == pytest.approx(5.0)
+    # a problem on block means crosses a process boundary (the demo's pool came back from
+    # its second process holding the runs' fitted problems, and could not be pickled)
+    again = pickle.loads(pickle.dumps(problem))
+    assert again.log.where(3) == problem.log.where(3) == "the mean of 5 samples from row 16"
     fit = fit_log(BenchLog(columns), "bias,temperature", noise="white+flicker+rw",
                   sample=False)
     spikes = {c.name: c for c in fit.checks.failed}["outliers_within_segments"]

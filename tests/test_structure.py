@@ -41,7 +41,6 @@ def test_every_result_reads_its_problem_by_its_concrete_type():
 #: (sufficient statistics, the thermometer's eigenbasis, a filter), which one marginal
 #: removes. The counts only go down.
 KIND_SITES = {
-    "inference/_allowed_noise.py": 1,
     "inference/_bench_density.py": 2,
     "inference/_bench_fit.py": 3,
     "inference/_bench_predictive.py": 1,

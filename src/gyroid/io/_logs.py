@@ -230,12 +230,24 @@ def log_of_means(columns: Mapping[str, np.ndarray], rows: int, starts: np.ndarra
     """The log of block means ``columns`` (``rows`` samples each), its row ``k`` named by
     the sample ``starts[k]`` it begins at (``where``: the samples' row names), with the
     samples' comments, extra columns and axis, and ``comment`` saying what it is."""
-    def row_name(k: int) -> str:
-        return f"the mean of {rows} samples from {where(int(starts[k]))}"
-
     return BenchLog(columns=dict(columns), source=f"{samples.source} ({rows}-sample means)",
-                    comments=(*samples.comments, comment), row_name=row_name,
+                    comments=(*samples.comments, comment),
+                    row_name=_MeanRowName(rows, np.asarray(starts), where),
                     extra_columns=samples.extra_columns, axis=samples.axis)
+
+
+@dataclass(frozen=True)
+class _MeanRowName:
+    """A block mean's row name: the sample it begins at (a class, not a closure, so that a
+    log of means, and the fits that hold one, cross a process boundary: the demo's second
+    process, a Dask worker)."""
+
+    rows: int
+    starts: np.ndarray
+    where: Callable[[int], str]
+
+    def __call__(self, k: int) -> str:
+        return f"the mean of {self.rows} samples from {self.where(int(self.starts[k]))}"
 
 
 def block_deviations(log: BenchLog, rows: int, index: np.ndarray | None = None
