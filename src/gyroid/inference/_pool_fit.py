@@ -123,14 +123,7 @@ def pool_problem(
             "has a time constant or time of its own: fit those runs one by one with "
             "'gyroid fit', or pool without it")
     names = model.parameter_names
-    for name, scale in (spread_scales or {}).items():
-        if name not in names or not scale > 0:
-            raise GyroidInputError(f"between-run sd scale of {name!r}: give a positive "
-                                   f"scale for one of {', '.join(names)}")
-    unknown = sorted(set(priors or {}) - set(names))
-    if unknown:  # before any run is fitted
-        raise GyroidInputError(f"--prior: no coefficient named {unknown[0]!r} in this model "
-                               f"(it has {', '.join(names)})")
+    _check_names(names, priors, spread_scales)  # before any run is fitted
     kind = noise_model(noise)
     # Each run is built once: under correlated noise by its own fit (which chooses its
     # dT/dt window under that noise), under white noise on sufficient statistics with the
@@ -167,6 +160,20 @@ def pool_problem(
         own_mean=own_mean, own_sd=own_sd, reference=reference)
 
 
+def _check_names(names: tuple[str, ...], priors: Mapping[str, Prior] | None,
+                 spread_scales: Mapping[str, float] | None) -> None:
+    """One clear error for a population mean's prior or a between-run sd scale given for a
+    coefficient the model does not have (or a scale that is not positive)."""
+    for name, scale in (spread_scales or {}).items():
+        if name not in names or not scale > 0:
+            raise GyroidInputError(f"between-run sd scale of {name!r}: give a positive "
+                                   f"scale for one of {', '.join(names)}")
+    unknown = sorted(set(priors or {}) - set(names))
+    if unknown:
+        raise GyroidInputError(f"--prior: no coefficient named {unknown[0]!r} in this model "
+                               f"(it has {', '.join(names)})")
+
+
 def fit_pool(logs: Sequence[BenchLog], labels: Sequence[str],
              terms: str | tuple[str, ...] | DriftModel, *, seed: int = 0,
              sampler: AbstractSampler | None = None, **options) -> PoolFit:
@@ -192,8 +199,6 @@ def _run_fits(logs: Sequence[BenchLog], labels: Sequence[str], model: DriftModel
     for k, log in enumerate(logs):
         single = fit_log(log, model, noise=noise, seed=seed + k, prior_set=prior_set,
                          t0_C=t0_C, segment_means=segment_means, progress=False)
-        if single.posterior is None:
-            raise ValueError(f"{log.source}: a run's fit under {noise.name} gave no posterior")
         if progress is not None:
             progress(f"  {labels[k]} fitted ({k + 1} of {len(logs)})")
         yield single
@@ -212,7 +217,11 @@ def pooled_fits(fits: Sequence[BenchFit], labels: Sequence[str], model: DriftMod
     p = len(model.parameter_names)
     means, covariances, reports, levels = [], [], [], []
     for single in fits:
-        draws = single.posterior.draws.reshape(-1, len(single.posterior.names))[:, :p]
+        posterior = single.posterior
+        if posterior is None:
+            raise ValueError(f"{single.problem.log.source}: a run's fit under {noise.name} "
+                             "gave no posterior")
+        draws = posterior.draws.reshape(-1, len(posterior.names))[:, :p]
         means.append(draws.mean(axis=0))
         covariances.append(np.atleast_2d(np.cov(draws.T)))
         reports.append(CheckReport(tuple(c for c in single.checks.checks
