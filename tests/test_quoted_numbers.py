@@ -743,7 +743,8 @@ def test_the_pooled_fog_lots():
             f"{summary['lots']} lots)",
             f"the default trusted {auto['trusted']} of {summary['lots']} with "
             f"{sum(auto['false_alarms_p_below_0_01'].values())} false alarms of "
-            f"{3 * summary['lots']} tests")
+            f"{3 * summary['lots']} tests",
+            f"at {auto['median_seconds']:.0f} s a lot against {white['median_seconds']:.1f} s")
     assert all(v == summary["lots"] for v in (*white["covered95"].values(),
                                               *auto["covered95"].values()))
 
