@@ -136,6 +136,8 @@ def test_pool_refuses_what_it_cannot_pool():
         fit_pool(logs, lot.labels, "magnetic", priors={"wq": Normal(0.0, 1.0)})
     with pytest.raises(GyroidInputError, match="between-run sd scale of 'w0'"):
         fit_pool(logs, lot.labels, "magnetic", spread_scales={"w0": -1.0})
+    with pytest.raises(GyroidInputError, match="a population mean takes normal"):
+        fit_pool(logs, lot.labels, "magnetic", priors={"w0": LogNormal(1.0, 0.5)})
 
 
 def test_run_labels_from_paths(tmp_path):

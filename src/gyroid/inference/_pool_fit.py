@@ -50,10 +50,7 @@ def pool_priors(problems: Sequence[BenchProblem],
         else:
             priors.append(Flat())
             scales[k] = reference[k]
-    for name, prior in (overrides or {}).items():  # names checked by pool_problem
-        if not isinstance(prior, Normal | Flat):
-            raise GyroidInputError(f"--prior {name}: a population mean takes normal(MU,SD) "
-                                   "or flat()")
+    for name, prior in (overrides or {}).items():  # checked by _check_options
         priors[names.index(name)] = prior
         if isinstance(prior, Normal):
             scales[names.index(name)] = prior.scale
@@ -123,7 +120,7 @@ def pool_problem(
             "has a time constant or time of its own: fit those runs one by one with "
             "'gyroid fit', or pool without it")
     names = model.parameter_names
-    _check_names(names, priors, spread_scales)  # before any run is fitted
+    _check_options(names, priors, spread_scales)  # before any run is fitted
     kind = noise_model(noise)
     # Each run is built once: under correlated noise by its own fit (which chooses its
     # dT/dt window under that noise), under white noise on sufficient statistics with the
@@ -160,10 +157,11 @@ def pool_problem(
         own_mean=own_mean, own_sd=own_sd, reference=reference)
 
 
-def _check_names(names: tuple[str, ...], priors: Mapping[str, Prior] | None,
-                 spread_scales: Mapping[str, float] | None) -> None:
+def _check_options(names: tuple[str, ...], priors: Mapping[str, Prior] | None,
+                   spread_scales: Mapping[str, float] | None) -> None:
     """One clear error for a population mean's prior or a between-run sd scale given for a
-    coefficient the model does not have (or a scale that is not positive)."""
+    coefficient the model does not have, a scale that is not positive, or a mean's prior
+    that is neither normal nor flat."""
     for name, scale in (spread_scales or {}).items():
         if name not in names or not scale > 0:
             raise GyroidInputError(f"between-run sd scale of {name!r}: give a positive "
@@ -172,6 +170,10 @@ def _check_names(names: tuple[str, ...], priors: Mapping[str, Prior] | None,
     if unknown:
         raise GyroidInputError(f"--prior: no coefficient named {unknown[0]!r} in this model "
                                f"(it has {', '.join(names)})")
+    for name, prior in (priors or {}).items():
+        if not isinstance(prior, Normal | Flat):
+            raise GyroidInputError(f"--prior {name}: a population mean takes normal(MU,SD) "
+                                   "or flat()")
 
 
 def fit_pool(logs: Sequence[BenchLog], labels: Sequence[str],
