@@ -17,6 +17,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Mapping
 from dataclasses import asdict, dataclass, field, replace
+from typing import ClassVar, Protocol
 
 import jax.numpy as jnp
 import numpy as np
@@ -40,6 +41,31 @@ PAPER_A_DEVICE_2 = {"wx": -0.037, "wy": -0.576, "wz": -0.253}
 #: g-sensitivities of the overload bench's default truth, deg/h per g (paper A gives no
 #: values; FOG-sized, different on each axis).
 OVERLOAD_SENSITIVITIES = {"nx": 0.35, "ny": -0.2, "nz": 0.5}
+
+
+@dataclass(frozen=True)
+class TrueInputs:
+    """A bench schedule's sample times (s) and true inputs: temperature (degC) and its
+    exact rate (degC/h), and the field (uT) or specific force (g), (n, 3), where the bench
+    sets them."""
+
+    time_s: np.ndarray
+    temperature_C: np.ndarray
+    rate_C_h: np.ndarray
+    field_uT: np.ndarray | None = None
+    accel_g: np.ndarray | None = None
+
+
+class BenchSchedule(Protocol):
+    """What a bench's protocol (a frozen dataclass, recorded in the truth) gives the
+    simulator."""
+
+    __dataclass_fields__: ClassVar[dict]
+
+    @property
+    def sample_s(self) -> float: ...
+
+    def true_inputs(self) -> TrueInputs: ...
 
 
 @dataclass(frozen=True)
@@ -79,6 +105,13 @@ class ThermalProtocol:
         """Start time of each transition, s."""
         step = 60.0 * (self.transition_min + self.soak_min)
         return 60.0 * self.initial_min + step * np.arange(len(self.levels_C()))
+
+    def true_inputs(self) -> TrueInputs:
+        """The schedule's sample times and true inputs (the lab's field throughout)."""
+        time_s = np.arange(0.0, self.duration_s, self.sample_s)
+        temperature, rate = self.temperature(time_s)
+        field_uT = np.tile(np.asarray(self.lab_field_uT, dtype=float), (time_s.size, 1))
+        return TrueInputs(time_s, temperature, rate, field_uT=field_uT)
 
     def temperature(self, time_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """True temperature, degC, and its rate, degC/h, at ``time_s``."""
@@ -142,6 +175,13 @@ class MagneticProtocol:
         back = np.arange(-n + 1, 1)
         return self.step_uT * np.concatenate([up, down, back]).astype(float)
 
+    def true_inputs(self) -> TrueInputs:
+        """The sweeps' sample times and true inputs (the lab's wandering temperature)."""
+        time_s, field_uT = self.schedule()
+        temperature, rate = lab_wander(time_s, self.lab_C, self.temperature_wander_C,
+                                       self.wander_period_h)
+        return TrueInputs(time_s, temperature, rate, field_uT=field_uT)
+
     def schedule(self) -> tuple[np.ndarray, np.ndarray]:
         """Sample times, s, and true field, uT, shape (n, 3)."""
         levels = self.sweep_levels_uT()
@@ -169,23 +209,30 @@ class SimulatedBench:
     true_drift_deg_h: np.ndarray = field(repr=False)
 
 
-def _simulate(
-    *,
+def simulate_bench(
     bench: str,
-    time_s: np.ndarray,
-    temperature_C: np.ndarray,
-    rate_C_h: np.ndarray,
-    field_uT: np.ndarray | None,
-    terms: tuple[str, ...],
-    values: dict[str, float],
-    noise: GyroNoise,
-    sample_s: float,
+    protocol: BenchSchedule,
+    base: Mapping[str, float],
+    *,
+    effects: Mapping[str, Mapping[str, float]] | None,
+    noise: GyroNoise | None,
     seed: int,
-    protocol: dict,
     average_s: float | None,
     t0_C: float,
-    accel_g: np.ndarray | None = None,
+    say: Callable[[str], None] | None,
+    detail: str = "",
 ) -> SimulatedBench:
+    """A log of ``bench`` run to ``protocol``: the drift of the truth ``base`` (with
+    ``effects`` switched on) on the true inputs, plus ``noise`` (default :class:`GyroNoise`),
+    and the inputs as measured; ``say`` is told what is simulated (with ``detail``) once
+    the truth is checked."""
+    noise = noise or GyroNoise()
+    terms, values = resolve_truth(dict(base), effects)
+    true = protocol.true_inputs()
+    if say is not None:
+        say(f"simulating the {bench} bench ({true.time_s.size} rows{detail}) ...")
+    time_s, temperature_C, rate_C_h = true.time_s, true.temperature_C, true.rate_C_h
+    field_uT, accel_g, sample_s = true.field_uT, true.accel_g, protocol.sample_s
     rng = np.random.default_rng(seed)
     sign = None if field_uT is None else np.column_stack(
         [field_change_sign(field_uT[:, k], HYSTERESIS_DEADBAND_UT) for k in range(3)]
@@ -221,7 +268,8 @@ def _simulate(
             columns[name] = accel_g[:, k] + accelerometer[:, k]
     if average_s:
         columns = window_average(columns, average_s)
-    truth = truth_record(bench, model, values, noise, sample_s, protocol, average_s, seed, t0_C)
+    truth = truth_record(bench, model, values, noise, sample_s, asdict(protocol), average_s,
+                         seed, t0_C)
     comments = truth_comments(truth)
     log = BenchLog(columns=columns, source=f"<simulated {bench} bench>", comments=comments)
     return SimulatedBench(log=log, truth=truth, true_drift_deg_h=true_drift)
@@ -267,30 +315,9 @@ def simulate_thermal_bench(
     preset); ``effects`` switches on further effects, candidates included, e.g.
     ``{"warmup": {"w_warmup": 2.0, "tau_warmup_min": 15.0}}``.
     """
-    protocol = protocol or ThermalProtocol()
-    noise = noise or GyroNoise()
-    base = dict(PAPER_A_THERMAL if parameters is None else parameters)
-    terms, values = resolve_truth(base, effects)
-    time_s = np.arange(0.0, protocol.duration_s, protocol.sample_s)
-    if say is not None:
-        say(f"simulating the thermal bench ({time_s.size} rows) ...")
-    temperature, rate = protocol.temperature(time_s)
-    field_uT = np.tile(np.asarray(protocol.lab_field_uT, dtype=float), (time_s.size, 1))
-    return _simulate(
-        bench="thermal",
-        time_s=time_s,
-        temperature_C=temperature,
-        rate_C_h=rate,
-        field_uT=field_uT,
-        terms=terms,
-        values=values,
-        noise=noise,
-        sample_s=protocol.sample_s,
-        seed=seed,
-        protocol=asdict(protocol),
-        average_s=average_s,
-        t0_C=t0_C,
-    )
+    base = PAPER_A_THERMAL if parameters is None else parameters
+    return simulate_bench("thermal", protocol or ThermalProtocol(), base, effects=effects,
+                          noise=noise, seed=seed, average_s=average_s, t0_C=t0_C, say=say)
 
 
 def simulate_magnetic_bench(
@@ -306,31 +333,10 @@ def simulate_magnetic_bench(
 ) -> SimulatedBench:
     """Simulate paper A's Helmholtz-coil bench (default: device 2, test 1, and w0 = 1.197;
     ``say`` as for :func:`simulate_thermal_bench`)."""
-    protocol = protocol or MagneticProtocol()
-    noise = noise or GyroNoise()
     default = {"w0": PAPER_A_THERMAL["w0"], **PAPER_A_DEVICE_2}
-    base = dict(default if parameters is None else parameters)
-    terms, values = resolve_truth(base, effects)
-    time_s, field_uT = protocol.schedule()
-    if say is not None:
-        say(f"simulating the magnetic bench ({time_s.size} rows) ...")
-    temperature, rate = lab_wander(time_s, protocol.lab_C, protocol.temperature_wander_C,
-                                   protocol.wander_period_h)
-    return _simulate(
-        bench="magnetic",
-        time_s=time_s,
-        temperature_C=temperature,
-        rate_C_h=rate,
-        field_uT=field_uT,
-        terms=terms,
-        values=values,
-        noise=noise,
-        sample_s=protocol.sample_s,
-        seed=seed,
-        protocol=asdict(protocol),
-        average_s=average_s,
-        t0_C=t0_C,
-    )
+    return simulate_bench("magnetic", protocol or MagneticProtocol(),
+                          default if parameters is None else parameters, effects=effects,
+                          noise=noise, seed=seed, average_s=average_s, t0_C=t0_C, say=say)
 
 
 def lab_wander(time_s: np.ndarray, lab_C: float, amplitude_C: float, period_h: float

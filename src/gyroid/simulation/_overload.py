@@ -12,7 +12,7 @@ a step at each turn) and the log holds the measured ones (accelerometer noise ad
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from dataclasses import asdict, dataclass, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -22,11 +22,11 @@ from gyroid.simulation._bench import (
     OVERLOAD_SENSITIVITIES,
     PAPER_A_THERMAL,
     SimulatedBench,
-    _simulate,
+    TrueInputs,
     lab_wander,
+    simulate_bench,
 )
 from gyroid.simulation._noise import GyroNoise
-from gyroid.simulation._truth import resolve_truth
 
 #: The overload preset's default truth, deg/h and deg/h per g.
 OVERLOAD_TRUTH = {"w0": PAPER_A_THERMAL["w0"], **OVERLOAD_SENSITIVITIES}
@@ -67,6 +67,13 @@ class OverloadProtocol:
         return replace(self, dwell_min=dwell,
                        sample_s=self.sample_s if rate_hz is None else 1.0 / rate_hz)
 
+    def true_inputs(self) -> TrueInputs:
+        """The dwells' sample times and true inputs (the lab's wandering temperature)."""
+        time_s, accel_g = self.schedule()
+        temperature, rate = lab_wander(time_s, self.lab_C, self.temperature_wander_C,
+                                       self.wander_period_h)
+        return TrueInputs(time_s, temperature, rate, accel_g=accel_g)
+
     def schedule(self) -> tuple[np.ndarray, np.ndarray]:
         """Sample times, s, and the true specific force, g, shape (n, 3)."""
         time_s = np.arange(0.0, self.duration_s, self.sample_s)
@@ -90,17 +97,7 @@ def simulate_overload_bench(
     """Simulate the overload bench (default: the six-position tumble and
     :data:`OVERLOAD_TRUTH`; ``effects`` and ``say`` as for the thermal bench's)."""
     protocol = protocol or OverloadProtocol()
-    noise = noise or GyroNoise()
-    base = dict(OVERLOAD_TRUTH if parameters is None else parameters)
-    terms, values = resolve_truth(base, effects)
-    time_s, accel = protocol.schedule()
-    if say is not None:
-        say(f"simulating the overload bench ({time_s.size} rows, orientations "
-            f"{', '.join(protocol.orientations)}) ...")
-    temperature, rate = lab_wander(time_s, protocol.lab_C, protocol.temperature_wander_C,
-                                   protocol.wander_period_h)
-    return _simulate(bench="overload", time_s=time_s, temperature_C=temperature,
-                     rate_C_h=rate, field_uT=None, terms=terms, values=values,
-                     noise=noise, sample_s=protocol.sample_s, seed=seed,
-                     protocol=asdict(protocol), average_s=average_s, t0_C=t0_C,
-                     accel_g=accel)
+    return simulate_bench("overload", protocol,
+                          OVERLOAD_TRUTH if parameters is None else parameters, effects=effects,
+                          noise=noise, seed=seed, average_s=average_s, t0_C=t0_C, say=say,
+                          detail=f", orientations {', '.join(protocol.orientations)}")
