@@ -155,19 +155,33 @@ def test_the_mems_thermal_benches(noise):
 
 
 def test_the_noise_fits_against_the_allan_readings():
-    """gyroid noise on three grades: every interval and bound covers at its nominal rate (in
-    its binomial band), and each error comparison the README states holds in the file."""
+    """gyroid noise on four grades: every interval and bound covers at its nominal rate (in
+    its binomial band) but the filtered phone log's N, whose miss the docs state, and each
+    error comparison the docs state holds in the file."""
     grades = _results("noise_coverage")["summary"]
     terms = {g: v["terms"] for g, v in grades.items()}
-    for per_term in terms.values():
-        for entry in per_term.values():
+    for grade, per_term in terms.items():
+        for name, entry in per_term.items():
             for key in ("ci90", "upper_bound"):
                 low, high = entry[f"{key}_band_99"]
-                assert low <= entry[f"{key}_inside"] <= high
+                if (grade, name, key) != ("phone", "N", "ci90"):
+                    assert low <= entry[f"{key}_inside"] <= high, (grade, name, key)
     order = ("fog", "tactical", "mems")
     b = [terms[g]["B"] for g in order]
     n = [terms[g]["N"] for g in order]
-    _quoted(f"On {sum(v['datasets'] for v in grades.values())} static logs of three grades",
+    phone = terms["phone"]
+    _quoted(f"gyroid trusts {grades['phone']['trustworthy']} of {grades['phone']['datasets']}",
+            f"holds B ({phone['B']['ci90_inside']} of {phone['B']['resolved']} intervals, "
+            f"{phone['B']['upper_bound_inside']} of "
+            f"{grades['phone']['datasets'] - phone['B']['resolved']} bounds)",
+            f"N's intervals cover only {phone['N']['ci90_inside']} of "
+            f"{phone['N']['resolved']} (band {phone['N']['ci90_band_99'][0]}-"
+            f"{phone['N']['ci90_band_99'][1]})",
+            f"(median error {100 * phone['N']['error_where_resolved']['gyroid']['median']:.1f} %, "
+            f"against {100 * phone['N']['error_where_resolved']['slope']['median']:.1f} % for "
+            f"the Allan slopes and "
+            f"{100 * phone['N']['error_where_resolved']['allan_variance']['median']:.0f} % for")
+    _quoted(f"On {sum(grades[g]['datasets'] for g in order)} static logs of three grades",
             "B: " + ", ".join(f"{e['ci90_inside']} of {e['resolved']}" for e in b)
             + " resolved intervals; N: " + ", ".join(str(e["ci90_inside"]) for e in n)
             + f" of {grades['fog']['datasets']})")
@@ -223,7 +237,8 @@ def test_the_noise_fits_of_the_real_mpu6050_runs():
     agreement, runs = results["agreement"], results["runs"]
     refused = [r for r in runs if not r["trustworthy"]]
     spiky = [r for r in refused if "outliers" in r["errors"]]
-    scattered = [r["dispersion"] for r in spiky if "dispersion" in r["errors"]]
+    assert all(r["dispersion"] == 1.0 for r in runs)
+    prefiltered = sum("prefilter" in r["failed"] for r in runs)
     spread_y = agreement["y"]["spread_max_over_min"]
     _quoted(f"gyroid trusts {agreement['trusted']} of the {agreement['series']} axis-runs",
             "lies within {:.2f}-{:.2f}x of the Allan-slope reading".format(
@@ -232,8 +247,8 @@ def test_the_noise_fits_of_the_real_mpu6050_runs():
                 *agreement["N_over_allan_variance"]),
             f"It refuses {len(refused)}: in {_number_word(len(spiky))}, more samples lie far "
             "from their neighbours",
-            f"{_number_word(len(scattered))} of them also scattering "
-            f"{min(scattered):.0f}-{max(scattered):.0f} times more",
+            f"`prefilter` warning, on {prefiltered} of the {len(runs)} axis-runs), no run "
+            "scatters beyond chance",
             *(f"(`{name}`)" for r in refused if r not in spiky for name in r["errors"]),
             f"(axis y: {min(spread_y.values()):.2f}-{max(spread_y.values()):.2f}x")
 
