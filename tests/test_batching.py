@@ -11,6 +11,7 @@ from gyroid.inference import BenchProblem
 from gyroid.inference._batching import in_chunks, problem_batcher
 
 
+@pytest.mark.slow  # compiles its own programs: 8 s of the quick signal with an empty cache
 def test_threads_give_one_threads_numbers(monkeypatch):
     """A collapsed marginal's solutions at 1100 noise levels, 250 a chunk (five chunks, the
     last padded): two threads return the one thread's array exactly."""

@@ -80,6 +80,7 @@ def test_an_unknown_move_is_refused_with_the_choices():
         Emcee(move="walk").emcee_moves()
 
 
+@pytest.mark.slow  # two roll densities' programs: 12 s of the quick signal, cache empty
 def test_precomputed_sums_equal_the_per_sample_path():
     """Without D2 the roll likelihood reads precomputed sums of the data (cost per observed
     row); with D2 it integrates sample by sample. With D2 = 0 both must agree, on a log

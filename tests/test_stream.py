@@ -68,6 +68,7 @@ def test_the_stream_gives_the_means_and_spikes_of_the_whole_log(tmp_path, batch_
     assert len(named) == 3 and "and 1 more" in spikes.message
 
 
+@pytest.mark.slow  # two fits of block means: 15 s of the quick signal with an empty cache
 def test_a_fit_of_the_stream_is_the_fit_of_the_whole_log(tmp_path):
     columns = _ramp(np.random.default_rng(1))
     for name in ("drift_x_deg_h", "drift_y_deg_h"):
