@@ -151,5 +151,6 @@ def prefilter_check(dropped: int, tau0_s: float) -> Check:
                  f"the Allan variance below {below:.3g} s fits no sum of the noise terms (the "
                  "samples are correlated there: the gyro's digital low-pass filter or "
                  f"decimation, or a vibration's tone), so those {dropped} shortest averaging "
-                 "times were left out; N is read above them, where they no longer shape the "
-                 "noise")
+                 "times were left out and N is read above them; a filter's shape can still "
+                 "lift N there by about 1 %, more than its interval allows (a phone-grade "
+                 "log's, docs/real-logs.md)")
