@@ -151,6 +151,7 @@ def _gyro_outputs(params: RollParams, flight: Flight, n: int):
     return sins, mems
 
 
+@jax.jit
 def sensor_signals(params: RollParams, flight: Flight):
     """True angle, SINS output, GS angle and GS MEMS output, per sample."""
     dt = flight.sample_s
@@ -208,6 +209,7 @@ def _relative_error(K, params: RollParams):
     return (K - k_true) / k_true
 
 
+@jax.jit
 def correction_coefficients(params: RollParams, flight: Flight) -> Float[Array, " p"]:
     """dK of every correction period, from per-period sums only (no per-sample angles): the
     fast path for Monte Carlo and sensitivity work. Equal to ``run_loop(...).dK``."""
@@ -225,6 +227,7 @@ class NavigationErrors(eqx.Module):
     peak_mems_deg_s: Float[Array, ""]  # largest |m| (saturation check)
 
 
+@jax.jit
 def navigation_errors(params: RollParams, flight: Flight,
                       report_index: Int[Array, " r"]) -> NavigationErrors:
     """``run_loop``'s dK, residual SF error, roll-angle error and lateral error at the samples
@@ -254,6 +257,7 @@ def navigation_errors(params: RollParams, flight: Flight,
     )
 
 
+@jax.jit
 def run_loop(params: RollParams, flight: Flight) -> LoopResult:
     """Run the correction loop over the whole flight (a ``lax.scan`` over periods)."""
     dt = flight.sample_s

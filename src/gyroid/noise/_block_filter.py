@@ -40,6 +40,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 
+import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -99,6 +100,7 @@ def block_transitions(span_s, gap_s, tau_s, variance, diffusion):
     return phi, c, qxx, qmm, qxm
 
 
+@eqx.filter_jit
 def block_innovations(
     observed: Float[Array, "n ..."],
     span_s: Float[Array, " n"],
