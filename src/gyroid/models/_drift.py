@@ -56,7 +56,6 @@ class DriftModel(eqx.Module):
         """True when the drift is linear in every parameter (a linear-Gaussian problem)."""
         return all(e.linear for e in self.effects)
 
-    @eqx.filter_jit
     def __call__(self, params: Params, inputs: DriftInputs) -> Float[Array, " n"]:
         """Modelled drift, deg/h, for parameters given by name."""
         total = jnp.zeros(inputs.time_h.shape[0])
@@ -97,7 +96,6 @@ class DriftModel(eqx.Module):
         out["elapsed_h"] = [float(time_h.min()), float(time_h.max())]
         return out
 
-    @eqx.filter_jit
     def design(self, inputs: DriftInputs) -> Float[Array, "n p"]:
         """Design matrix of a linear model: ``predict(theta) == design @ theta``."""
         if not self.is_linear:
