@@ -47,8 +47,6 @@ import matplotlib.pyplot as plt  # noqa: E402
 import gyroid
 from gyroid.inference import fit_noise
 
-#: Terms compared (datasheet units: deg/sqrt(h), deg/h, deg/h/sqrt(h), deg, deg/h).
-TERMS = ("N", "B", "K", "Q", "G")
 SPREAD = 3.0  # truths drawn log-uniformly in [nominal / SPREAD, nominal * SPREAD]
 
 
