@@ -615,6 +615,33 @@ def test_real_log_study():
     mpu = [ratio(r) for r in runs if r["case"].startswith("mpu6050 pooled")]
     _quoted(f"better in {sum(x > 1 + 1e-9 for x in mpu)} of {len(mpu)} pooled cases, up to "
             f"{max(mpu):.1f}x")
+    _per_recipe(runs)
+
+
+def _per_recipe(runs: list[dict]) -> None:
+    """The real-log study read per recipe (issue 63): each recipe's median ratio over the
+    usable answers it has, and the answers worse than 2x."""
+    usable = [r for r in runs if r["fit_exit"] == 0 and r["compensate_exit"] == 0]
+
+    def over(recipe: str, rows: list[dict]) -> np.ndarray:
+        return np.array([r["gyroid"]["rms_deg_h"] / r[recipe]["rms_deg_h"] for r in rows
+                         if r.get(recipe) and r[recipe].get("rms_deg_h")])
+
+    ls = over("least_squares", usable)
+    worse = [r for r in usable if r["gyroid"]["rms_deg_h"] > 2 * r["least_squares"]["rms_deg_h"]]
+    assert worse and all(r["pooled"] and r["case"].startswith("mpu6050") for r in worse)
+    rest = over("least_squares", [r for r in usable
+                                  if not (r["pooled"] and r["case"].startswith("mpu6050"))])
+    cubic, startup = over("cubic", usable), over("startup_mean", usable)
+    holds = np.array([r["gyroid"]["band_holds"] for r in usable])
+    _quoted(f"against least squares a median ratio of {np.median(ls):.3f} over {ls.size} "
+            f"answers, no worse in {int(np.sum(ls <= 1))}, and worse than 2x in {len(worse)}",
+            f"(without those, {np.median(rest):.3f} over {rest.size}, at most {rest.max():.2f})",
+            f"against PX4's cubic {np.median(cubic):.3f} over the {cubic.size} answers it has",
+            f"against a start-up calibration's mean {np.median(startup):.3f} over {startup.size}",
+            f"{int(np.sum(holds >= 0.8))} of the {holds.size} usable answers held at least 80 % "
+            f"of their window means (a median of {100 * np.median(holds):.0f} %)")
+    assert np.sum(holds >= 0.8) >= 0.9 * holds.size
 
 
 def test_window_bands_cost():
