@@ -179,6 +179,11 @@ def test_the_noise_fits_against_the_allan_readings():
             f"(band {gm['G']['ci90_band_99'][0]}-{gm['G']['ci90_band_99'][1]};",
             f"{grades['gm']['false_detections']['B']} of the {grades['gm']['datasets']} logs "
             "report a bias instability B")
+    k_gm = gm["K"]["error_where_resolved"]
+    _quoted(f"of {100 * k_gm['gyroid']['median']:.0f} % against "
+            f"{100 * k_gm['slope']['median']:.0f} % for the Allan slopes and "
+            f"{100 * k_gm['allan_variance']['median']:.0f} % for the package, over "
+            f"{gm['K']['resolved']} logs")
     order = ("fog", "tactical", "mems")
     b = [terms[g]["B"] for g in order]
     n = [terms[g]["N"] for g in order]
