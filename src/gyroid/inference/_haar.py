@@ -15,6 +15,8 @@ the log's length.
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from functools import cached_property
+from typing import Any
 
 import numpy as np
 
@@ -42,6 +44,13 @@ class HaarStatistics:
     @property
     def tau_s(self) -> np.ndarray:
         return self.m * self.tau0_s
+
+    @cached_property
+    def memo(self) -> dict[str, Any]:
+        """What the noise fit derives from these statistics alone (each term's Allan-variance
+        shape, the envelope: :mod:`gyroid.inference._noise_terms`), kept as it is asked for:
+        choosing the terms asks thousands of times."""
+        return {}
 
     @property
     def avar(self) -> np.ndarray:

@@ -60,6 +60,8 @@ class NoiseFit(FitResult):
     stats: HaarStatistics
     models: tuple[tuple[float, NoiseModelFit], ...]
     mixture: np.ndarray = field(repr=False)  # (draws, every static term: TERM_NAMES)
+    #: (draws,) the G correlation time each draw's set was sampled at, s.
+    mixture_tc_s: np.ndarray = field(repr=False)
     checks: CheckReport
     label: str = ""
     #: How many times more the Allan variance scatters about the model than independent
@@ -81,12 +83,25 @@ class NoiseFit(FitResult):
         """(draws, taus) the model's Allan variance, (deg/h)^2, at ``tau_s`` (default: the
         fitted levels')."""
         stats = self.stats if tau_s is None else _at(self.stats, np.asarray(tau_s))
-        return self.mixture**2 @ shapes(stats, TERM_NAMES).T
+        return mixture_avar(stats, self.mixture, self.mixture_tc_s)
 
     def term_avar(self, name: str, tau_s: np.ndarray) -> np.ndarray:
-        """(taus,) one term's Allan variance at its posterior median amplitude."""
+        """(taus,) one term's Allan variance at its posterior median amplitude (G's at
+        its reported correlation time)."""
         a = float(np.median(self.draws(name)))
-        return a**2 * shapes(_at(self.stats, np.asarray(tau_s)), (name,))[:, 0]
+        stats = _at(self.stats, np.asarray(tau_s))
+        if name == "G":
+            stats = replace(stats, gm_tc_s=self.gm_tc_s)
+        return a**2 * shapes(stats, (name,))[:, 0]
+
+    @property
+    def gm_tc_s(self) -> float:
+        """G's correlation time, s: the median over the draws of sets with G (each sampled
+        at its own best time), else the time that best fits every term together."""
+        with_g = self.mixture[:, TERM_NAMES.index("G")] > 0
+        if not with_g.any():
+            return self.stats.gm_tc_s
+        return float(np.median(self.mixture_tc_s[with_g]))
 
     def term_lines(self) -> list[str]:
         """One line per term (:meth:`reported_terms` and F): its mean, 90 % interval, unit
@@ -136,7 +151,7 @@ class NoiseFit(FitResult):
         has too few averaging times to try one."""
         if not np.isfinite(self.stats.gm_tc_s):
             return None
-        return self._term_summary("G") | {"tau_s": self.stats.gm_tc_s}
+        return self._term_summary("G") | {"tau_s": self.gm_tc_s}
 
     def prefilter(self) -> dict:
         """The prefilter's deficit F as :meth:`term_summaries` gives a term (an amplitude of
@@ -210,7 +225,7 @@ def fit_noise(rate_deg_h: np.ndarray, sample_s: float, *,
     stats, prefiltered = drop_prefiltered(haar_statistics(cleaned, sample_s, segments))
     stats = gauss_markov_time(stats)
     choice = choose_terms(stats)
-    lack, dof = deviance(stats, choice.best)
+    lack, dof = deviance(choice.stats_for(stats, choice.best), choice.best)
     dispersion = lack / dof if dof > 0 and chi2.sf(lack, dof) < DISPERSION_P else 1.0
     fitted = stats
     if dispersion > 1.0:
@@ -219,9 +234,9 @@ def fit_noise(rate_deg_h: np.ndarray, sample_s: float, *,
         if dispersion > DISPERSION_MAX:  # refused: its best set alone is sampled, to show
             choice = replace(choice, weights={choice.best: 1.0})
     rng = np.random.default_rng(seed)
-    models, blocks = [], []
+    models, blocks, times = [], [], []
     for k, (names, weight) in enumerate(choice.weights.items()):
-        problem = NoiseProblem.from_statistics(fitted, names, label,
+        problem = NoiseProblem.from_statistics(choice.stats_for(fitted, names), names, label,
                                                choice.argmax.get(names, ()))
         model = fit(problem, sampler=sampler, seed=seed + k)
         models.append((weight, model))
@@ -230,8 +245,9 @@ def fit_noise(rate_deg_h: np.ndarray, sample_s: float, *,
         block = np.zeros((take.size, len(TERM_NAMES)))
         block[:, [TERM_NAMES.index(n) for n in names]] = draws[take]
         blocks.append(block)
-    mixture = np.concatenate(blocks)
-    avar = np.median(mixture**2 @ shapes(stats, TERM_NAMES).T, axis=0)
+        times.append(np.full(take.size, choice.gm_tc_s.get(names, stats.gm_tc_s)))
+    mixture, mixture_tc = np.concatenate(blocks), np.concatenate(times)
+    avar = np.median(mixture_avar(stats, mixture, mixture_tc), axis=0)
     checks = [*models[0][1].checks.checks]
     for weight, model in models[1:]:
         if weight >= CHECKED_WEIGHT:
@@ -242,8 +258,19 @@ def fit_noise(rate_deg_h: np.ndarray, sample_s: float, *,
     checks.append(level_fit(stats, avar))
     checks.append(level_runs(stats, avar))
     checks.append(dispersion_check(dispersion, lack, dof))
-    return NoiseFit(choice, stats, tuple(models), mixture, CheckReport(tuple(checks)), label,
-                    dispersion)
+    return NoiseFit(choice, stats, tuple(models), mixture, mixture_tc,
+                    CheckReport(tuple(checks)), label, dispersion)
+
+
+def mixture_avar(stats: HaarStatistics, mixture: np.ndarray, tc_s: np.ndarray) -> np.ndarray:
+    """(draws, levels) the Allan variance of each model-averaged draw (amplitudes of every
+    term, :data:`TERM_NAMES`; ``tc_s`` its set's G correlation time), (deg/h)^2."""
+    avar = np.zeros((mixture.shape[0], stats.m.size))
+    for tc in np.unique(tc_s):
+        rows = tc_s == tc if np.isfinite(tc) else ~np.isfinite(tc_s)
+        at = replace(stats, gm_tc_s=float(tc))
+        avar[rows] = mixture[rows] ** 2 @ shapes(at, TERM_NAMES).T
+    return avar
 
 
 def dispersion_check(dispersion: float, lack: float, dof: int) -> Check:

@@ -5,11 +5,12 @@ likelihood every set's choice (:mod:`gyroid.inference._noise_choice`) rests on.
 
 The likelihood treats each level's Haar coefficients as independent
 ``N(0, 2 AVAR)`` (exact for white noise and a random walk; the flicker floor is a constant
-only for ``tau`` well above ``tau0``). Which terms the log resolves is chosen by BIC over
-every subset; a term left out is reported with a one-sided 95 % profile-likelihood upper
-bound instead of an interval. Priors on ``log a_k`` are normal with median a tenth of the
-term's *envelope* (the amplitude at which it alone would explain the smallest Allan
-variance the log shows, which the data bound it by) and log-sd ``ln 100``.
+only for ``tau`` well above ``tau0``). Which terms the log resolves is weighed by BIC over
+every subset (:mod:`gyroid.inference._noise_choice`); a term left out is reported with a
+one-sided 95 % profile-likelihood upper bound instead of an interval. Priors on
+``log a_k`` are normal with median a tenth of the term's *envelope* (the amplitude at which
+it alone would explain the smallest Allan variance the log shows, which the data bound it
+by) and log-sd ``ln 100``.
 """
 
 from __future__ import annotations
@@ -231,7 +232,8 @@ def max_likelihood(stats: HaarStatistics, names: tuple[str, ...],
     their own subsets, by up to 200 nats.)"""
     fixed = fixed or {}
     free = tuple(n for n in names if n not in fixed)
-    scale = np.array([envelope(stats)[n] ** 2 for n in free])
+    bound = envelope(stats)
+    scale = np.array([bound[n] ** 2 for n in free])
     columns = shapes(stats, free) * scale
     held = (shapes(stats, tuple(fixed)) @ np.array([v**2 for v in fixed.values()])
             if fixed else np.zeros(stats.m.size))

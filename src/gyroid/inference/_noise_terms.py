@@ -41,17 +41,23 @@ def term(name: str) -> AbstractAllanTerm:
 
 def shapes(stats: HaarStatistics, names: tuple[str, ...]) -> np.ndarray:
     """(levels, terms) Allan-variance shapes of ``names`` at the log's averaging times."""
-    return np.stack([term(n).allan_variance(stats.tau_s, stats.tau0_s, stats.gm_tc_s)
-                     for n in names], axis=1).reshape(stats.m.size, len(names))
+    memo = stats.memo
+    for n in names:
+        if n not in memo:
+            memo[n] = term(n).allan_variance(stats.tau_s, stats.tau0_s, stats.gm_tc_s)
+    return np.stack([memo[n] for n in names], axis=1).reshape(stats.m.size, len(names))
 
 
 def envelope(stats: HaarStatistics) -> dict[str, float]:
     """Per term, the amplitude at which it alone would explain the smallest Allan variance
     the log shows relative to its shape (datasheet units); F's is Q's."""
+    if "envelope" in stats.memo:
+        return stats.memo["envelope"]
     names = tuple(n for n in TERM_NAMES if n != "F" and (n != "G" or np.isfinite(stats.gm_tc_s)))
     g = shapes(stats, names)
     out = {n: float(np.sqrt(np.min(stats.avar / g[:, k]))) for k, n in enumerate(names)}
-    return out | {"F": out["Q"]}  # a deficit of quantisation's shape, bounded alike
+    stats.memo["envelope"] = out | {"F": out["Q"]}  # a deficit of Q's shape, bounded alike
+    return stats.memo["envelope"]
 
 
 def ceiling(stats: HaarStatistics) -> dict[str, float]:
