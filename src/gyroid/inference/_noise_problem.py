@@ -215,11 +215,12 @@ def _bounds(stats: HaarStatistics, names: tuple[str, ...]) -> list[tuple[float, 
 
 
 def max_likelihood(stats: HaarStatistics, names: tuple[str, ...],
-                   fixed: dict[str, float] | None = None, starts: tuple[np.ndarray, ...] = ()
-                   ) -> tuple[float, np.ndarray]:
+                   fixed: dict[str, float] | None = None, starts: tuple[np.ndarray, ...] = (),
+                   data_start: bool = True) -> tuple[float, np.ndarray]:
     """The maximum log-likelihood of ``names`` (``fixed``: amplitudes held) and its argmax
     in log-amplitudes of the free terms (a term at zero: its lower search bound);
-    ``starts`` (log-amplitudes) are tried beside the data's own start.
+    ``starts`` (log-amplitudes) are tried beside the data's own start (without it, when
+    ``data_start`` is False and there are starts).
 
     The Allan variance is linear in each term's variance ``x_k = a_k^2`` (F's enters with
     the minus sign of its shape), so the maximum is found by Fisher scoring, which here is
@@ -245,7 +246,8 @@ def max_likelihood(stats: HaarStatistics, names: tuple[str, ...],
         return float(np.sum(level_log_likelihood(variance, stats)))
 
     tries = [_SCORING.maximise(log_likelihood, columns, held, stats.avar, stats.count, start)
-             for start in (None, *(np.exp(2.0 * np.asarray(u)) / scale for u in starts))]
+             for start in ((None,) if data_start or not starts else ())
+             + tuple(np.exp(2.0 * np.asarray(u)) / scale for u in starts)]
     best = max(tries, key=log_likelihood)
     u = 0.5 * np.log(np.maximum(best, np.exp(-2.0 * BELOW_ENVELOPE)) * scale)
     return log_likelihood(best), u
