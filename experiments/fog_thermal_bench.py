@@ -147,13 +147,14 @@ def measured_noise_priors(seed: int, hours: float) -> tuple[dict, dict]:
     """IEEE noise priors from ``gyroid noise``'s fit of :func:`static_log` (as ``gyroid fit
     --noise DIR`` makes them), and what that fit found (terms' means and intervals)."""
     from gyroid.inference import fit_noise
-    from gyroid.models._prior_scales import priors_from_noise
+    from gyroid.noise import noise_model, priors_from_noise
 
     fitted = fit_noise(static_log(seed, hours), 1.0 / RATE_HZ, seed=seed)
     terms = fitted.term_summaries()
     found = {k: {"mean": terms[k].get("mean"), "ci90": terms[k].get("ci90"),
                  "resolved": terms[k].get("resolved")} for k in ("N", "B", "K")}
-    return priors_from_noise(terms), {"trustworthy": fitted.trustworthy, "terms": found}
+    return (priors_from_noise(terms, noise_model("white+flicker+rw")),
+            {"trustworthy": fitted.trustworthy, "terms": found})
 
 
 def datasheet_priors_of_the_bench() -> dict:

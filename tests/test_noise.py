@@ -187,8 +187,9 @@ def test_static_keeps_the_still_stretches_of_a_log_that_moves(tmp_path, capsys):
 
 
 def test_a_noise_fit_becomes_the_drift_fits_noise_prior_with_the_same_intervals():
-    """--noise DIR: a resolved term's 90 % interval is its prior's 90 % interval, an
-    unresolved term's bound its prior's 95 % quantile (datasheet units, any sample rate)."""
+    """--noise DIR: a resolved term's 90 % interval is its prior's 90 % interval (where it
+    reaches zero, its interval where present), an unresolved term's bound its prior's 95 %
+    quantile (datasheet units, any sample rate)."""
     from gyroid.noise import noise_model, priors_from_noise
 
     terms = {"N": {"resolved": True, "ci90": [0.29, 0.31]},
@@ -202,6 +203,12 @@ def test_a_noise_fit_becomes_the_drift_fits_noise_prior_with_the_same_intervals(
     for name, bound in (("B_deg_h", 7.0), ("K_deg_h_sqrt_h", 25.0)):
         assert math.exp(math.log(priors[name].median) + z * priors[name].log_sd) == \
             pytest.approx(bound, rel=1e-12)
+    # the interval reaches 0 because sets without B (a bump read for the floor) have weight:
+    # the drift model's B, which stands for that floor, takes B's interval where present
+    terms["B"]["ci90_if_present"] = [5.0, 7.2]
+    b = priors_from_noise(terms, noise_model("white+flicker+rw"))["B_deg_h"]
+    np.testing.assert_allclose(np.exp(np.log(b.median) + np.array([-z, z]) * b.log_sd),
+                               [5.0, 7.2], rtol=1e-12)
 
 
 def _gyro_noise(rng, n: int, dt: float) -> np.ndarray:

@@ -164,8 +164,11 @@ class NoiseFit(FitResult):
                  "inclusion": round(self.choice.inclusion(name), 4)}
         if name in self.terms:
             x = self.draws(name)
+            present = x[x > 0.0]  # the draws of the sets with the term
             return entry | {"mean": float(x.mean()), "sd": float(x.std(ddof=1)),
                             "ci90": [float(v) for v in np.quantile(x, [0.05, 0.95])],
+                            "ci90_if_present": [float(v) for v in
+                                                np.quantile(present, [0.05, 0.95])],
                             "resolved": True}
         return entry | {"mean": None, "sd": None, "ci90": None, "resolved": False,
                         "upper_bound_95": self.choice.upper_bound_95.get(name),
