@@ -105,12 +105,18 @@ class NoiseFit(FitResult):
 
     def term_lines(self) -> list[str]:
         """One line per term (:meth:`reported_terms` and F): its mean, 90 % interval, unit
-        and process where the log resolves it, else its 95 % upper bound and why not."""
+        and process where the log resolves it (and, where that interval reaches zero, how
+        likely the term is and its interval where present), else its 95 % upper bound and
+        why not."""
         lines = []
         for name, entry in (self.reported_terms() | {"F": self.prefilter()}).items():
             when = f", correlation time {entry['tau_s']:.3g} s" if name == "G" else ""
             if entry["resolved"]:
                 lo, hi = entry["ci90"]
+                if lo <= 0.0:
+                    low, high = entry["ci90_if_present"]
+                    when += (f"; present with probability {entry['inclusion']:.2f}, where "
+                             f"present [{low:.4g}, {high:.4g}]")
                 lines.append(f"{name} = {entry['mean']:.4g} [{lo:.4g}, {hi:.4g}] "
                              f"{entry['unit']} ({entry['process']}{when})")
             elif entry["upper_bound_95"] is not None:
