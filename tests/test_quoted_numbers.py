@@ -178,6 +178,14 @@ def test_the_noise_fits_against_the_allan_readings():
             f"{grades['gm']['datasets'] - gm['G']['resolved']} bounds)",
             f"{grades['gm']['false_detections']['B']} of the {grades['gm']['datasets']} logs "
             "report a bias instability B",
+            f"in all but {grades['gm']['false_detections_excluding_zero']['B']} of them B's 90 %"
+            " interval reaches zero",
+            f"(with an interval that excludes zero in "
+            f"{grades['mems']['false_detections_excluding_zero']['G']} and "
+            f"{grades['phone']['false_detections_excluding_zero']['G']} of them)",
+            "A noise fit takes " + "-".join(f"{v:.2f}" for v in (
+                min(g["fit_seconds_median"] for g in grades.values()),
+                max(g["fit_seconds_median"] for g in grades.values()))) + " s per log",
             f"G is reported for {grades['mems']['false_detections']['G']} of the "
             f"{grades['mems']['datasets']} MEMS logs and {grades['phone']['false_detections']['G']}"
             f" of the {grades['phone']['datasets']} phone logs")
