@@ -38,7 +38,7 @@ class HaarStatistics:
     n_samples: int
     segments: int
     #: The correlation time of the Gauss-Markov term G fitted to these statistics, s (NaN
-    #: before it is chosen: :func:`~gyroid.inference._noise_choice.gauss_markov_time`).
+    #: before it is chosen: :attr:`~gyroid.inference._noise_choice.TermChoice.gm_tc_s`).
     gm_tc_s: float = float("nan")
 
     @property

@@ -15,6 +15,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass, field, replace
+from typing import NamedTuple
 
 import numpy as np
 
@@ -48,6 +49,9 @@ class TermChoice:
     #: Each kept set with G: the correlation time (s) of its greatest likelihood, where it is
     #: sampled (its weight integrates over every time).
     gm_tc_s: dict[tuple[str, ...], float] = field(default_factory=dict)
+    #: G's correlation time where no set with G has weight (s): the widest set's best, at
+    #: which G is bounded (NaN: a log of too few averaging times to try G).
+    profile_tc_s: float = float("nan")
 
     def stats_for(self, stats: HaarStatistics, names: tuple[str, ...]) -> HaarStatistics:
         """``stats`` with the correlation time at which the set ``names`` is sampled."""
@@ -112,26 +116,6 @@ def gauss_markov_grid(stats: HaarStatistics) -> np.ndarray:
                             0.5 * math.log(2.0)))
 
 
-def gauss_markov_time(stats: HaarStatistics) -> HaarStatistics:
-    """``stats`` with the Gauss-Markov term's correlation time chosen: the value on
-    :func:`gauss_markov_grid` that maximises the likelihood of every term together (the
-    wider of the sets with Q and with F), where G is bounded when no set with it has
-    weight (a set with G is sampled at its own best time). A log of too few levels keeps
-    none (no G)."""
-    grid = gauss_markov_grid(stats)
-    widest = [tuple(n for n in TERM_NAMES if n not in (drop, "G")) for drop in EXCLUSIVE]
-    base = {names: max_likelihood(stats, names)[1] for names in widest}
-    best, chosen = -np.inf, float("nan")
-    for tc in grid:
-        at = replace(stats, gm_tc_s=float(tc))
-        value = max(max_likelihood(at, (*names, "G"),
-                                   starts=nested_starts(at, (*names, "G"), base))[0]
-                    for names in widest)
-        if value > best:
-            best, chosen = value, float(tc)
-    return replace(stats, gm_tc_s=chosen)
-
-
 #: Sets of terms whose weight is below this fraction of the best set's are not sampled.
 MIN_WEIGHT = 0.01
 #: A term the log does not resolve is bounded in every set of at least this weight, and
@@ -147,48 +131,62 @@ def choose_terms(stats: HaarStatistics) -> TermChoice:
     bound for each term the log does not resolve, the largest over the sets of at least
     :data:`BOUNDED_WEIGHT`."""
     n = float(stats.count.sum())
-    candidates = TERM_NAMES if np.isfinite(stats.gm_tc_s) else tuple(
-        n for n in TERM_NAMES if n != "G")
+    grid = gauss_markov_grid(stats)
+    candidates = TERM_NAMES if grid.size else tuple(n for n in TERM_NAMES if n != "G")
+    sets = [names for size in range(1, len(candidates) + 1)
+            for names in itertools.combinations(candidates, size)
+            if n_parameters(names) <= stats.m.size - 1 and compatible(names)]
     fits, argmax = {}, {}
-    for size in range(1, len(candidates) + 1):
-        for names in itertools.combinations(candidates, size):
-            if n_parameters(names) > stats.m.size - 1 or not compatible(names):
-                continue
-            fits[names], argmax[names] = max_likelihood(
-                stats, names, starts=nested_starts(stats, names, argmax))
-    over_times = over_correlation_times(stats, [s for s in fits if "G" in s], argmax)
-    integrated = fits | {names: value for names, (value, _, _) in over_times.items()}
-    tc = {names: time for names, (_, time, _) in over_times.items()}
-    argmax |= {names: u for names, (_, _, u) in over_times.items()}
+    for names in (s for s in sets if "G" not in s):
+        fits[names], argmax[names] = max_likelihood(
+            stats, names, starts=nested_starts(stats, names, argmax))
+    over_times = over_correlation_times(stats, [s for s in sets if "G" in s], argmax)
+    integrated = fits | {names: fit.integrated for names, fit in over_times.items()}
+    tc = {names: fit.tc_s for names, fit in over_times.items()}
+    argmax |= {names: fit.u for names, fit in over_times.items()}
+    # where G is bounded when no set with it has weight: the widest set's best time
+    widest = max(over_times, key=lambda s: (len(s), over_times[s].greatest), default=None)
+    profile = stats if widest is None else replace(stats, gm_tc_s=tc[widest])
     bic = {"+".join(names): -2.0 * value + len(names) * math.log(n)
            for names, value in integrated.items()}
     lowest = min(bic.values())
-    raw = {names: math.exp(-0.5 * (bic["+".join(names)] - lowest)) for names in fits}
+    raw = {names: math.exp(-0.5 * (bic["+".join(names)] - lowest)) for names in integrated}
     kept = {names: w for names, w in raw.items() if w >= MIN_WEIGHT}
     total = sum(kept.values())
     weights = {names: w / total for names, w in sorted(kept.items(), key=lambda i: -i[1])}
     included = {n: sum(w for names, w in weights.items() if n in names) for n in candidates}
     bounds = {}
     for name in (n for n in candidates if included[n] < 0.5):
-        held = [_bound_in(stats, names, name, tc.get(names)) for names, w in weights.items()
+        held = [_bound_in(profile, names, name, tc.get(names)) for names, w in weights.items()
                 if w >= BOUNDED_WEIGHT and (len(names) > 1 or name not in names)]
         if held:
             bounds[name] = max(held)
     return TermChoice(weights, bic, bounds,
                       {names: tuple(map(float, argmax[names])) for names in weights},
-                      {names: tc[names] for names in weights if names in tc})
+                      {names: tc[names] for names in weights if names in tc},
+                      profile.gm_tc_s)
+
+
+class TimeFit(NamedTuple):
+    """A set with G over G's correlation times: its log-likelihood with the time integrated
+    out, its greatest, the time of that (s) and the log-amplitudes there."""
+
+    integrated: float
+    greatest: float
+    tc_s: float
+    u: np.ndarray
 
 
 def over_correlation_times(stats: HaarStatistics, sets: list[tuple[str, ...]],
                            argmax: dict[tuple[str, ...], np.ndarray]
-                           ) -> dict[tuple[str, ...], tuple[float, float, np.ndarray]]:
-    """Per set of terms with G: its log-likelihood with G's correlation time integrated out
-    (a prior uniform in log correlation time over :func:`gauss_markov_grid`: the mean over
-    the grid of the maximum likelihood at each time), the time of the greatest, and the
-    log-amplitudes there. Each time's fit starts from the same set's at the time before and
-    from the set without G (``argmax``) with G small (the first time's from the data's own
-    start too; after it, that start changed no weight or bound on the 250 logs of
-    ``experiments/noise_coverage.py`` and cost a third of the noise fit's time)."""
+                           ) -> dict[tuple[str, ...], TimeFit]:
+    """Per set of terms with G, its fit over :func:`gauss_markov_grid` (:class:`TimeFit`;
+    the integral is the mean over the grid of the maximum likelihood at each time: a prior
+    uniform in log correlation time). Each time's fit starts from the same set's at the
+    time before and from the set without G (``argmax``) with G small (the first time's
+    from the data's own start too; after it, that start changed no weight or bound on the
+    250 logs of ``experiments/noise_coverage.py`` and cost a third of the noise fit's
+    time)."""
     grid = gauss_markov_grid(stats)
     curves: dict[tuple[str, ...], list[tuple[float, np.ndarray]]] = {n: [] for n in sets}
     for tc in grid:
@@ -206,7 +204,7 @@ def over_correlation_times(stats: HaarStatistics, sets: list[tuple[str, ...]],
         values = np.array([value for value, _ in curve])
         top = int(np.argmax(values))
         mean = values[top] + math.log(float(np.mean(np.exp(values - values[top]))))
-        out[names] = (mean, float(grid[top]), curve[top][1])
+        out[names] = TimeFit(mean, float(values[top]), float(grid[top]), curve[top][1])
     return out
 
 

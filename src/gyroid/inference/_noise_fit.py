@@ -30,7 +30,7 @@ from scipy.stats import chi2
 from gyroid.inference._check_report import Check, CheckReport
 from gyroid.inference._fit import fit
 from gyroid.inference._haar import HaarStatistics, haar_statistics
-from gyroid.inference._noise_choice import TermChoice, choose_terms, deviance, gauss_markov_time
+from gyroid.inference._noise_choice import TermChoice, choose_terms, deviance
 from gyroid.inference._noise_levels import (
     drop_prefiltered,
     level_fit,
@@ -232,14 +232,14 @@ def fit_noise(rate_deg_h: np.ndarray, sample_s: float, *,
     averaging time."""
     cleaned, outliers = remove_outliers(rate_deg_h, segments, sample_s=sample_s)
     stats, prefiltered = drop_prefiltered(haar_statistics(cleaned, sample_s, segments))
-    stats = gauss_markov_time(stats)
     choice = choose_terms(stats)
+    stats = replace(stats, gm_tc_s=choice.profile_tc_s)
     lack, dof = deviance(choice.stats_for(stats, choice.best), choice.best)
     dispersion = lack / dof if dof > 0 and chi2.sf(lack, dof) < DISPERSION_P else 1.0
     fitted = stats
     if dispersion > 1.0:
         fitted = stats.deflated(dispersion)
-        choice = choose_terms(fitted)
+        choice = choose_terms(fitted)  # every likelihood scaled alike: the same best times
         if dispersion > DISPERSION_MAX:  # refused: its best set alone is sampled, to show
             choice = replace(choice, weights={choice.best: 1.0})
     rng = np.random.default_rng(seed)

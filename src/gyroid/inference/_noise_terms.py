@@ -6,7 +6,8 @@ levels' likelihood.
 G, a first-order Gauss-Markov bias of stationary sd ``G`` (a MEMS gyro's bump in the Allan
 deviation at some seconds to minutes, which rises as a random walk below its correlation
 time and falls as white noise above it) is not an IEEE Std 952 term: its correlation time
-is chosen per log (:func:`~gyroid.inference._noise_choice.gauss_markov_time`) and held in
+is integrated out of each set's weight and chosen per set
+(:func:`~gyroid.inference._noise_choice.over_correlation_times`) and held in
 the statistics (``HaarStatistics.gm_tc_s``). Q and F are never fitted together (only their
 difference would be identified): an excess at the shortest times is quantisation, a deficit
 a prefilter.
