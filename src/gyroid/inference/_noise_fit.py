@@ -153,8 +153,8 @@ class NoiseFit(FitResult):
 
     def gauss_markov(self) -> dict | None:
         """The Gauss-Markov bias G as :meth:`term_summaries` gives a term, with its
-        correlation time ``tau_s`` (s, chosen by profile likelihood); None when the log
-        has too few averaging times to try one."""
+        correlation time ``tau_s`` (s, :attr:`gm_tc_s`); None when the log has too few
+        averaging times to try one."""
         if not np.isfinite(self.stats.gm_tc_s):
             return None
         return self._term_summary("G") | {"tau_s": self.gm_tc_s}
