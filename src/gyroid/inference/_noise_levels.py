@@ -31,7 +31,7 @@ shortest level and missed the next ones (N 0.00002-0.22 deg/sqrt(h) for 2.5, the
 noise read as a Gauss-Markov bias at 0.2 s, and a refusal for the misfit that left at long
 averaging times). Not yet calibrated: just above the levels left out, the filter's shape
 still departs from F's ``1 / tau^2`` by about 1 %, too little for any level's test and as
-much as N's interval, so on such logs N's 90 % intervals held 22 of 50 truths
+much as N's interval, so on such logs N's 90 % intervals held 21 of 50 truths
 (``experiments/noise_coverage.py``, the phone grade; B and K inside their bands).
 """
 
