@@ -38,7 +38,8 @@ PROFILE_CHI2 = 2.705543454095404
 class TermChoice:
     """The candidate sets of terms worth sampling with their posterior weights
     (``exp(-BIC / 2)``, normalised; sets below ``MIN_WEIGHT`` of the best left out), the BIC
-    of every set tried (:func:`choose_terms`), and an upper bound (datasheet units) for each
+    of every set fitted (:func:`choose_terms`; a set with G that could not reach that weight
+    is not), and an upper bound (datasheet units) for each
     term the log does not resolve (included with less than half the weight)."""
 
     weights: dict[tuple[str, ...], float]
@@ -140,7 +141,16 @@ def choose_terms(stats: HaarStatistics) -> TermChoice:
     for names in (s for s in sets if "G" not in s):
         fits[names], argmax[names] = max_likelihood(
             stats, names, starts=nested_starts(stats, names, argmax))
-    over_times = over_correlation_times(stats, [s for s in sets if "G" in s], argmax)
+    with_g = [s for s in sets if "G" in s]
+    widest_g = [s for s in with_g if not any(set(s) < set(t) for t in with_g)]
+    over_times = over_correlation_times(stats, widest_g, argmax)
+    # a set's likelihood is at most a wider set's, at every time: a set with G whose BIC
+    # could not come within MIN_WEIGHT of the best set without G is not fitted
+    best = min(-2.0 * value + len(names) * math.log(n) for names, value in fits.items())
+    reach = [s for s in with_g if s not in over_times and -2.0 * min(
+        over_times[w].greatest for w in widest_g if set(s) <= set(w)) + len(s) * math.log(n)
+        - best < -2.0 * math.log(MIN_WEIGHT)]
+    over_times |= over_correlation_times(stats, reach, argmax)
     integrated = fits | {names: fit.integrated for names, fit in over_times.items()}
     tc = {names: fit.tc_s for names, fit in over_times.items()}
     argmax |= {names: fit.u for names, fit in over_times.items()}
