@@ -146,19 +146,21 @@ def choose_terms(stats: HaarStatistics) -> TermChoice:
     over_times = over_correlation_times(stats, widest_g, argmax)
     # a set's likelihood is at most a wider set's, at every time: a set with G whose BIC
     # could not come within MIN_WEIGHT of the best set without G is not fitted
-    best = min(-2.0 * value + len(names) * math.log(n) for names, value in fits.items())
-    reach = [s for s in with_g if s not in over_times and -2.0 * min(
-        over_times[w].greatest for w in widest_g if set(s) <= set(w)) + len(s) * math.log(n)
+    def criterion(value: float, names: tuple[str, ...]) -> float:
+        return -2.0 * value + len(names) * math.log(n)
+
+    best = min(criterion(value, names) for names, value in fits.items())
+    reach = [s for s in with_g if s not in over_times and criterion(min(
+        over_times[w].greatest for w in widest_g if set(s) <= set(w)), s)
         - best < -2.0 * math.log(MIN_WEIGHT)]
     over_times |= over_correlation_times(stats, reach, argmax)
     integrated = fits | {names: fit.integrated for names, fit in over_times.items()}
     tc = {names: fit.tc_s for names, fit in over_times.items()}
     argmax |= {names: fit.u for names, fit in over_times.items()}
     # where G is bounded when no set with it has weight: the widest set's best time
-    widest = max(over_times, key=lambda s: (len(s), over_times[s].greatest), default=None)
+    widest = max(widest_g, key=lambda s: (len(s), over_times[s].greatest), default=None)
     profile = stats if widest is None else replace(stats, gm_tc_s=tc[widest])
-    bic = {"+".join(names): -2.0 * value + len(names) * math.log(n)
-           for names, value in integrated.items()}
+    bic = {"+".join(names): criterion(value, names) for names, value in integrated.items()}
     lowest = min(bic.values())
     raw = {names: math.exp(-0.5 * (bic["+".join(names)] - lowest)) for names in integrated}
     kept = {names: w for names, w in raw.items() if w >= MIN_WEIGHT}
@@ -201,13 +203,12 @@ def over_correlation_times(stats: HaarStatistics, sets: list[tuple[str, ...]],
     curves: dict[tuple[str, ...], list[tuple[float, np.ndarray]]] = {n: [] for n in sets}
     for tc in grid:
         at = replace(stats, gm_tc_s=float(tc))
-        small = math.log(envelope(at)["G"]) - ADDED_BELOW
         for names in sets:
             without = tuple(n for n in names if n != "G")
-            starts = [curves[names][-1][1]] if curves[names] else []
-            if without in argmax:
-                starts.append(np.insert(argmax[without], names.index("G"), small))
-            curves[names].append(max_likelihood(at, names, starts=tuple(starts),
+            previous = (curves[names][-1][1],) if curves[names] else ()
+            starts = previous + nested_starts(
+                at, names, {without: argmax[without]} if without in argmax else {})
+            curves[names].append(max_likelihood(at, names, starts=starts,
                                                 data_start=not curves[names]))
     out = {}
     for names, curve in curves.items():
