@@ -7,7 +7,8 @@ checks, posterior.nc); rank of the truth among each posterior's draws and covera
 50 / 90 / 95 % intervals recorded. Three cases: magnetic sweep with known sigma (linear-
 Gaussian), the same with the noise level sampled (the coefficients integrated out on the
 rows' sufficient statistics, the level weighed alone), thermal bench with the noise level
-sampled (the thermometer's noise carried: the whole posterior weighed).
+sampled (the thermometer's noise carried, wD at its least-squares value: the coefficients
+integrated out in the rate error's eigenbasis, the level weighed alone).
 
     python experiments/sbc.py --seed 0 --datasets 200 --workers 2
 """

@@ -1,10 +1,11 @@
 """Errors in variables: the thermometer's noise carried through the dT/dt estimator into the
-white-noise likelihood (models/_rate_error.py, BenchDensity's eigenbasis)."""
+white-noise likelihood (models/_rate_error.py; the noise model's exact rate error,
+noise/_rate_error_rows.py), wD at its least-squares value."""
 
 import jax.numpy as jnp
 import numpy as np
 import pytest
-from scipy.stats import multivariate_normal
+from scipy.stats import multivariate_normal, norm
 
 from gyroid.inference import BenchProblem, fit_log
 from gyroid.inference._emcee import Emcee
@@ -73,20 +74,26 @@ def _problem(sigma_known: bool, seed: int = 0) -> BenchProblem:
     return BenchProblem.from_log(BenchLog(columns=columns), "thermal", max_rows=200)
 
 
+def _rate_error_covariance(problem: BenchProblem) -> np.ndarray:
+    """The rows' covariance the noise model carries for the thermometer, (deg/h)^2."""
+    return np.asarray(problem.noise.carried.row_covariance())
+
+
 @pytest.mark.parametrize("sigma_known", [False, True])
 def test_the_likelihood_is_the_dense_gaussian(sigma_known):
     problem = _problem(sigma_known)
     density = problem.density
-    assert density.errors_in_variables and problem.block_rows > 1
+    assert problem.thermometer_sd_C > 0 and problem.block_rows > 1
+    # wD^2 times the rate error's covariance, wD at its least-squares value on the log
+    assert problem.rate_error_wd == pytest.approx(2.0, rel=0.05)
+    rate_error = _rate_error_covariance(problem)
     rng = np.random.default_rng(1)
     m = problem.block_rows
     for _ in range(3):
         u = np.asarray(problem.mode().u) + 0.05 * rng.standard_normal(len(problem.names))
-        theta = u[: problem.n_model]
-        wd = theta[problem.names.index("wD")]
         white = (np.asarray(density.sigma) ** 2 if sigma_known
                  else np.full(problem.n, np.exp(2 * u[-1]) / m))
-        covariance = np.diag(white) + wd**2 * np.asarray(density.eiv.covariance)
+        covariance = np.diag(white) + rate_error
         residual = np.asarray(density.drift) - np.asarray(density.predict(jnp.asarray(u)))
         dense = multivariate_normal(np.zeros(problem.n), covariance).logpdf(residual)
         assert float(density.log_likelihood(jnp.asarray(u))) == pytest.approx(dense, abs=1e-6)
@@ -98,10 +105,6 @@ def test_the_likelihood_is_the_dense_gaussian(sigma_known):
         masked = density.without_rows(held)
         assert float(masked.log_likelihood(jnp.asarray(u))) == pytest.approx(
             marginal.logpdf(residual[kept]), abs=1e-6)
-        # the NumPy log-posterior emcee calls is the same density
-        host = problem.host_log_posterior()
-        assert host(u[None, :])[0] == pytest.approx(float(density.log_posterior(
-            jnp.asarray(u))), abs=1e-6)
         # leave-one-out rows: each row's density given every other row
         rows = np.asarray(density.log_likelihood_rows(jnp.asarray(u)))
         for i in (0, 17, problem.n - 1):
@@ -114,13 +117,53 @@ def test_the_likelihood_is_the_dense_gaussian(sigma_known):
             assert rows[i] == pytest.approx(expected, abs=1e-8)
 
 
+@pytest.mark.parametrize("sigma_known", [False, True])
+def test_the_coefficients_integrate_out_exactly(sigma_known):
+    """The coefficients' marginal (the one bench posterior, :mod:`gyroid.inference.
+    _collapsed`) is the dense Gaussian with them integrated out under their normal priors,
+    ``N(y; X m0, C + X S0 X')``, times the noise level's prior; their conditional is the
+    generalised least-squares posterior."""
+    from gyroid.inference._collapsed import collapse
+
+    problem = _problem(sigma_known)
+    density = problem.density
+    p = problem.n_model
+    loc, scale = np.asarray(density.prior_loc), np.asarray(density.prior_scale)
+    assert np.all(np.asarray(density.prior_on)[:p] > 0)
+    x = np.asarray(density.model.design(density.inputs))
+    y = np.asarray(density.drift)
+    marginal = collapse(density)
+    rate_error = _rate_error_covariance(problem)
+    v = np.asarray(problem.mode().u)[p:]
+    for shift in (0.0, 0.3, -0.4):
+        levels = v + shift
+        white = (np.asarray(density.sigma) ** 2 if sigma_known
+                 else np.full(problem.n, np.exp(2 * levels[0]) / problem.block_rows))
+        covariance = np.diag(white) + rate_error
+        inverse = np.linalg.inv(covariance)
+        precision = x.T @ inverse @ x + np.diag(1.0 / scale[:p] ** 2)
+        gls = np.linalg.solve(precision, x.T @ inverse @ y + loc[:p] / scale[:p] ** 2)
+        # p(y) = p(y | b) p(b) / p(b | y) at the posterior mean b (a wide prior makes
+        # C + X S0 X' too ill-conditioned to evaluate directly)
+        expected = (multivariate_normal(x @ gls, covariance).logpdf(y)
+                    + np.sum(norm.logpdf(gls, loc[:p], scale[:p]))
+                    - 0.5 * np.linalg.slogdet(precision)[1] + 0.5 * p * np.log(2 * np.pi))
+        if not sigma_known:
+            expected += norm.logpdf(levels[0], loc[p], scale[p])
+        got = float(marginal.log_posterior(jnp.asarray(levels)))
+        assert got == pytest.approx(expected, abs=1e-6)
+        mean, factor, _ = marginal._solve(jnp.asarray(levels))
+        np.testing.assert_allclose(np.asarray(mean), gls, rtol=1e-8, atol=1e-10)
+        np.testing.assert_allclose(np.asarray(factor) @ np.asarray(factor).T, precision,
+                                   rtol=1e-8)
+
+
 def test_the_standardised_residuals_are_the_whitened_residuals():
     problem = _problem(False)
     density = problem.density
     u = np.asarray(problem.mode().u)
     m = problem.block_rows
-    covariance = (np.exp(2 * u[-1]) / m * np.eye(problem.n)
-                  + u[problem.names.index("wD")] ** 2 * np.asarray(density.eiv.covariance))
+    covariance = (np.exp(2 * u[-1]) / m * np.eye(problem.n) + _rate_error_covariance(problem))
     residual = np.asarray(density.drift) - np.asarray(density.predict(jnp.asarray(u)))
     expected = np.linalg.solve(np.linalg.cholesky(covariance), residual)
     np.testing.assert_allclose(problem.standardised_residuals(u), expected, atol=1e-8)
@@ -129,17 +172,17 @@ def test_the_standardised_residuals_are_the_whitened_residuals():
 @pytest.mark.parametrize("sigma_known", [False, True])
 def test_held_out_folds_by_generalised_least_squares_match_refitted_modes(sigma_known):
     """The predictive check's folds under errors in variables hold the full fit's noise
-    levels (one GLS solve per fold); refitting every fold's mode, levels included, gives the
-    same predictions and bands. The levels of ~160 kept rows move by ~1/sqrt(2*160) = 6 %
-    between folds, so the bands agree to a few percent and the predictions to a small
-    fraction of their sd."""
-    from gyroid.inference._bench_predictive import _eiv_folds, _refit_folds
+    levels (the coefficients' exact conditional posterior on the rows kept); refitting
+    every fold's mode, levels included, gives the same predictions and bands. The levels of
+    ~160 kept rows move by ~1/sqrt(2*160) = 6 % between folds, so the bands agree to a few
+    percent and the predictions to a small fraction of their sd."""
+    from gyroid.inference._bench_predictive import _collapsed_folds, _refit_folds
     from gyroid.inference._predictive import stretches
 
     problem = _problem(sigma_known, seed=2)
     density, time_s = problem.density, np.asarray(problem.log.time_s)
     parts = stretches(density.n)
-    gls = _eiv_folds(density, parts, time_s, np.asarray(problem.mode().u))
+    gls = _collapsed_folds(density, parts, time_s, np.asarray(problem.mode().u))
     refit = _refit_folds(density, parts, time_s)
     assert len(gls) == len(refit) == 5
     for a, b in zip(gls, refit, strict=True):

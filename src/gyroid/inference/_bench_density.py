@@ -5,10 +5,9 @@ Sampling coordinates ``u``: model parameters in their own units, except positive
 (time constants) as ``log x``; noise levels as logs. The noise model is an object
 (:class:`gyroid.noise.NoiseModel`: white, white + Gauss-Markov, IEEE 952's white + flicker
 + rate random walk, or one of the user's own) that gives the likelihood of the residual:
-independent rows, or the innovations of its filter. Under white noise, a model reading
-dT/dt on a log with a noisy thermometer carries that noise through the dT/dt estimator
-(errors in variables, :mod:`gyroid.models._rate_error`): a covariance over the rows, exact
-in one eigenbasis.
+independent rows, or the innovations of its filter. A model reading dT/dt on a log with a
+noisy thermometer carries that noise through the dT/dt estimator as one more term of the
+noise model (errors in variables, :mod:`gyroid.noise._rate_error_rows`).
 
 For a model linear in its parameters with white noise, the log-likelihood is computed
 from sufficient statistics (cost independent of the log's length).
@@ -25,15 +24,14 @@ import numpy as np
 from jaxtyping import Array, Float, Int
 
 from gyroid.inference._problem import AbstractDensity
-from gyroid.inference._white_rows import HostPrior, SufficientStatistics, ThermometerEigenbasis
+from gyroid.inference._white_rows import SufficientStatistics
 from gyroid.io._logs import BenchLog
 from gyroid.models._derived import RATE_WINDOW_S
 from gyroid.models._drift import DriftModel
 from gyroid.models._inputs import DriftInputs
 from gyroid.models._priors import Flat, LogNormal, Normal, Prior, prior_arrays
-from gyroid.models._rate_error import rate_coefficient_index
 from gyroid.noise._model import NoiseModel, RowFilter, noise_model
-from gyroid.noise._rate_error_process import RateErrorProcess
+from gyroid.noise._rate_error_rows import CarriedThermometer
 
 #: Length of the blocks whose summed log-likelihood ArviZ's LOO treats as one observation, s.
 LOO_BLOCK_S = 60.0
@@ -75,9 +73,6 @@ class BenchDensity(AbstractDensity):
     #: A row's white sd per sample's (1/sqrt(m) for a row that is the mean of m samples):
     #: ``sigma_deg_h`` is always a sample's.
     row_scale: float = eqx.field(static=True, default=1.0)
-    #: The thermometer's noise through dT/dt carried as a covariance over the rows (white
-    #: noise, a model reading dT/dt; errors in variables), None otherwise.
-    eiv: ThermometerEigenbasis | None = None
 
     @classmethod
     def from_log(
@@ -91,18 +86,14 @@ class BenchDensity(AbstractDensity):
         rate_window_s: float = RATE_WINDOW_S,
         fast: bool = True,
         rows_per_mean: int = 1,
-        rate_error_cov: np.ndarray | None = None,
-        rate_error: tuple[np.ndarray, float] | None = None,
+        thermometer: CarriedThermometer | None = None,
     ) -> BenchDensity:
         """The density of ``model`` on ``log`` (whose model inputs are ``inputs``) with
         ``priors`` (model parameters, then the noise model's, in sampling order).
         ``rows_per_mean``: samples behind each row (a log of block means);
-        ``rate_error_cov``: under white noise, the covariance of the dT/dt error that the
-        thermometer's noise causes at the rows, carried into the likelihood (errors in
-        variables); ``rate_error``: under correlated noise, that error's autocovariance
-        ((deg/h)^2 at lags of one row, wD^2 times the rate's) and the rows' white variance,
-        carried by the noise model's filter as a process matched to it
-        (:mod:`gyroid.noise._rate_error_process`; the rows then read as block means)."""
+        ``thermometer``: the thermometer's noise through dT/dt at the rows, times wD,
+        carried by the noise model (:meth:`~gyroid.noise.NoiseModel.with_rate_error`;
+        errors in variables)."""
         noise = noise_model(noise)
         time_s = np.asarray(log.time_s)
         steps = np.diff(time_s)
@@ -115,18 +106,16 @@ class BenchDensity(AbstractDensity):
         block_s = max(LOO_BLOCK_S, step, duration / MAX_LOO_BLOCKS * 1.0001)
         block = np.floor((time_s - time_s[0]) / block_s).astype(int)
         _, block = np.unique(block, return_inverse=True)
-        if rate_error_cov is not None and (noise.correlated
-                                           or "temperature_rate" not in model.terms):
-            raise ValueError("errors in variables: white noise and a model reading dT/dt")
         noise = noise.for_log(step, duration)
-        gap_s = None
-        if noise.rows_as_means(rows_per_mean) or rate_error is not None:
-            # block means: each row the mean over one step, after a gap (a pause)
-            gap = np.maximum(np.concatenate([[0.0], steps]) - step, 0.0)
-            gap_s = jnp.asarray(gap)
-            if rate_error is not None:
-                noise = noise.with_rate_error(RateErrorProcess.matched(
-                    rate_error[0], step, rate_error[1], np.full(gap.size, step), gap))
+        row_scale = 1.0 / math.sqrt(rows_per_mean)
+        # read as block means: each row the mean over one step, after a gap (a pause)
+        gap = np.maximum(np.concatenate([[0.0], steps]) - step, 0.0)
+        if thermometer is not None:
+            d0 = (np.full(time_s.size, row_scale**2) if sigma is None
+                  else np.asarray(sigma) ** 2)
+            noise = noise.with_rate_error(thermometer, d0=d0, span_s=np.full(gap.size, step),
+                                          gap_s=gap, step_s=step)
+        gap_s = jnp.asarray(gap) if noise.rows_as_means(rows_per_mean) else None
         problem = cls(
             model=model,
             inputs=inputs,
@@ -141,11 +130,9 @@ class BenchDensity(AbstractDensity):
             n_blocks=int(block.max()) + 1,
             step_s=step,
             rate_window_s=jnp.asarray(float(rate_window_s)),
-            row_scale=1.0 / math.sqrt(rows_per_mean),
+            row_scale=row_scale,
             gap_s=gap_s,
         )
-        if rate_error_cov is not None:
-            return problem._with_eigenbasis(rate_error_cov)
         if fast and model.is_linear and not noise.correlated:
             return eqx.tree_at(lambda q: q.stats, problem, problem._sufficient_statistics(),
                                is_leaf=lambda x: x is None)
@@ -168,40 +155,16 @@ class BenchDensity(AbstractDensity):
         return SufficientStatistics.of(weighted_blocks, self.n_model, np.asarray(self.block),
                                        self.n_blocks, log_sigma)
 
-    def _with_eigenbasis(self, covariance: np.ndarray) -> BenchDensity:
-        """This density carrying the thermometer's noise (the rate error's covariance over
-        the rows, (degC/h)^2) in its eigenbasis over the rows the likelihood reads."""
-        keep = (np.ones(self.n, dtype=bool) if self.weight is None
-                else np.asarray(self.weight) > 0)
-        design = (np.asarray(self.model.design(self.inputs)) if self.model.is_linear
-                  else None)
-        eiv = ThermometerEigenbasis.of(np.asarray(covariance), np.asarray(self.white_d0()),
-                                       keep, np.asarray(self.drift), design,
-                                       rate_coefficient_index(self.model))
-        return eqx.tree_at(lambda q: q.eiv, self, eiv, is_leaf=lambda x: x is None)
-
-    @property
-    def errors_in_variables(self) -> bool:
-        """Whether the thermometer's noise in dT/dt is carried in the likelihood."""
-        return self.eiv is not None
-
-    def white_d0(self) -> Float[Array, " n"]:
-        """The white covariance's diagonal per unit of the sampled level (the known
-        variances when the log gives them); traceable."""
-        if self.sigma is not None:
-            return self.sigma**2
-        return jnp.full(self.n, self.row_scale**2)
-
     def without_rows(self, held_out: np.ndarray) -> BenchDensity:
         """The same density with the rows ``held_out`` (a boolean mask) left out of the
         likelihood: a white row's term is dropped; under white+gm the Kalman filter runs on
         through them without an observation (exact: the marginal likelihood of the rows
         kept). The sufficient statistics, which sum every row, are dropped too."""
-        weight = jnp.asarray(~np.asarray(held_out, dtype=bool), dtype=float)
-        out = eqx.tree_at(lambda q: (q.weight, q.stats), self, (weight, None),
-                          is_leaf=lambda x: x is None)
-        # errors in variables: the marginal of the rows kept, in their own eigenbasis
-        return out if self.eiv is None else out._with_eigenbasis(np.asarray(self.eiv.covariance))
+        keep = ~np.asarray(held_out, dtype=bool)
+        # the rows' exact covariance, if the noise model carries one, is the kept rows'
+        return eqx.tree_at(lambda q: (q.weight, q.stats, q.noise), self,
+                           (jnp.asarray(keep, dtype=float), None, self.noise.on_rows(keep)),
+                           is_leaf=lambda x: x is None)
 
     # ----- parameter bookkeeping -------------------------------------------------------
     @property
@@ -276,67 +239,24 @@ class BenchDensity(AbstractDensity):
         return self.row_filter.levels_of(noise_u)
 
     def log_likelihood_rows(self, u: Float[Array, " d"]) -> Float[Array, " n"]:
-        """Log-likelihood of each row (for white+gm: of its innovation); 0 for a row left
-        out (:meth:`without_rows`)."""
-        residual = self.drift - self.predict(u)
-        white, values = self._noise_levels(u)
-        filtered = self.innovations(residual, white, values)
-        if self.eiv is not None:
-            rows = self.eiv.leave_one_out_rows(*self._eiv_projection(self.eiv, u))
-        elif filtered is None:
-            rows = -0.5 * (residual / white) ** 2 - jnp.log(white) - 0.5 * _LOG_2PI
-        else:
-            innovation, variance = filtered
-            rows = -0.5 * innovation**2 / variance - 0.5 * jnp.log(variance) - 0.5 * _LOG_2PI
-        return rows if self.weight is None else rows * self.weight
+        """Log-likelihood of each row (a filter's: of its innovation; under the rows' exact
+        covariance, given every other row); 0 for a row left out (:meth:`without_rows`)."""
+        return self.row_filter.row_log_likelihood(self.drift - self.predict(u),
+                                                  *self._noise_levels(u))
 
     def standardised_residuals(self, u: Float[Array, " d"]) -> Float[Array, " n"]:
         """Residuals over their modelled sd (white) or the noise model's innovations over
-        theirs: independent N(0, 1) when the model and its noise model are right."""
-        residual = self.drift - self.predict(u)
-        white, values = self._noise_levels(u)
-        if self.eiv is not None:  # sequential innovations: time-ordered, white if right
-            chol = jnp.linalg.cholesky(self.eiv_covariance(u))
-            return jax.scipy.linalg.solve_triangular(chol, residual, lower=True)
-        filtered = self.innovations(residual, white, values)
-        if filtered is None:
-            return residual / white
-        innovation, variance = filtered
-        return innovation / jnp.sqrt(variance)
-
-    # ----- errors in variables ------------------------------------------------------------
-    def _eiv_levels(self, eiv: ThermometerEigenbasis, u: Float[Array, " d"]):
-        """(s^2, wD^2) of the errors-in-variables covariance at ``u``."""
-        s2 = (jnp.ones(()) if self.sigma is not None
-              else jnp.exp(2.0 * u[self.n_model]))
-        return s2, self.to_natural(u)[eiv.index] ** 2
-
-    def eiv_covariance(self, u: Float[Array, " d"]) -> Float[Array, "n n"]:
-        """The rows' noise covariance under errors in variables at ``u``, (deg/h)^2."""
-        if self.eiv is None:
-            raise ValueError("this density carries no thermometer noise (errors in variables)")
-        s2, a2 = self._eiv_levels(self.eiv, u)
-        return jnp.diag(s2 * self.white_d0()) + a2 * self.eiv.covariance
-
-    def _eiv_projection(self, eiv: ThermometerEigenbasis, u: Float[Array, " d"]):
-        """The residual in the eigenbasis and each coordinate's variance."""
-        s2, a2 = self._eiv_levels(eiv, u)
-        theta = self.to_natural(u)[: self.n_model]
-        return eiv.projected(theta, lambda: self.drift - self.predict(u)), s2 + a2 * eiv.lam
-
-    def innovations(self, residual, white, values):
-        """Innovations of the residual (or of columns) and their variances under the noise
-        model (None for independent rows); a row left out (weight 0) is predicted through,
-        not learnt from."""
-        return self.row_filter.innovations(residual, white, values)
+        theirs, in time order: independent N(0, 1) when the model and its noise model are
+        right."""
+        return self.row_filter.standardised(self.drift - self.predict(u),
+                                            *self._noise_levels(u))
 
     def log_likelihood(self, u: Float[Array, " d"]) -> Float[Array, ""]:
         """Total log-likelihood (the sufficient-statistics path where it applies)."""
         if self.stats is not None:
             return self.stats.log_likelihood(u[: self.n_model], self._row_sd(u), self.n)
-        if self.eiv is not None:
-            return self.eiv.log_likelihood(*self._eiv_projection(self.eiv, u))
-        return jnp.sum(self.log_likelihood_rows(u))
+        return self.row_filter.log_likelihood(self.drift - self.predict(u),
+                                              *self._noise_levels(u))
 
     def sufficient_statistics(self) -> SufficientStatistics:
         """:attr:`stats`, which a linear model under white noise has on every row (a pooled
@@ -349,16 +269,6 @@ class BenchDensity(AbstractDensity):
     def _row_sd(self, u: Float[Array, " d"]) -> Float[Array, ""] | None:
         """A row's white sd at ``u`` (deg/h); None where the log gives each row's."""
         return None if self.sigma is not None else jnp.exp(u[self.n_model]) * self.row_scale
-
-    def host_log_posterior(self):
-        """The log-posterior of many walkers in NumPy, ``u (w, d) -> (w,)``, where a host
-        form exists (a linear model's :class:`ThermometerEigenbasis`): what emcee calls
-        every step; None otherwise."""
-        if self.eiv is None or self.eiv.x is None:
-            return None
-        prior = HostPrior(np.asarray(self.prior_loc), np.asarray(self.prior_scale),
-                          np.asarray(self.prior_on))
-        return self.eiv.host_log_posterior(prior, self.sigma is not None)
 
     def log_likelihood_blocks(self, u: Float[Array, " d"]) -> Float[Array, " b"]:
         """Log-likelihood summed over blocks of ``LOO_BLOCK_S`` (what LOO leaves out); from

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import jax.numpy as jnp
 import numpy as np
-import scipy.linalg
 
 from gyroid.inference._bench_density import BenchDensity
 from gyroid.inference._check_report import Check
@@ -25,15 +24,14 @@ from gyroid.inference._predictive import (
     stretches,
 )
 from gyroid.io._logs import contiguous_segments
-from gyroid.noise._base import parts_mean_covariance
 
 
 def bench_predictive(density: BenchDensity, time_s: np.ndarray,
                      point_u: np.ndarray | None = None) -> Check:
     """The predictive check of a bench log's density (rows at ``time_s``, s); ``point_u``:
     the full fit's mode (sampling coordinates), whose noise levels (and, under correlated
-    noise, time constants) are held in each fold's refit under correlated noise or errors in
-    variables (a generalised least-squares fit)."""
+    noise, time constants) are held in each fold's refit under correlated noise (a
+    generalised least-squares fit; a carried thermometer's noise included)."""
     folds, part_s = bench_held_out(density, time_s, point_u)
     return predictive_check(folds, part_s=part_s, remedies=density.noise.remedies)
 
@@ -50,8 +48,6 @@ def bench_held_out(density: BenchDensity, time_s: np.ndarray,
         return None, None
     if density.stats is not None:
         folds = _linear_folds(density, parts)
-    elif point_u is not None and density.eiv is not None and density.eiv.x is not None:
-        folds = _eiv_folds(density, parts, time_s, np.asarray(point_u))
     elif point_u is not None and density.noise.correlated:
         folds = _collapsed_folds(density, parts, time_s, np.asarray(point_u))
     else:
@@ -170,41 +166,6 @@ def _collapsed_folds(density: BenchDensity, parts: Stretches, time_s: np.ndarray
 
 
 
-def _eiv_folds(density: BenchDensity, parts: Stretches, time_s: np.ndarray,
-               point_u: np.ndarray) -> list[HeldOut]:
-    """Refits of a linear model under white noise with errors in variables, the noise
-    levels (the white sd and the wD of the rate error's covariance) held at the full fit's
-    mode ``point_u``: each fold's coefficients are then their exact Gaussian posterior, a
-    generalised least-squares fit on the rows kept (one Cholesky factor per fold, where a
-    refitted mode took an eigendecomposition and an optimisation). Holding the levels leaves
-    their uncertainty out of the bands, which can only make the check stricter."""
-    p = density.n_model
-    y = np.asarray(density.drift)
-    observed = part_means(y, parts.part, parts.n_parts)
-    counts = np.bincount(parts.part, minlength=parts.n_parts).astype(float)
-    design = np.asarray(density.model.design(density.inputs))
-    design_means = np.column_stack([part_means(design[:, i], parts.part, parts.n_parts)
-                                    for i in range(p)])
-    covariance_rows = np.asarray(density.eiv_covariance(jnp.asarray(point_u)))
-    precision, prior_mean = _coefficient_prior(density)
-    values = dict(zip(density.names, np.asarray(density.to_natural(jnp.asarray(point_u))),
-                      strict=True))
-    noise_cov = _noise_covariance(density, values, parts, time_s)
-    folds = []
-    for k in range(int(parts.fold_of.max()) + 1):
-        held, keep = parts.fold_of == k, ~parts.rows_of_fold(k)
-        factor = scipy.linalg.cho_factor(covariance_rows[np.ix_(keep, keep)], lower=True)
-        x, whitened_y = design[keep], scipy.linalg.cho_solve(factor, y[keep])
-        a = x.T @ scipy.linalg.cho_solve(factor, x) + np.diag(precision)
-        covariance = np.linalg.inv(a)
-        theta = covariance @ (x.T @ whitened_y + precision * prior_mean)
-        xm = design_means[held]
-        folds.append(HeldOut(observed=observed[held], predicted=xm @ theta,
-                             covariance=xm @ covariance @ xm.T + noise_cov[np.ix_(held, held)],
-                             counts=counts[held]))
-    return folds
-
-
 def _refit_folds(density: BenchDensity, parts: Stretches, time_s: np.ndarray
                  ) -> list[HeldOut]:
     """Refits by the posterior mode with each fold's rows masked (any model, any noise
@@ -232,8 +193,8 @@ def _refit_folds(density: BenchDensity, parts: Stretches, time_s: np.ndarray
 def _noise_covariance(density: BenchDensity, values: dict, parts: Stretches,
                       time_s: np.ndarray) -> np.ndarray:
     """The noise model's covariance of the parts' means, at the training fit's noise levels
-    (``values``: by name, natural units), as the likelihood reads the rows; under errors in
-    variables, plus wD^2 times the parts' means of the rate error's covariance."""
+    (``values``: by name, natural units), as the likelihood reads the rows (a carried
+    thermometer's noise included)."""
     counts = np.bincount(parts.part, minlength=parts.n_parts).astype(float)
     white_levels = {k: values[k] for k in density.noise_names}
     if density.sigma is not None:
@@ -245,8 +206,4 @@ def _noise_covariance(density: BenchDensity, values: dict, parts: Stretches,
     covariance = density.noise.part_covariance(time_s, parts.part, parts.n_parts,
                                                density.step_s, white, white_levels,
                                                block_means=density.gap_s is not None)
-    if density.eiv is not None:  # wD^2 times the parts' means of the rate error
-        wd = values[density.names[density.eiv.index]]
-        covariance = covariance + wd**2 * parts_mean_covariance(density.eiv.covariance,
-                                                                parts.part, parts.n_parts)
     return covariance

@@ -23,7 +23,7 @@ from gyroid.inference._point_profiled import collapsed_log_likelihood
 from gyroid.inference._problem import AbstractProblem, PointEstimate
 from gyroid.inference._rate_window import choose_rate_window, reads_rate
 from gyroid.inference._rate_window_marginal import marginal_window
-from gyroid.inference._thermometer import rate_error_to_carry, thermometer_to_carry
+from gyroid.inference._thermometer import thermometer_to_carry
 from gyroid.io._logs import BenchLog, MeansOfBlocks, SampleDeviations, contiguous_segments
 from gyroid.io._logs import segment_means as means_of_segments
 from gyroid.models._derived import (
@@ -47,9 +47,10 @@ from gyroid.models._rate_error import (
     white_level_var,
 )
 from gyroid.noise._model import NoiseModel, noise_model
+from gyroid.noise._rate_error_rows import CarriedThermometer
 
-#: The most rows a white+flicker+rw fit filters, and the most a white fit carrying the
-#: thermometer's noise holds a covariance over (longer logs: block means).
+#: The most rows a correlated noise model filters, and the most a fit carrying the
+#: thermometer's noise holds its covariance over (longer logs: block means).
 IEEE_MAX_ROWS = 1000
 
 
@@ -67,8 +68,8 @@ class BenchProblem(AbstractProblem):
     #: The thermometer's white noise, a sample's sd in degC, when it is carried into the
     #: likelihood through dT/dt (errors in variables); 0 otherwise.
     thermometer_sd_C: float = 0.0
-    #: Under correlated noise, the wD (deg/h per degC/h, least squares) that scales the
-    #: thermometer's noise the filter carries; 0 when none is carried.
+    #: The wD (deg/h per degC/h, least squares) that scales the thermometer's noise
+    #: carried; 0 when none is carried.
     rate_error_wd: float = 0.0
     #: The noise levels' marginal mode found while choosing the dT/dt window (sampling
     #: coordinates; :mod:`gyroid.inference._rate_window_marginal`): where the mode starts.
@@ -109,17 +110,18 @@ class BenchProblem(AbstractProblem):
 
         Errors in variables (``errors_in_variables=False``: none): a model reading dT/dt
         on a log with a noisy thermometer carries that noise through the rate estimator
-        (:mod:`gyroid.inference._thermometer`), under white noise as a covariance over the
-        rows (more than ``max_rows`` rows: block means), under correlated noise as a process
-        of the filter (:mod:`gyroid.noise._rate_error_process`), whose automatic window is
-        the marginal likelihood's (:mod:`gyroid.inference._rate_window_marginal`)."""
+        (:mod:`gyroid.inference._thermometer`) as a term of the noise model (more than
+        ``max_rows`` rows: block means; :meth:`~gyroid.noise.NoiseModel.with_rate_error`).
+        Under correlated noise the automatic window is the marginal likelihood's
+        (:mod:`gyroid.inference._rate_window_marginal`)."""
         release_if_crowded()  # the build compiles most of a fit's programs
         noise = noise_model(noise)
         cap = IEEE_MAX_ROWS if max_rows is None else max_rows
         model = terms if isinstance(terms, DriftModel) else DriftModel.from_terms(terms)
         # the thermometer's noise to carry (degC^2, a sample's), the filter's wD scaling it
-        thermometer_var, wd = (0.0, 0.0) if segment_means or not errors_in_variables else (
-            _thermometer_carried(log, model, noise, rate_window_s, t0_C, cap))
+        thermometer_var, wd = (0.0, 0.0) if (
+            segment_means or not errors_in_variables or not reads_rate(model)) else (
+            thermometer_to_carry(log, model, rate_window_s, t0_C, cap))
         log, block_rows, samples = _rows_fitted(log, noise, segment_means,
                                                 carry_thermometer=thermometer_var > 0, cap=cap)
         thermometer_var_row = thermometer_var / block_rows  # a row's (a block mean's)
@@ -137,18 +139,14 @@ class BenchProblem(AbstractProblem):
                                       _noise_priors(noise, log, inputs, block_rows, chosen_set,
                                                     log.sigma_deg_h is not None),
                                       prior_set=chosen_set, overrides=priors)
-        rate_error = (None if noise.correlated or thermometer_var <= 0 else
-                      rate_error_covariance(np.asarray(log.time_s),
-                                            np.asarray(log.columns["temperature_C"]),
-                                            rate_window_s, thermometer_var_row))
 
         def density_at(window_s: float) -> BenchDensity:
             return BenchDensity.from_log(log, model, chosen,
                                          _with_rate_window(log, base, window_s), noise=noise,
                                          rate_window_s=window_s, fast=fast,
-                                         rows_per_mean=block_rows, rate_error_cov=rate_error,
-                                         rate_error=_carried(log, window_s, wd, thermometer_var_row
-                                                             if noise.correlated else 0.0))
+                                         rows_per_mean=block_rows,
+                                         thermometer=_carried(log, window_s, wd,
+                                                              thermometer_var_row))
 
         density, noise_start, choice = _by_marginal(density_at, log, rate_window_s, choice)
         return cls(density=density, log=log, prior_set=chosen_set, prior_basis=basis,
@@ -227,12 +225,9 @@ class BenchProblem(AbstractProblem):
     def log_likelihood(self, u) -> float:
         """The log-likelihood at sampling coordinates ``u`` (under correlated noise from the
         collapsed form's filter: one compilation for every model of as many coefficients)."""
-        if self.noise.correlated and not self.density.errors_in_variables:
+        if self.noise.correlated:
             return collapsed_log_likelihood(self.density, u)
         return float(_log_likelihood(self.density, jnp.asarray(u)))
-
-    def host_log_posterior(self):
-        return self.density.host_log_posterior()
 
     def collapsed(self):
         from gyroid.inference._collapsed import collapse
@@ -255,7 +250,8 @@ class BenchProblem(AbstractProblem):
             reference_sd=reference_sd(model, inputs, np.asarray(log.drift_deg_h)),
             residuals=self.standardised_residuals(point.u),
             sigma_given=self.sigma_known,
-            correlated_noise=self.noise.correlated,
+            # the gyro's noise: a carried thermometer's correlates no wander of its own
+            correlated_noise=self.noise.without_rate_error().correlated,
             draws_u=None if posterior is None else self.to_sampling_host(posterior.draws),
             summary=None if posterior is None else posterior.summary,
             hints=identifiability_hints(model, inputs),
@@ -297,7 +293,10 @@ def _by_marginal(density_at, log: BenchLog, window_s: float, choice: str
         return built[window]
 
     density = at(window_s)
-    if choice != "auto" or not density.noise.correlated or not log.has("temperature_C"):
+    # under white noise (a carried thermometer's aside) the least-squares window stands:
+    # the marginal's chose 1528-2157 s on paper A's bench, nothing absorbing the smearing
+    if (choice != "auto" or not density.noise.without_rate_error().correlated
+            or not log.has("temperature_C")):
         return density, None, choice
     better = marginal_window(at, window_s, float(np.median(np.diff(np.asarray(log.time_s)))))
     if better is None:
@@ -308,32 +307,26 @@ def _by_marginal(density_at, log: BenchLog, window_s: float, choice: str
         f"auto: the marginal likelihood's of {scored} s (least squares' {window_s:.0f} s)")
 
 
-def _thermometer_carried(log: BenchLog | MeansOfBlocks, model: DriftModel, noise: NoiseModel,
-                         rate_window_s: float | None, t0_C: float, cap: int
-                         ) -> tuple[float, float]:
-    """The thermometer's noise a fit carries (a sample's variance, degC^2, or 0) and, under
-    correlated noise, the wD (least squares) that scales it in the filter."""
-    if not reads_rate(model):
-        return 0.0, 0.0
-    if noise.correlated:
-        return rate_error_to_carry(log, model, t0_C, cap)
-    return thermometer_to_carry(log, model, rate_window_s, t0_C, cap), 0.0
-
-
 def _carried(log: BenchLog, window_s: float, wd: float, thermometer_var: float
-             ) -> tuple[np.ndarray, float] | None:
-    """What a correlated-noise filter carries of the thermometer's noise (a row's variance
-    ``thermometer_var``, degC^2; none when 0): the dT/dt error's autocovariance at lags of
-    one row times ``wd**2`` ((deg/h)^2) and the rows' white variance, for the estimator's
-    window ``window_s`` (s). None for a log of bursts (whose estimator differentiates on a
-    grid across the gaps, a kernel not the rows')."""
-    time_s = np.asarray(log.time_s)
-    if (thermometer_var <= 0 or log.n < 2
-            or estimator_grid_size(time_s, window_s) > 1.05 * log.n):
+             ) -> CarriedThermometer | None:
+    """The thermometer's noise a fit carries (a row's variance ``thermometer_var``, degC^2;
+    none when 0) through the estimator's window ``window_s`` (s), times ``wd**2``: the rows'
+    covariance, and the interior's autocovariance at lags of one row (none for a log of
+    bursts, whose estimator differentiates on a grid across the gaps: a kernel not the
+    rows')."""
+    if thermometer_var <= 0 or log.n < 2:
         return None
+    time_s = np.asarray(log.time_s)
+    temperature = np.asarray(log.columns["temperature_C"])
     step = float(np.median(np.diff(time_s)))
-    return (wd**2 * estimator_autocovariance(window_s, step, thermometer_var),
-            white_level_var(np.asarray(log.drift_deg_h)))
+    even = estimator_grid_size(time_s, window_s) <= 1.05 * log.n
+    return CarriedThermometer(
+        covariance=lambda: wd**2 * rate_error_covariance(time_s, temperature, window_s,
+                                                         thermometer_var),
+        autocovariance=lambda: (wd**2 * estimator_autocovariance(window_s, step,
+                                                                 thermometer_var)
+                                if even else None),
+        white_var=white_level_var(np.asarray(log.drift_deg_h)))
 
 
 def _rows_fitted(log: BenchLog | MeansOfBlocks, noise: NoiseModel, segment_means: bool, *,

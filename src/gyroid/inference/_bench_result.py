@@ -107,27 +107,28 @@ class BenchFit(Fit[BenchProblem]):
         """For a fit that carries the thermometer's noise through the dT/dt estimator: that
         noise (a sample's sd, degC, measured on the log) and how."""
         problem = self.problem
-        process = getattr(problem.density.noise, "rate_error", None)
-        if process is not None:
-            return {"thermometer_sd_C": problem.thermometer_sd_C,
-                    "wD_fixed": problem.rate_error_wd,
-                    "process": {"sd_deg_h": math.sqrt(float(process.variance)),
-                                "omega_rad_s": float(process.omega),
-                                "quality": float(process.quality),
-                                "divergence_left": float(process.divergence)
-                                / max(float(process.divergence_without), 1e-300)},
-                    "how": "the thermometer's white noise, measured by the logged "
-                           "temperature's third differences, passed through the dT/dt "
-                           "estimator and times wD's least-squares value (wD_fixed): one "
-                           "more process of the noise model's filter, a damped oscillator's "
-                           "velocity matched to the estimator's error (divergence_left: "
-                           "the share of the divergence from leaving it out that remains)"}
-        if not problem.density.errors_in_variables:
+        noise = problem.density.noise
+        if noise.carried is None:
             return None
-        return {"thermometer_sd_C": problem.thermometer_sd_C,
-                "how": "the thermometer's white noise, measured by the logged temperature's "
-                       "third differences, passed through the dT/dt estimator: a "
-                       "covariance wD^2 v L L' added to the white noise's"}
+        carried = {"thermometer_sd_C": problem.thermometer_sd_C,
+                   "wD_fixed": problem.rate_error_wd}
+        how = ("the thermometer's white noise, measured by the logged temperature's third "
+               "differences, passed through the dT/dt estimator and times wD's least-squares "
+               "value (wD_fixed): ")
+        process = noise.rate_error
+        if process is None:
+            return carried | {"how": how + "a covariance wD^2 v L L' over the rows beside the "
+                                           "white noise's, exact"}
+        return carried | {
+            "process": {"sd_deg_h": math.sqrt(float(process.variance)),
+                        "omega_rad_s": float(process.omega),
+                        "quality": float(process.quality),
+                        "divergence_left": float(process.divergence)
+                        / max(float(process.divergence_without), 1e-300)},
+            "how": how + "one more process of the noise model's filter, a damped "
+                         "oscillator's velocity matched to the estimator's error "
+                         "(divergence_left: the share of the divergence from leaving it "
+                         "out that remains)"}
 
     @property
     def input_ranges(self) -> dict[str, list[float]]:

@@ -16,7 +16,9 @@ instead of those plus the coefficients) and then ``beta`` given each draw gives 
 the same posterior as sampling them jointly.
 
 * :class:`CollapsedCoefficients`: correlated noise, one Kalman pass over the data and every
-  column of the design giving ``a`` and ``A`` (O(n p) an evaluation);
+  column of the design giving ``a`` and ``A`` (O(n p) an evaluation), or, for white noise
+  beside a carried thermometer's, the rows' coordinates in their covariance's eigenbasis
+  (O(n^2 p): :mod:`gyroid.noise._rate_error_rows`);
 * :class:`SufficientCoefficients`: white rows, ``A'A`` and ``A'a`` from the R factor of the
   rows' weighted design and drift (O(p^2) an evaluation, whatever the log's length).
 """
@@ -119,7 +121,8 @@ class CollapsedCoefficients(AbstractMarginal):
 
     def _normal_equations(self, v: Float[Array, " k"]) -> NormalEquations:
         innovation, variance = self._innovations(v)
-        scale = jnp.sqrt(self.weight / variance)
+        # a held-out row's weight 0 outside the root: sqrt(0 / variance) has no gradient
+        scale = jnp.sqrt(self.weight) * jnp.sqrt(1.0 / variance)
         a, design = innovation[:, 0] * scale, innovation[:, 1:] * scale[:, None]
 
         def residual_sq(beta):
@@ -262,13 +265,11 @@ def collapse(density) -> AbstractMarginal | None:
     density's own where it holds them: O(p^2) an evaluation, whatever the log's length;
     else from its rows, held-out ones weighing 0). None for a model with positive
     parameters (under correlated noise :func:`filtered_form` at given ones; under white
-    noise the whole posterior is weighed, :class:`SufficientCoefficients`), and where the
-    thermometer's noise is carried under white noise (its covariance holds wD: no
-    coefficient integrates out exactly)."""
+    noise the whole posterior is weighed, :class:`SufficientCoefficients`)."""
     if not density.model.is_linear or any(q.positive for q in density.model.parameters):
         return None
     filtered = filtered_form(density)
-    if filtered is not None or density.errors_in_variables:
+    if filtered is not None:
         return filtered
     p = density.n_model
     beta_loc, precision, log_norm = _coefficient_priors(density, np.arange(p))

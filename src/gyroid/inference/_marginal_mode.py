@@ -81,6 +81,10 @@ def marginal_mode(collapsed, noise_u: np.ndarray, correlated: tuple[int, ...] = 
     compilation)."""
     collapsed = padded(collapsed)  # one compilation for 1 to 8 coefficients
     start = np.asarray(noise_u, dtype=float)
+    if start.size == 0:  # every row's sd given, no correlated level: the closed form
+        value = float(collapsed.log_posterior(jnp.zeros(0)))
+        return Optimum(start, True, "converged (closed form: no noise level to find)",
+                       -value), value
     starts = [start] + [start + math.log(RAISED_START) * (np.arange(start.size) == i)
                         for i in correlated]
     starts += [start] * max((lanes or 0) - len(starts), 0)
@@ -122,7 +126,7 @@ def at_marginal_mode(collapsed, solution: Optimum, u_model: np.ndarray
     r = collapsed.beta_loc.size
     collapsed = padded(collapsed)
     v = solution.value
-    hessian = marginal_hessian(collapsed, v)
+    hessian = marginal_hessian(collapsed, v) if v.size else np.zeros((0, 0))
     mean, factor = conditional_solution(collapsed, jnp.asarray(v))
     mean, factor = np.asarray(mean)[:r], np.asarray(factor)
     covariance = np.asarray(block_diag(safe_inverse(factor @ factor.T)[:r, :r],

@@ -11,10 +11,9 @@ model's columns there, and their prior joins it. Either way, one evaluation per 
 the marginal log-posterior and the coefficients' conditional Gaussian, from which
 :func:`~gyroid.inference._collapsed.conditional_draws` draws them.
 
-Where nothing integrates out exactly (the thermometer's noise carried through dT/dt under
-white noise, whose covariance holds wD; paper B's roll loop; a static log's noise terms)
-the target is the whole posterior (:func:`whole_posterior`); so it is for a white model
-with time constants, whose weighing on the rebuilt marginal cost more than it saved.
+Where nothing integrates out exactly (paper B's roll loop; a static log's noise terms) the
+target is the whole posterior (:func:`whole_posterior`); so it is for a white model with
+time constants, whose weighing on the rebuilt marginal cost more than it saved.
 """
 
 from __future__ import annotations
@@ -87,7 +86,7 @@ def _solved_at(base, columns, levels):
 
 def _whole(density) -> MarginalTarget:
     """:func:`whole_posterior` of a bench density (see :func:`marginal_target`)."""
-    batch = density.host_log_posterior() or problem_batcher(density.log_posterior)
+    batch = problem_batcher(density.log_posterior)
     return whole_posterior(batch, density.positive, density.prior_loc, density.prior_scale,
                            density.prior_on, "coefficients and noise level"
                            if density.noise_names else "coefficients")
@@ -117,10 +116,9 @@ def marginal_target(density) -> MarginalTarget:
     """What importance sampling weighs for a bench density: the noise levels (and under
     correlated noise the model's positive parameters), the real coefficients integrated
     out (:func:`~gyroid.inference._collapsed.collapse`; nothing left to weigh where every
-    row's sd is given and the model is linear); otherwise (the thermometer's noise carried
-    under white noise, a white model with time constants) the whole posterior, on the host
-    in the thermometer's eigenbasis for a linear model, each positive parameter's prior (the
-    white level's, a time constant's) a tail it may keep."""
+    row's sd is given and the model is linear); otherwise (a white model with time
+    constants) the whole posterior, each positive parameter's prior (the white level's, a
+    time constant's) a tail it may keep."""
     real, positive = split_parameters(density)
     p, k = density.n_model, len(density.noise_names)
     levels = np.arange(p, p + k)

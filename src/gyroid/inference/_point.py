@@ -2,21 +2,20 @@
 
 * A model linear in its parameters with white noise: closed form from the sufficient
   statistics (``_linear_gaussian``).
-* A linear model under correlated noise: its coefficients integrated out, the noise
-  levels' marginal mode (:mod:`gyroid.inference._marginal_mode`); with positive parameters
-  too (time constants, a step's time), those profiled (:mod:`gyroid.inference.
-  _point_profiled`).
-* Otherwise (white noise, or white noise with the thermometer's noise carried through
-  dT/dt): for given positive parameters every drift effect is linear in the real ones, so
-  those are solved exactly (variable projection) from the grid of
+* A linear model under correlated noise (a thermometer's noise carried through dT/dt
+  included): its coefficients integrated out, the noise levels' marginal mode
+  (:mod:`gyroid.inference._marginal_mode`); with positive parameters too (time constants,
+  a step's time), those profiled (:mod:`gyroid.inference._point_profiled`).
+* Otherwise (white noise): for given positive parameters every drift effect is linear in
+  the real ones, so those are solved exactly (variable projection) from the grid of
   :mod:`gyroid.inference._starts`; then Levenberg-Marquardt (optimistix) on the
   noise-weighted residuals plus standardised prior residuals from the best starts (the
-  white level, when unknown, the residual RMS with ``n - p`` degrees of freedom); with the
-  thermometer's noise carried, BFGS on the full log-posterior. The finders are
-  :mod:`gyroid.inference._mode`'s.
+  white level, when unknown, the residual RMS with ``n - p`` degrees of freedom). The
+  finders are :mod:`gyroid.inference._mode`'s.
 
 The covariance is the Gauss-Newton ``(J'J)^-1`` of the weighted residuals at the optimum
-(exact for a linear model), or the inverse Hessian of the log-posterior.
+(exact for a linear model), or the marginal's (the conditional covariance beside the
+levels' inverse Hessian).
 """
 
 from __future__ import annotations
@@ -33,7 +32,7 @@ from gyroid.inference._batching import problem_batcher
 from gyroid.inference._bench_density import BenchDensity
 from gyroid.inference._collapsed import filtered_form
 from gyroid.inference._marginal_mode import collapsed_mode
-from gyroid.inference._mode import JointBFGS, LeastSquares, safe_inverse
+from gyroid.inference._mode import LeastSquares, safe_inverse
 from gyroid.inference._model_columns import model_columns, split_parameters
 from gyroid.inference._point_profiled import profiled_mode
 from gyroid.inference._problem import PointEstimate
@@ -63,8 +62,6 @@ def _weighted_residuals(u_model, args):
 
 #: Levenberg-Marquardt on the noise-weighted residuals and standardised prior residuals.
 _LEAST_SQUARES = LeastSquares(rtol=1e-10, atol=1e-10, max_steps=500)
-#: BFGS on the whole log-posterior (the thermometer's noise carried, or correlated noise).
-_JOINT = JointBFGS(rtol=1e-9, atol=1e-9, max_steps=2000)
 
 
 def noise_guess(problem: BenchDensity) -> tuple[np.ndarray, tuple[int, ...]]:
@@ -187,11 +184,6 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3,
     start."""
     if problem.stats is not None:
         return _linear_gaussian(problem, problem.stats)
-    if problem.errors_in_variables and problem.model.is_linear:
-        # a linear model carrying the thermometer: BFGS from its white mode (NumPy)
-        found = _JOINT.minimise(problem, _white_start(problem))
-        return _point(problem, found.value, safe_inverse(found.curvature), found.converged,
-                      found.message, n_starts=1)
     collapsed = filtered_form(problem)
     if collapsed is not None:  # a linear model under correlated noise: its marginal's mode
         guess, correlated = noise_guess(problem)
@@ -201,12 +193,11 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3,
             collapsed, _white_start(problem)[:problem.n_model], start, raised,
             lanes=1 + len(correlated))
         return _point(problem, u, covariance, converged, message, n_starts=1 + len(raised))
-    if problem.noise.correlated and not problem.errors_in_variables:
+    if problem.noise.correlated:
         return _profiled(problem)
     n, p = problem.n_observed, problem.n_model
-    known = problem.sigma is not None and not problem.noise.correlated
-    weights = (1.0 / problem.sigma if problem.sigma is not None and known
-               else jnp.ones(problem.n))
+    known = problem.sigma is not None
+    weights = 1.0 / problem.sigma if problem.sigma is not None else jnp.ones(problem.n)
     if problem.weight is not None:  # rows left out (a predictive check's training fit)
         weights = weights * problem.weight
     candidates = []
@@ -243,10 +234,6 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3,
         noise_u, noise_cov = _noise_start(problem, residual, scale)
         u = np.concatenate([u_model, noise_u])
         covariance = np.asarray(block_diag(covariance_model, noise_cov))
-    if problem.noise.correlated or problem.errors_in_variables:
-        found = _JOINT.minimise(problem, u)
-        u, converged, message = found.value, found.converged, found.message
-        covariance = safe_inverse(found.curvature)
     return _point(problem, u, covariance, converged, message, n_starts=len(candidates))
 
 

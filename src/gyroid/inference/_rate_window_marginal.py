@@ -56,8 +56,7 @@ def _collapsed(density):
     collapsed = filtered_form(density)
     if collapsed is not None:
         return (collapsed, *noise_guess(density))
-    if (not density.noise.correlated or density.errors_in_variables
-            or not split_parameters(density)[1].size):
+    if not density.noise.correlated or not split_parameters(density)[1].size:
         return None
     form, guess = collapsed_at_white_start(
         density, lambda residual, white: noise_from_residual(density, residual, white))

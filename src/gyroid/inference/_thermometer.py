@@ -1,8 +1,7 @@
 """Whether a fit carries the thermometer's noise through the dT/dt estimator (errors in
-variables, :mod:`gyroid.models._rate_error`), and how much: measured on the log, left out
-where negligible; a white fit also where the estimator cannot be written as a matrix (it
-carries a covariance over the rows), a correlated-noise fit as one more process of its
-filter, with wD at its least-squares value (:mod:`gyroid.noise._rate_error_process`)."""
+variables, :mod:`gyroid.noise._rate_error_rows`), and how much: measured on the log, left out
+where negligible or where the estimator cannot be written as a matrix over the rows (a log
+of bursts); times wD at its least-squares value on the log, fixed for the fit."""
 
 from __future__ import annotations
 
@@ -21,28 +20,19 @@ from gyroid.models._rate_error import (
 
 
 def thermometer_to_carry(log: BenchLog | MeansOfBlocks, model: DriftModel,
-                          rate_window_s: float | None, t0_C: float, cap: int) -> float:
-    """The thermometer's noise to carry in the white likelihood (a sample's variance,
-    degC^2), or 0: none measured, a log of bursts, or negligible."""
+                         rate_window_s: float | None, t0_C: float, cap: int
+                         ) -> tuple[float, float]:
+    """The thermometer's noise to carry (a sample's variance, degC^2, or 0) and the wD that
+    scales it (deg/h per degC/h, least squares on the log): none where no noise is measured,
+    on a log of bursts (its estimator differentiates on a grid across the gaps; a real
+    burst log, PAN's: 875 rows on a grid of 52 158), where the model reads no dT/dt on
+    rows least squares can fit, or where the noise is negligible (at ``rate_window_s``, or
+    the shortest window the estimator may use)."""
     variance = _thermometer_var(log)
-    if variance > 0 and (not _operator_fits(log, rate_window_s, cap)
-                         or _negligible(log, model, variance, rate_window_s, t0_C)):
-        return 0.0
-    return variance
-
-
-def rate_error_to_carry(log: BenchLog | MeansOfBlocks, model: DriftModel, t0_C: float,
-                        cap: int) -> tuple[float, float]:
-    """Under correlated noise: the thermometer's noise to carry (a sample's variance,
-    degC^2, or 0) and the wD that scales it (deg/h per degC/h, least squares on the log).
-    None from a log of bursts, as under white noise: its estimator differentiates on a grid
-    across the gaps, and the window's choice, which reads the estimator as a matrix when the
-    noise is carried, cannot (a real burst log, PAN's: 875 rows on a grid of 52 158)."""
-    variance = _thermometer_var(log)
-    if variance <= 0 or not _operator_fits(log, None, cap):
+    if variance <= 0 or not _operator_fits(log, rate_window_s, cap):
         return 0.0, 0.0
     wd = _least_squares_rate_coefficient(log, model, t0_C)
-    if wd is None or _negligible(log, model, variance, None, t0_C, wd):
+    if wd is None or _negligible(log, variance, rate_window_s, wd):
         return 0.0, 0.0
     return variance, wd
 
@@ -68,20 +58,15 @@ NEGLIGIBLE_EIV = 0.01
 _THIN_ROWS = 20_000
 
 
-def _negligible(log: BenchLog | MeansOfBlocks, model: DriftModel, thermometer_var: float,
-                rate_window_s: float | None, t0_C: float, wd: float | None = None) -> bool:
+def _negligible(log: BenchLog | MeansOfBlocks, thermometer_var: float,
+                rate_window_s: float | None, wd: float) -> bool:
     """Whether the thermometer's noise (``thermometer_var``, a sample's, degC^2) hardly
     changes the likelihood (:data:`NEGLIGIBLE_EIV`). Over a window of ``N`` samples ``d``
     seconds apart, white thermometer noise gives the estimated rate an error of variance
     ``(3600 sT)^2 229.7 / (d^2 N^3)`` (:func:`~gyroid.models.temperature_rate_deg_c_per_h`),
     common to the window, against the white drift noise ``sigma^2 / N`` of its mean; wD is
     the least-squares value on the log (thinned), sigma the drift's first differences'
-    robust level (``wd``: when already known). A nonlinear model always carries it."""
-    if not model.is_linear:
-        return False
-    wd = _least_squares_rate_coefficient(log, model, t0_C) if wd is None else wd
-    if wd is None:
-        return False
+    robust level."""
     rows = log.log if isinstance(log, MeansOfBlocks) else log
     per_row = 1 if not isinstance(log, MeansOfBlocks) else log.rows_per_mean
     time_s = np.asarray(rows.time_s)

@@ -18,6 +18,7 @@ A new model is one line, ``NoiseModel("white+rw", (AngleRandomWalk(), RateRandom
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 
 import equinox as eqx
@@ -31,16 +32,21 @@ from gyroid.noise._base import RowClock, parts_mean_covariance
 from gyroid.noise._block_filter import block_innovations, log_span_s, part_covariance
 from gyroid.noise._kalman import gauss_markov_innovations, gauss_markov_mean_covariance
 from gyroid.noise._rate_error_process import RateErrorProcess
+from gyroid.noise._rate_error_rows import CarriedThermometer, RowEigenbasis
 from gyroid.noise._terms import (
     AbstractNoiseTerm,
+    AbstractRateError,
     AbstractWhiteTerm,
     AngleRandomWalk,
+    ExactRateError,
     Flicker,
     GaussMarkovBias,
     RateError,
     RateRandomWalk,
     SampleWhite,
 )
+
+_LOG_2PI = math.log(2.0 * math.pi)
 
 
 class NoiseModel(eqx.Module):
@@ -101,7 +107,7 @@ class NoiseModel(eqx.Module):
     def remedies(self) -> tuple[str, ...]:
         """What a failed predictive check advises (codes of the checks' remedies): a
         correlated model under white noise, more terms under one short process."""
-        more = (("noise_model",) if not self.correlated
+        more = (("noise_model",) if not self.without_rate_error().correlated
                 else () if {"B", "K"} <= set(self.codes) else ("noise_terms",))
         return (*more, "segment_means", "discrepancy")
 
@@ -121,23 +127,53 @@ class NoiseModel(eqx.Module):
         """This model set up for a log of rows ``step_s`` apart lasting ``duration_s``."""
         return NoiseModel(self.name, tuple(t.for_log(step_s, duration_s) for t in self.terms))
 
-    def with_rate_error(self, process: RateErrorProcess) -> NoiseModel:
-        """This model carrying the thermometer's noise through the dT/dt estimator as one
-        more term of its filter (:class:`~gyroid.noise._terms.RateError`, set up on the
-        log's rows read as block means)."""
-        return NoiseModel(self.name, (*self.without_rate_error().terms, RateError(process)))
+    def with_rate_error(self, carried: CarriedThermometer, *, d0: np.ndarray,
+                        span_s: np.ndarray, gap_s: np.ndarray, step_s: float) -> NoiseModel:
+        """This model carrying the thermometer's noise through the dT/dt estimator
+        (``carried``, on the log's rows: each row's white variance per unit level ``d0``,
+        spans ``span_s`` after gaps ``gap_s``, ``step_s`` apart) as one more term: beside
+        white noise alone the rows' exact covariance (:class:`~gyroid.noise._terms.
+        ExactRateError`), beside a correlated term a process of the block filter matched
+        to it (:class:`~gyroid.noise._terms.RateError`; none where the rows are not evenly
+        spaced for it)."""
+        gyro = self.without_rate_error()
+        if not gyro.correlated:
+            rows = RowEigenbasis.of(carried.covariance(), d0, np.ones(np.size(d0), dtype=bool))
+            return NoiseModel(self.name, (*gyro.terms, ExactRateError(rows)))
+        autocovariance = carried.autocovariance()
+        if autocovariance is None:
+            return gyro
+        process = RateErrorProcess.matched(autocovariance, step_s, carried.white_var,
+                                           span_s, gap_s)
+        return NoiseModel(self.name, (*gyro.terms, RateError(process)))
 
     def without_rate_error(self) -> NoiseModel:
         """This model without a carried rate error (the gyro's noise, not the fitted log's
         thermometer): itself when it carries none."""
-        if self.rate_error is None:
+        if self.carried is None:
             return self
-        return NoiseModel(self.name, tuple(t for t in self.terms if not isinstance(t, RateError)))
+        return NoiseModel(self.name, tuple(t for t in self.terms
+                                           if not isinstance(t, AbstractRateError)))
+
+    def on_rows(self, keep: np.ndarray) -> NoiseModel:
+        """This model on the rows ``keep`` of its log (a boolean mask): a carried exact
+        rate error's covariance is then the kept rows' (their marginal)."""
+        carried = self.carried
+        if not isinstance(carried, ExactRateError):
+            return self
+        return NoiseModel(self.name, (*self.without_rate_error().terms,
+                                      ExactRateError(carried.rows.on_rows(keep))))
+
+    @property
+    def carried(self) -> AbstractRateError | None:
+        """The thermometer's noise this model carries (a term), or None."""
+        return next((t for t in self.terms if isinstance(t, AbstractRateError)), None)
 
     @property
     def rate_error(self) -> RateErrorProcess | None:
-        """The thermometer's noise this model carries, or None."""
-        return next((t.process for t in self.terms if isinstance(t, RateError)), None)
+        """The rate error's process in the block filter, or None."""
+        carried = self.carried
+        return carried.process if isinstance(carried, RateError) else None
 
     # ----- priors and starts ------------------------------------------------------------
     def default_priors(self, level_deg_h: float, step_s: float, rows_per_mean: int
@@ -160,7 +196,7 @@ class NoiseModel(eqx.Module):
         variances: dict[str, float] = {}
         for term in self.terms:
             v, var = term.start(residual, white, step_s=step_s, row_scale=row_scale, dof=dof,
-                                alone=not self.correlated)
+                                alone=not self.without_rate_error().correlated)
             values |= v
             variances |= var
         return values, variances
@@ -192,6 +228,9 @@ class NoiseModel(eqx.Module):
         their variances under this model, white sd ``white``; None for independent rows."""
         if not self.correlated:
             return None
+        carried = self.carried
+        if isinstance(carried, ExactRateError):
+            return carried.rows.innovations(observed, white)
         processes = [g for t in self.terms if (g := t.processes(values)) is not None]
         diffusion, centred = self._walk(values)
         if self._at_instants(clock.gap_s is not None, processes, centred):
@@ -216,8 +255,8 @@ class NoiseModel(eqx.Module):
         s): a walk has moved since the fitted log's mean, and the fitted log's
         thermometer is not the new log's."""
         white = np.diag(np.asarray(white_var, dtype=float))
-        if not self.correlated:
-            return white
+        if not self.without_rate_error().correlated:
+            return white + self._rate_error_parts(part, n_parts, after_s)
         span = log_span_s(time_s, step_s)
         processes = [g for t in self.terms
                      if (g := t.part_processes(values, step_s=step_s, span_s=span)) is not None]
@@ -235,14 +274,15 @@ class NoiseModel(eqx.Module):
         """The covariance of parts' means of the fitted log's rows (``part``: each row's)
         that a carried rate error adds; 0 without one, and for a new log (``after_s``: its
         thermometer is not the fitted log's)."""
-        process = self.rate_error
-        if process is None or after_s is not None:
+        carried = self.carried
+        if carried is None or after_s is not None:
             return 0.0
+        covariance = carried.row_covariance()
         rows = np.asarray(part)
-        if rows.size != process.mean_noise.shape[0]:
+        if rows.size != covariance.shape[0]:
             raise ValueError("the rate error's covariance is of the fitted log's rows: "
-                             f"{process.mean_noise.shape[0]} rows, not {rows.size}")
-        return parts_mean_covariance(process.row_covariance(), rows, n_parts)
+                             f"{covariance.shape[0]} rows, not {rows.size}")
+        return parts_mean_covariance(covariance, rows, n_parts)
 
 
 class RowFilter(eqx.Module):
@@ -281,6 +321,41 @@ class RowFilter(eqx.Module):
     def innovations(self, observed, white, values: Mapping):
         """:meth:`NoiseModel.innovations` on these rows (None for independent rows)."""
         return self.noise.innovations(observed, white, values, self.clock)
+
+    def row_log_likelihood(self, residual, white, values: Mapping) -> Array:
+        """Each row's log-likelihood (0 for a row held out): independent rows', each
+        innovation's given the rows before it, or, under the rows' exact covariance
+        (a carried thermometer's beside white noise), each row's given every other row."""
+        filtered = self.innovations(residual, white, values)
+        if filtered is None:
+            rows = -0.5 * (residual / white) ** 2 - jnp.log(white) - 0.5 * _LOG_2PI
+        elif isinstance(carried := self.noise.carried, ExactRateError):
+            rows = carried.rows.leave_one_out_rows(*filtered)
+        else:
+            innovation, variance = filtered
+            rows = -0.5 * innovation**2 / variance - 0.5 * jnp.log(variance) - 0.5 * _LOG_2PI
+        return rows if self.weight is None else rows * self.weight
+
+    def log_likelihood(self, residual, white, values: Mapping) -> Array:
+        """The rows' joint log-likelihood (the rows held out left out)."""
+        carried = self.noise.carried
+        if not isinstance(carried, ExactRateError):  # independent rows, or innovations
+            return jnp.sum(self.row_log_likelihood(residual, white, values))
+        innovation, variance = carried.rows.innovations(residual, white)
+        rows = innovation**2 / variance + jnp.log(variance) + _LOG_2PI
+        return -0.5 * jnp.sum(rows if self.weight is None else rows * self.weight)
+
+    def standardised(self, residual, white, values: Mapping) -> Array:
+        """The residual over its modelled sd, in time order: independent N(0, 1) where the
+        model and the noise model are right (a filter's innovations; under the rows'
+        exact covariance, its Cholesky factor's)."""
+        filtered = self.innovations(residual, white, values)
+        if filtered is None:
+            return residual / white
+        if isinstance(carried := self.noise.carried, ExactRateError):
+            return carried.rows.standardised(residual, white)
+        innovation, variance = filtered
+        return innovation / jnp.sqrt(variance)
 
 
 #: The noise models ``--noise`` offers, by name.

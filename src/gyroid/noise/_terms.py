@@ -36,6 +36,7 @@ from gyroid.noise._allan_terms import (
 )
 from gyroid.noise._block_filter import Processes, flicker_times
 from gyroid.noise._rate_error_process import RateErrorProcess
+from gyroid.noise._rate_error_rows import RowEigenbasis
 
 
 def high_frequency_sd(residual: np.ndarray) -> float:
@@ -307,17 +308,13 @@ class GaussMarkovBias(AbstractNoiseTerm, AbstractAllanTerm):
         return jnp.reshape(values["tau_gm_s"], (1,)), values["sigma_gm_deg_h"], 1.0
 
 
-class RateError(AbstractNoiseTerm):
-    """The thermometer's noise through the dT/dt estimator, times wD: a process fixed for
-    the log (:class:`~gyroid.noise._rate_error_process.RateErrorProcess`), no level of its
-    own; it makes the filter read the rows as block means."""
-
-    process: RateErrorProcess
+class AbstractRateError(AbstractNoiseTerm):
+    """The thermometer's noise through the dT/dt estimator, times wD (its least-squares
+    value, fixed for the log; :mod:`gyroid.noise._rate_error_rows`): no level of its own."""
 
     code: ClassVar[str] = "T"
     level_names: ClassVar[tuple[str, ...]] = ()
     units: ClassVar[dict[str, str]] = {}
-    over_spans: ClassVar[bool] = True
     wanders: ClassVar[bool] = False
 
     def default_priors(self, level_deg_h, step_s, rows_per_mean):
@@ -328,6 +325,35 @@ class RateError(AbstractNoiseTerm):
 
     def start(self, residual, white, *, step_s, row_scale, dof, alone):
         return {}, {}
+
+    @abc.abstractmethod
+    def row_covariance(self) -> np.ndarray:
+        """Its covariance over the fitted log's rows, (deg/h)^2, as the likelihood reads it."""
+
+
+class RateError(AbstractRateError):
+    """The rate error beside a correlated term: a process of the block filter matched to
+    the estimator's error (:class:`~gyroid.noise._rate_error_process.RateErrorProcess`); it
+    makes the filter read the rows as block means."""
+
+    process: RateErrorProcess
+
+    over_spans: ClassVar[bool] = True
+
+    def row_covariance(self) -> np.ndarray:
+        return self.process.row_covariance()
+
+
+class ExactRateError(AbstractRateError):
+    """The rate error beside white noise alone: the rows' exact covariance, in its
+    eigenbasis (:class:`~gyroid.noise._rate_error_rows.RowEigenbasis`)."""
+
+    rows: RowEigenbasis
+
+    over_spans: ClassVar[bool] = False
+
+    def row_covariance(self) -> np.ndarray:
+        return np.asarray(self.rows.covariance)
 
 
 #: The terms a static log's Allan variance is fitted with (``gyroid noise``), in

@@ -138,7 +138,8 @@ def _carried(fit) -> str:
             "over which that covariance is held." if means else "")
     return (f" The likelihood carries the thermometer's noise ({carried['thermometer_sd_C']:.3f}"
             " degC, measured on the log) through the dT/dt estimator as a covariance "
-            "wD^2 v L L' (errors in variables): without it the white residuals fail their "
+            f"wD^2 v L L', wD at its least-squares value ({carried['wD_fixed']:.3g}; errors "
+            "in variables): without it the white residuals fail their "
             f"whiteness check, since wD times the rate's error is correlated over the "
             f"estimator's {fit.problem.rate_window_s:.0f} s window.{rows}")
 
