@@ -102,8 +102,9 @@ class AbstractMarginal(eqx.Module):
 
 
 class CollapsedCoefficients(AbstractMarginal):
-    """The marginal under correlated noise: the drift and the design filtered by the
-    density's noise model."""
+    """The marginal under the density's noise model: the drift and the design filtered by
+    it (under white noise, a model's columns at given positive parameters: the rows are
+    their own innovations)."""
 
     columns: Float[Array, "n 1+p"]  # the drift, then the design's columns
     #: The density's noise model on its rows (no drift model: candidates' fits on one log's
@@ -113,10 +114,11 @@ class CollapsedCoefficients(AbstractMarginal):
 
     def _innovations(self, v: Float[Array, " k"]) -> tuple[Array, Array]:
         """Every column filtered by the density's own noise model at the levels ``v``: the
-        innovations and their variances."""
-        filtered = self.row_filter.innovations(self.columns, *self.row_filter.levels_of(v))
-        if filtered is None:  # collapse() builds this form for correlated noise only
-            raise ValueError("a collapsed form filters correlated noise; this noise is white")
+        innovations and their variances (independent rows: the rows themselves)."""
+        white, values = self.row_filter.levels_of(v)
+        filtered = self.row_filter.innovations(self.columns, white, values)
+        if filtered is None:
+            return self.columns, jnp.broadcast_to(white**2, self.weight.shape)
         return filtered
 
     def _normal_equations(self, v: Float[Array, " k"]) -> NormalEquations:
@@ -311,17 +313,27 @@ def filtered_form(density, columns: Float[Array, "n 1+r"] | None = None,
                   real: np.ndarray | None = None) -> CollapsedCoefficients | None:
     """The filtered marginal of a :class:`~gyroid.inference._bench_density.BenchDensity`: a
     linear model (every coefficient real) under a correlated noise model; None
-    otherwise. With ``columns`` (the drift less the model at zero real coefficients, then
-    the model's derivatives in them) and ``real`` (their indices among the model's
-    parameters), the form for given positive parameters of any model linear in its real
-    ones (traceable: :mod:`gyroid.inference._point_profiled`)."""
-    model = density.model
+    otherwise (under white noise the marginal is :func:`collapse`'s, on sufficient
+    statistics). With ``columns`` and ``real``, :func:`collapsed_form`'s at given positive
+    parameters."""
     if not density.noise.correlated:
         return None
+    if columns is None and (not density.model.is_linear
+                            or any(q.positive for q in density.model.parameters)):
+        return None
+    return collapsed_form(density, columns, real)
+
+
+def collapsed_form(density, columns: Float[Array, "n 1+r"] | None = None,
+                   real: np.ndarray | None = None) -> CollapsedCoefficients:
+    """The marginal of a :class:`~gyroid.inference._bench_density.BenchDensity` under its
+    noise model, filtered (white rows their own innovations). With ``columns`` (the drift
+    less the model at zero real coefficients, then the model's derivatives in them) and
+    ``real`` (their indices among the model's parameters), the form for given positive
+    parameters of any model linear in its real ones (traceable:
+    :mod:`gyroid.inference._point_profiled`); without them, a linear model's own."""
     if columns is None:
-        if not model.is_linear or any(q.positive for q in model.parameters):
-            return None
-        columns = jnp.column_stack([density.drift, model.design(density.inputs)])
+        columns = jnp.column_stack([density.drift, density.model.design(density.inputs)])
         real = np.arange(density.n_model)
     p = density.n_model
     beta_loc, precision, log_norm = _coefficient_priors(density, np.asarray(real))
@@ -335,14 +347,3 @@ def filtered_form(density, columns: Float[Array, "n 1+r"] | None = None,
         beta_loc=beta_loc, beta_precision=precision,
         beta_log_norm=log_norm, noise_loc=loc[p:],
         noise_scale=scale[p:], noise_on=on[p:])
-
-
-def collapsed_form(density, columns: Float[Array, "n 1+r"] | None = None,
-                   real: np.ndarray | None = None) -> CollapsedCoefficients:
-    """:func:`filtered_form` where the caller needs the form (a correlated noise model, a
-    model linear in its real coefficients): ValueError where there is none."""
-    form = filtered_form(density, columns, real)
-    if form is None:
-        raise ValueError("this density has no collapsed form: its coefficients integrate out "
-                         "exactly under a correlated noise model only")
-    return form

@@ -7,13 +7,10 @@ The finders, and who uses them:
 
 * :class:`JointBFGS`: optimistix BFGS on a density's whole negative log-posterior,
   compiled per density, its Hessian by ``jax.hessian`` (paper B's roll loop, standardised;
-  a pool's hyper-parameters; a bench whose thermometer's noise is carried under white
-  noise).
+  a pool's hyper-parameters).
 * :class:`MarginalBFGS`: optimistix BFGS on a marginal (a bench's noise levels, its
   coefficients integrated out) from several starts side by side, each in coordinates
   whitened by the marginal's Hessian there.
-* :class:`LeastSquares`: optimistix Levenberg-Marquardt on weighted residuals (a bench
-  model with time constants under white noise); its curvature the Gauss-Newton ``J'J``.
 * :class:`BoundedSearch`: a host search of a few positive parameters within bounds
   (Brent's method in one dimension, Nelder-Mead otherwise): a profile's time constants.
 * :class:`BoundedGradientSearch`: host L-BFGS-B with an analytic gradient, polished by
@@ -173,33 +170,6 @@ class JointBFGS(eqx.Module):
     def curvature(self, density, u: np.ndarray) -> np.ndarray:
         """The negative log-posterior's Hessian at ``u`` (one compiled program)."""
         return np.asarray(_joint_hessian(jnp.asarray(u), density))
-
-
-@eqx.filter_jit
-def _least_squares(residuals, start, args, rtol: float, atol: float, max_steps: int):
-    solution = optx.least_squares(residuals, optx.LevenbergMarquardt(rtol=rtol, atol=atol),
-                                  start, args=args, max_steps=max_steps, throw=False)
-    found = residuals(solution.value, args)
-    jacobian = jax.jacfwd(residuals)(solution.value, args)
-    return solution.value, solution.result, jnp.sum(found**2), jacobian
-
-
-class LeastSquares(eqx.Module):
-    """Levenberg-Marquardt (optimistix) on residuals ``residuals(u, args)``; the objective
-    their sum of squares, the curvature Gauss-Newton's ``J'J`` (exact for a linear
-    model)."""
-
-    rtol: float = eqx.field(static=True, default=1e-10)
-    atol: float = eqx.field(static=True, default=1e-10)
-    max_steps: int = eqx.field(static=True, default=500)
-
-    def minimise(self, residuals: Callable, start: np.ndarray, args) -> CurvedOptimum:
-        value, result, objective, jacobian = _least_squares(
-            residuals, jnp.asarray(start), args, self.rtol, self.atol, self.max_steps)
-        jacobian = np.asarray(jacobian)
-        converged, message = solver_message(result)
-        return CurvedOptimum(np.asarray(value), converged, message, float(objective),
-                             curvature=jacobian.T @ jacobian)
 
 
 @eqx.filter_jit

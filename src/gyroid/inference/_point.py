@@ -6,24 +6,20 @@
   included): its coefficients integrated out, the noise levels' marginal mode
   (:mod:`gyroid.inference._marginal_mode`); with positive parameters too (time constants,
   a step's time), those profiled (:mod:`gyroid.inference._point_profiled`).
-* Otherwise (white noise): for given positive parameters every drift effect is linear in
-  the real ones, so those are solved exactly (variable projection) from the grid of
-  :mod:`gyroid.inference._starts`; then Levenberg-Marquardt (optimistix) on the
-  noise-weighted residuals plus standardised prior residuals from the best starts (the
-  white level, when unknown, the residual RMS with ``n - p`` degrees of freedom). The
-  finders are :mod:`gyroid.inference._mode`'s.
+* A model with positive parameters under any noise model: for given positive parameters
+  every drift effect is linear in the real ones, which are integrated out; the positive
+  parameters are profiled from the grid of :mod:`gyroid.inference._starts` and the noise
+  levels found at the marginal's mode (:mod:`gyroid.inference._point_profiled`).
 
-The covariance is the Gauss-Newton ``(J'J)^-1`` of the weighted residuals at the optimum
-(exact for a linear model), or the marginal's (the conditional covariance beside the
-levels' inverse Hessian).
+The covariance is the closed form's, or the marginal's (the coefficients' conditional
+covariance beside the levels' inverse Hessian, widened by the positive parameters'
+profile).
 """
 
 from __future__ import annotations
 
 import math
 
-import equinox as eqx
-import jax
 import jax.numpy as jnp
 import numpy as np
 from scipy.linalg import block_diag
@@ -32,36 +28,9 @@ from gyroid.inference._batching import problem_batcher
 from gyroid.inference._bench_density import BenchDensity
 from gyroid.inference._collapsed import filtered_form
 from gyroid.inference._marginal_mode import collapsed_mode
-from gyroid.inference._mode import LeastSquares, safe_inverse
-from gyroid.inference._model_columns import model_columns, split_parameters
 from gyroid.inference._point_profiled import profiled_mode
 from gyroid.inference._problem import PointEstimate
-from gyroid.inference._starts import grid_points, start_grid
-from gyroid.inference._white_rows import SufficientStatistics
 from gyroid.models._priors import Normal, natural_with_sd
-
-
-@eqx.filter_jit
-def _projected(problem: BenchDensity, u_model: jax.Array, weights: jax.Array):
-    """Exact solve of the real parameters with the positive ones fixed (variable projection)."""
-    real, positive = split_parameters(problem)  # static: from the model's terms
-    columns = model_columns(problem, u_model[positive])
-    target, design = columns[:, 0], columns[:, 1:]
-    values, *_ = jnp.linalg.lstsq(design * weights[:, None], target * weights)
-    rss = jnp.sum(((target - design @ values) * weights) ** 2)
-    return u_model.at[real].set(values), rss
-
-
-def _weighted_residuals(u_model, args):
-    problem, weights = args
-    u = jnp.concatenate([u_model, jnp.zeros(len(problem.noise_names))])
-    data = (problem.drift - problem.predict(u)) * weights
-    prior = problem.prior_residuals(u)[: problem.n_model]
-    return jnp.concatenate([data, prior])
-
-
-#: Levenberg-Marquardt on the noise-weighted residuals and standardised prior residuals.
-_LEAST_SQUARES = LeastSquares(rtol=1e-10, atol=1e-10, max_steps=500)
 
 
 def noise_guess(problem: BenchDensity) -> tuple[np.ndarray, tuple[int, ...]]:
@@ -82,25 +51,14 @@ def correlated_levels(problem: BenchDensity) -> tuple[int, ...]:
     return tuple(i for i, name in enumerate(problem.noise_names) if name != white)
 
 
-def _starts(problem: BenchDensity) -> list[np.ndarray]:
-    """Sampling-coordinate starts for the model parameters: real ones 0, positive ones on
-    the grid of :mod:`gyroid.inference._starts`."""
-    parameters = problem.model.parameters
-    positive = [i for i, p in enumerate(parameters) if p.positive]
-    starts = []
-    for point in grid_points(start_grid(parameters, problem.inputs)):
-        u = np.zeros(problem.n_model)
-        u[positive] = point
-        starts.append(u)
-    return starts
-
-
-def _linear_gaussian(problem: BenchDensity, stats: SufficientStatistics) -> PointEstimate:
+def _linear_gaussian(problem: BenchDensity, gram: np.ndarray, solution: np.ndarray,
+                     rss_min: float, n: int) -> PointEstimate:
     """Closed form for a linear model with white noise: the posterior mode and covariance
-    from its sufficient statistics (exact; no iterations)."""
-    n, p = problem.n, problem.n_model
-    theta, scale, covariance = _gaussian_coefficients(
-        problem, np.asarray(stats.gram), np.asarray(stats.solution), float(stats.rss_min), n)
+    from the weighted Gram matrix, least-squares solution and residual sum of squares of
+    its ``n`` rows (:func:`_white_rows`, or its sufficient statistics; exact, no
+    iterations)."""
+    p = problem.n_model
+    theta, scale, covariance = _gaussian_coefficients(problem, gram, solution, rss_min, n)
     u, cov = theta, covariance
     if problem.noise_names:
         noise_u = np.array([math.log(scale / problem.row_scale)])  # a sample's sd
@@ -109,13 +67,15 @@ def _linear_gaussian(problem: BenchDensity, stats: SufficientStatistics) -> Poin
     x, sd = natural_with_sd(u, cov, problem.positive)
     # One compiled call (shared by logs of this shape), not op-by-op JAX on every row.
     prediction = np.asarray(problem_batcher(problem.predict)(u[None, :]))[0]
+    kept = slice(None) if problem.weight is None else np.asarray(problem.weight) > 0
     return PointEstimate(
         names=problem.names, u=u, covariance_u=cov,
         value={k: float(v) for k, v in zip(problem.names, x, strict=True)},
         sd={k: float(v) for k, v in zip(problem.names, sd, strict=True)},
         converged=True, message="converged (closed form: linear model, white noise)",
         n_starts=1,
-        rms_residual=float(np.sqrt(np.mean((np.asarray(problem.drift) - prediction) ** 2))),
+        rms_residual=float(np.sqrt(np.mean(((np.asarray(problem.drift) - prediction)[kept])
+                                           ** 2))),
     )
 
 
@@ -157,10 +117,10 @@ def noise_from_residual(problem: BenchDensity, residual: np.ndarray, white: floa
     return _noise_start(problem, residual, white)[0]
 
 
-def _white_start(problem: BenchDensity) -> np.ndarray:
-    """A linear model's white-noise mode on the rows the likelihood reads (NumPy, from its
-    design matrix), in sampling coordinates: where BFGS on a correlated likelihood starts
-    (the thermometer's noise carried), without tracing a least-squares solver for it."""
+def _white_rows(problem: BenchDensity) -> tuple[np.ndarray, np.ndarray, float, int]:
+    """A linear model's weighted Gram matrix, least-squares solution and residual sum of
+    squares on the rows the likelihood reads, and their number (NumPy, from its design
+    matrix)."""
     x = np.asarray(problem.model.design(problem.inputs))
     y = np.asarray(problem.drift)
     w = np.ones(problem.n) if problem.sigma is None else 1.0 / np.asarray(problem.sigma)
@@ -169,21 +129,29 @@ def _white_start(problem: BenchDensity) -> np.ndarray:
         x, y, w = x[keep], y[keep], w[keep]
     solution, *_ = np.linalg.lstsq(x * w[:, None], y * w, rcond=None)
     rss = float(np.sum(((y - x @ solution) * w) ** 2))
-    gram = (x * w[:, None] ** 2).T @ x
-    theta, scale, _ = _gaussian_coefficients(problem, gram, solution, rss, y.size)
+    return (x * w[:, None] ** 2).T @ x, solution, rss, y.size
+
+
+def _white_start(problem: BenchDensity) -> np.ndarray:
+    """A linear model's white-noise mode (:func:`_white_rows`), in sampling coordinates:
+    where BFGS on a correlated likelihood starts, without tracing a least-squares solver
+    for it."""
+    theta, scale, _ = _gaussian_coefficients(problem, *_white_rows(problem))
     if not problem.noise_names:
         return theta
     return np.concatenate([theta, [math.log(max(scale / problem.row_scale, 1e-300))]])
 
 
-def point_estimate(problem: BenchDensity, *, max_refine: int = 3,
+def point_estimate(problem: BenchDensity, *,
                    noise_start: tuple[float, ...] | None = None) -> PointEstimate:
     """Posterior mode and covariance of a bench log's density (see the module
     docstring); ``noise_start``: a collapsed problem's noise levels at their marginal mode,
     found already (:func:`marginal_mode`, while choosing the dT/dt window): the only
     start."""
     if problem.stats is not None:
-        return _linear_gaussian(problem, problem.stats)
+        stats = problem.stats
+        return _linear_gaussian(problem, np.asarray(stats.gram), np.asarray(stats.solution),
+                                float(stats.rss_min), problem.n)
     collapsed = filtered_form(problem)
     if collapsed is not None:  # a linear model under correlated noise: its marginal's mode
         guess, correlated = noise_guess(problem)
@@ -193,53 +161,14 @@ def point_estimate(problem: BenchDensity, *, max_refine: int = 3,
             collapsed, _white_start(problem)[:problem.n_model], start, raised,
             lanes=1 + len(correlated))
         return _point(problem, u, covariance, converged, message, n_starts=1 + len(raised))
-    if problem.noise.correlated:
-        return _profiled(problem)
-    n, p = problem.n_observed, problem.n_model
-    known = problem.sigma is not None
-    weights = 1.0 / problem.sigma if problem.sigma is not None else jnp.ones(problem.n)
-    if problem.weight is not None:  # rows left out (a predictive check's training fit)
-        weights = weights * problem.weight
-    candidates = []
-    for start in _starts(problem):
-        u_model, rss = _projected(problem, jnp.asarray(start), weights)
-        candidates.append((float(rss), np.asarray(u_model)))
-    candidates.sort(key=lambda c: c[0] if math.isfinite(c[0]) else math.inf)
-    best_rss = candidates[0][0]
-    scale = 1.0 if known else math.sqrt(best_rss / max(n - p, 1))
-    refined = [_LEAST_SQUARES.minimise(_weighted_residuals, start, (problem, weights / scale))
-               for _, start in candidates[: max_refine if len(candidates) > 1 else 1]]
-    best = min(refined, key=lambda r: r.objective if math.isfinite(r.objective) else math.inf)
-    u_model, curvature = best.value, best.curvature
-    converged, message = best.converged, best.message
-    padded = jnp.concatenate([jnp.asarray(u_model), jnp.zeros(len(problem.noise_names))])
-    residual = np.asarray(problem.drift) - np.asarray(problem.predict(padded))
-    if problem.weight is not None:
-        residual = residual[np.asarray(problem.weight) > 0]
-    if not known:
-        # Unknown white level: the residual RMS with n - p degrees of freedom (the exact
-        # posterior scale of a linear model under a flat prior); refine the weights once.
-        w = np.ones(n) if problem.sigma is None else 1.0 / np.asarray(problem.sigma)
-        if problem.sigma is not None and problem.weight is not None:
-            w = w[np.asarray(problem.weight) > 0]
-        scale = math.sqrt(float(np.sum((residual * w) ** 2)) / max(n - p, 1))
-        again = _LEAST_SQUARES.minimise(_weighted_residuals, u_model,
-                                        (problem, weights / scale))
-        u_model, curvature = again.value, again.curvature
-        converged, message = again.converged, again.message
-    covariance_model = safe_inverse(curvature)
-    u = u_model
-    covariance = covariance_model
-    if problem.noise_names:
-        noise_u, noise_cov = _noise_start(problem, residual, scale)
-        u = np.concatenate([u_model, noise_u])
-        covariance = np.asarray(block_diag(covariance_model, noise_cov))
-    return _point(problem, u, covariance, converged, message, n_starts=len(candidates))
+    if problem.model.is_linear:  # white rows without their statistics (some held out)
+        return _linear_gaussian(problem, *_white_rows(problem))
+    return _profiled(problem)
 
 
 def _profiled(problem: BenchDensity) -> PointEstimate:
-    """The mode of a model linear in its real coefficients given its positive ones, under
-    correlated noise: those profiled, these integrated out
+    """The mode of a model linear in its real coefficients given its positive ones: those
+    profiled, these integrated out
     (:func:`~gyroid.inference._point_profiled.profiled_mode`), the noise levels guessed by
     the noise model from the best white start's residual."""
     u, covariance, converged, message, n_starts = profiled_mode(

@@ -1,6 +1,6 @@
 """The mode of a bench problem whose model is linear in its real coefficients once its
 positive parameters are given (a warm-up's time constant, a lag's, a step's time: every
-catalogued effect) under correlated noise; part of the bench mode-finder
+catalogued effect) under any noise model; part of the bench mode-finder
 (:func:`gyroid.inference._point.point_estimate`).
 
 The real coefficients are integrated out exactly for given positive parameters (the
@@ -137,7 +137,7 @@ def _log_likelihood(collapsed, u):
 
 
 def collapsed_at_white_start(density, noise_start: Callable[[np.ndarray, float], np.ndarray]):
-    """A model with positive parameters under correlated noise: its collapsed form at the
+    """A model with positive parameters: its collapsed form at the
     start grid's best white least-squares point, and the noise levels guessed by
     ``noise_start(residual, white)`` from that point's residual (what the rate window's
     marginal compares, :mod:`gyroid.inference._rate_window_marginal`)."""
