@@ -18,6 +18,7 @@ from gyroid.inference._check_report import FitEvidence
 from gyroid.inference._emcee import Emcee
 from gyroid.inference._importance import Importance
 from gyroid.inference._marginal_target import MarginalTarget, marginal_target
+from gyroid.inference._mode import Optimum
 from gyroid.inference._point import point_estimate
 from gyroid.inference._point_profiled import collapsed_log_likelihood
 from gyroid.inference._problem import AbstractProblem, PointEstimate
@@ -72,8 +73,9 @@ class BenchProblem(AbstractProblem):
     #: carried; 0 when none is carried.
     rate_error_wd: float = 0.0
     #: The noise levels' marginal mode found while choosing the dT/dt window (sampling
-    #: coordinates; :mod:`gyroid.inference._rate_window_marginal`): where the mode starts.
-    noise_start: tuple[float, ...] | None = eqx.field(static=True, default=None)
+    #: coordinates; :mod:`gyroid.inference._rate_window_marginal`): a linear model's mode
+    #: is there, a model with time constants starts its profile from its own guess.
+    noise_mode: Optimum | None = eqx.field(static=True, default=None)
 
     @classmethod
     def from_log(
@@ -148,11 +150,11 @@ class BenchProblem(AbstractProblem):
                                          thermometer=_carried(log, window_s, wd,
                                                               thermometer_var_row))
 
-        density, noise_start, choice = _by_marginal(density_at, log, rate_window_s, choice)
+        density, noise_mode, choice = _by_marginal(density_at, log, rate_window_s, choice)
         return cls(density=density, log=log, prior_set=chosen_set, prior_basis=basis,
                    rate_window_choice=choice, block_rows=block_rows, segments=samples,
                    thermometer_sd_C=math.sqrt(thermometer_var), rate_error_wd=wd,
-                   noise_start=noise_start)
+                   noise_mode=noise_mode)
 
     # ----- description (the density's) -------------------------------------------------------
     @property
@@ -220,7 +222,7 @@ class BenchProblem(AbstractProblem):
 
     # ----- fitting ------------------------------------------------------------------------------
     def mode(self) -> PointEstimate:
-        return point_estimate(self.density, noise_start=self.noise_start)
+        return point_estimate(self.density, noise_mode=self.noise_mode)
 
     def log_likelihood(self, u) -> float:
         """The log-likelihood at sampling coordinates ``u`` (under correlated noise from the
@@ -280,11 +282,11 @@ class BenchProblem(AbstractProblem):
 
 
 def _by_marginal(density_at, log: BenchLog, window_s: float, choice: str
-                 ) -> tuple[BenchDensity, tuple[float, ...] | None, str]:
+                 ) -> tuple[BenchDensity, Optimum | None, str]:
     """The density at ``window_s`` (s) or, for an automatic window (``choice`` "auto")
     under correlated noise (a collapsed form), at the window of highest marginal likelihood
-    (:mod:`gyroid.inference._rate_window_marginal`), with the noise levels' mode found
-    there; and how the window was chosen."""
+    (:mod:`gyroid.inference._rate_window_marginal`), with the noise levels' marginal mode
+    found there; and how the window was chosen."""
     built: dict[float, BenchDensity] = {}
 
     def at(window: float) -> BenchDensity:
@@ -303,7 +305,7 @@ def _by_marginal(density_at, log: BenchLog, window_s: float, choice: str
         return density, None, choice
     density = at(better[0])
     scored = ", ".join(f"{w:.0f}" for w in sorted(better[1]))
-    return density, tuple(float(x) for x in better[2]), (
+    return density, better[2], (
         f"auto: the marginal likelihood's of {scored} s (least squares' {window_s:.0f} s)")
 
 

@@ -73,7 +73,10 @@ RAISED_START = 30.0
 def marginal_mode(collapsed, noise_u: np.ndarray, correlated: tuple[int, ...] = (), *,
                   lanes: int | None = None) -> tuple[Optimum, float]:
     """BFGS on a collapsed problem's marginal from ``noise_u`` and from each level of
-    ``correlated`` raised :data:`RAISED_START` times; the best plausible solution (its
+    ``correlated`` raised :data:`RAISED_START` times (the marginal can have a mode for each
+    way of explaining slow wander: a real log's, 33 +/- 7 deg/h/sqrt(h) of walk, had a
+    second mode with none and more flicker, where the guess's BFGS stopped); the best
+    plausible solution (its
     levels within 6 prior sds of each prior's median: far beyond, the filter's arithmetic,
     a walk's variance 1e30 times the data's, is no likelihood) and its log-posterior.
     ``lanes``: run this many starts side by side, repeating ``noise_u`` (a call with fewer
@@ -99,30 +102,15 @@ def marginal_mode(collapsed, noise_u: np.ndarray, correlated: tuple[int, ...] = 
     return solutions[best], -solutions[best].objective
 
 
-def collapsed_mode(collapsed, u_model: np.ndarray, noise_u: np.ndarray,
-                   correlated: tuple[int, ...] = (), *, lanes: int | None = None
-                   ) -> tuple[np.ndarray, np.ndarray, bool, str]:
-    """The mode of a collapsed problem's noise levels (their marginal posterior, the
-    coefficients integrated out) and the coefficients' conditional mean there: the point
-    the sampled posterior is centred on. The joint mode's noise levels are biased low
-    wherever the coefficients can absorb the noise (a random walk's level, say), which the
-    point-against-posterior check would then flag. Covariance: the coefficients'
-    conditional one beside the levels' inverse Hessian.
-
-    The marginal can have a mode for each way of explaining slow wander (flicker or a random
-    walk: a real log's, 33 +/- 7 deg/h/sqrt(h) of walk, had a second mode with none and
-    more flicker, where the guess's BFGS stopped): besides the guess, BFGS starts from each
-    level of ``correlated`` (indices into the levels) raised :data:`RAISED_START` times,
-    and the best of them is the mode (``lanes``: :func:`marginal_mode`'s)."""
-    return at_marginal_mode(
-        collapsed, marginal_mode(collapsed, noise_u, correlated, lanes=lanes)[0], u_model)
-
-
 def at_marginal_mode(collapsed, solution: Optimum, u_model: np.ndarray
                      ) -> tuple[np.ndarray, np.ndarray, bool, str]:
     """The joint point at a marginal mode ``solution`` (:func:`marginal_mode`'s): the
     coefficients' conditional mean (``u_model`` where that is not finite) and the noise
-    levels, their covariance, whether it converged and the solver's message."""
+    levels, their covariance (the coefficients' conditional one beside the levels' inverse
+    Hessian), whether it converged and the solver's message. This is the point the sampled
+    posterior is centred on: the joint mode's noise levels are biased low wherever the
+    coefficients can absorb the noise (a random walk's level, say), which the
+    point-against-posterior check would then flag."""
     r = collapsed.beta_loc.size
     collapsed = padded(collapsed)
     v = solution.value

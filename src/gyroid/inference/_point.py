@@ -27,7 +27,8 @@ from scipy.linalg import block_diag
 from gyroid.inference._batching import problem_batcher
 from gyroid.inference._bench_density import BenchDensity
 from gyroid.inference._collapsed import filtered_form
-from gyroid.inference._marginal_mode import collapsed_mode
+from gyroid.inference._marginal_mode import at_marginal_mode, marginal_mode
+from gyroid.inference._mode import Optimum
 from gyroid.inference._point_profiled import profiled_mode
 from gyroid.inference._problem import PointEstimate
 from gyroid.models._priors import Normal, natural_with_sd
@@ -143,11 +144,11 @@ def _white_start(problem: BenchDensity) -> np.ndarray:
 
 
 def point_estimate(problem: BenchDensity, *,
-                   noise_start: tuple[float, ...] | None = None) -> PointEstimate:
+                   noise_mode: Optimum | None = None) -> PointEstimate:
     """Posterior mode and covariance of a bench log's density (see the module
-    docstring); ``noise_start``: a collapsed problem's noise levels at their marginal mode,
-    found already (:func:`marginal_mode`, while choosing the dT/dt window): the only
-    start."""
+    docstring); ``noise_mode``: a linear model's noise levels at their marginal mode,
+    found already (:func:`marginal_mode`, from the same starts, while choosing the dT/dt
+    window): not searched again."""
     if problem.stats is not None:
         stats = problem.stats
         return _linear_gaussian(problem, np.asarray(stats.gram), np.asarray(stats.solution),
@@ -155,12 +156,13 @@ def point_estimate(problem: BenchDensity, *,
     collapsed = filtered_form(problem)
     if collapsed is not None:  # a linear model under correlated noise: its marginal's mode
         guess, correlated = noise_guess(problem)
-        start, raised = ((guess, correlated) if noise_start is None
-                         else (np.asarray(noise_start), ()))
-        u, covariance, converged, message = collapsed_mode(
-            collapsed, _white_start(problem)[:problem.n_model], start, raised,
-            lanes=1 + len(correlated))
-        return _point(problem, u, covariance, converged, message, n_starts=1 + len(raised))
+        if noise_mode is None:
+            noise_mode, _ = marginal_mode(collapsed, guess, correlated,
+                                          lanes=1 + len(correlated))
+        u, covariance, converged, message = at_marginal_mode(
+            collapsed, noise_mode, _white_start(problem)[:problem.n_model])
+        return _point(problem, u, covariance, converged, message,
+                      n_starts=1 + len(correlated))
     if problem.model.is_linear:  # white rows without their statistics (some held out)
         return _linear_gaussian(problem, *_white_rows(problem))
     return _profiled(problem)

@@ -39,6 +39,7 @@ import numpy as np
 from gyroid._config import compute_threads
 from gyroid.inference._collapsed import filtered_form
 from gyroid.inference._marginal_mode import marginal_mode
+from gyroid.inference._mode import Optimum
 from gyroid.inference._model_columns import split_parameters
 from gyroid.inference._point import correlated_levels, noise_from_residual, noise_guess
 from gyroid.inference._point_profiled import collapsed_at_white_start
@@ -64,12 +65,12 @@ def _collapsed(density):
 
 
 def marginal_window(density_at: Callable[[float], object], least_squares_s: float,
-                    step_s: float) -> tuple[float, dict[float, float], np.ndarray] | None:
+                    step_s: float) -> tuple[float, dict[float, float], Optimum] | None:
     """The window (s) of highest collapsed marginal posterior, that maximum per window
-    tried (the last, lower one included), and the noise levels there (sampling
-    coordinates: where the fit's mode starts); None where the density has no collapsed
-    form (:func:`_collapsed`: a white fit, or one carrying the thermometer under white
-    noise) or no shorter window exists. ``density_at``: the
+    tried (the last, lower one included), and the noise levels' marginal mode there (the
+    fit's own: for a linear model the search's best start is the mode); None where the
+    density has no collapsed form (:func:`_collapsed`: a white fit) or no shorter window
+    exists. ``density_at``: the
     bench density at a window (s; its dT/dt, and the thermometer's noise through it when
     carried, are the window's); ``step_s``: the rows' median step."""
     density = density_at(least_squares_s)
@@ -94,14 +95,14 @@ def marginal_window(density_at: Callable[[float], object], least_squares_s: floa
     with ThreadPoolExecutor(min(2, compute_threads())) as pool:
         first = list(pool.map(mode_at, windows[:2]))
     scores: dict[float, float] = {}
-    levels: dict[float, np.ndarray] = {}
+    modes: dict[float, Optimum] = {}
     for i, window in enumerate(windows):
         solution, value = first[i] if i < len(first) else mode_at(window)
         falling = bool(scores) and value < max(scores.values())
-        scores[float(window)], levels[float(window)] = value, np.asarray(solution.value)
+        scores[float(window)], modes[float(window)] = value, solution
         if falling:
             break  # past the maximum: the smearing's cost only falls as the window shortens
     if not scores or not np.isfinite(max(scores.values())):
         return None
     best = max(scores, key=lambda w: scores[w])
-    return best, scores, levels[best]
+    return best, scores, modes[best]
