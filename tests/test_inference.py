@@ -423,3 +423,24 @@ def test_the_burn_in_never_discards_the_whole_run():
     assert next_burn(300, 50.0, 800) == 300
     assert next_burn(300, 200.0, 2000) == 600
     assert next_burn(300, 800.0, 800) == 400 < 800
+
+
+@pytest.mark.parametrize(("terms", "noise", "thermometer_C"), [
+    ("thermal", "white", 0.0), ("thermal,warmup", "white", 0.0),
+    ("thermal", "white", 0.05), ("thermal,warmup", "white", 0.05),
+    ("thermal", "white+flicker+rw", 0.05)])
+def test_the_collapsed_forms_likelihood_is_the_densitys(terms, noise, thermometer_C):
+    """BenchProblem.log_likelihood reads the collapsed form (the model's columns filtered;
+    independent rows their own innovations): under every noise model, with and without the
+    thermometer carried and time constants, the density's own log-likelihood."""
+    sim = simulate_thermal_bench(
+        protocol=SHORT_THERMAL, seed=4, noise=GyroNoise(temperature_noise_C=thermometer_C),
+        effects={"warmup": {"w_warmup": 2.0, "tau_warmup_min": 20.0}})
+    problem = BenchProblem.from_log(sim.log, terms, noise=noise, max_rows=200)
+    assert (problem.noise.carried is not None) == (thermometer_C > 0)
+    rng = np.random.default_rng(2)
+    u0 = np.asarray(problem.mode().u)
+    for _ in range(2):
+        u = u0 + 0.02 * rng.standard_normal(u0.size)
+        assert problem.log_likelihood(u) == pytest.approx(
+            float(problem.density.log_likelihood(jnp.asarray(u))), rel=1e-9, abs=1e-6)

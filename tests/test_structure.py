@@ -42,10 +42,8 @@ def test_every_result_reads_its_problem_by_its_concrete_type():
 KIND_SITES = {
     "inference/_bench_density.py": 1,
     "inference/_bench_fit.py": 3,
-    "inference/_bench_predictive.py": 1,
-    "inference/_bench_problem.py": 7,
+    "inference/_bench_problem.py": 6,
     "inference/_collapsed.py": 1,
-    "inference/_point.py": 1,
     "inference/_pool_fit.py": 2,
     "inference/_pool_problem.py": 1,
     "inference/_rate_window.py": 1,

@@ -2,7 +2,9 @@
 out, the drift model refitted on the rest, the fold's part means predicted.
 
 A linear model with white noise is refitted in closed form from per-part sums (one pass
-over the design in blocks of rows, whatever the log's length); any other model by its
+over the design in blocks of rows, whatever the log's length); any other model's
+coefficients by their exact conditional posterior on the rows kept, its noise levels and
+positive parameters held at the full fit's mode; without that mode (a pool's runs), by its
 posterior mode with the fold's rows masked (:meth:`BenchDensity.without_rows`)."""
 
 from __future__ import annotations
@@ -48,7 +50,7 @@ def bench_held_out(density: BenchDensity, time_s: np.ndarray,
         return None, None
     if density.stats is not None:
         folds = _linear_folds(density, parts)
-    elif point_u is not None and density.noise.correlated:
+    elif point_u is not None:
         folds = _collapsed_folds(density, parts, time_s, np.asarray(point_u))
     else:
         folds = _refit_folds(density, parts, time_s)
@@ -126,8 +128,8 @@ def _linear_folds(density: BenchDensity, parts: Stretches) -> list[HeldOut]:
 
 def _collapsed_folds(density: BenchDensity, parts: Stretches, time_s: np.ndarray,
                      point_u: np.ndarray) -> list[HeldOut]:
-    """Refits of a model under correlated noise, linear in its real coefficients given its
-    positive ones, with its noise levels and positive parameters held at the full fit's
+    """Refits of a model linear in its real coefficients given its positive ones (under any
+    noise model), with its noise levels and positive parameters held at the full fit's
     mode ``point_u``: each fold's coefficients are their exact Gaussian posterior given
     those (:mod:`gyroid.inference._collapsed`, the filter predicting through the fold).
     Holding them leaves their uncertainty out of the bands, which can only make the check

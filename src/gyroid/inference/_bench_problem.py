@@ -225,11 +225,9 @@ class BenchProblem(AbstractProblem):
         return point_estimate(self.density, noise_mode=self.noise_mode)
 
     def log_likelihood(self, u) -> float:
-        """The log-likelihood at sampling coordinates ``u`` (under correlated noise from the
-        collapsed form's filter: one compilation for every model of as many coefficients)."""
-        if self.noise.correlated:
-            return collapsed_log_likelihood(self.density, u)
-        return float(_log_likelihood(self.density, jnp.asarray(u)))
+        """The log-likelihood at sampling coordinates ``u``, from the collapsed form's
+        filter (one compilation for every model of as many coefficients)."""
+        return collapsed_log_likelihood(self.density, u)
 
     def collapsed(self):
         from gyroid.inference._collapsed import collapse
@@ -380,11 +378,6 @@ def _noise_priors(noise: NoiseModel, log: BenchLog, inputs, rows_per_mean: int,
         step = float(np.median(np.diff(time_s))) if time_s.size > 1 else 1.0
         priors = noise.default_priors(level, step, rows_per_mean)
     return {name: priors[name] for name in noise.names(sigma_known)}
-
-
-@eqx.filter_jit
-def _log_likelihood(density, u):
-    return density.log_likelihood(u)
 
 
 @eqx.filter_jit
