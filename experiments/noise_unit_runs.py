@@ -6,8 +6,11 @@ deviation at 328-1000 s is 5.5-8.8 deg/h).
 
 Per ADIS run and axis: gyroid's fit (trusted or not, why, N and B); per axis, the unit over
 the runs (:func:`gyroid.inference.fit_unit_noise`): its N and B, the interval a new run
-should land in and how many runs it holds. For the MTi-G run: the verdict, the outliers,
-the Gauss-Markov bias, B's bound beside the log's own Allan deviation (allantools).
+should land in and how many runs it holds; and held out: each run left out in turn, the
+unit pooled over the other five, whether the left-out run's N and B lie in the interval
+those five give a new run (a prediction of a run the pool has not seen). For the MTi-G
+run: the verdict, the outliers, the Gauss-Markov bias, B's bound beside the log's own Allan
+deviation (allantools).
 
     GYROID_DATA=../shared/data/real python experiments/noise_unit_runs.py
 """
@@ -51,6 +54,29 @@ def mtig(rate: np.ndarray, seed: int) -> dict:
             "raw_N": float(np.std(rate) * np.sqrt(SAMPLE_S) / 60.0)}
 
 
+def held_out(fits: list, runs: list[str], whole: dict, seed: int) -> dict:
+    """Each run left out in turn: the unit over the others, and whether the left-out run's
+    median of each term (as the unit over every run, ``whole``, reads it) lies in the
+    interval they give a new run."""
+    out: dict[str, dict] = {}
+    for k, name in enumerate(runs):
+        others = [j for j in range(len(runs)) if j != k]
+        unit = fit_unit_noise([fits[j] for j in others], [runs[j] for j in others],
+                              seed=seed).to_json()
+        for term, record in unit["terms"].items():
+            band = record.get("new_run_ci90")
+            own = whole["terms"].get(term, {}).get("runs", {}).get(name)
+            median = None if own is None else own.get("median")
+            if band is None or median is None:
+                continue
+            row = out.setdefault(term, {"inside": 0, "of": 0, "runs": {}})
+            inside = bool(band[0] <= median <= band[1])
+            row["inside"] += inside
+            row["of"] += 1
+            row["runs"][name] = {"median": median, "new_run_ci90": band, "inside": inside}
+    return out
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seed", type=int, default=0)
@@ -59,7 +85,7 @@ def main() -> None:
     started = time.time()
     logs = dataset_logs(DATASET)
     runs = [name for name in logs if name.startswith("adis")]
-    rows, units = [], {}
+    rows, units, left_out = [], {}, {}
     for axis in AXES:
         fits = []
         for k, name in enumerate(runs):
@@ -70,11 +96,14 @@ def main() -> None:
         unit = fit_unit_noise(fits, runs, seed=args.seed)
         units[axis] = unit.to_json()
         print(unit.summary(), flush=True)
+        left_out[axis] = held_out(fits, runs, units[axis], args.seed)
+        print({t: f"{r['inside']}/{r['of']}" for t, r in left_out[axis].items()}, flush=True)
     contaminated = mtig(logs["mtig_cont_imu1"][0]["drift_x_deg_h"], args.seed)
     print(contaminated, flush=True)
     save_run(results_dir("noise_unit_runs"), seed=args.seed,
              config={"dataset": DATASET, "sample_s": SAMPLE_S, "runs": runs},
-             results={"runs": rows, "units": units, "mtig_cont_imu1": contaminated},
+             results={"runs": rows, "units": units, "held_out": left_out,
+                      "mtig_cont_imu1": contaminated},
              started=started)
 
 

@@ -306,6 +306,26 @@ def test_the_noise_of_the_unit_behind_six_real_runs():
                                                                 *x["unit_ci90"]),
             "a new run should read {:.2f}-{:.2f}".format(*x["new_run_ci90"]),
             "(y: {:.2f}, {:.2f}-{:.2f}, all six)".format(y["unit_median"], *y["new_run_ci90"]))
+    # held out: each run against the interval the other five give a new run
+    held = results["held_out"]
+    inside = {axis: held[axis]["N"]["inside"] for axis in ("x", "y", "z")}
+    assert all(held[axis]["N"]["of"] == 6 for axis in inside)
+    misses = {axis: [k for k, v in held[axis]["N"]["runs"].items() if not v["inside"]]
+              for axis in inside}
+    assert set(inside.values()) == {5} and all(m == ["adis_16405_imu5"] for m in misses.values())
+    above = []
+    for axis in inside:
+        runs = held[axis]["N"]["runs"]
+        others = [v["median"] for k, v in runs.items() if k != "adis_16405_imu5"]
+        above.append(100 * (runs["adis_16405_imu5"]["median"] / np.mean(others) - 1))
+    x5 = held["x"]["N"]["runs"]["adis_16405_imu5"]
+    b_inside = sum(held[a]["B"]["inside"] for a in held if "B" in held[a])
+    b_of = sum(held[a]["B"]["of"] for a in held if "B" in held[a])
+    assert b_inside == b_of
+    _quoted("5 of 6 runs on every axis",
+            f"{min(above):.1f}-{max(above):.1f} % above",
+            f"(x: {x5['median']:.2f} against their interval up to {x5['new_run_ci90'][1]:.2f})",
+            f"in all {b_of} runs where both resolve it")
     gm = mtig["gauss_markov"]
     assert not mtig["trustworthy"] and mtig["failed"] == ["outliers"]
     _quoted(f"is refused ({100 * mtig['outliers']:.1f} % of its samples",
