@@ -439,8 +439,12 @@ def test_the_collapsed_forms_likelihood_is_the_densitys(terms, noise, thermomete
     problem = BenchProblem.from_log(sim.log, terms, noise=noise, max_rows=200)
     assert (problem.noise.carried is not None) == (thermometer_C > 0)
     rng = np.random.default_rng(2)
-    u0 = np.asarray(problem.mode().u)
+    truth = sim.truth["parameters"] | {"w_warmup": 2.0, "tau_warmup_min": 20.0}
+    natural = np.array([truth[n] for n in problem.model.parameter_names])
+    positive = np.array([p.positive for p in problem.model.parameters])
+    model_u = np.where(positive, np.log(np.where(positive, natural, 1.0)), natural)
+    levels = np.asarray(problem.density.prior_loc)[problem.n_model:]  # their priors' medians
     for _ in range(2):
-        u = u0 + 0.02 * rng.standard_normal(u0.size)
+        u = np.concatenate([model_u, levels]) + 0.02 * rng.standard_normal(len(problem.names))
         assert problem.log_likelihood(u) == pytest.approx(
             float(problem.density.log_likelihood(jnp.asarray(u))), rel=1e-9, abs=1e-6)
