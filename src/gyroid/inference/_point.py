@@ -1,15 +1,16 @@
 """A bench problem's mode with optimistix: the posterior mode and its Gaussian covariance.
 
 * A model linear in its parameters with white noise: closed form from the sufficient
-  statistics (``_linear_gaussian``).
+  statistics (``_linear_gaussian``; from its rows where some are held out).
 * A linear model under correlated noise (a thermometer's noise carried through dT/dt
   included): its coefficients integrated out, the noise levels' marginal mode
-  (:mod:`gyroid.inference._marginal_mode`); with positive parameters too (time constants,
-  a step's time), those profiled (:mod:`gyroid.inference._point_profiled`).
-* A model with positive parameters under any noise model: for given positive parameters
-  every drift effect is linear in the real ones, which are integrated out; the positive
-  parameters are profiled from the grid of :mod:`gyroid.inference._starts` and the noise
-  levels found at the marginal's mode (:mod:`gyroid.inference._point_profiled`).
+  (:mod:`gyroid.inference._marginal_mode`), found while the dT/dt window was chosen where
+  it was.
+* A model with positive parameters (time constants, a step's time) under any noise model:
+  for given positive parameters every drift effect is linear in the real ones, which are
+  integrated out; the positive parameters are profiled from the grid of
+  :mod:`gyroid.inference._starts` and the noise levels found at the marginal's mode
+  (:mod:`gyroid.inference._point_profiled`).
 
 The covariance is the closed form's, or the marginal's (the coefficients' conditional
 covariance beside the levels' inverse Hessian, widened by the positive parameters'
