@@ -7,10 +7,12 @@ import equinox as eqx
 import jax
 import numpy as np
 import pytest
+from helpers import SHORT_THERMAL
 
-from gyroid import BenchLog
+from gyroid import BenchLog, GyroNoise
 from gyroid.inference import BenchProblem, Emcee, Importance
 from gyroid.inference._batching import in_chunks, problem_batcher
+from gyroid.simulation import simulate_thermal_bench
 
 _EXACT = {}
 
@@ -219,6 +221,25 @@ def test_stored_block_log_likelihoods_need_one_filter_pass_per_noise_level(walke
         posterior.draws.reshape(-1, posterior.draws.shape[-1])))
     levels = np.unique(flat[:, problem.n_model:], axis=0).shape[0]
     assert levels < flat.shape[0]  # the saving: repeated levels
+    direct = in_chunks(problem_batcher(problem.density.log_likelihood_blocks), flat, 256)
+    np.testing.assert_allclose(fast.reshape(direct.shape), direct, rtol=1e-9, atol=1e-9)
+
+
+def test_stored_block_log_likelihoods_of_rows_with_the_thermometers_covariance():
+    """Under white noise carrying the thermometer, the marginal's innovations are the
+    coordinates of the rows' covariance's eigenbasis, not rows in time order: the stored
+    blocks are still the rows' own (each row given every other), the density's
+    ``log_likelihood_blocks`` at every draw, and they sum to its log-likelihood."""
+    from gyroid.inference._storage import block_log_likelihood
+
+    sim = simulate_thermal_bench(protocol=SHORT_THERMAL, seed=5,
+                                 noise=GyroNoise(temperature_noise_C=0.05))
+    problem = BenchProblem.from_log(sim.log, "thermal", noise="white", max_rows=200)
+    assert problem.noise.carried is not None
+    posterior = Importance().sample(problem, problem.mode(), seed=3)
+    fast = block_log_likelihood(problem, posterior)
+    flat = np.asarray(problem.to_sampling_host(
+        posterior.draws.reshape(-1, posterior.draws.shape[-1])))
     direct = in_chunks(problem_batcher(problem.density.log_likelihood_blocks), flat, 256)
     np.testing.assert_allclose(fast.reshape(direct.shape), direct, rtol=1e-9, atol=1e-9)
 

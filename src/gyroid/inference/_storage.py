@@ -3,10 +3,11 @@ for any problem."""
 
 from __future__ import annotations
 
-import math
 import warnings
 from typing import Protocol, runtime_checkable
 
+import equinox as eqx
+import jax
 import numpy as np
 from jaxtyping import Array, Float
 
@@ -15,8 +16,6 @@ from gyroid.inference._collapsed import CollapsedCoefficients
 from gyroid.inference._posterior import Posterior
 from gyroid.inference._problem import AbstractProblem
 from gyroid.io._arviz import load_arviz
-
-_LOG_2PI = math.log(2.0 * math.pi)
 
 
 @runtime_checkable
@@ -90,7 +89,13 @@ def _by_noise_level(density, collapsed, flat: np.ndarray, chunk: int) -> np.ndar
         rows = slice(start, start + chunk)
         own = filtered[which[rows]]
         innovation = own[..., 0] - np.einsum("mnp,mp->mn", own[..., 1:1 + p], flat[rows, :p])
-        variance = own[..., -1]
-        log_lik = -0.5 * (innovation**2 / variance + np.log(variance) + _LOG_2PI)
+        log_lik = np.asarray(_rows_of(collapsed.row_filter, innovation, own[..., -1]))
         out[rows] = (log_lik * weight) @ member
     return out
+
+
+@eqx.filter_jit
+def _rows_of(row_filter, innovation, variance):
+    """Each draw's rows' log-likelihoods from their innovations (:meth:`~gyroid.noise.
+    RowFilter.rows_of`: the rows' own, also where the innovations are not in time order)."""
+    return jax.vmap(row_filter.rows_of)(innovation, variance)

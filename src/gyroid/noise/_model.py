@@ -323,16 +323,22 @@ class RowFilter(eqx.Module):
         return self.noise.innovations(observed, white, values, self.clock)
 
     def row_log_likelihood(self, residual, white, values: Mapping) -> Array:
-        """Each row's log-likelihood (0 for a row held out): independent rows', each
-        innovation's given the rows before it, or, under the rows' exact covariance
-        (a carried thermometer's beside white noise), each row's given every other row."""
+        """Each row's log-likelihood (0 for a row held out): independent rows', else
+        :meth:`rows_of` its residual's innovations."""
         filtered = self.innovations(residual, white, values)
         if filtered is None:
             rows = -0.5 * (residual / white) ** 2 - jnp.log(white) - 0.5 * _LOG_2PI
-        elif isinstance(carried := self.noise.carried, ExactRateError):
-            rows = carried.rows.leave_one_out_rows(*filtered)
+            return rows if self.weight is None else rows * self.weight
+        return self.rows_of(*filtered)
+
+    def rows_of(self, innovation, variance) -> Array:
+        """Each row's log-likelihood from the innovations of its residual and their
+        variances (:meth:`innovations`; 0 for a row held out): each innovation's given the
+        rows before it, or, under the rows' exact covariance (a carried thermometer's
+        beside white noise), each row's given every other row."""
+        if isinstance(carried := self.noise.carried, ExactRateError):
+            rows = carried.rows.leave_one_out_rows(innovation, variance)
         else:
-            innovation, variance = filtered
             rows = -0.5 * innovation**2 / variance - 0.5 * jnp.log(variance) - 0.5 * _LOG_2PI
         return rows if self.weight is None else rows * self.weight
 
