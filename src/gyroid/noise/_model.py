@@ -355,13 +355,10 @@ class RowFilter(eqx.Module):
         """The residual over its modelled sd, in time order: independent N(0, 1) where the
         model and the noise model are right (a filter's innovations; under the rows'
         exact covariance, its Cholesky factor's)."""
-        filtered = self.innovations(residual, white, values)
-        if filtered is None:
-            return residual / white
         if isinstance(carried := self.noise.carried, ExactRateError):
             return carried.rows.standardised(residual, white)
-        innovation, variance = filtered
-        return innovation / jnp.sqrt(variance)
+        filtered = self.innovations(residual, white, values)
+        return residual / white if filtered is None else filtered[0] / jnp.sqrt(filtered[1])
 
 
 #: The noise models ``--noise`` offers, by name.
