@@ -144,12 +144,14 @@ def choose_terms(stats: HaarStatistics) -> TermChoice:
     with_g = [s for s in sets if "G" in s]
     widest_g = [s for s in with_g if not any(set(s) < set(t) for t in with_g)]
     over_times = over_correlation_times(stats, widest_g, argmax)
-    # a set's likelihood is at most a wider set's, at every time: a set with G whose BIC
-    # could not come within MIN_WEIGHT of the best set without G is not fitted
+
     def criterion(value: float, names: tuple[str, ...]) -> float:
+        """BIC, an amplitude per term (G's time is integrated out, not charged)."""
         return -2.0 * value + len(names) * math.log(n)
 
     best = min(criterion(value, names) for names, value in fits.items())
+    # a set's likelihood is at most a wider set's, at every time: a set with G whose BIC
+    # could not come within MIN_WEIGHT of the best set without G is not fitted
     reach = [s for s in with_g if s not in over_times and criterion(min(
         over_times[w].greatest for w in widest_g if set(s) <= set(w)), s)
         - best < -2.0 * math.log(MIN_WEIGHT)]

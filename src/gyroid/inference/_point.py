@@ -156,9 +156,9 @@ def point_estimate(problem: BenchDensity, *,
                                 float(stats.rss_min), problem.n)
     collapsed = filtered_form(problem)
     if collapsed is not None:  # a linear model under correlated noise: its marginal's mode
-        guess, correlated = noise_guess(problem)
+        correlated = correlated_levels(problem)
         if noise_mode is None:
-            noise_mode, _ = marginal_mode(collapsed, guess, correlated,
+            noise_mode, _ = marginal_mode(collapsed, noise_guess(problem)[0], correlated,
                                           lanes=1 + len(correlated))
         u, covariance, converged, message = at_marginal_mode(
             collapsed, noise_mode, _white_start(problem)[:problem.n_model])
