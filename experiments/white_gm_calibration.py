@@ -36,7 +36,7 @@ def main() -> None:
     protocol = ThermalProtocol()
     protocol = protocol.stretched(None, args.rows / protocol.duration_s)
     noise = GyroNoise(**GM)
-    z, inside, trusted = [], [], 0
+    z, inside, trusted, warned, under_other = [], [], 0, 0, 0
     for k in range(args.datasets):
         sim = simulate_thermal_bench(seed=args.seed + k, protocol=protocol, noise=noise)
         truth = {**sim.truth["parameters"], "sigma_gm_deg_h": GM["bias_instability_deg_h"]
@@ -48,6 +48,12 @@ def main() -> None:
         inside.append([np.percentile(draws[n], 5) <= v <= np.percentile(draws[n], 95)
                        for n, v in truth.items()])
         trusted += fit.trustworthy
+        # how often the intervals are said to rest on the noise levels' priors or on the
+        # choice of white+gm over the default (the log not ruling the default out)
+        check = next(c for c in fit.checks.checks if c.name == "noise_prior_dependence")
+        warned += not check.passed
+        under_other += (not check.passed and fit.allowed_noise is not None
+                        and fit.allowed_noise.widest[0] in fit.allowed_noise.under_other)
         print(f"{k + 1}/{args.datasets}", flush=True)
     names = list(truth)
     z = np.asarray(z)
@@ -56,6 +62,7 @@ def main() -> None:
         "z_rms": dict(zip(names, np.sqrt((z**2).mean(axis=0)).tolist(), strict=True)),
         "inside_90": dict(zip(names, np.sum(inside, axis=0).tolist(), strict=True)),
         "datasets": args.datasets, "trustworthy": trusted,
+        "noise_prior_dependence_warned": warned, "warned_under_other_model": under_other,
         "block_means": fit.block_means}
     save_run(results_dir("white_gm_calibration"), seed=args.seed,
              config={"datasets": args.datasets, "rows": args.rows, "gm": GM,

@@ -32,7 +32,7 @@ def bench_checks(problem: BenchProblem, point: PointEstimate, posterior: Posteri
     report = fit_checks(problem.evidence(point, posterior)) + bench_point_checks(problem, point)
     if allowed is None:
         return report
-    return report + CheckReport((allowed.check(problem.noise.units),))
+    return report + CheckReport((allowed.check(),))
 
 
 def bench_point_checks(problem: BenchProblem, point: PointEstimate) -> CheckReport:

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
+from dataclasses import replace
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -155,6 +156,26 @@ class BenchProblem(AbstractProblem):
                    rate_window_choice=choice, block_rows=block_rows, segments=samples,
                    thermometer_sd_C=math.sqrt(thermometer_var), rate_error_wd=wd,
                    noise_mode=noise_mode)
+
+    def under_noise(self, noise: str | NoiseModel) -> BenchProblem:
+        """This problem on the same rows (the same block means, dT/dt window, coefficients'
+        priors and carried thermometer noise) under another noise model, its levels' priors
+        by this problem's prior set: what the log allows under each can then be compared."""
+        noise = noise_model(noise)
+        noise_priors = _noise_priors(noise, self.log, self.inputs, self.block_rows,
+                                     self.prior_set, self.sigma_known)
+        thermometer = _carried(self.log, self.rate_window_s, self.rate_error_wd,
+                               self.thermometer_sd_C**2 / self.block_rows)
+        density = BenchDensity.from_log(
+            self.log, self.model, (*self.priors[:self.n_model], *noise_priors.values()),
+            self.inputs, noise=noise, rate_window_s=self.rate_window_s,
+            rows_per_mean=self.block_rows, thermometer=thermometer)
+        return replace(self, density=density, noise_mode=None)
+
+    @property
+    def reads_segment_means(self) -> bool:
+        """Whether each row is a burst log's segment mean (``segment_means=True``)."""
+        return self.segments is not None and self.block_rows == 1
 
     # ----- description (the density's) -------------------------------------------------------
     @property

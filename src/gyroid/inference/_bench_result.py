@@ -71,9 +71,9 @@ class BenchFit(Fit[BenchProblem]):
     @property
     def segment_means(self) -> dict[str, int] | None:
         """For a fit of a burst log's segment means: how many means, of how many rows."""
-        segments = self.problem.segments
-        return None if segments is None or self.problem.block_rows > 1 else {
-            "segments": self.problem.n, "rows": segments.n}
+        problem = self.problem
+        return {"segments": problem.n, "rows": problem.samples_behind.n} if (
+            problem.reads_segment_means) else None
 
     @property
     def block_means(self) -> dict[str, int] | None:
