@@ -51,7 +51,7 @@ from scipy import stats
 from gyroid.inference._batching import in_chunks
 from gyroid.inference._check_report import Check
 from gyroid.inference._importance import BATCH
-from gyroid.noise._model import DEFAULT_NOISE, NoiseModel, noise_model
+from gyroid.noise._model import NoiseModel
 
 #: The likelihood region's probability (chi-square with the marginal coordinates' number).
 REGION = 0.95
@@ -178,20 +178,13 @@ class AllowedNoise:
 
 
 def other_noise_model(problem) -> NoiseModel | None:
-    """The noise model a bench fit's range also spans: the default (white + flicker + rate
-    random walk) for a fit under another correlated model, a Gauss-Markov bias, say, whose
-    shape beyond its correlation time (flat, where flicker and a walk rise) the log may not
-    test (on MEMS benches with flicker and a walk, ``--noise white+gm`` fits were within
-    2.6-6.3 nats of the default's and 4 of 5 had a truth 2.6-5.1 of its sds away,
-    ``experiments/mems_thermal_bench.py``); None under white noise (whose whiteness check
-    tests the rows themselves), under the default's terms, and on a burst log's segment
-    means (which the default does not read)."""
-    gyro = problem.noise.without_rate_error()
-    default = noise_model(DEFAULT_NOISE)
-    if (not gyro.correlated or set(gyro.codes) == set(default.codes)
-            or problem.reads_segment_means):
-        return None
-    return default
+    """The noise model a bench fit's range also spans: its noise model's
+    :attr:`~gyroid.noise.NoiseModel.rival` (the default, for another correlated model; on
+    the MEMS benches of ``experiments/mems_thermal_bench.py`` ``--noise white+gm`` fits had
+    truths 2.6-5.1 of their sds away and the default fitted those logs 5-16 nats better),
+    on the same rows; none on a burst log's segment means (which the default does not
+    read)."""
+    return None if problem.reads_segment_means else problem.noise.rival
 
 
 @dataclass(frozen=True)

@@ -30,8 +30,9 @@ from gyroid.models._derived import RATE_WINDOW_S
 from gyroid.models._drift import DriftModel
 from gyroid.models._inputs import DriftInputs
 from gyroid.models._priors import Flat, LogNormal, Normal, Prior, prior_arrays
-from gyroid.noise._model import NoiseModel, RowFilter, noise_model
+from gyroid.noise._model import NoiseModel, noise_model
 from gyroid.noise._rate_error_rows import CarriedThermometer
+from gyroid.noise._row_filter import RowFilter
 
 #: Length of the blocks whose summed log-likelihood ArviZ's LOO treats as one observation, s.
 LOO_BLOCK_S = 60.0

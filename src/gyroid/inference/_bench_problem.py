@@ -25,12 +25,11 @@ from gyroid.inference._point_profiled import collapsed_log_likelihood
 from gyroid.inference._problem import AbstractProblem, PointEstimate
 from gyroid.inference._rate_window import choose_rate_window, reads_rate
 from gyroid.inference._rate_window_marginal import marginal_window
-from gyroid.inference._thermometer import thermometer_to_carry
+from gyroid.inference._thermometer import carried_thermometer, thermometer_to_carry
 from gyroid.io._logs import BenchLog, MeansOfBlocks, SampleDeviations, contiguous_segments
 from gyroid.io._logs import segment_means as means_of_segments
 from gyroid.models._derived import (
     RATE_WINDOW_S,
-    estimator_grid_size,
     temperature_rate_deg_c_per_h,
 )
 from gyroid.models._drift import DriftModel
@@ -43,13 +42,7 @@ from gyroid.models._prior_scales import (
     reference_sd,
 )
 from gyroid.models._priors import Prior
-from gyroid.models._rate_error import (
-    estimator_autocovariance,
-    rate_error_covariance,
-    white_level_var,
-)
 from gyroid.noise._model import NoiseModel, noise_model
-from gyroid.noise._rate_error_rows import CarriedThermometer
 
 #: The most rows a correlated noise model filters, and the most a fit carrying the
 #: thermometer's noise holds its covariance over (longer logs: block means).
@@ -148,7 +141,7 @@ class BenchProblem(AbstractProblem):
                                          _with_rate_window(log, base, window_s), noise=noise,
                                          rate_window_s=window_s, fast=fast,
                                          rows_per_mean=block_rows,
-                                         thermometer=_carried(log, window_s, wd,
+                                         thermometer=carried_thermometer(log, window_s, wd,
                                                               thermometer_var_row))
 
         density, noise_mode, choice = _by_marginal(density_at, log, rate_window_s, choice)
@@ -164,7 +157,7 @@ class BenchProblem(AbstractProblem):
         noise = noise_model(noise)
         noise_priors = _noise_priors(noise, self.log, self.inputs, self.block_rows,
                                      self.prior_set, self.sigma_known)
-        thermometer = _carried(self.log, self.rate_window_s, self.rate_error_wd,
+        thermometer = carried_thermometer(self.log, self.rate_window_s, self.rate_error_wd,
                                self.thermometer_sd_C**2 / self.block_rows)
         density = BenchDensity.from_log(
             self.log, self.model, (*self.priors[:self.n_model], *noise_priors.values()),
@@ -326,28 +319,6 @@ def _by_marginal(density_at, log: BenchLog, window_s: float, choice: str
     scored = ", ".join(f"{w:.0f}" for w in sorted(better[1]))
     return density, better[2], (
         f"auto: the marginal likelihood's of {scored} s (least squares' {window_s:.0f} s)")
-
-
-def _carried(log: BenchLog, window_s: float, wd: float, thermometer_var: float
-             ) -> CarriedThermometer | None:
-    """The thermometer's noise a fit carries (a row's variance ``thermometer_var``, degC^2;
-    none when 0) through the estimator's window ``window_s`` (s), times ``wd**2``: the rows'
-    covariance, and the interior's autocovariance at lags of one row (none for a log of
-    bursts, whose estimator differentiates on a grid across the gaps: a kernel not the
-    rows')."""
-    if thermometer_var <= 0 or log.n < 2:
-        return None
-    time_s = np.asarray(log.time_s)
-    temperature = np.asarray(log.columns["temperature_C"])
-    step = float(np.median(np.diff(time_s)))
-    even = estimator_grid_size(time_s, window_s) <= 1.05 * log.n
-    return CarriedThermometer(
-        covariance=lambda: wd**2 * rate_error_covariance(time_s, temperature, window_s,
-                                                         thermometer_var),
-        autocovariance=lambda: (wd**2 * estimator_autocovariance(window_s, step,
-                                                                 thermometer_var)
-                                if even else None),
-        white_var=white_level_var(np.asarray(log.drift_deg_h)))
 
 
 def _rows_fitted(log: BenchLog | MeansOfBlocks, noise: NoiseModel, segment_means: bool, *,

@@ -35,7 +35,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
-from gyroid.noise._model import RowFilter
+from gyroid.noise._row_filter import RowFilter
 
 _LOG_2PI = math.log(2.0 * math.pi)
 #: ``A'A``, ``A'a``, the whitened residual's sum of squares at given coefficients, and the

@@ -1,7 +1,8 @@
 """Whether a fit carries the thermometer's noise through the dT/dt estimator (errors in
 variables, :mod:`gyroid.noise._rate_error_rows`), and how much: measured on the log, left out
 where negligible or where the estimator cannot be written as a matrix over the rows (a log
-of bursts); times wD at its least-squares value on the log, fixed for the fit."""
+of bursts); times wD at its least-squares value on the log, fixed for the fit; and the
+term a fit's noise model carries on its rows (:func:`carried_thermometer`)."""
 
 from __future__ import annotations
 
@@ -13,10 +14,13 @@ from gyroid.models._derived import MAX_OPERATOR_ROWS, RATE_POLY_DEGREE, estimato
 from gyroid.models._drift import DriftModel
 from gyroid.models._inputs import ACCEL_COLUMNS, FIELD_COLUMNS
 from gyroid.models._rate_error import (
+    estimator_autocovariance,
     rate_coefficient_index,
+    rate_error_covariance,
     thermometer_noise_var,
     white_level_var,
 )
+from gyroid.noise._rate_error_rows import CarriedThermometer
 
 
 def thermometer_to_carry(log: BenchLog | MeansOfBlocks, model: DriftModel,
@@ -112,3 +116,25 @@ def _operator_fits(log: BenchLog | MeansOfBlocks, rate_window_s: float | None,
     window = rate_window_s if rate_window_s is not None else float(window_grid(time_s)[0])
     per_row = estimator_grid_size(time_s, window) / max(rows.n, 1)
     return max(1.0, per_row) * min(rows.n, cap) <= MAX_OPERATOR_ROWS
+
+
+def carried_thermometer(log: BenchLog, window_s: float, wd: float, thermometer_var: float
+                        ) -> CarriedThermometer | None:
+    """The thermometer's noise a fit carries (a row's variance ``thermometer_var``, degC^2;
+    none when 0) through the estimator's window ``window_s`` (s), times ``wd**2``: the rows'
+    covariance, and the interior's autocovariance at lags of one row (none for a log of
+    bursts, whose estimator differentiates on a grid across the gaps: a kernel not the
+    rows')."""
+    if thermometer_var <= 0 or log.n < 2:
+        return None
+    time_s = np.asarray(log.time_s)
+    temperature = np.asarray(log.columns["temperature_C"])
+    step = float(np.median(np.diff(time_s)))
+    even = estimator_grid_size(time_s, window_s) <= 1.05 * log.n
+    return CarriedThermometer(
+        covariance=lambda: wd**2 * rate_error_covariance(time_s, temperature, window_s,
+                                                         thermometer_var),
+        autocovariance=lambda: (wd**2 * estimator_autocovariance(window_s, step,
+                                                                 thermometer_var)
+                                if even else None),
+        white_var=white_level_var(np.asarray(log.drift_deg_h)))

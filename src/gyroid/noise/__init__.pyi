@@ -12,10 +12,10 @@ from ._level_priors import priors_from_noise as priors_from_noise
 from ._model import DEFAULT_NOISE as DEFAULT_NOISE
 from ._model import NOISE_MODELS as NOISE_MODELS
 from ._model import NoiseModel as NoiseModel
-from ._model import RowFilter as RowFilter
 from ._model import noise_choice as noise_choice
 from ._model import noise_model as noise_model
 from ._model import recorded_model as recorded_model
+from ._row_filter import RowFilter as RowFilter
 from ._terms import STATIC_TERMS as STATIC_TERMS
 from ._terms import AbstractNoiseTerm as AbstractNoiseTerm
 from ._terms import AbstractWhiteTerm as AbstractWhiteTerm

@@ -1,5 +1,5 @@
 """A drift log's noise model: a named tuple of terms (:mod:`gyroid.noise._terms`), its white
-term first, composed into one likelihood (independent rows, or the one block filter) and
+term first, composed into one likelihood (on a log's rows: :mod:`gyroid.noise._row_filter`) and
 one covariance of parts' means, so the predictive check tests what the fit assumed; and the
 registry of the models ``--noise`` offers by name.
 
@@ -18,13 +18,12 @@ A new model is one line, ``NoiseModel("white+rw", (AngleRandomWalk(), RateRandom
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
 
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
-from jaxtyping import Array, Float
+from jaxtyping import Array
 
 from gyroid.errors import GyroidInputError
 from gyroid.models._priors import Prior
@@ -45,8 +44,6 @@ from gyroid.noise._terms import (
     RateRandomWalk,
     SampleWhite,
 )
-
-_LOG_2PI = math.log(2.0 * math.pi)
 
 
 class NoiseModel(eqx.Module):
@@ -110,6 +107,20 @@ class NoiseModel(eqx.Module):
         more = (("noise_model",) if not self.without_rate_error().correlated
                 else () if {"B", "K"} <= set(self.codes) else ("noise_terms",))
         return (*more, "segment_means", "discrepancy")
+
+    @property
+    def rival(self) -> NoiseModel | None:
+        """The noise model a fit under this one is weighed against (what the log allows
+        under each, :mod:`gyroid.inference._allowed_noise`): the default, for a correlated
+        model of other terms (a Gauss-Markov bias is flat beyond its correlation time, where
+        flicker and a walk rise, and a log often cannot tell them apart); None for white
+        noise, whose whiteness check tests the rows themselves, and for the default's
+        terms."""
+        gyro = self.without_rate_error()
+        default = noise_model(DEFAULT_NOISE)
+        if not gyro.correlated or set(gyro.codes) == set(default.codes):
+            return None
+        return default
 
     def names(self, sigma_known: bool) -> tuple[str, ...]:
         """The sampled levels' names: without the white level when the log gives it."""
@@ -283,82 +294,6 @@ class NoiseModel(eqx.Module):
             raise ValueError("the rate error's covariance is of the fitted log's rows: "
                              f"{covariance.shape[0]} rows, not {rows.size}")
         return parts_mean_covariance(covariance, rows, n_parts)
-
-
-class RowFilter(eqx.Module):
-    """A noise model set on a log's rows: from its levels' sampling coordinates (logs) to
-    each row's white sd and the levels by name, and the innovations of what it filters.
-    It holds no drift model, so fits of different models to the same rows (a discrepancy
-    search's candidates) share its compiled programs."""
-
-    noise: NoiseModel
-    steps_s: Float[Array, " n"]
-    sigma: Float[Array, " n"] | None = None  # the log's own sd of each row, deg/h
-    gap_s: Float[Array, " n"] | None = None
-    weight: Float[Array, " n"] | None = None
-    step_s: float = eqx.field(static=True, default=1.0)
-    #: A row's white sd per sample's (1/sqrt(m) for the mean of m samples).
-    row_scale: float = eqx.field(static=True, default=1.0)
-
-    @property
-    def names(self) -> tuple[str, ...]:
-        """The sampled levels' names."""
-        return self.noise.names(self.sigma is not None)
-
-    @property
-    def clock(self) -> RowClock:
-        return RowClock(self.steps_s, self.step_s, self.gap_s, self.weight)
-
-    def levels_of(self, noise_u: Float[Array, " k"]) -> tuple[Array, dict[str, Array]]:
-        """The white sd a row's likelihood uses (deg/h; per row or one) and every level by
-        name (natural units), from the levels' sampling coordinates ``noise_u``."""
-        values = dict(zip(self.names, jnp.exp(noise_u), strict=True))
-        if self.sigma is not None:
-            return self.sigma, values
-        return self.noise.row_white_sd(values, step_s=self.step_s,
-                                       row_scale=self.row_scale), values
-
-    def innovations(self, observed, white, values: Mapping):
-        """:meth:`NoiseModel.innovations` on these rows (None for independent rows)."""
-        return self.noise.innovations(observed, white, values, self.clock)
-
-    def row_log_likelihood(self, residual, white, values: Mapping) -> Array:
-        """Each row's log-likelihood (0 for a row held out): independent rows', else
-        :meth:`rows_of` its residual's innovations."""
-        filtered = self.innovations(residual, white, values)
-        if filtered is None:
-            rows = -0.5 * (residual / white) ** 2 - jnp.log(white) - 0.5 * _LOG_2PI
-            return rows if self.weight is None else rows * self.weight
-        return self.rows_of(*filtered)
-
-    def rows_of(self, innovation, variance) -> Array:
-        """Each row's log-likelihood from the innovations of its residual and their
-        variances (:meth:`innovations`; 0 for a row held out): each innovation's given the
-        rows before it, or, under the rows' exact covariance (a carried thermometer's
-        beside white noise), each row's given every other row."""
-        if isinstance(carried := self.noise.carried, ExactRateError):
-            rows = carried.rows.leave_one_out_rows(innovation, variance)
-        else:
-            rows = -0.5 * innovation**2 / variance - 0.5 * jnp.log(variance) - 0.5 * _LOG_2PI
-        return rows if self.weight is None else rows * self.weight
-
-    def log_likelihood(self, residual, white, values: Mapping) -> Array:
-        """The rows' joint log-likelihood (the rows held out left out)."""
-        carried = self.noise.carried
-        if not isinstance(carried, ExactRateError):  # independent rows, or innovations
-            return jnp.sum(self.row_log_likelihood(residual, white, values))
-        innovation, variance = carried.rows.innovations(residual, white)
-        rows = innovation**2 / variance + jnp.log(variance) + _LOG_2PI
-        return -0.5 * jnp.sum(rows if self.weight is None else rows * self.weight)
-
-    def standardised(self, residual, white, values: Mapping) -> Array:
-        """The residual over its modelled sd, in time order: independent N(0, 1) where the
-        model and the noise model are right (a filter's innovations; under the rows'
-        exact covariance, its Cholesky factor's)."""
-        if isinstance(carried := self.noise.carried, ExactRateError):
-            return carried.rows.standardised(residual, white)
-        filtered = self.innovations(residual, white, values)
-        return residual / white if filtered is None else filtered[0] / jnp.sqrt(filtered[1])
 
 
 #: The noise models ``--noise`` offers, by name.
