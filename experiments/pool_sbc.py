@@ -2,7 +2,8 @@
 
 Per dataset: the population means and between-run sds drawn from the priors the fit uses,
 each run's coefficients from the population, a short Helmholtz-coil sweep simulated per run
-(white noise, level unknown to the fit), the lot pooled with ``fit_pool``. Recorded: the
+(white noise, level unknown to the fit), the lot pooled with ``fit_pool`` under white noise
+(each run fitted on its own, its coefficients' posterior one Gaussian observation). Recorded: the
 rank of each true population mean and between-run sd among the posterior draws, and
 whether the central 50 / 90 / 95 % intervals cover it, for lots of 3, 8 and 30 runs.
 
@@ -53,7 +54,7 @@ def one_dataset(rng: np.random.Generator, n_runs: int, seed: int) -> dict:
     labels = tuple(f"run_{r + 1:02d}" for r in range(n_runs))
     started = time.time()
     result = fit_pool(logs, labels, "magnetic", seed=seed, priors=MEAN_PRIORS,
-                      spread_scales=SPREAD_SCALES, noise="white")  # the exact algebra's SBC
+                      spread_scales=SPREAD_SCALES, noise="white")  # the white runs as they are
     seconds = time.time() - started
     out = {"n_runs": n_runs, "seconds": seconds, "trustworthy": result.trustworthy,
            "converged": bool(result.posterior.converged),

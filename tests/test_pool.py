@@ -21,64 +21,59 @@ from gyroid.simulation import simulate_lot
 
 
 def _small_lot(seed: int = 1):
-    """Three runs of a 3-coefficient linear model with unknown noise, one run that does
-    not exercise coefficient 2, and the Gaussian algebra to check against."""
+    """Three runs' estimates of a 3-coefficient model with correlated errors of known
+    covariance (one run hardly measures coefficient 2), and the Gaussian algebra to check
+    against."""
     rng = np.random.default_rng(seed)
-    r, p, n = 3, 3, 12
-    design = [rng.normal(size=(n, p)) for _ in range(r)]
-    design[2][:, 2] = 0.0
-    mu, tau, sigma = np.array([1.0, -0.5, 0.3]), np.array([0.4, 0.2, 0.7]), np.array(
-        [0.3, 0.5, 0.2])
-    ys = [design[i] @ (mu + tau * rng.normal(size=p)) + sigma[i] * rng.normal(size=n)
-          for i in range(r)]
-    stats = {"gram": [], "solution": [], "rss": []}
-    for x, y in zip(design, ys, strict=True):
-        solution, *_ = np.linalg.lstsq(x, y, rcond=None)
-        stats["gram"].append(x.T @ x)
-        stats["solution"].append(solution)
-        stats["rss"].append(float(np.sum((y - x @ solution) ** 2)))
+    r, p = 3, 3
+    mu, tau = np.array([1.0, -0.5, 0.3]), np.array([0.4, 0.2, 0.7])
+    covariances = []
+    for _ in range(r):
+        root = rng.normal(size=(p, p)) * 0.3
+        covariances.append(root @ root.T + 0.05 * np.eye(p))
+    covariances[2][2, 2] += 400.0  # a run that does not exercise coefficient 2
+    estimates = np.array([mu + tau * rng.normal(size=p) + rng.multivariate_normal(
+        np.zeros(p), c) for c in covariances])
     prior = Normal(0.2, 2.0)
-    problem = PoolProblem.from_statistics(
-        ("a", "b", "c"), ("r0", "r1", "r2"), **stats, n_rows=[n] * r, log_sigma_sum=[0] * r,
-        sigma_known=[False] * r, mean_priors=[prior] * p, spread_scales=[1.0] * p,
-        noise_priors=[LogNormal(0.3, 2.0)] * r, own_mean=np.stack(stats["solution"]),
-        own_sd=np.full((r, p), np.nan), reference=np.ones(p))
-    return problem, design, ys, tau, sigma, prior
+    problem = PoolProblem.from_estimates(
+        ("a", "b", "c"), ("r0", "r1", "r2"), estimates, np.array(covariances),
+        mean_priors=[prior] * p, spread_scales=[1.0] * p, own_mean=estimates,
+        own_sd=np.sqrt(np.array([np.diag(c) for c in covariances])), reference=np.ones(p))
+    return problem, estimates, np.array(covariances), tau, prior
 
 
 def test_run_likelihood_given_the_population_is_the_exact_gaussian_marginal():
-    problem, design, ys, tau, sigma, _ = _small_lot()
+    problem, estimates, covariances, tau, _ = _small_lot()
     mu = np.array([1.1, -0.4, 0.4])
-    u = np.concatenate([np.log(tau), np.log(sigma)])
-    ours = np.asarray(problem.density.run_log_likelihood(mu, u))
-    exact = [multivariate_normal(x @ mu, x @ np.diag(tau**2) @ x.T + s**2 * np.eye(len(y))
-                                 ).logpdf(y) for x, y, s in zip(design, ys, sigma, strict=True)]
+    ours = np.asarray(problem.density.run_log_likelihood(mu, np.log(tau)))
+    exact = [multivariate_normal(mu, c + np.diag(tau**2)).logpdf(e)
+             for e, c in zip(estimates, covariances, strict=True)]
     np.testing.assert_allclose(ours, exact, rtol=1e-10, atol=1e-10)
+    # a run taken out holds no information: its log-likelihood is 0 at every mu
+    assert float(problem.without_run(1).density.run_log_likelihood(mu, np.log(tau))[1]) == (
+        pytest.approx(0.0, abs=1e-12))
 
 
 def test_population_mean_integrates_out_exactly_and_its_conditional_is_exact():
-    problem, design, ys, tau, sigma, prior = _small_lot()
-    u = np.concatenate([np.log(tau), np.log(sigma)])
-    # All runs jointly: y = X mu + (X theta_dev + noise), mu ~ N(loc, scale^2 I).
-    x_all = np.vstack(design)
-    y_all = np.concatenate(ys)
-    blocks = [x @ np.diag(tau**2) @ x.T + s**2 * np.eye(len(x)) for x, s in
-              zip(design, sigma, strict=True)]
-    noise_cov = np.zeros((len(y_all), len(y_all)))
-    start = 0
-    for b in blocks:
-        noise_cov[start:start + len(b), start:start + len(b)] = b
-        start += len(b)
-    prior_cov = prior.scale**2 * np.eye(3)
-    loc = np.full(3, prior.loc)
-    joint = noise_cov + x_all @ prior_cov @ x_all.T
-    exact = multivariate_normal(x_all @ loc, joint).logpdf(y_all)
+    problem, estimates, covariances, tau, prior = _small_lot()
+    u = np.log(tau)
+    # All runs jointly: estimate_r = mu + (theta_r - mu) + error_r, mu ~ N(loc, scale^2 I).
+    p = 3
+    stacked = np.tile(np.eye(p), (3, 1))
+    noise_cov = np.zeros((3 * p, 3 * p))
+    for r, c in enumerate(covariances):
+        noise_cov[r * p:(r + 1) * p, r * p:(r + 1) * p] = c + np.diag(tau**2)
+    prior_cov = prior.scale**2 * np.eye(p)
+    loc = np.full(p, prior.loc)
+    joint = noise_cov + stacked @ prior_cov @ stacked.T
+    y_all = estimates.ravel()
+    exact = multivariate_normal(stacked @ loc, joint).logpdf(y_all)
     ours = float(problem.density.log_likelihood_mean_free(u))
     assert ours == pytest.approx(exact, abs=1e-9)
-    # The conditional mean of mu given the data (Gaussian conditioning, by hand).
-    gain = prior_cov @ x_all.T @ np.linalg.inv(joint)
-    expected = loc + gain @ (y_all - x_all @ loc)
-    ours = np.asarray(problem.density.mean_conditional(u, np.zeros(3)))
+    # The conditional mean of mu given the estimates (Gaussian conditioning, by hand).
+    gain = prior_cov @ stacked.T @ np.linalg.inv(joint)
+    expected = loc + gain @ (y_all - stacked @ loc)
+    ours = np.asarray(problem.density.mean_conditional(u, np.zeros(p)))
     np.testing.assert_allclose(ours, expected, rtol=1e-9, atol=1e-9)
 
 

@@ -44,13 +44,12 @@ KIND_SITES = {
     "inference/_bench_fit.py": 3,
     "inference/_bench_problem.py": 6,
     "inference/_collapsed.py": 1,
-    "inference/_pool_fit.py": 2,
-    "inference/_pool_problem.py": 1,
+    "inference/_pool_fit.py": 1,
     "inference/_rate_window.py": 1,
     "inference/_rate_window_marginal.py": 1,
     "pipeline/_demo_study.py": 1,
     "pipeline/_fit_file.py": 1,
-    "pipeline/_pool_runs.py": 2,
+    "pipeline/_pool_runs.py": 1,
     "workflows/_discrepancy.py": 1,
 }
 

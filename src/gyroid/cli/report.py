@@ -68,7 +68,6 @@ _FIT_FLAGS = {"noise_model": "--noise auto", "noise_terms": "--noise white+flick
 REMEDY_FLAGS = {
     "fit": _FIT_FLAGS, "batch": _FIT_FLAGS, "discrepancy": _FIT_FLAGS,
     "pool": {"noise_model": "--noise auto", "segment_means": "--segment-means",
-             "single_fits": "gyroid fit --noise auto",
              "discrepancy": "gyroid discrepancy", "prior": "--prior NAME=normal(MU,SD)"},
     "roll fit": {"discrepancy": "gyroid discrepancy"},
 }

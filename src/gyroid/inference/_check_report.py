@@ -25,7 +25,6 @@ REMEDIES = {
     "segment_means": "fit the bursts' means, one row per burst",
     "discrepancy": "look for a missing effect (the discrepancy workflow)",
     "prior": "widen a prior, or choose another prior set",
-    "single_fits": "pooling assumes white noise: fit such runs one by one",
 }
 #: The remedies a bench fit can take; other kinds of fit give their own.
 BENCH_REMEDIES = frozenset({"noise_model", "noise_terms", "segment_means", "discrepancy",

@@ -1,11 +1,12 @@
 """Self-checks of a pooled fit: the single-fit checks (:mod:`gyroid.inference._checks`)
 applied to the population and to every run, and two that only a lot has.
 
-* Every run's residual checks (goodness of fit, whiteness, outliers) are run on that run's
-  standardised residuals at its pooled coefficients; a kind of check fails when any run
-  fails it, and its message names the runs (:func:`combine_runs`).
+* Every run's residual and noise checks are its own fit's (goodness of fit, whiteness,
+  outliers, the predictive check, how far its intervals rest on its noise levels' priors);
+  a kind of check fails when any run fails it, and its message names the runs
+  (:func:`combine_runs`).
 * ``run_consistency``: run r's own estimate against the population fitted without it:
-  ``d' (A_r^-1 + T)^-1 d`` (``d`` its least-squares coefficients minus the population mean)
+  ``d' (A_r^-1 + T)^-1 d`` (``d`` its own estimate minus the population mean)
   is chi-square with (rank of A_r) degrees of freedom when the run belongs to the
   population (the others' mode, their spread widened by one sd of its log:
   :func:`gyroid.inference._pool_fit.leave_one_run_out`). Left in, an outlying run inflates
@@ -27,13 +28,10 @@ import jax.numpy as jnp
 import numpy as np
 from scipy import stats
 
-from gyroid.inference._bench_checks import spikes_within_segments
-from gyroid.inference._bench_predictive import bench_predictive
 from gyroid.inference._check_report import Check, CheckReport, FitEvidence
 from gyroid.inference._checks import (
     PRIOR_TAIL_SD,
     convergence,
-    goodness_of_fit,
     identifiability,
     point_vs_posterior,
     prior_data_conflict,
@@ -41,14 +39,7 @@ from gyroid.inference._checks import (
 from gyroid.inference._pool_problem import PoolProblem
 from gyroid.inference._posterior import Posterior
 from gyroid.inference._problem import PointEstimate
-from gyroid.inference._residual_checks import outliers, residual_whiteness
-from gyroid.io._logs import contiguous_segments
 from gyroid.models._priors import Normal
-
-#: What a pooled fit of white noise can do about a run's correlated residuals: pool each
-#: run's own fit under a correlated noise model (``noise``), pool bursts' means, or fit the
-#: runs one by one.
-POOL_REMEDIES = frozenset({"noise_model", "segment_means", "single_fits", "discrepancy"})
 
 #: Family-wise false-alarm rate of the run-consistency check under the population model.
 RUN_CONSISTENCY_P = 1e-3
@@ -187,12 +178,7 @@ def leave_one_run_out(problem: PoolProblem) -> np.ndarray:
         mean = np.asarray(others.density.centre) + np.linalg.solve(q, np.asarray(b))
         sd_log_tau = np.sqrt(np.clip(np.diag(mode.covariance_u)[:p], 0.0, None))
         tau = np.exp(mode.u[:p] + sd_log_tau)
-        gram = np.asarray(problem.density.gram[r])
-        if r in problem.noisy_runs:
-            sigma2 = float(problem.density.rss[r]) / max(
-                float(problem.density.n_rows[r]) - problem.ranks[r], 1.0)
-            gram = gram / sigma2
-        a_inverse = np.linalg.pinv(gram)
+        a_inverse = np.linalg.pinv(np.asarray(problem.density.gram[r]))
         d = own[r] - mean
         cov = a_inverse + np.diag(tau**2) + np.linalg.inv(q)
         statistic = float(d @ np.linalg.solve(cov, d))
@@ -201,7 +187,7 @@ def leave_one_run_out(problem: PoolProblem) -> np.ndarray:
 
 
 def pool_checks(problem: PoolProblem, point: PointEstimate, posterior: Posterior,
-                mean_draws: np.ndarray, run_draws: np.ndarray, summary: dict) -> CheckReport:
+                mean_draws: np.ndarray, summary: dict) -> CheckReport:
     """The population's checks, every run's residual checks (when logs were pooled), and
     the lot's own two."""
     p = problem.n_model
@@ -226,43 +212,11 @@ def pool_checks(problem: PoolProblem, point: PointEstimate, posterior: Posterior
             n: float(np.nanmedian(own_sd[:, k]) / reference[k])
             if np.isfinite(own_sd[:, k]).any() else np.inf
             for k, n in enumerate(problem.coefficient_names)})))
-    u_mean = sampled_u.reshape(-1, len(problem.names)).mean(axis=0)
-    per_run = (combine_runs(dict(zip(problem.run_labels, problem.run_reports, strict=True)))
-               if problem.run_reports else run_checks(problem, u_mean, run_draws.mean(axis=0)))
+    per_run = combine_runs(dict(zip(problem.run_labels, problem.run_reports, strict=True))
+                           ) if problem.run_reports else CheckReport(())
     tau = posterior.draws.reshape(-1, len(problem.names))[:, :p]
     lot = CheckReport((
         run_consistency(leave_one_run_out(problem), problem.run_labels),
         between_run_sd_identified(problem.coefficient_names, tau, problem.n_runs),
     ))
     return population + per_run + lot
-
-
-def run_checks(problem: PoolProblem, u_mean: np.ndarray, pooled_mean: np.ndarray
-               ) -> CheckReport:
-    """Every run's residual checks at its pooled coefficients (and its noise level's
-    posterior mean), combined per kind across runs; for burst logs pooled on their segment
-    means, the spike check on each run's samples too."""
-    p = problem.n_model
-    per_run = {}
-    for r, q in enumerate(problem.runs):
-        noise = [u_mean[p + problem.noisy_runs.index(r)]] if r in problem.noisy_runs else []
-        u_run = np.concatenate([pooled_mean[r], noise])
-        z = q.standardised_residuals(u_run)
-        run_evidence = FitEvidence(names=q.names, n_model=q.n_model, point_u=u_run,
-                                   point_converged=True, point_message="", priors=q.priors,
-                                   reference_sd={}, residuals=z, sigma_given=q.sigma_known,
-                                   correlated_noise=False)
-        checks = [goodness_of_fit(run_evidence),
-                  residual_whiteness(z, segments=tuple(contiguous_segments(
-                      np.asarray(q.log.time_s))), remedies=POOL_REMEDIES),
-                  outliers(z, where=q.log.where),
-                  # held-out stretches of the run, predicted by its own fit: the white noise
-                  # pooling assumes must describe what each run does not show
-                  bench_predictive(q.density, np.asarray(q.log.time_s))]
-        if q.segments is not None:
-            rss = float(q.density.sufficient_statistics().rss_min)
-            sigma = float(np.sqrt(rss / max(q.n - q.n_model, 1)))
-            checks.append(spikes_within_segments(q.segments, n_means=q.n,
-                                                 sigma_of_means=sigma))
-        per_run[problem.run_labels[r]] = CheckReport(tuple(checks))
-    return combine_runs(per_run) if per_run else CheckReport(())

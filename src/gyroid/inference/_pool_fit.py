@@ -57,26 +57,6 @@ def pool_priors(problems: Sequence[BenchProblem],
     return priors, scales, reference
 
 
-def _own_estimates(problems: Sequence[BenchProblem]) -> tuple[np.ndarray, np.ndarray]:
-    """Each run's least-squares coefficients and their sds (sigma from its residuals when
-    the log does not give it); nan sd where the run does not identify a coefficient."""
-    means, sds = [], []
-    for q in problems:
-        stats = q.density.sufficient_statistics()
-        gram = np.asarray(stats.gram)
-        p = gram.shape[0]
-        scale = 1.0 if q.sigma_known else float(stats.rss_min) / max(q.n - p, 1)
-        if np.linalg.matrix_rank(gram) < p:
-            inverse = np.linalg.pinv(gram)
-            unidentified = np.abs(np.diag(gram @ inverse) - 1.0) > 1e-6
-        else:
-            inverse, unidentified = np.linalg.inv(gram), np.zeros(p, bool)
-        sd = np.sqrt(np.clip(np.diag(inverse) * scale, 0.0, None))
-        means.append(np.where(unidentified, np.nan, np.asarray(stats.solution)))
-        sds.append(np.where(unidentified, np.nan, sd))
-    return np.array(means), np.array(sds)
-
-
 def pool_problem(
     logs: Sequence[BenchLog],
     labels: Sequence[str],
@@ -97,16 +77,17 @@ def pool_problem(
     ``segment_means=True`` pools burst logs on one row per burst (as a single fit does),
     the samples still checked for spikes.
 
-    ``noise``: ``auto`` (the default, as a single fit's: IEEE 952's white + flicker + rate
-    random walk) or another correlated noise model fits each run on its own under it
-    (:func:`~gyroid.inference.fit_log`, ``seed``) and pools their posteriors' means and
-    covariances as Gaussian observations of the runs' coefficients (:func:`pooled_fits`):
-    the run-to-run test then weighs each run by what its own noise leaves known. ``white``
-    pools each run's sufficient statistics under white noise (exact, and right only where
-    each run's noise is white at the scales that decide its coefficients, which its
-    whiteness check cannot see at hours: of 10 lots of three 10 h FOG runs with identical
-    coefficients it trusted 5, each saying the runs differ at p < 0.01;
-    ``experiments/pool_fog_lots.py``). ``progress`` hears of each run fitted."""
+    ``noise``: the noise model each run is fitted under on its own
+    (:func:`~gyroid.inference.fit_log`, seeds ``seed``, ``seed + 1``, ...; its dT/dt window
+    and its thermometer's noise as a single fit's): ``auto`` (the default, as a single
+    fit's: IEEE 952's white + flicker + rate random walk), ``white`` or another. Each run's
+    coefficients' posterior mean and covariance are one Gaussian observation of them
+    (:func:`pooled_fits`): the run-to-run test then weighs each run by what its own noise
+    leaves known. ``white`` is right only where each run's noise is white at the scales
+    that decide its coefficients, which its whiteness check cannot see at hours: of 10 lots
+    of three 10 h FOG runs with identical coefficients it trusted 5, each saying the runs
+    differ at p < 0.01 (``experiments/pool_fog_lots.py``). ``progress`` hears of each run
+    fitted."""
     if len(logs) < 2:
         raise GyroidInputError("pooling needs at least two logs (runs or units of one gyro "
                                "type); for one log use 'gyroid fit'")
@@ -122,39 +103,14 @@ def pool_problem(
     names = model.parameter_names
     _check_options(names, priors, spread_scales)  # before any run is fitted
     kind = noise_model(noise)
-    # Each run is built once: under correlated noise by its own fit (which chooses its
-    # dT/dt window under that noise), under white noise on sufficient statistics with the
-    # thermometer's noise not carried (the pooled algebra reads each run's Gram matrix; a
-    # run whose likelihood carries it has none).
-    fits = (tuple(_run_fits(logs, labels, model, kind, prior_set=prior_set, t0_C=t0_C,
-                            seed=seed, segment_means=segment_means, progress=progress))
-            if kind.correlated else ())
-    runs = (tuple(f.problem for f in fits) if fits else
-            tuple(BenchProblem.from_log(log, model, noise=None, prior_set=prior_set,
-                                        t0_C=t0_C, rate_window_s=None,
-                                        segment_means=segment_means,
-                                        errors_in_variables=False) for log in logs))
-    mean_priors, scales, reference = pool_priors(runs, priors)
+    fits = tuple(_run_fits(logs, labels, model, kind, prior_set=prior_set, t0_C=t0_C,
+                           seed=seed, segment_means=segment_means, progress=progress))
+    mean_priors, scales, reference = pool_priors([f.problem for f in fits], priors)
     for name, scale in (spread_scales or {}).items():
         scales[names.index(name)] = scale
-    if fits:
-        return pooled_fits(fits, labels, model, kind, mean_priors=mean_priors,
-                           spread_scales=scales, reference=reference, t0_C=t0_C,
-                           segment_means=segment_means)
-    p = len(model.parameter_names)
-    own_mean, own_sd = _own_estimates(runs)
-    stats = [q.density.sufficient_statistics() for q in runs]
-    return PoolProblem.from_statistics(
-        model.parameter_names, tuple(labels),
-        gram=np.stack([np.asarray(s.gram) for s in stats]),
-        solution=np.stack([np.asarray(s.solution) for s in stats]),
-        rss=[float(s.rss_min) for s in stats], n_rows=[q.n for q in runs],
-        log_sigma_sum=[float(s.log_sigma_sum) for s in stats],
-        sigma_known=[q.sigma_known for q in runs],
-        mean_priors=mean_priors, spread_scales=scales,
-        noise_priors=[q.priors[p] if not q.sigma_known else None for q in runs],
-        runs=runs, terms=tuple(model.terms), t0_C=t0_C, segment_means=segment_means,
-        own_mean=own_mean, own_sd=own_sd, reference=reference)
+    return pooled_fits(fits, labels, model, kind, mean_priors=mean_priors,
+                       spread_scales=scales, reference=reference, t0_C=t0_C,
+                       segment_means=segment_means)
 
 
 def _check_options(names: tuple[str, ...], priors: Mapping[str, Prior] | None,
@@ -213,7 +169,9 @@ def pooled_fits(fits: Sequence[BenchFit], labels: Sequence[str], model: DriftMod
     """Each run's own fit under ``noise`` (:func:`_run_fits`): its coefficients'
     posterior mean and covariance taken as one Gaussian observation of its run's
     coefficients (their weakly informative single-fit priors counted once more:
-    negligible where the run identifies a coefficient), pooled by
+    negligible where the run identifies a coefficient; under white noise the Gaussian
+    stands for a Student t of as many degrees of freedom as rows, less the coefficients),
+    pooled by
     :meth:`PoolProblem.from_estimates`; each run's residual and noise checks kept, and its
     fitted problem as the run's description."""
     p = len(model.parameter_names)

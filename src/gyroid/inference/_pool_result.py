@@ -114,7 +114,7 @@ class PoolFit(Fit[PoolProblem]):
         return "\n".join(lines)
 
     def inference_data(self):
-        """ArviZ InferenceData: population means, between-run sds and noise levels; each
+        """ArviZ InferenceData: population means and between-run sds; each
         run's pooled coefficients (``run_<name>``, dims chain, draw, run) and a new run's
         (``new_run_<name>``); each run's log-likelihood (LOO leaves out runs)."""
         shape = self.mean_draws.shape[:2]
@@ -125,10 +125,10 @@ class PoolFit(Fit[PoolProblem]):
             posterior[f"run_{name}"] = self.run_draws[:, :, k].reshape(*shape, -1)
             posterior[f"new_run_{name}"] = self.new_run_draws[:, k].reshape(shape)
         return inference_data(
-            self.problem, post, log_likelihood={"run_n_rows": self.run_log_likelihood},
+            self.problem, post, log_likelihood={"run_estimate": self.run_log_likelihood},
             extra_posterior={k: v for k, v in posterior.items() if k not in self.problem.names},
             coords={"run": list(self.run_labels)},
-            dims={"run_n_rows": ["run"], **{f"run_{n}": ["run"]
+            dims={"run_estimate": ["run"], **{f"run_{n}": ["run"]
                                             for n in self.coefficient_names}})
 
     def to_json(self) -> dict:
@@ -155,7 +155,6 @@ class PoolFit(Fit[PoolProblem]):
                 for r, label in enumerate(self.run_labels)
             },
             "heterogeneity": {n: h.to_json() for n, h in self.heterogeneity.items()},
-            "noise": {name: dict(summary[name]) for name in self.problem.noise_names},
             "run_noise": self.problem.idata_attrs()["run_noise"],
             "run_noise_levels": ({label: estimate.to_json() for label, estimate in zip(
                 self.run_labels, self.problem.run_noise_levels, strict=True)}
@@ -183,10 +182,10 @@ class PoolFit(Fit[PoolProblem]):
             },
             "model": "theta_run ~ N(population mean, between_run_sd**2) per coefficient; "
                      + ("each run's own fit's posterior one Gaussian observation of its "
-                        "coefficients (its noise model its own)" if self.problem.run_reports
-                        else "each run's white noise its own")
-                     + "; runs' coefficients integrated out exactly (linear model) and "
-                     "drawn from their conditional",
+                        "coefficients (its noise model its own)" if self.problem.run_noise
+                        else "each run's published estimate one Gaussian observation")
+                     + "; runs' coefficients integrated out exactly and drawn from their "
+                     "conditional",
             **self.checks.to_json(),
         }
         return out
@@ -230,11 +229,11 @@ def pool_result(problem: PoolProblem, point: PointEstimate, posterior: Posterior
         mean_draws=mean_draws, run_draws=run_draws, new_run_draws=new_draws,
         run_log_likelihood=run_log_lik, posterior_summary=summary,
         heterogeneity=heterogeneity(names, problem.own_mean, problem.own_sd),
-        checks=pool_checks(problem, point, posterior, mean_draws, run_draws, summary))
+        checks=pool_checks(problem, point, posterior, mean_draws, summary))
 
 
 def derived_draws(problem: PoolProblem, posterior: Posterior, *, seed: int):
-    """Per posterior draw of the between-run sds and noise levels: the population means
+    """Per posterior draw of the between-run sds: the population means
     from their exact conditional, every run's coefficients from theirs, a new run's from
     the population, and each run's log-likelihood. Returns (chains, draws, p), (M, R, p),
     (M, p), (chains, draws, R)."""

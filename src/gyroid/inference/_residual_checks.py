@@ -118,8 +118,8 @@ def residual_whiteness(residuals: np.ndarray | None, *,
         message = (f"the residuals are mildly correlated ({where}); the intervals may be up "
                    f"to {math.sqrt(inflation):.2f}x too narrow")
     else:
-        order = (("segment_means", "noise_model", "single_fits", "discrepancy")
-                 if m == "segment" else ("noise_model", "single_fits", "discrepancy"))
+        order = (("segment_means", "noise_model", "discrepancy")
+                 if m == "segment" else ("noise_model", "discrepancy"))
         advised = tuple(code for code in order if code in remedies)
         what = ("the bias wanders between the log's bursts" if m == "segment" else
                 "the residuals are correlated")

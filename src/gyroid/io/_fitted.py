@@ -179,17 +179,10 @@ def _draws(posterior, name: str, path: Path) -> np.ndarray:
 
 
 def _new_run_noise(pool: dict) -> NoiseEstimate | None:
-    """A new run's noise from pool.json: the runs' correlated estimates drawn up
-    (:meth:`NoiseEstimate.of_runs`), else the median of the pooled white sds; None when it
-    records neither (an old record)."""
+    """A new run's noise from pool.json: the runs' estimates drawn up
+    (:meth:`NoiseEstimate.of_runs`); None when it records none (published estimates)."""
     runs = pool.get("run_noise_levels") or {}
-    if runs:
-        return NoiseEstimate.of_runs([_noise_estimate(r) for r in runs.values()])
-    if pool.get("noise"):
-        # a pool of white runs records no model: white's
-        return NoiseEstimate(recorded_model({}), {}, float(np.median(
-            [s["mean"] for s in pool["noise"].values()])))
-    return None
+    return NoiseEstimate.of_runs([_noise_estimate(r) for r in runs.values()]) if runs else None
 
 
 #: The keys of a noise estimate's record that are not levels.

@@ -29,13 +29,12 @@ def pool_to_dir(paths: tuple[Path, ...], terms: str, out: Path, *, seed: int = 0
                 say: Callable[[str], None] = lambda _m: None) -> PoolFit:
     """Pool ``terms`` over the runs read from ``paths`` (:func:`pool_runs`) and write
     ``pool.json``, ``posterior.nc`` and ``forest.png`` to ``out``; ``noise``: the noise model
-    each run is fitted under before pooling, or ``white`` (:func:`fit_pool`)."""
+    each run is fitted under before pooling (:func:`fit_pool`)."""
     loaded, labels = pool_runs(paths, terms, maps=maps, axis=axis, instances=instances)
     rows = sum(log.n for log in loaded)
     kind = noise_model(noise)
-    say(f"pooling {terms} over {len(loaded)} runs ({rows} rows)"
-        + (f", each fitted under {kind.name} noise" if kind.correlated
-           else ", white noise on their sufficient statistics") + " ...")
+    say(f"pooling {terms} over {len(loaded)} runs ({rows} rows), each fitted under "
+        f"{kind.name} noise ...")
     result = fit_pool(loaded, labels, terms, seed=seed, prior_set=prior_set, priors=priors,
                       t0_C=t0_C, segment_means=segment_means, noise=noise, progress=say)
     with output_dir(out) as stage:
