@@ -1,10 +1,11 @@
-"""Experiment (issue 30): ``gyroid noise`` on static logs of five gyro grades, simulated here
+"""Experiment (issue 30): ``gyroid noise`` on static logs of six gyro grades, simulated here
 independently of gyroid, against the two ways users read noise terms today. The fourth is a
 phone's IMU as its logger writes it (issue 63): 100 Hz low-passed forward and backward and
 decimated to 10 Hz, its samples correlated as a real phone log's. The fifth (issue 63) has
 no flicker: white noise, a Gauss-Markov bias G (its correlation time drawn too) and a rate
 random walk, terms that look alike over a log's averaging times; a flicker read there is
-counted as a false detection.
+counted as a false detection. The sixth is the MEMS grade with a logger's spikes (one sample
+in 10^4 off by 10-50 sd).
 
 Each dataset draws its truths log-uniformly within a factor of 3 of the grade's nominal
 terms (white: angle random walk N; flicker: bias instability B, ``flicker_noise``; a rate
@@ -66,6 +67,9 @@ class Grade:
     #: The Gauss-Markov bias's nominal correlation time (s), drawn as the terms are; its
     #: sd is the nominal ``G`` (deg/h).
     gm_tau_s: float | None = None
+    #: Spikes on the logged samples (a logger's glitches): this share of the samples
+    #: moved by 10-50 white-noise sds either way.
+    spike_rate: float = 0.0
 
 
 GRADES = (
@@ -80,6 +84,9 @@ GRADES = (
           decimation=10),
     # No flicker: a bump at a few hundred seconds beside a walk (issue 63's logs).
     Grade("gm", {"N": 1.5, "G": 8.0, "K": 20.0}, 0.1, 6 * 3600.0, gm_tau_s=200.0),
+    # The MEMS grade with a logger's spikes: one sample in 10^4 off by 10-50 sd.
+    Grade("mems_spikes", {"N": 0.3, "B": 6.0, "K": 10.0, "Q": 3e-4}, 0.01, 1800.0,
+          spike_rate=1e-4),
 )
 
 
@@ -101,6 +108,10 @@ def static_rate(rng: np.random.Generator, grade: Grade, truth: dict[str, float],
     if grade.cutoff_hz is not None:
         b, a = signal.butter(4, grade.cutoff_hz * 2.0 * dt)
         rate = signal.filtfilt(b, a, rate)[:: grade.decimation]
+    if grade.spike_rate:
+        spikes = rng.random(rate.size) < grade.spike_rate
+        size = rng.uniform(10.0, 50.0, spikes.sum()) * 60.0 * truth["N"] / math.sqrt(dt)
+        rate[spikes] += rng.choice([-1.0, 1.0], spikes.sum()) * size
     return rate
 
 
@@ -239,7 +250,11 @@ METHODS = (("gyroid", "gyroid (posterior median)", "o"), ("slope", "Allan slopes
 def figure(runs: list[dict], path) -> None:
     """Per grade, each method's estimate over the truth for every term; gyroid's upper
     bound (where it does not resolve the term) as a downward triangle."""
-    fig, axes = plt.subplots(1, len(GRADES), figsize=(3.2 * len(GRADES), 3.6), sharey=True)
+    columns = 3
+    rows = -(-len(GRADES) // columns)
+    fig, grid = plt.subplots(rows, columns, figsize=(3.6 * columns, 3.3 * rows + 0.9),
+                             sharey=True)
+    axes = list(np.ravel(grid))
     low, high = RATIO_RANGE
     labelled: set[str] = set()
 
@@ -279,18 +294,19 @@ def figure(runs: list[dict], path) -> None:
         ax.set_xticks(range(len(grade.nominal)), list(grade.nominal))
         ax.set_xlabel("noise term")
         ax.set_title(f"{grade.name}: {grade.duration_s / 3600:g} h at "
-                     f"{1 / grade.sample_s:g} Hz, {len(mine)} logs")
+                     f"{1 / grade.sample_s:g} Hz, {len(mine)} logs", fontsize=9)
         ax.grid(True, ls=":", color="0.7")
-    axes[0].set_ylabel("estimate / truth (ratio, log scale)")
+    for ax in axes[::columns]:
+        ax.set_ylabel("estimate / truth (ratio, log scale)")
     handles, labels = axes[0].get_legend_handles_labels()
     for ax in axes[1:]:
         more = ax.get_legend_handles_labels()
         handles, labels = handles + more[0], labels + more[1]
-    fig.legend(handles, labels, loc="lower center", ncol=4, frameon=False,
-               bbox_to_anchor=(0.5, 0.04))
+    fig.legend(handles, labels, loc="lower center", ncol=2, frameon=False,
+               bbox_to_anchor=(0.5, 0.02))
     fig.text(0.5, 0.0, "estimates beyond the axis drawn at its edge (a zero estimate at its "
              "foot)", ha="center", va="bottom", fontsize=7)
-    fig.tight_layout(rect=(0, 0.13, 1, 1))
+    fig.tight_layout(rect=(0, 0.1, 1, 1))
     fig.savefig(path, dpi=130)
     plt.close(fig)
 

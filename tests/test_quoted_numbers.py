@@ -178,7 +178,7 @@ def test_the_mems_thermal_benches_rechecked():
 
 
 def test_the_noise_fits_against_the_allan_readings():
-    """gyroid noise on five grades: every interval and bound covers at its nominal rate (in
+    """gyroid noise on six grades: every interval and bound covers at its nominal rate (in
     its binomial band) but the filtered phone log's N, whose misses the docs state with the
     flicker and the bumps it reads where there are none, and each error comparison the docs
     state holds in the file."""
@@ -212,6 +212,22 @@ def test_the_noise_fits_against_the_allan_readings():
             f"G is reported for {grades['mems']['false_detections']['G']} of the "
             f"{grades['mems']['datasets']} MEMS logs and {grades['phone']['false_detections']['G']}"
             f" of the {grades['phone']['datasets']} phone logs")
+    spiky, clean = terms["mems_spikes"], terms["mems"]
+    assert all(spiky[t][k] == clean[t][k] for t in clean for k in (
+        "resolved", "ci90_inside", "upper_bound_inside"))  # the spikes kept out
+
+    def n_error(per_term, method):
+        return f"{100 * per_term['N']['error_where_resolved'][method]['median']:.1f} %"
+
+    _quoted(f"(trusted {grades['mems_spikes']['trustworthy']} of "
+            f"{grades['mems_spikes']['datasets']}; N {spiky['N']['ci90_inside']} of "
+            f"{spiky['N']['resolved']}, B {spiky['B']['ci90_inside']} of "
+            f"{spiky['B']['resolved']} intervals and {spiky['B']['upper_bound_inside']} of "
+            f"{grades['mems_spikes']['datasets'] - spiky['B']['resolved']} bounds, Q "
+            f"{spiky['Q']['ci90_inside']} of {spiky['Q']['resolved']}",
+            f"the Allan slopes' median error from {n_error(clean, 'slope')} to "
+            f"{n_error(spiky, 'slope')}, the `allan-variance` package's from "
+            f"{n_error(clean, 'allan_variance')} to {n_error(spiky, 'allan_variance')}")
     k_gm = gm["K"]["error_where_resolved"]
     _quoted(f"of {100 * k_gm['gyroid']['median']:.0f} % against "
             f"{100 * k_gm['slope']['median']:.0f} % for the Allan slopes and "
