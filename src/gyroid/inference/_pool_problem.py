@@ -165,8 +165,8 @@ class PoolProblem(AbstractProblem):
     coefficient_names: tuple[str, ...]
     run_labels: tuple[str, ...]
     ranks: tuple[int, ...]  # rank of each run's precision A_r
-    #: Each run's own estimates and their sds (R, p; nan where a run does not identify a
-    #: coefficient), and each population mean's identifiability yardstick (p,).
+    #: Each run's own estimates and their sds (R, p: its own fit's posterior means and sds,
+    #: or a paper's), and each population mean's identifiability yardstick (p,).
     own_mean: np.ndarray
     own_sd: np.ndarray
     reference: np.ndarray
