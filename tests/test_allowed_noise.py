@@ -139,7 +139,9 @@ def test_a_range_over_the_default_noise_model_says_the_choice_is_what_it_rests_o
     check = allowed.check()
     assert not check.passed and check.severity == "warning"
     assert said in check.message and "(+4.9 nats of log-likelihood)" in check.message
-    assert "the intervals rest on the choice of white+gm" in check.message
+    assert check.message.startswith("the intervals rest on the choice of white+gm over "
+                                    "white+flicker+rw, which fits this log ")
+    assert check.remedies == ("noise_model",)  # the console's hint: --noise auto
     assert "B_deg_h = 5.9 deg/h" in check.message and "[11, 84.4]" in check.message
     assert allowed.to_json()["other_noise_model"] == {
         "model": "white+flicker+rw", "log_likelihood_gain": 4.9, "levels_allowed": other,

@@ -144,14 +144,17 @@ class AllowedNoise:
                          f"most {factor:.1f}x its posterior sd (95 % range over them "
                          f"{span}): the intervals do not rest on the noise levels' priors"
                          + compared))
+        remedies: tuple[str, ...] = ()
         if other is not None and name in self.under_other:
-            what = (f"under {fits}, at levels the log does not rule out ({levels}), "
-                    f"{name}'s sd and the shift of its mean come to {factor:.1f}x its "
-                    f"posterior sd (95 % range over both models' allowed levels {span}): "
-                    f"the intervals rest on the choice of {self.model}")
+            # the finding first: a console line shows a warning up to its first colon
+            what = (f"the intervals rest on the choice of {self.model} over {fits}: under "
+                    f"it, at levels the log does not rule out ({levels}), {name}'s sd and "
+                    f"the shift of its mean come to {factor:.1f}x its posterior sd (95 % "
+                    f"range over both models' allowed levels {span})")
             remedy = (f"; {other.model} (--noise auto) carries the wander a "
                       f"{self.model} fit cannot, and noise measured at rest (gyroid noise, "
                       "then fit with --noise DIR) or a longer log narrows it")
+            remedies = ("noise_model",)
         else:
             what = (f"at noise levels this log does not rule out ({levels}) {name}'s sd "
                     f"is {factor:.1f}x its posterior sd (95 % range over such levels "
@@ -164,7 +167,7 @@ class AllowedNoise:
             severity="error" if untrusted else "warning", value=round(factor, 3),
             threshold=TRUSTED_UP_TO if untrusted else SAID_FROM,
             message=(what + (f", more than {TRUSTED_UP_TO:g}x, so they are not an answer"
-                             if untrusted else "") + remedy))
+                             if untrusted else "") + remedy), remedies=remedies)
 
     def to_json(self) -> dict:
         out = {"likelihood_region": REGION, "levels_up_to": self.upper,
