@@ -141,8 +141,8 @@ class BenchProblem(AbstractProblem):
                                          _with_rate_window(log, base, window_s), noise=noise,
                                          rate_window_s=window_s, fast=fast,
                                          rows_per_mean=block_rows,
-                                         thermometer=carried_thermometer(log, window_s, wd,
-                                                              thermometer_var_row))
+                                         thermometer=carried_thermometer(
+                                             log, window_s, wd, thermometer_var_row))
 
         density, noise_mode, choice = _by_marginal(density_at, log, rate_window_s, choice)
         return cls(density=density, log=log, prior_set=chosen_set, prior_basis=basis,
@@ -158,7 +158,7 @@ class BenchProblem(AbstractProblem):
         noise_priors = _noise_priors(noise, self.log, self.inputs, self.block_rows,
                                      self.prior_set, self.sigma_known)
         thermometer = carried_thermometer(self.log, self.rate_window_s, self.rate_error_wd,
-                               self.thermometer_sd_C**2 / self.block_rows)
+                                          self.thermometer_sd_C**2 / self.block_rows)
         density = BenchDensity.from_log(
             self.log, self.model, (*self.priors[:self.n_model], *noise_priors.values()),
             self.inputs, noise=noise, rate_window_s=self.rate_window_s,
