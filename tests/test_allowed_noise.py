@@ -135,7 +135,7 @@ def test_a_range_over_the_default_noise_model_says_the_choice_is_what_it_rests_o
                            units={"N_deg_sqrt_h": "deg/sqrt(h)", "B_deg_h": "deg/h",
                                   "K_deg_h_sqrt_h": "deg/h/sqrt(h)"},
                            model="white+gm", under_other=frozenset({"w0", "w1"}),
-                           other=OtherNoise("white+flicker+rw", 4.9, other), own_allowed=own)
+                           other=OtherNoise("white+flicker+rw", 4.9, other))
     check = allowed.check()
     assert not check.passed and check.severity == "warning"
     assert said in check.message and "(+4.9 nats of log-likelihood)" in check.message
@@ -148,8 +148,7 @@ def test_a_range_over_the_default_noise_model_says_the_choice_is_what_it_rests_o
         "widest_under_it": ["w0", "w1"]}
     ruled_out = AllowedNoise(upper={}, ranges={"w0": (0.9, 1.1)}, widening={"w0": 1.2},
                              at={"w0": {"sigma_gm_deg_h": 0.1}}, evaluated=3000, allowed=400,
-                             model="white+gm", other=OtherNoise("white+flicker+rw", -6.4, 0),
-                             own_allowed=400)
+                             model="white+gm", other=OtherNoise("white+flicker+rw", -6.4, 0))
     check = ruled_out.check()
     assert check.passed and "fits this log worse (-6.4 nats" in check.message
     assert "is ruled out" in check.message

@@ -105,7 +105,11 @@ class AllowedNoise:
     model: str = ""
     under_other: frozenset[str] = frozenset()
     other: OtherNoise | None = None
-    own_allowed: int = 0  # of the allowed levels, the fit's own model's
+
+    @property
+    def own_allowed(self) -> int:
+        """Of the allowed levels, the fit's own noise model's."""
+        return self.allowed - (self.other.allowed if self.other is not None else 0)
 
     @property
     def widest(self) -> tuple[str, float]:
@@ -298,7 +302,7 @@ def allowed_noise(problem, posterior, seed: int = 0) -> AllowedNoise | None:
         at=dict(zip(names, at, strict=True)),
         evaluated=sum(e.levels.shape[0] for e in explored), allowed=sum(allowed_each),
         units={k: v for e in explored for k, v in e.units.items()},
-        model=problem.noise.name, own_allowed=allowed_each[0],
+        model=problem.noise.name,
         under_other=frozenset(n for j, n in enumerate(names) if widest_other[j]),
         other=other)
 
