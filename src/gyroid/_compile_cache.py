@@ -24,17 +24,33 @@ _SUFFIX = "-cache"
 _MARK = b"gyroid-jax-1\n"
 
 
-def _sealed(value: bytes) -> bytes:
+def sealed(value: bytes) -> bytes:
     return _MARK + zlib.crc32(value).to_bytes(4, "little") + value
 
 
-def _opened(data: bytes) -> bytes | None:
+def opened(data: bytes) -> bytes | None:
     """The program of an entry, or None when it is not one of ours or fails its CRC."""
     head = len(_MARK) + 4
     if not data.startswith(_MARK) or len(data) < head:
         return None
     value = data[head:]
     return value if zlib.crc32(value).to_bytes(4, "little") == data[len(_MARK):head] else None
+
+
+def write_sealed(target: pathlib.Path, value: bytes) -> None:
+    """``value`` :func:`sealed` into ``target``: written to a temporary file beside it and
+    renamed into place, so no reader sees it half-written."""
+    target.parent.mkdir(parents=True, exist_ok=True)
+    handle, temporary = tempfile.mkstemp(dir=target.parent, prefix=f".{target.name}.",
+                                         suffix=".part")
+    try:
+        with os.fdopen(handle, "wb") as stream:
+            stream.write(sealed(value))
+        os.replace(temporary, target)
+    except BaseException:
+        if os.path.exists(temporary):
+            os.unlink(temporary)
+        raise
 
 
 def install(folder: str) -> bool:
@@ -63,7 +79,7 @@ def _store_class(base: type) -> type:
 
         def get(self, key: str) -> bytes | None:
             try:
-                return _opened((self._path / f"{key}{_SUFFIX}").read_bytes())
+                return opened((self._path / f"{key}{_SUFFIX}").read_bytes())
             except FileNotFoundError:
                 return None
 
@@ -71,15 +87,6 @@ def _store_class(base: type) -> type:
             target = self._path / f"{key}{_SUFFIX}"
             if self.get(key) is not None:
                 return  # a sound entry is kept (JAX's rule); a damaged one is replaced
-            handle, temporary = tempfile.mkstemp(dir=self._path, prefix=f".{key}.",
-                                                 suffix=".part")
-            try:
-                with os.fdopen(handle, "wb") as stream:
-                    stream.write(_sealed(value))
-                os.replace(temporary, target)
-            except BaseException:
-                if os.path.exists(temporary):
-                    os.unlink(temporary)
-                raise
+            write_sealed(target, value)
 
     return AtomicFileStore
