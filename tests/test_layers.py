@@ -11,7 +11,8 @@ SOURCE = Path(__file__).resolve().parents[1] / "src" / "gyroid"
 
 #: Each package may import from its own package and from packages of a lower rank only.
 RANKS = {
-    "_compile_cache": -1, "_compiled_programs": -1, "errors": 0, "_config": 0,
+    "_compile_cache": -1, "_compiled_programs": -1, "_exported": -0.5, "errors": 0,
+    "_config": 0,
     "models": 1,
     "noise": 1.5,
     "io": 2,

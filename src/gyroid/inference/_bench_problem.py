@@ -13,6 +13,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyroid._compiled_programs import release_if_crowded
+from gyroid._exported import exported
 from gyroid.errors import GyroidInputError
 from gyroid.inference._bench_density import BenchDensity
 from gyroid.inference._check_report import FitEvidence
@@ -372,7 +373,7 @@ def _noise_priors(noise: NoiseModel, log: BenchLog, inputs, rows_per_mean: int,
     return {name: priors[name] for name in noise.names(sigma_known)}
 
 
-@eqx.filter_jit
+@exported
 def _standardised(density, u):
     """The standardised residuals, compiled once per log shape (eager: 0.2 s a call)."""
     return density.standardised_residuals(u)

@@ -35,6 +35,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from gyroid._exported import exported
 from gyroid.noise._row_filter import RowFilter
 
 _LOG_2PI = math.log(2.0 * math.pi)
@@ -225,7 +226,7 @@ def padded(collapsed: CollapsedCoefficients) -> CollapsedCoefficients:
          collapsed.beta_log_norm - 0.5 * extra * _LOG_2PI))
 
 
-@eqx.filter_jit
+@exported
 def conditional_solution(collapsed: CollapsedCoefficients, v: Float[Array, " k"]):
     """The coefficients' conditional mean and the Cholesky factor of their precision given
     the noise levels ``v``, compiled once per log shape (called outside jit, the filter's
@@ -250,7 +251,7 @@ def conditional_draws(solved: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np
     return beta, solved[:, 0] + log_conditional
 
 
-@eqx.filter_jit
+@exported
 def log_posteriors_at(template: CollapsedCoefficients, columns: Float[Array, "m n 1+r"],
                       v: Float[Array, " k"]) -> Float[Array, " m"]:
     """The marginal log-posterior at noise levels ``v`` of ``template`` with its columns

@@ -15,6 +15,7 @@ import jax.numpy as jnp
 import numpy as np
 from scipy.linalg import block_diag
 
+from gyroid._exported import exported
 from gyroid.inference._collapsed import conditional_solution, padded
 from gyroid.inference._mode import MarginalBFGS, Optimum, gradient_hessian, safe_inverse
 
@@ -24,8 +25,8 @@ def _negative_marginal(v: jax.Array, collapsed) -> jax.Array:
 
 
 #: The marginal's gradient at each row of an array of noise levels (one compiled call).
-_marginal_gradients = eqx.filter_jit(eqx.filter_vmap(jax.grad(_negative_marginal),
-                                                     in_axes=(0, None)))
+_marginal_gradients = exported(eqx.filter_vmap(jax.grad(_negative_marginal), in_axes=(0, None)),
+                               name="marginal_gradients")
 
 #: BFGS on the marginal: a step's size in posterior sds (whitened coordinates) ends it.
 MODE_ATOL = 1e-6

@@ -21,12 +21,12 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 from jax.typing import ArrayLike
 
+from gyroid._exported import exported
 from gyroid.inference._batching import problem_batcher
 from gyroid.inference._collapsed import collapse, filtered_form
 from gyroid.inference._model_columns import COLUMN_BATCH, chunks, columns_at, split_parameters
@@ -78,7 +78,7 @@ def _tails(collapsed, offset: int) -> list[tuple[int, float, float]]:
     return [(offset + int(i), float(loc[i]), float(scale[i])) for i in on]
 
 
-@eqx.filter_jit
+@exported
 def _solved_at(base, columns, levels):
     """:meth:`solved` of ``base`` with each of ``columns`` at the matching noise levels."""
     return jax.vmap(lambda c, v: base.with_columns(c).solved(v))(columns, levels)

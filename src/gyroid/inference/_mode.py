@@ -36,6 +36,8 @@ import numpy as np
 import optimistix as optx
 from scipy import optimize
 
+from gyroid._exported import exported
+
 
 @dataclass(frozen=True, eq=False)
 class Optimum:
@@ -120,7 +122,7 @@ def _negative_log_posterior(u, density):
     return -density.log_posterior(u)
 
 
-@eqx.filter_jit
+@exported
 def _scaled_bfgs(density, start, scale, rtol: float, atol: float, max_steps: int):
     def objective(z, density):
         return _negative_log_posterior(start + scale * z, density)
@@ -131,7 +133,7 @@ def _scaled_bfgs(density, start, scale, rtol: float, atol: float, max_steps: int
     return value, solution.result, jax.hessian(_negative_log_posterior)(value, density)
 
 
-@eqx.filter_jit
+@exported
 def _joint_bfgs(density, start, rtol: float, atol: float, max_steps: int):
     solution = optx.minimise(_negative_log_posterior, optx.BFGS(rtol=rtol, atol=atol), start,
                              args=density, max_steps=max_steps, throw=False)
@@ -139,7 +141,7 @@ def _joint_bfgs(density, start, rtol: float, atol: float, max_steps: int):
             jax.hessian(_negative_log_posterior)(solution.value, density))
 
 
-_joint_hessian = eqx.filter_jit(jax.hessian(_negative_log_posterior))
+_joint_hessian = exported(jax.hessian(_negative_log_posterior), name="joint_hessian")
 
 
 class JointBFGS(eqx.Module):
@@ -172,7 +174,7 @@ class JointBFGS(eqx.Module):
         return np.asarray(_joint_hessian(jnp.asarray(u), density))
 
 
-@eqx.filter_jit
+@exported
 def _batched_bfgs(objective, starts, maps, args, rtol: float, atol: float, max_steps: int):
     def one(start, to_levels):
         def whitened(y, args):

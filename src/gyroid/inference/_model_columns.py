@@ -11,6 +11,8 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float
 
+from gyroid._exported import exported
+
 
 def split_parameters(density) -> tuple[np.ndarray, np.ndarray]:
     """The indices of a density's real model parameters and of its positive ones (time
@@ -27,7 +29,7 @@ def model_columns(density, u_positive: Float[Array, " q"]) -> Float[Array, "n 1+
     return jnp.column_stack([density.drift - offset, design])
 
 
-_columns_at = eqx.filter_jit(eqx.filter_vmap(model_columns, in_axes=(None, 0)))
+_columns_at = exported(eqx.filter_vmap(model_columns, in_axes=(None, 0)), name="model_columns")
 #: Points of positive parameters whose columns are computed side by side (fewer are
 #: padded: one compilation per model).
 COLUMN_BATCH = 32

@@ -21,11 +21,11 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from importlib.metadata import version
 
-import equinox as eqx
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from gyroid._exported import exported
 from gyroid.inference._checks import MAX_R_HAT, MIN_ESS
 from gyroid.inference._posterior import Posterior, covariance_factor, summarise_draws
 from gyroid.inference._problem import AbstractProblem, AbstractSampler, PointEstimate
@@ -51,7 +51,7 @@ class Nuts(AbstractSampler):
         return _sample(problem, point, self, seed, progress)
 
 
-@eqx.filter_jit
+@exported
 def _run_chain(density, key, start, warmup: int, draws: int, target: float):
     import blackjax  # loaded when a chain is first traced, not with the Nuts class
 

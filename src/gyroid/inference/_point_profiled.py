@@ -32,10 +32,10 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 
-import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
 
+from gyroid._exported import exported
 from gyroid.inference._collapsed import (
     collapsed_form,
     conditional_solution,
@@ -131,7 +131,7 @@ class _Profile:
         return self.points[index], np.asarray(noise_start(residual, scale), dtype=float)
 
 
-@eqx.filter_jit
+@exported
 def _log_likelihood(collapsed, u):
     return collapsed.log_likelihood(u)
 
