@@ -32,7 +32,7 @@ def test_a_new_log_of_the_same_shape_reuses_the_log_posterior(compile_log):
     for log in logs:
         density = BenchProblem.from_log(log, "magnetic").density
         values.append(np.asarray(problem_batcher(density.log_posterior)(u)))
-    assert _compilations(compile_log, "_batched_method") == 1
+    assert _compilations(compile_log, "batched_method") == 1
     assert not np.allclose(values[0], values[1])  # the second log's data, not the first's
 
 

@@ -147,35 +147,78 @@ def program_key(name: str, args: tuple) -> tuple[str, list, Any, Any] | None:
     return key, leaves, treedef, static
 
 
-def exported(fun: Callable, *, name: str | None = None) -> Callable:
+class Exported:
     """``fun`` compiled as :func:`equinox.filter_jit` compiles it, its program exported to
-    and loaded from the store (module docstring) where one is set. ``name``: the program's
-    name in its key (default: the function's qualified name)."""
-    jitted = eqx.filter_jit(fun)
-    short = name or fun.__name__  # JAX's logs name the program so ("jit(short)")
-    label = f"{fun.__module__}.{name or fun.__qualname__}"
+    and loaded from the store (module docstring) where one is set; :func:`exported`."""
 
-    @functools.wraps(fun)
-    def call(*args):
+    def __init__(self, fun: Callable, name: str | None = None):
+        functools.update_wrapper(self, fun)
+        self.fun = fun
+        self.jitted = eqx.filter_jit(fun)
+        self.short = name or fun.__name__  # JAX's logs name the program so ("jit(short)")
+        self.label = f"{fun.__module__}.{name or fun.__qualname__}"
+
+    def __call__(self, *args):
         folder = store_folder()
-        keyed = None if folder is None else program_key(label, args)
+        keyed = None if folder is None else program_key(self.label, args)
         if folder is None or keyed is None:
-            return jitted(*args)
-        key, leaves, treedef, static = keyed
+            return self.jitted(*args)
+        program = self._program(folder, *keyed)
+        if program is _NOT_EXPORTED:
+            return self.jitted(*args)
+        return _run(program, keyed[1])
+
+    def bound(self, *fixed, fallback: Callable | None = None) -> Callable:
+        """Calls of this program whose first arguments are ``fixed`` (a density called for
+        batch after batch of draws): the key is built once per shape of the other
+        arguments, not at every call. ``fallback(*rest)`` runs where nothing is stored
+        (default: this program's own filter_jit)."""
+        fixed_leaves = jax.tree.leaves(eqx.filter(fixed, eqx.is_array))
+        programs: dict = {}
+
+        def call(*rest):
+            folder = store_folder()
+            if folder is not None:
+                leaves, tree = jax.tree.flatten(rest)
+                signature = (folder, str(tree), *(
+                    (np.shape(x), x.dtype) if eqx.is_array(x) else _named(x) for x in leaves))
+                program = programs.get(signature)
+                if program is None:
+                    keyed = program_key(self.label, (*fixed, *rest))
+                    program = (_NOT_EXPORTED if keyed is None
+                               else self._program(folder, *keyed))
+                    programs[signature] = program
+                if program is not _NOT_EXPORTED:
+                    arrays = [x for x in leaves if eqx.is_array(x)]
+                    return _run(program, [*fixed_leaves, *arrays])
+            return fallback(*rest) if fallback is not None else self.jitted(*fixed, *rest)
+
+        return call
+
+    def _program(self, folder: Path, key: str, leaves: list, treedef, static
+                 ) -> tuple[Callable, Any]:
+        """The program of ``key``: held, read from the store, or exported there."""
         program = _PROGRAMS.get(key)
         if program is None:
             if len(_PROGRAMS) > _KEPT:
                 _PROGRAMS.clear()
             with _LOCK:
-                program = _PROGRAMS.get(key) or _load(folder, key, short) or _export(
-                    fun, treedef, static, leaves, folder, key, short)
+                program = _PROGRAMS.get(key) or _load(folder, key, self.short) or _export(
+                    self.fun, treedef, static, leaves, folder, key, self.short)
                 _PROGRAMS[key] = program
-        if program is _NOT_EXPORTED:
-            return jitted(*args)
-        run, skeleton = program
-        return jax.tree.unflatten(jax.tree.structure(skeleton), run(*leaves))
+        return program
 
-    return call
+
+def exported(fun: Callable, *, name: str | None = None) -> Exported:
+    """``fun`` compiled as :func:`equinox.filter_jit` compiles it, its program exported to
+    and loaded from the store (module docstring) where one is set. ``name``: the program's
+    name in its key (default: the function's qualified name)."""
+    return Exported(fun, name)
+
+
+def _run(program: tuple[Callable, Any], leaves: list):
+    run, skeleton = program
+    return jax.tree.unflatten(jax.tree.structure(skeleton), run(*leaves))
 
 
 def _runner(program: jax.export.Exported, name: str) -> Callable:

@@ -18,6 +18,7 @@ import numpy as np
 from jax.typing import ArrayLike
 
 from gyroid._config import compute_threads
+from gyroid._exported import exported
 
 
 class _HashedOnce:
@@ -57,16 +58,26 @@ def _batched_method(static, treedef, function, leaves, u):
     return jax.vmap(lambda row: function(density, row))(u)
 
 
+def _batched(density, function, u):
+    return jax.vmap(lambda row: function(density, row))(u)
+
+
+#: :func:`_batched_method` as a stored program (:mod:`gyroid._exported`).
+_BATCHED = exported(_batched, name="batched_method")
+
+
 def problem_batcher(method: Callable[[jax.Array], jax.Array]):
     """``u (w, d) -> vmap(method)(u)`` for a bound method of a problem's JAX part, e.g.
     ``problem_batcher(problem.density.log_posterior)``: jit-compiled once per density
     structure and shape (the arrays are arguments, so a new log of the same shape reuses the
-    compilation). The density is split and flattened here, once, not on every call."""
+    compilation), its program loaded from gyroid's store where there is one. The density is
+    split and flattened here, once, not on every call."""
     density, function = method.__self__, method.__func__
     dynamic, static = eqx.partition(density, eqx.is_array)
     leaves, treedef = jax.tree_util.tree_flatten(dynamic)
     static = _interned(static)
-    return lambda u: _batched_method(static, treedef, function, leaves, u)
+    return _BATCHED.bound(density, function, fallback=lambda u: _batched_method(
+        static, treedef, function, leaves, u))
 
 
 def in_chunks(batch: Callable[[np.ndarray], ArrayLike], rows: np.ndarray, chunk: int
