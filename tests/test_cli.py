@@ -309,3 +309,15 @@ def test_the_noise_choices_the_help_lists_are_the_models_gyroid_fits():
     from gyroid.noise import NOISE_MODELS
 
     assert set(NOISE_CHOICES) == {"auto", *NOISE_MODELS}
+
+
+def test_the_terms_the_help_lists_are_the_registries():
+    """--terms's help names the presets and effects without importing JAX: the same names,
+    in the same order, as the registries gyroid fits them from."""
+    from gyroid.cli.base import CANDIDATE_EFFECTS, PAPER_EFFECTS, TERM_PRESETS
+    from gyroid.models._effects import CANDIDATES, EFFECTS
+    from gyroid.models._terms import PRESETS
+
+    assert TERM_PRESETS == tuple(PRESETS)
+    assert CANDIDATE_EFFECTS == tuple(CANDIDATES)
+    assert PAPER_EFFECTS == tuple(n for n in EFFECTS if n not in CANDIDATES)
