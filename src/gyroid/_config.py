@@ -7,7 +7,9 @@
   be a silent wrong one.
 * the persistent compilation cache: :func:`configure` (called by the command line) keeps
   compiled programs in the user's cache folder, so that a command reuses what an earlier
-  one compiled. A library user opts in with ``gyroid.configure()``.
+  one compiled, and gyroid's largest programs exported beside them (``exported`` in that
+  folder, :mod:`gyroid._exported`), so that it loads them instead of tracing them. A
+  library user opts in with ``gyroid.configure()``.
 """
 
 from __future__ import annotations
@@ -39,7 +41,7 @@ def cache_folder() -> str | None:
 
 def configure(*, compilation_cache: bool = True) -> None:
     """float64 and (unless ``compilation_cache=False``) JAX's persistent compilation cache in
-    :func:`cache_folder`."""
+    :func:`cache_folder`, gyroid's exported programs with it."""
 
     enable_float64()
     folder = cache_folder() if compilation_cache else None
