@@ -220,10 +220,10 @@ def padded(collapsed: CollapsedCoefficients) -> CollapsedCoefficients:
     rows = collapsed.columns.shape[0]
     return eqx.tree_at(
         lambda c: (c.columns, c.beta_loc, c.beta_precision, c.beta_log_norm), collapsed,
-        (jnp.concatenate([collapsed.columns, jnp.zeros((rows, extra))], axis=1),
-         jnp.concatenate([collapsed.beta_loc, jnp.zeros(extra)]),
-         jnp.concatenate([collapsed.beta_precision, jnp.ones(extra)]),
-         collapsed.beta_log_norm - 0.5 * extra * _LOG_2PI))
+        (np.concatenate([np.asarray(collapsed.columns), np.zeros((rows, extra))], axis=1),
+         np.concatenate([np.asarray(collapsed.beta_loc), np.zeros(extra)]),
+         np.concatenate([np.asarray(collapsed.beta_precision), np.ones(extra)]),
+         np.asarray(np.asarray(collapsed.beta_log_norm) - 0.5 * extra * _LOG_2PI)))
 
 
 @exported
@@ -295,7 +295,9 @@ def collapse(density) -> AbstractMarginal | None:
 
 
 def _prior_arrays(density):
-    return tuple(jnp.asarray(a, dtype=float) for a in (
+    """The density's priors (host arrays: a form is set up in NumPy, not op by op in JAX,
+    each of whose operations is a program of its own to compile or load)."""
+    return tuple(np.asarray(a, dtype=float) for a in (
         density.prior_loc, density.prior_scale, density.prior_on))
 
 
@@ -304,10 +306,10 @@ def _coefficient_priors(density, real: np.ndarray):
     the normal priors' log normalising constant."""
     loc, scale, on = _prior_arrays(density)
     normal = on[real] > 0
-    safe = jnp.where(normal, scale[real], 1.0)
-    precision = jnp.where(normal, 1.0 / safe**2, 0.0)
-    log_norm = -jnp.sum(jnp.where(normal, jnp.log(safe) + 0.5 * _LOG_2PI, 0.0))
-    return loc[real], precision, log_norm
+    safe = np.where(normal, scale[real], 1.0)
+    precision = np.where(normal, 1.0 / safe**2, 0.0)
+    log_norm = -np.sum(np.where(normal, np.log(safe) + 0.5 * _LOG_2PI, 0.0))
+    return loc[real], precision, np.asarray(log_norm)
 
 
 def filtered_form(density, columns: Float[Array, "n 1+r"] | None = None,
