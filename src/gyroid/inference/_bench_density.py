@@ -23,6 +23,7 @@ import jax.numpy as jnp
 import numpy as np
 from jaxtyping import Array, Float, Int
 
+from gyroid._exported import exported
 from gyroid.inference._problem import AbstractDensity
 from gyroid.inference._white_rows import SufficientStatistics
 from gyroid.io._logs import BenchLog
@@ -290,3 +291,10 @@ class BenchDensity(AbstractDensity):
     def log_posterior(self, u: Float[Array, " d"]) -> Float[Array, ""]:
         value = self.log_likelihood(u) + self.log_prior(u)
         return jnp.where(jnp.isfinite(value), value, -jnp.inf)
+
+
+@exported
+def predicted(density: BenchDensity, u: Float[Array, " d"]) -> Float[Array, " n"]:
+    """:meth:`BenchDensity.predict` as one compiled program: called on the host, the
+    model's operations are each a program of their own, compiled or loaded one by one."""
+    return density.predict(u)

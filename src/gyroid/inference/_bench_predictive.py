@@ -12,7 +12,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from gyroid.inference._bench_density import BenchDensity
+from gyroid.inference._bench_density import BenchDensity, predicted
 from gyroid.inference._check_report import Check
 from gyroid.inference._collapsed import collapsed_form, conditional_solution
 from gyroid.inference._model_columns import columns_at, split_parameters
@@ -180,12 +180,12 @@ def _refit_folds(density: BenchDensity, parts: Stretches, time_s: np.ndarray
     for k in range(int(parts.fold_of.max()) + 1):
         held = parts.fold_of == k
         point = point_estimate(density.without_rows(parts.rows_of_fold(k)))
-        predicted = part_means(np.asarray(density.predict(jnp.asarray(point.u))), parts.part,
-                               parts.n_parts)
+        means = part_means(np.asarray(predicted(density, jnp.asarray(point.u))), parts.part,
+                           parts.n_parts)
         jacobian = mean_jacobian(density.predict, point.u[:p], point.u[p:], parts.part,
                                  parts.n_parts)[held]
         model = jacobian @ point.covariance_u[:p, :p] @ jacobian.T
-        folds.append(HeldOut(observed=observed[held], predicted=predicted[held],
+        folds.append(HeldOut(observed=observed[held], predicted=means[held],
                              covariance=model + _noise_covariance(density, point.value, parts,
                                                                   time_s)[np.ix_(held, held)],
                              counts=counts[held]))

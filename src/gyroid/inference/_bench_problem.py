@@ -15,7 +15,7 @@ import numpy as np
 from gyroid._compiled_programs import release_if_crowded
 from gyroid._exported import exported
 from gyroid.errors import GyroidInputError
-from gyroid.inference._bench_density import BenchDensity
+from gyroid.inference._bench_density import BenchDensity, predicted
 from gyroid.inference._check_report import FitEvidence
 from gyroid.inference._emcee import Emcee
 from gyroid.inference._importance import Importance
@@ -229,7 +229,7 @@ class BenchProblem(AbstractProblem):
 
     def predict(self, u) -> np.ndarray:
         """Modelled drift at every row, deg/h, for sampling coordinates ``u``."""
-        return np.asarray(self.density.predict(jnp.asarray(u)))
+        return np.asarray(predicted(self.density, jnp.asarray(u)))
 
     def standardised_residuals(self, u) -> np.ndarray:
         """Residuals over their modelled sd (Kalman innovations under white+gm)."""

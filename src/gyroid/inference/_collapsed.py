@@ -220,10 +220,11 @@ def padded(collapsed: CollapsedCoefficients) -> CollapsedCoefficients:
     rows = collapsed.columns.shape[0]
     return eqx.tree_at(
         lambda c: (c.columns, c.beta_loc, c.beta_precision, c.beta_log_norm), collapsed,
-        (np.concatenate([np.asarray(collapsed.columns), np.zeros((rows, extra))], axis=1),
-         np.concatenate([np.asarray(collapsed.beta_loc), np.zeros(extra)]),
-         np.concatenate([np.asarray(collapsed.beta_precision), np.ones(extra)]),
-         np.asarray(np.asarray(collapsed.beta_log_norm) - 0.5 * extra * _LOG_2PI)))
+        _on_device(
+            np.concatenate([np.asarray(collapsed.columns), np.zeros((rows, extra))], axis=1),
+            np.concatenate([np.asarray(collapsed.beta_loc), np.zeros(extra)]),
+            np.concatenate([np.asarray(collapsed.beta_precision), np.ones(extra)]),
+            np.asarray(np.asarray(collapsed.beta_log_norm) - 0.5 * extra * _LOG_2PI)))
 
 
 @exported
@@ -276,7 +277,7 @@ def collapse(density) -> AbstractMarginal | None:
         return filtered
     p = density.n_model
     beta_loc, precision, log_norm = _coefficient_priors(density, np.arange(p))
-    loc, scale, on = _prior_arrays(density)
+    loc_k, scale_k, on_k = _on_device(*(a[p:] for a in _prior_arrays(density)))
     stats = density.stats
     if stats is not None:  # the statistics hold all a whole log's marginal reads
         factor, n, log_sigma_sum = stats.factor, jnp.asarray(float(density.n)), stats.log_sigma_sum
@@ -290,8 +291,7 @@ def collapse(density) -> AbstractMarginal | None:
     return SufficientCoefficients(
         factor=factor, n=n, log_sigma_sum=log_sigma_sum,
         beta_loc=beta_loc, beta_precision=precision, beta_log_norm=log_norm,
-        noise_loc=loc[p:], noise_scale=scale[p:], noise_on=on[p:],
-        row_scale=density.row_scale)
+        noise_loc=loc_k, noise_scale=scale_k, noise_on=on_k, row_scale=density.row_scale)
 
 
 def _prior_arrays(density):
@@ -299,6 +299,12 @@ def _prior_arrays(density):
     each of whose operations is a program of its own to compile or load)."""
     return tuple(np.asarray(a, dtype=float) for a in (
         density.prior_loc, density.prior_scale, density.prior_on))
+
+
+def _on_device(*arrays: np.ndarray) -> tuple[Array, ...]:
+    """Host arrays as JAX arrays (a transfer: ``jnp.asarray`` of a 0-d array compiles a
+    program)."""
+    return tuple(jax.device_put(a) for a in arrays)
 
 
 def _coefficient_priors(density, real: np.ndarray):
@@ -309,7 +315,7 @@ def _coefficient_priors(density, real: np.ndarray):
     safe = np.where(normal, scale[real], 1.0)
     precision = np.where(normal, 1.0 / safe**2, 0.0)
     log_norm = -np.sum(np.where(normal, np.log(safe) + 0.5 * _LOG_2PI, 0.0))
-    return loc[real], precision, np.asarray(log_norm)
+    return _on_device(loc[real], precision, np.asarray(log_norm))
 
 
 def filtered_form(density, columns: Float[Array, "n 1+r"] | None = None,
@@ -340,7 +346,7 @@ def collapsed_form(density, columns: Float[Array, "n 1+r"] | None = None,
         real = np.arange(density.n_model)
     p = density.n_model
     beta_loc, precision, log_norm = _coefficient_priors(density, np.asarray(real))
-    loc, scale, on = _prior_arrays(density)
+    loc_k, scale_k, on_k = _on_device(*(a[p:] for a in _prior_arrays(density)))
     weight = (jnp.ones_like(density.drift) if density.weight is None
               else jnp.asarray(density.weight))
     return CollapsedCoefficients(
@@ -348,5 +354,4 @@ def collapsed_form(density, columns: Float[Array, "n 1+r"] | None = None,
         row_filter=density.row_filter,
         weight=weight,
         beta_loc=beta_loc, beta_precision=precision,
-        beta_log_norm=log_norm, noise_loc=loc[p:],
-        noise_scale=scale[p:], noise_on=on[p:])
+        beta_log_norm=log_norm, noise_loc=loc_k, noise_scale=scale_k, noise_on=on_k)

@@ -26,7 +26,7 @@ import numpy as np
 from scipy.linalg import block_diag
 
 from gyroid.inference._batching import problem_batcher
-from gyroid.inference._bench_density import BenchDensity
+from gyroid.inference._bench_density import BenchDensity, predicted
 from gyroid.inference._collapsed import filtered_form
 from gyroid.inference._marginal_mode import at_marginal_mode, marginal_mode
 from gyroid.inference._mode import Optimum
@@ -186,7 +186,7 @@ def _point(problem: BenchDensity, u: np.ndarray, covariance: np.ndarray, converg
     x, sd = natural_with_sd(u, covariance, problem.positive)
     if not np.all(np.isfinite(sd)):
         converged, message = False, "the covariance at the optimum is singular"
-    prediction = np.asarray(problem.predict(jnp.asarray(u)))
+    prediction = np.asarray(predicted(problem, jnp.asarray(u)))
     kept = slice(None) if problem.weight is None else np.asarray(problem.weight) > 0
     rms = float(np.sqrt(np.mean(((np.asarray(problem.drift) - prediction)[kept]) ** 2)))
     return PointEstimate(

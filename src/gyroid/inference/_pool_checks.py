@@ -24,6 +24,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 from scipy import stats
@@ -159,6 +160,19 @@ def between_run_sd_identified(names: tuple[str, ...], tau_draws: np.ndarray,
                  "predictive is correspondingly wide; pool more runs to narrow it")
 
 
+@jax.jit
+def _mean_information(density, u):
+    """The population mean's precision and linear term at the between-run sds ``u`` (one
+    compiled program, not some 15 operations compiled or loaded one by one)."""
+    q, b, *_ = density._mean_information(u)
+    return q, b
+
+
+@jax.jit
+def _mean_conditional(density, u, z):
+    return density.mean_conditional(u, z)
+
+
 def leave_one_run_out(problem: PoolProblem) -> np.ndarray:
     """Per run, the probability that a run of the population fitted WITHOUT it lies as far
     from that population's mean as it does: ``d' (A_r^-1 + T + C)^-1 d`` against chi-square
@@ -173,7 +187,7 @@ def leave_one_run_out(problem: PoolProblem) -> np.ndarray:
     for r in range(problem.n_runs):
         others = problem.without_run(r)
         mode = others.mode()
-        q, b, *_ = others.density._mean_information(jnp.asarray(mode.u))
+        q, b = _mean_information(others.density, jnp.asarray(mode.u))
         q = np.asarray(q)
         mean = np.asarray(others.density.centre) + np.linalg.solve(q, np.asarray(b))
         sd_log_tau = np.sqrt(np.clip(np.diag(mode.covariance_u)[:p], 0.0, None))
@@ -194,8 +208,8 @@ def pool_checks(problem: PoolProblem, point: PointEstimate, posterior: Posterior
     reference = problem.reference
     names = problem.coefficient_names + problem.names
     sampled_u = np.log(posterior.draws)
-    mean_at_mode = np.asarray(problem.density.mean_conditional(jnp.asarray(point.u),
-                                                               jnp.zeros(p)))
+    mean_at_mode = np.asarray(_mean_conditional(problem.density, jnp.asarray(point.u),
+                                                jnp.zeros(p)))
     evidence = FitEvidence(
         names=names, n_model=p, point_u=np.concatenate([mean_at_mode, point.u]),
         point_converged=point.converged, point_message=point.message,
