@@ -211,13 +211,15 @@ class MarginalBFGS(eqx.Module):
 
     def minimise(self, objective: Callable, starts: np.ndarray, maps: np.ndarray, args
                  ) -> list[Optimum]:
-        values, results, found = _batched_bfgs(objective, jnp.asarray(starts),
-                                               jnp.asarray(maps), args, self.rtol, self.atol,
-                                               self.max_steps)
+        values, results, found = _batched_bfgs(objective, jax.device_put(starts),
+                                               jax.device_put(maps), args, self.rtol,
+                                               self.atol, self.max_steps)
+        # each start's answer read on the host (indexing device arrays compiles programs)
+        values, results = np.asarray(values), jax.tree.map(np.asarray, results)
         out = []
         for i, f in enumerate(np.asarray(found)):
             converged, message = solver_message(jax.tree.map(lambda x, i=i: x[i], results))
-            out.append(Optimum(np.asarray(values[i]), converged, message, float(f)))
+            out.append(Optimum(values[i], converged, message, float(f)))
         return out
 
 
