@@ -269,7 +269,7 @@ def _export(fun: Callable, treedef, static, leaves: list, folder: Path, key: str
     try:
         program = jax.export.export(jax.jit(flat))(*specs)
         blob = bytes(program.serialize())
-    except Exception:  # noqa: BLE001 - whatever JAX cannot export runs as before
+    except Exception:  # whatever JAX cannot export runs as before
         return _NOT_EXPORTED
     try:
         write_sealed(_environment_folder(folder) / f"{key}.program",

@@ -339,7 +339,8 @@ def collapsed_form(density, columns: Float[Array, "n 1+r"] | None = None,
     noise model, filtered (white rows their own innovations). With ``columns`` (the drift
     less the model at zero real coefficients, then the model's derivatives in them) and
     ``real`` (their indices among the model's parameters), the form for given positive
-    parameters of any model linear in its real ones (traceable:
+    parameters of any model linear in its real ones (built on the host, its columns then
+    replaced inside compiled code: :meth:`CollapsedCoefficients.with_columns`,
     :mod:`gyroid.inference._point_profiled`); without them, a linear model's own."""
     if columns is None:
         columns = jnp.column_stack([density.drift, density.model.design(density.inputs)])
