@@ -138,12 +138,9 @@ class BenchProblem(AbstractProblem):
                                       prior_set=chosen_set, overrides=priors)
 
         def density_at(window_s: float) -> BenchDensity:
-            return BenchDensity.from_log(log, model, chosen,
-                                         _with_rate_window(log, base, window_s), noise=noise,
-                                         rate_window_s=window_s, fast=fast,
-                                         rows_per_mean=block_rows,
-                                         thermometer=carried_thermometer(
-                                             log, window_s, wd, thermometer_var_row))
+            return _density(log, model, chosen, _with_rate_window(log, base, window_s), noise,
+                            window_s=window_s, block_rows=block_rows, wd=wd,
+                            thermometer_var_row=thermometer_var_row, fast=fast)
 
         density, noise_mode, choice = _by_marginal(density_at, log, rate_window_s, choice)
         return cls(density=density, log=log, prior_set=chosen_set, prior_basis=basis,
@@ -158,12 +155,11 @@ class BenchProblem(AbstractProblem):
         noise = noise_model(noise)
         noise_priors = _noise_priors(noise, self.log, self.inputs, self.block_rows,
                                      self.prior_set, self.sigma_known)
-        thermometer = carried_thermometer(self.log, self.rate_window_s, self.rate_error_wd,
-                                          self.thermometer_sd_C**2 / self.block_rows)
-        density = BenchDensity.from_log(
-            self.log, self.model, (*self.priors[:self.n_model], *noise_priors.values()),
-            self.inputs, noise=noise, rate_window_s=self.rate_window_s,
-            rows_per_mean=self.block_rows, thermometer=thermometer)
+        density = _density(self.log, self.model,
+                           (*self.priors[:self.n_model], *noise_priors.values()), self.inputs,
+                           noise, window_s=self.rate_window_s, block_rows=self.block_rows,
+                           wd=self.rate_error_wd,
+                           thermometer_var_row=self.thermometer_sd_C**2 / self.block_rows)
         return replace(self, density=density, noise_mode=None)
 
     @property
@@ -292,6 +288,20 @@ class BenchProblem(AbstractProblem):
             "log_likelihood_note": "log_likelihood holds sums over blocks of rows "
                                    "(constant_data.loo_block): LOO leaves out whole blocks",
         }
+
+
+def _density(log: BenchLog, model: DriftModel, priors, inputs, noise: NoiseModel, *,
+             window_s: float, block_rows: int, wd: float, thermometer_var_row: float,
+             fast: bool = True) -> BenchDensity:
+    """The density of ``model`` on ``log``'s rows (each the mean of ``block_rows`` samples)
+    under ``noise``, dT/dt estimated over ``window_s`` (s) in ``inputs``, the thermometer's
+    noise carried through it (a row's variance, degC^2, times ``wd**2``): one construction
+    for a fit's windows and for its rows under another noise model
+    (:meth:`BenchProblem.under_noise`)."""
+    return BenchDensity.from_log(log, model, priors, inputs, noise=noise,
+                                 rate_window_s=window_s, fast=fast, rows_per_mean=block_rows,
+                                 thermometer=carried_thermometer(log, window_s, wd,
+                                                                 thermometer_var_row))
 
 
 def _by_marginal(density_at, log: BenchLog, window_s: float, choice: str

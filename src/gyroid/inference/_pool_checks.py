@@ -9,7 +9,7 @@ applied to the population and to every run, and two that only a lot has.
   ``d' (A_r^-1 + T)^-1 d`` (``d`` its own estimate minus the population mean)
   is chi-square with (rank of A_r) degrees of freedom when the run belongs to the
   population (the others' mode, their spread widened by one sd of its log:
-  :func:`gyroid.inference._pool_fit.leave_one_run_out`). Left in, an outlying run inflates
+  :func:`leave_one_run_out`). Left in, an outlying run inflates
   the spread and hides (seen: a run 50 spreads away scored p = 0.51 against the full
   posterior). A p-value below
   ``RUN_CONSISTENCY_P`` / (number of runs) is an error: a unit or test that does not belong
@@ -24,11 +24,11 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-import jax
 import jax.numpy as jnp
 import numpy as np
 from scipy import stats
 
+from gyroid._exported import exported
 from gyroid.inference._check_report import Check, CheckReport, FitEvidence
 from gyroid.inference._checks import (
     PRIOR_TAIL_SD,
@@ -160,7 +160,7 @@ def between_run_sd_identified(names: tuple[str, ...], tau_draws: np.ndarray,
                  "predictive is correspondingly wide; pool more runs to narrow it")
 
 
-@jax.jit
+@exported
 def _mean_information(density, u):
     """The population mean's precision and linear term at the between-run sds ``u`` (one
     compiled program, not some 15 operations compiled or loaded one by one)."""
@@ -168,7 +168,7 @@ def _mean_information(density, u):
     return q, b
 
 
-@jax.jit
+@exported
 def _mean_conditional(density, u, z):
     return density.mean_conditional(u, z)
 
