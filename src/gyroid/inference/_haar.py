@@ -40,6 +40,10 @@ class HaarStatistics:
     #: The correlation time of the Gauss-Markov term G fitted to these statistics, s (NaN
     #: before it is chosen: :attr:`~gyroid.inference._noise_choice.TermChoice.gm_tc_s`).
     gm_tc_s: float = float("nan")
+    #: A prefilter's deficit F (deg) read where it is large, at the shortest levels left
+    #: out for it (:func:`~gyroid.inference._noise_levels.drop_prefiltered`), NaN where none
+    #: was: F is then in every set of terms, with this as its prior's median.
+    prefilter_deg: float = float("nan")
 
     @property
     def tau_s(self) -> np.ndarray:

@@ -136,7 +136,8 @@ def choose_terms(stats: HaarStatistics) -> TermChoice:
     candidates = TERM_NAMES if grid.size else tuple(n for n in TERM_NAMES if n != "G")
     sets = [names for size in range(1, len(candidates) + 1)
             for names in itertools.combinations(candidates, size)
-            if n_parameters(names) <= stats.m.size - 1 and compatible(names)]
+            if n_parameters(names) <= stats.m.size - 1 and compatible(names)
+            and ("F" in names or np.isnan(stats.prefilter_deg))]
     fits, argmax = {}, {}
     for names in (s for s in sets if "G" not in s):
         fits[names], argmax[names] = max_likelihood(

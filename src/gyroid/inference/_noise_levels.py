@@ -22,17 +22,28 @@ deg/sqrt(h) from the filtered shortest levels, 2.4 from the rest; its z axis's s
 levels alternate, and the fit of all of them had missed its flicker floor 160-fold).
 :func:`drop_prefiltered` leaves out the shortest levels, one at a time, while any of the
 :data:`PREFILTER_REACH` shortest remaining ones misfits the fit of every IEEE term (or F for
-Q, whichever fits better) significantly (at most :data:`MAX_PREFILTER_LEVELS`); the
-``prefilter`` check says which were left out. The shortest level alone was not enough: a
-log low-passed well below its Nyquist frequency (a phone's, 100 Hz filtered forward and
-backward and decimated to 10 Hz) has an Allan deviation that rises over its first levels
-before white noise's fall, and N with F's deficit, a rise and fall of its own, crossed the
-shortest level and missed the next ones (N 0.00002-0.22 deg/sqrt(h) for 2.5, the white
-noise read as a Gauss-Markov bias at 0.2 s, and a refusal for the misfit that left at long
-averaging times). Not yet calibrated: just above the levels left out, the filter's shape
-still departs from F's ``1 / tau^2`` by about 1 %, too little for any level's test and as
-much as N's interval, so on such logs N's 90 % intervals held 21 of 50 truths
-(``experiments/noise_coverage.py``, the phone grade; B and K inside their bands).
+Q, whichever fits better) significantly (at most :data:`MAX_PREFILTER_LEVELS`). The shortest
+level alone was not enough: a log low-passed well below its Nyquist frequency (a phone's,
+100 Hz filtered forward and backward and decimated to 10 Hz) has an Allan deviation that
+rises over its first levels before white noise's fall, and N with F's deficit, a rise and
+fall of its own, crossed the shortest level and missed the next ones (N 0.00002-0.22
+deg/sqrt(h) for 2.5, the white noise read as a Gauss-Markov bias at 0.2 s, and a refusal
+for the misfit that left at long averaging times).
+
+F's ``1 / tau^2`` is only the leading term of a filter's deficit: for white noise through a
+filter whose autocorrelation has first absolute moment ``m`` (s) the Allan variance is
+``N^2 / tau (1 - 1.5 m / tau)`` plus terms the filter's shape sets, which fall faster. For
+the low-pass filters tried (Butterworth of orders 1-8, one pass or forward and backward;
+windowed-sinc FIRs; moving averages and their cascades) those terms were within 2 % of the
+Allan variance where the deficit ``1.5 m / tau`` is under 15 %, but up to 14 % where it is
+40 %: levels with a deficit of some 30 % passed every test above and lifted N by about 1 %,
+as much as its interval (the phone grade of ``experiments/noise_coverage.py``: 21 of 50
+intervals held the truth). So F's deficit is read once from the levels kept, and the
+levels where it exceeds :data:`PREFILTER_DEFICIT` of the white noise's Allan variance are
+left out too; F, known to be there, is then in every set of terms, its prior's median the
+amplitude read (``HaarStatistics.prefilter_deg``): left to the term choice, F was dropped
+where its deficit is small, and N fell by 2 %. The ``prefilter`` check says which levels
+were left out.
 """
 
 from __future__ import annotations
@@ -57,6 +68,10 @@ MAX_PREFILTER_LEVELS = 4
 #: The shortest levels whose misfit says a prefilter shapes them, and the significance
 #: (Bonferroni over them) at which it does.
 PREFILTER_REACH, PREFILTER_P = 3, 0.01
+#: F's deficit below white noise (a fraction of its Allan variance) beyond which a level is
+#: left out as well: the filter's own shape is not yet F's there (module docstring).
+PREFILTER_DEFICIT = 0.15
+_WITH_F = tuple("F" if n == "Q" else n for n in IEEE_TERMS)
 
 
 def level_scores(stats: HaarStatistics, model_avar: np.ndarray) -> np.ndarray:
@@ -129,16 +144,35 @@ def drop_prefiltered(stats: HaarStatistics) -> tuple[HaarStatistics, int]:
     and how many were left out."""
     dropped = 0
     while dropped < MAX_PREFILTER_LEVELS and stats.m.size > 6:
-        fits = [(max_likelihood(stats, names), names) for names in
-                (IEEE_TERMS, tuple("F" if n == "Q" else n for n in IEEE_TERMS))]
+        fits = [(max_likelihood(stats, names), names) for names in (IEEE_TERMS, _WITH_F)]
         (_, u), names = max(fits, key=lambda item: item[0][0])
         model = shapes(stats, names) @ np.exp(2.0 * u)
         z = level_scores(stats, model)[:PREFILTER_REACH]
         if not 2.0 * norm.sf(np.max(np.abs(z))) * z.size < PREFILTER_P:
             break
-        stats = replace(stats, m=stats.m[1:], count=stats.count[1:], sum_sq=stats.sum_sq[1:])
-        dropped += 1
+        stats, dropped = _without_shortest(stats), dropped + 1
+    # F's deficit falls as 1 / tau: read once, it says which levels it still shapes
+    deficit, amplitude = _deficit(stats)
+    reach_s = stats.tau_s[0] * deficit / PREFILTER_DEFICIT
+    while stats.m.size > 6 and stats.tau_s[0] < reach_s:
+        stats, dropped = replace(_without_shortest(stats), prefilter_deg=amplitude), dropped + 1
     return stats, dropped
+
+
+def _without_shortest(stats: HaarStatistics) -> HaarStatistics:
+    return replace(stats, m=stats.m[1:], count=stats.count[1:], sum_sq=stats.sum_sq[1:])
+
+
+def _deficit(stats: HaarStatistics) -> tuple[float, float]:
+    """F's deficit at the shortest level over the white noise's Allan variance there, and F
+    (deg), in the best fit of every IEEE term with F for Q; no deficit (0) where that fit is
+    no better than Q's, or where its deficit is not a filter's (not below the white noise)."""
+    (with_f, u), (with_q, _) = (max_likelihood(stats, names) for names in (_WITH_F, IEEE_TERMS))
+    x = np.exp(2.0 * u)
+    white, deficit = shapes(stats, ("N", "F"))[0] * x[[_WITH_F.index("N"), _WITH_F.index("F")]]
+    if with_f <= with_q or not 0.0 < -deficit < white:
+        return 0.0, float("nan")
+    return float(-deficit / white), float(np.sqrt(x[_WITH_F.index("F")]))
 
 
 def prefilter_check(dropped: int, tau0_s: float) -> Check:
@@ -148,9 +182,8 @@ def prefilter_check(dropped: int, tau0_s: float) -> Check:
                      "the shortest averaging times fit white noise: no sign of a prefilter")
     below = tau0_s * 2**dropped
     return Check("prefilter", False, "warning", float(dropped), float(MAX_PREFILTER_LEVELS),
-                 f"the Allan variance below {below:.3g} s fits no sum of the noise terms (the "
-                 "samples are correlated there: the gyro's digital low-pass filter or "
-                 f"decimation, or a vibration's tone), so those {dropped} shortest averaging "
-                 "times were left out and N is read above them; a filter's shape can still "
-                 "lift N there by about 1 %, more than its interval allows (a phone-grade "
-                 "log's, docs/real-logs.md)")
+                 f"the Allan variance below {below:.3g} s is shaped by correlated samples "
+                 "(the gyro's digital low-pass filter or decimation, or a vibration's tone): "
+                 "no sum of the noise terms fits it, or a filter's deficit there is more than "
+                 f"{100 * PREFILTER_DEFICIT:.0f} % of the white noise's, so those {dropped} "
+                 "shortest averaging times were left out and N is read above them")
