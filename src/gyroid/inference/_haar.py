@@ -42,7 +42,7 @@ class HaarStatistics:
     gm_tc_s: float = float("nan")
     #: A prefilter's deficit F (deg) read where it is large, at the shortest levels left
     #: out for it (:func:`~gyroid.inference._noise_levels.drop_prefiltered`), NaN where none
-    #: was: F is then in every set of terms, with this as its prior's median.
+    #: was: F is then in every set of terms, this reading in its likelihood.
     prefilter_deg: float = float("nan")
 
     @property

@@ -40,9 +40,10 @@ Allan variance where the deficit ``1.5 m / tau`` is under 15 %, but up to 14 % w
 as much as its interval (the phone grade of ``experiments/noise_coverage.py``: 21 of 50
 intervals held the truth). So F's deficit is read once from the levels kept, and the
 levels where it exceeds :data:`PREFILTER_DEFICIT` of the white noise's Allan variance are
-left out too; F, known to be there, is then in every set of terms, its prior's median the
-amplitude read (``HaarStatistics.prefilter_deg``): left to the term choice, F was dropped
-where its deficit is small, and N fell by 2 %. The ``prefilter`` check says which levels
+left out too; F, known to be there, is then in every set of terms, with the amplitude read
+(``HaarStatistics.prefilter_deg``) one more term of its likelihood, log-sd 0.25: left to the
+term choice, F was dropped where its deficit is small, and N fell by 2 %; with only its weak
+prior, its posterior leaned to zero and N with it. The ``prefilter`` check says which levels
 were left out.
 """
 

@@ -39,9 +39,9 @@ from gyroid.models._priors import Normal, natural_with_sd
 
 PRIOR_BELOW_ENVELOPE = math.log(10.0)
 PRIOR_LOG_SD = math.log(100.0)
-#: F's prior log-sd where it was read at the levels left out for it: those levels' shape
-#: departs from F's ``1 / tau^2`` by up to some 40 % of the deficit (F 20 %) for the
-#: low-pass filters of :mod:`gyroid.inference._noise_levels`.
+#: The sd of F's log-amplitude read at the levels left out for it (:func:`_reading`): those
+#: levels' shape departs from F's ``1 / tau^2`` by up to some 40 % of the deficit (F 20 %)
+#: for the low-pass filters of :mod:`gyroid.inference._noise_levels`.
 PREFILTER_LOG_SD = 0.25
 #: The posterior mode's search (L-BFGS-B with the analytic gradient, polished by BFGS).
 _SEARCH = BoundedGradientSearch(gtol=1e-8, ftol=1e-15, max_steps=5000, polish_steps=2000)
@@ -57,6 +57,10 @@ class NoiseDensity(AbstractDensity):
     sum_sq: Float[Array, " levels"]
     prior_loc: Float[Array, " terms"]
     prior_scale: Float[Array, " terms"]
+    #: A reading of each log-amplitude from levels the Haar likelihood leaves out, and its
+    #: sd (inf: none): F's, at the shortest levels a prefilter shapes (:func:`_reading`).
+    reading_loc: Float[Array, " terms"]
+    reading_scale: Float[Array, " terms"]
 
     def log_likelihood_blocks(self, u: Float[Array, " terms"]) -> Float[Array, " levels"]:
         variance = 2.0 * (self.shape @ jnp.exp(2.0 * u))
@@ -69,8 +73,12 @@ class NoiseDensity(AbstractDensity):
         return jnp.sum(-0.5 * z**2 - jnp.log(self.prior_scale)) - 0.5 * u.size * jnp.log(
             2.0 * jnp.pi)
 
+    def log_reading(self, u: Float[Array, " terms"]) -> Float[Array, ""]:
+        """The readings' log-likelihood (up to a constant)."""
+        return -0.5 * jnp.sum(((u - self.reading_loc) / self.reading_scale) ** 2)
+
     def log_posterior(self, u: Float[Array, " terms"]) -> Float[Array, ""]:
-        return jnp.sum(self.log_likelihood_blocks(u)) + self.log_prior(u)
+        return jnp.sum(self.log_likelihood_blocks(u)) + self.log_reading(u) + self.log_prior(u)
 
 
 class NoiseProblem(AbstractProblem):
@@ -89,12 +97,11 @@ class NoiseProblem(AbstractProblem):
                         label: str = "", start: tuple[float, ...] = ()) -> NoiseProblem:
         bound = envelope(stats)
         loc = np.array([math.log(bound[n]) - PRIOR_BELOW_ENVELOPE for n in terms])
-        scale = np.full(len(terms), PRIOR_LOG_SD)
-        if "F" in terms and np.isfinite(stats.prefilter_deg):  # read where it is large
-            loc[terms.index("F")] = math.log(stats.prefilter_deg)
-            scale[terms.index("F")] = PREFILTER_LOG_SD
+        reading, reading_sd = _reading(stats, terms)
         density = NoiseDensity(jnp.asarray(shapes(stats, terms)), jnp.asarray(stats.count),
-                               jnp.asarray(stats.sum_sq), jnp.asarray(loc), jnp.asarray(scale))
+                               jnp.asarray(stats.sum_sq), jnp.asarray(loc),
+                               jnp.full(len(terms), PRIOR_LOG_SD), jnp.asarray(reading),
+                               jnp.asarray(reading_sd))
         return cls(density, stats, tuple(terms), label, tuple(start))
 
     @property
@@ -113,6 +120,8 @@ class NoiseProblem(AbstractProblem):
     def host_log_posterior(self) -> Callable[[np.ndarray], np.ndarray]:
         g = shapes(self.stats, self.terms)
         loc, scale = np.asarray(self.density.prior_loc), np.asarray(self.density.prior_scale)
+        read, read_sd = (np.asarray(self.density.reading_loc),
+                         np.asarray(self.density.reading_scale))
 
         def log_posterior(u: np.ndarray) -> np.ndarray:
             u = np.atleast_2d(u)
@@ -120,7 +129,7 @@ class NoiseProblem(AbstractProblem):
                 ll = level_log_likelihood(2.0 * (np.exp(2.0 * u) @ g.T), self.stats
                                           ).sum(axis=-1)
             prior = np.sum(-0.5 * ((u - loc) / scale) ** 2 - np.log(scale), axis=-1)
-            out = ll + prior
+            out = ll + prior - 0.5 * np.sum(((u - read) / read_sd) ** 2, axis=-1)
             return np.where(np.isfinite(out), out, -np.inf)
 
         return log_posterior
@@ -128,11 +137,14 @@ class NoiseProblem(AbstractProblem):
     def mode(self) -> PointEstimate:
         g = shapes(self.stats, self.terms)
         loc, scale = np.asarray(self.density.prior_loc), np.asarray(self.density.prior_scale)
+        read, read_sd = (np.asarray(self.density.reading_loc),
+                         np.asarray(self.density.reading_scale))
 
         def target(u: np.ndarray) -> tuple[float, np.ndarray]:
             ll, grad = _log_likelihood_and_gradient(u, g, 0.0, self.stats)
-            return (ll - 0.5 * float(np.sum(((u - loc) / scale) ** 2)),
-                    grad - (u - loc) / scale**2)
+            return (ll - 0.5 * float(np.sum(((u - loc) / scale) ** 2))
+                    - 0.5 * float(np.sum(((u - read) / read_sd) ** 2)),
+                    grad - (u - loc) / scale**2 - (u - read) / read_sd**2)
 
         extra = [np.asarray(self.start)] if self.start else []
         best = _SEARCH.maximise(target, [*extra, *_starts(self.stats, self.terms)],
@@ -166,6 +178,21 @@ class NoiseProblem(AbstractProblem):
     def idata_attrs(self) -> dict[str, str]:
         return {"model": "gyroid noise: " + " + ".join(self.terms),
                 "likelihood": "Haar coefficients per level, independent N(0, 2 AVAR(tau))"}
+
+
+def _reading(stats: HaarStatistics, names: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray]:
+    """Each term's log-amplitude as read from levels the Haar likelihood leaves out, and its
+    sd (inf where none): F's at the shortest levels a prefilter shapes
+    (``stats.prefilter_deg``; :func:`~gyroid.inference._noise_levels.drop_prefiltered`),
+    sd :data:`PREFILTER_LOG_SD`. It is the log's own measurement of the filter, a likelihood
+    term, not a belief: F's prior stays the default's, so the prior-data check asks only of
+    the priors (a pull of some 0.6-1 posterior sd between the two readings of one log is the
+    filter's shape at the levels left out)."""
+    loc, sd = np.zeros(len(names)), np.full(len(names), np.inf)
+    if "F" in names and np.isfinite(stats.prefilter_deg):
+        loc[names.index("F")] = math.log(stats.prefilter_deg)
+        sd[names.index("F")] = PREFILTER_LOG_SD
+    return loc, sd
 
 
 def _starts(stats: HaarStatistics, names: tuple[str, ...]) -> list[np.ndarray]:
