@@ -27,7 +27,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import median_filter, uniform_filter1d
+from scipy.ndimage import median_filter
 from scipy.stats import norm
 
 from gyroid.inference._check_report import Check
@@ -97,6 +97,19 @@ def _robust_scale(values: np.ndarray) -> tuple[float, float]:
     return centre, scale
 
 
+def _running_mean(rate: np.ndarray, window: int) -> np.ndarray:
+    """Each sample's mean over the ``window`` samples centred on it, the window cut at the
+    stretch's ends (not padded: padding by the end sample repeated it half a window's times,
+    and a logger's start-up transient there, a few samples far off, made the samples after
+    it stand out from a mean it had dragged away; a phone-grade log's first samples were
+    named outliers at 2.9 sd of the minute's true mean)."""
+    half = window // 2
+    total = np.concatenate([[0.0], np.cumsum(rate - rate.mean())])
+    index = np.arange(rate.size)
+    low, high = np.maximum(index - half, 0), np.minimum(index + half + 1, rate.size)
+    return (total[high] - total[low]) / (high - low) + rate.mean()
+
+
 def remove_outliers(rate_deg_h: np.ndarray, segments: list[tuple[int, int]] | None = None,
                     *, sample_s: float | None = None) -> tuple[np.ndarray, Outliers]:
     """The rate with its outliers replaced by their neighbours' median (as it is when they
@@ -114,8 +127,7 @@ def remove_outliers(rate_deg_h: np.ndarray, segments: list[tuple[int, int]] | No
     for start, stop in segments:
         around[start:stop] = median_filter(rate[start:stop], footprint=footprint,
                                            mode="nearest")
-        slow[start:stop] = uniform_filter1d(rate[start:stop], min(window, stop - start),
-                                            mode="nearest")
+        slow[start:stop] = _running_mean(rate[start:stop], window)
     residual = rate - around
     centre, scale = _robust_scale(residual)
     threshold = float(norm.isf(0.5 * FALSE_FLAGS / max(rate.size, 1)))
