@@ -350,6 +350,7 @@ def test_a_filtered_logs_shortest_averaging_times_are_left_out_and_n_read_above_
     assert low < 2.5 < high
 
 
+@pytest.mark.slow
 def test_a_filtered_logs_n_is_not_lifted_by_the_filters_shape():
     """Just above the levels a phone-grade filter visibly shapes, its deficit below white
     noise is still some 30 % and its shape there departs from F's ``1 / tau^2`` by about
