@@ -346,6 +346,11 @@ def test_a_filtered_logs_shortest_averaging_times_are_left_out_and_n_read_above_
     assert fit.trustworthy, fit.summary()
     failed = {c.name for c in fit.checks.failed}
     assert "prefilter" in failed and not failed & {"level_fit", "level_runs", "dispersion"}
+    # the levels left out are written beside the fitted ones (and drawn in allan.png)
+    allan = fit.to_json()["allan"]
+    left_out = allan["left_out"]["tau_s"]
+    assert len(left_out) == next(c.value for c in fit.checks.checks if c.name == "prefilter")
+    assert max(left_out) < min(allan["tau_s"]) and left_out[0] == pytest.approx(0.1)
     low, high = fit.term_summaries()["N"]["ci90"]
     assert low < 2.5 < high
 

@@ -69,6 +69,8 @@ class NoiseFit(FitResult):
     dispersion: float = 1.0
     #: Per term a datasheet gives, the verdict against it (``gyroid noise --datasheet``).
     spec: dict | None = None
+    #: The shortest levels left out for a prefilter (the ``prefilter`` check), None if none.
+    left_out: HaarStatistics | None = None
 
     @property
     def terms(self) -> tuple[str, ...]:
@@ -200,7 +202,11 @@ class NoiseFit(FitResult):
                       "pairs": self.stats.count.astype(int).tolist(),
                       "model_adev_deg_h": band[1].tolist(),
                       "model_adev_90_deg_h": [band[0].tolist(), band[2].tolist()],
-                      "estimator": "non-overlapping Haar (block pairs never across a gap)"},
+                      "estimator": "non-overlapping Haar (block pairs never across a gap)",
+                      "left_out": None if self.left_out is None else {
+                          "tau_s": self.left_out.tau_s.tolist(),
+                          "adev_deg_h": np.sqrt(self.left_out.avar).tolist(),
+                          "pairs": self.left_out.count.astype(int).tolist()}},
             "sample_s": self.stats.tau0_s, "n_samples": self.stats.n_samples,
             "segments": self.stats.segments,
             "dispersion": self.dispersion,
@@ -231,7 +237,11 @@ def fit_noise(rate_deg_h: np.ndarray, sample_s: float, *,
     weight, the checks of each set that matters and of the averaged model's fit to every
     averaging time."""
     cleaned, outliers = remove_outliers(rate_deg_h, segments, sample_s=sample_s)
-    stats, prefiltered = drop_prefiltered(haar_statistics(cleaned, sample_s, segments))
+    every_level = haar_statistics(cleaned, sample_s, segments)
+    stats, prefiltered = drop_prefiltered(every_level)
+    left_out = (replace(every_level, m=every_level.m[:prefiltered],
+                        count=every_level.count[:prefiltered],
+                        sum_sq=every_level.sum_sq[:prefiltered]) if prefiltered else None)
     choice = choose_terms(stats)
     stats = replace(stats, gm_tc_s=choice.profile_tc_s)
     lack, dof = deviance(choice.stats_for(stats, choice.best), choice.best)
@@ -268,7 +278,7 @@ def fit_noise(rate_deg_h: np.ndarray, sample_s: float, *,
     checks.append(level_runs(stats, avar))
     checks.append(dispersion_check(dispersion, lack, dof))
     return NoiseFit(choice, stats, tuple(models), mixture, mixture_tc,
-                    CheckReport(tuple(checks)), label, dispersion)
+                    CheckReport(tuple(checks)), label, dispersion, left_out=left_out)
 
 
 def mixture_avar(stats: HaarStatistics, mixture: np.ndarray, tc_s: np.ndarray) -> np.ndarray:

@@ -13,8 +13,9 @@ _TERM_STYLES = {"Q": (0, (1, 1)), "N": ":", "B": "--", "K": "-.", "R": (0, (5, 1
 
 def noise_allan_figure(result) -> Figure:
     """Log-log Allan deviation of a :class:`~gyroid.inference.NoiseFit`: the log's (per
-    averaging time, with its chi-square 68 % interval), the model-averaged fit's median and
-    90 % band, and each resolved term at its median amplitude."""
+    averaging time, with its chi-square 68 % interval; the shortest ones a prefilter shapes,
+    left out of the fit, in grey), the model-averaged fit's median and 90 % band, and each
+    resolved term at its median amplitude."""
     from scipy import stats as st
 
     data = result.stats
@@ -33,6 +34,11 @@ def noise_allan_figure(result) -> Figure:
         ax.errorbar(tau, adev, yerr=[adev - lower, upper - adev], fmt="o", ms=3.5,
                     mfc="white", mec="0.0", ecolor="0.3", elinewidth=0.8, capsize=2,
                     label="log (Haar, 68 % interval)")
+        if result.left_out is not None:  # shaped by a prefilter: shown, not fitted
+            shaped = np.sqrt(result.left_out.avar)
+            ax.loglog(result.left_out.tau_s, shaped, "s", ms=3.5, color="0.55",
+                      label="log, left out (prefilter)")
+            adev = np.concatenate([adev, shaped])
         for name in (n for n in result.terms if n != "F"):  # F lowers, is no curve
             ax.loglog(grid, np.sqrt(result.term_avar(name, grid)), ls=_TERM_STYLES[name],
                       color="0.35", lw=0.9, label=f"{name}: {_value(result, name)}")
