@@ -54,15 +54,16 @@ def _interned(value) -> _HashedOnce:
 
 @functools.partial(jax.jit, static_argnums=(0, 1, 2))
 def _batched_method(static, treedef, function, leaves, u):
-    density = eqx.combine(jax.tree_util.tree_unflatten(treedef, leaves), static.value)
-    return jax.vmap(lambda row: function(density, row))(u)
+    return _batched(eqx.combine(jax.tree_util.tree_unflatten(treedef, leaves), static.value),
+                    function, u)
 
 
 def _batched(density, function, u):
     return jax.vmap(lambda row: function(density, row))(u)
 
 
-#: :func:`_batched_method` as a stored program (:mod:`gyroid._exported`).
+#: The batched evaluation as a stored program (:mod:`gyroid._exported`); where nothing is
+#: stored, :func:`_batched_method` runs it.
 _BATCHED = exported(_batched, name="batched_method")
 
 

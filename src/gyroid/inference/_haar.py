@@ -61,6 +61,11 @@ class HaarStatistics:
         """The empirical Allan variance per level, (deg/h)^2: ``sum_sq / (2 count)``."""
         return self.sum_sq / (2.0 * self.count)
 
+    def levels(self, which: slice) -> HaarStatistics:
+        """The statistics of the levels ``which`` selects (e.g. the shortest ones left out)."""
+        return replace(self, m=self.m[which], count=self.count[which],
+                       sum_sq=self.sum_sq[which])
+
     def deflated(self, dispersion: float) -> HaarStatistics:
         """The same Allan variances worth ``1 / dispersion`` of the coefficients: a
         quasi-likelihood for Haar coefficients that scatter ``dispersion`` times more than

@@ -239,9 +239,7 @@ def fit_noise(rate_deg_h: np.ndarray, sample_s: float, *,
     cleaned, outliers = remove_outliers(rate_deg_h, segments, sample_s=sample_s)
     every_level = haar_statistics(cleaned, sample_s, segments)
     stats, prefiltered = drop_prefiltered(every_level)
-    left_out = (replace(every_level, m=every_level.m[:prefiltered],
-                        count=every_level.count[:prefiltered],
-                        sum_sq=every_level.sum_sq[:prefiltered]) if prefiltered else None)
+    left_out = every_level.levels(slice(None, prefiltered)) if prefiltered else None
     choice = choose_terms(stats)
     stats = replace(stats, gm_tc_s=choice.profile_tc_s)
     lack, dof = deviance(choice.stats_for(stats, choice.best), choice.best)

@@ -144,31 +144,32 @@ def drop_prefiltered(stats: HaarStatistics) -> tuple[HaarStatistics, int]:
     """The statistics without the shortest levels a prefilter shapes (module docstring),
     and how many were left out."""
     dropped = 0
-    while dropped < MAX_PREFILTER_LEVELS and stats.m.size > 6:
-        fits = [(max_likelihood(stats, names), names) for names in (IEEE_TERMS, _WITH_F)]
-        (_, u), names = max(fits, key=lambda item: item[0][0])
-        model = shapes(stats, names) @ np.exp(2.0 * u)
+    while True:
+        fits = {names: max_likelihood(stats, names) for names in (IEEE_TERMS, _WITH_F)}
+        if dropped >= MAX_PREFILTER_LEVELS or stats.m.size <= 6:
+            break
+        names = max(fits, key=lambda n: fits[n][0])
+        model = shapes(stats, names) @ np.exp(2.0 * fits[names][1])
         z = level_scores(stats, model)[:PREFILTER_REACH]
         if not 2.0 * norm.sf(np.max(np.abs(z))) * z.size < PREFILTER_P:
             break
-        stats, dropped = _without_shortest(stats), dropped + 1
-    # F's deficit falls as 1 / tau: read once, it says which levels it still shapes
-    deficit, amplitude = _deficit(stats)
+        stats, dropped = stats.levels(slice(1, None)), dropped + 1
+    # F's deficit falls as 1 / tau: read once, from the fits of the levels kept, it says
+    # which levels it still shapes
+    deficit, amplitude = _deficit(stats, fits)
     reach_s = stats.tau_s[0] * deficit / PREFILTER_DEFICIT
     while stats.m.size > 6 and stats.tau_s[0] < reach_s:
-        stats, dropped = replace(_without_shortest(stats), prefilter_deg=amplitude), dropped + 1
+        stats = replace(stats.levels(slice(1, None)), prefilter_deg=amplitude)
+        dropped += 1
     return stats, dropped
 
 
-def _without_shortest(stats: HaarStatistics) -> HaarStatistics:
-    return replace(stats, m=stats.m[1:], count=stats.count[1:], sum_sq=stats.sum_sq[1:])
-
-
-def _deficit(stats: HaarStatistics) -> tuple[float, float]:
+def _deficit(stats: HaarStatistics, fits: dict) -> tuple[float, float]:
     """F's deficit at the shortest level over the white noise's Allan variance there, and F
-    (deg), in the best fit of every IEEE term with F for Q; no deficit (0) where that fit is
-    no better than Q's, or where its deficit is not a filter's (not below the white noise)."""
-    (with_f, u), (with_q, _) = (max_likelihood(stats, names) for names in (_WITH_F, IEEE_TERMS))
+    (deg), in ``fits``' best fit of every IEEE term with F for Q (``max_likelihood`` of
+    both sets on ``stats``); no deficit (0) where that fit is no better than Q's, or where
+    its deficit is not a filter's (not below the white noise)."""
+    (with_f, u), (with_q, _) = fits[_WITH_F], fits[IEEE_TERMS]
     x = np.exp(2.0 * u)
     white, deficit = shapes(stats, ("N", "F"))[0] * x[[_WITH_F.index("N"), _WITH_F.index("F")]]
     if with_f <= with_q or not 0.0 < -deficit < white:
