@@ -28,9 +28,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from gyroid.inference import BenchProblem, Emcee, problem_batcher, summarise_draws
+from gyroid.inference import BenchOptions, BenchProblem, Emcee, problem_batcher, summarise_draws
 from gyroid.io import BenchLog
 from gyroid.models import Flight, G, RollParams, correction_coefficients, navigation_errors
+from gyroid.models._derived import RATE_WINDOW_S
 from gyroid.simulation import (
     PAPER_A_DEVICE_2,
     PAPER_A_THERMAL,
@@ -430,9 +431,14 @@ def bench_problems(seed: int):
     is left out of the likelihood (``errors_in_variables=False``), as the baseline leaves
     it out: the same density on both sides."""
     log = six_hour_log(seed)
-    problem = BenchProblem.from_log(log, "full", prior_set="paper_a_fog",
-                                    errors_in_variables=False)
-    flat = BenchProblem.from_log(log, "full", flat_prior=True, errors_in_variables=False)
+    problem = BenchProblem.from_log(log, "full",
+                                    BenchOptions(noise="white", prior_set="paper_a_fog",
+                                                 rate_window_s=RATE_WINDOW_S,
+                                                 errors_in_variables=False))
+    flat = BenchProblem.from_log(log, "full",
+                                 BenchOptions(noise="white", prior_set="flat",
+                                              rate_window_s=RATE_WINDOW_S,
+                                              errors_in_variables=False))
     design = np.asarray(problem.model.design(problem.inputs))
     y = np.asarray(problem.density.drift)
     scales = np.array([p.prior.scale for p in problem.model.parameters])

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 import gyroid
+from gyroid.inference import BenchOptions
 from gyroid.io import atomic_write_text, json_text
 
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -43,7 +44,8 @@ def fitted_thermal(seed: int):
     from gyroid.simulation import simulate_thermal_bench
 
     sim = simulate_thermal_bench(seed=seed)
-    fit = fit_log(sim.log, "thermal", seed=seed, sampler=Emcee(progress=False), noise="white")
+    fit = fit_log(sim.log, "thermal", BenchOptions(noise="white"), seed=seed,
+                  sampler=Emcee(progress=False))
     return fit.fitted_drift()
 
 

@@ -23,8 +23,12 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from _common import results_dir, save_run  # noqa: E402
 
-from gyroid.inference import BenchProblem  # noqa: E402
+from gyroid.inference import (
+    BenchOptions,
+    BenchProblem,  # noqa: E402
+)
 from gyroid.io import FittedDrift  # noqa: E402
+from gyroid.models._derived import RATE_WINDOW_S
 from gyroid.simulation import ThermalProtocol, simulate_thermal_bench  # noqa: E402
 from gyroid.workflows import SCENARIOS as PRESETS  # noqa: E402
 from gyroid.workflows import propagate  # noqa: E402
@@ -52,7 +56,8 @@ def main() -> None:
     results = {}
     for name, protocol in DESIGNS.items():
         sim = simulate_thermal_bench(protocol=protocol, seed=int(rng.integers(2**31)))
-        problem = BenchProblem.from_log(sim.log, "thermal")
+        problem = BenchProblem.from_log(sim.log, "thermal",
+                                        BenchOptions(noise="white", rate_window_s=RATE_WINDOW_S))
         point = problem.mode()
         p = problem.n_model
         draws = rng.multivariate_normal(point.u[:p], point.covariance_u[:p, :p], args.draws)

@@ -16,7 +16,7 @@ import numpy as np
 from _common import results_dir, save_run
 
 from gyroid import GyroNoise
-from gyroid.inference import BenchProblem
+from gyroid.inference import BenchOptions, BenchProblem
 from gyroid.papers import magnetic_k
 from gyroid.simulation import PAPER_A_DEVICE_2, simulate_magnetic_bench
 
@@ -33,7 +33,7 @@ def main() -> None:
     rows = {"classic": {a: [] for a in "xyz"}, "bayes": {a: [] for a in "xyz"}}
     for _ in range(args.runs):
         sim = simulate_magnetic_bench(noise=noise, seed=int(rng.integers(2**31)))
-        point = BenchProblem.from_log(sim.log, "magnetic").mode()
+        point = BenchProblem.from_log(sim.log, "magnetic", BenchOptions(noise="white")).mode()
         for axis in "xyz":
             k = magnetic_k(sim.log, axis)
             rows["classic"][axis].append((k.signed, k.sd))

@@ -19,7 +19,7 @@ import time
 import numpy as np
 from _common import results_dir, save_run
 
-from gyroid.inference import fit_log
+from gyroid.inference import BenchOptions, fit_log
 from gyroid.simulation import GyroNoise, simulate_thermal_bench
 
 WAYS = {"carried": {}, "left_out": {"errors_in_variables": False},
@@ -47,7 +47,8 @@ def main() -> None:
                                          noise=GyroNoise(temperature_noise_C=thermometer))
             truth = sim.truth["parameters"]
             for way, options in WAYS.items():
-                fit = fit_log(sim.log, "thermal", noise=args.noise, sample=False, **options)
+                fit = fit_log(sim.log, "thermal", BenchOptions(noise=args.noise, **options),
+                              sample=False)
                 z[way].append([(fit.point.value[n] - v) / fit.point.sd[n]
                                for n, v in truth.items()])
                 whiteness[way] += "residual_whiteness" in {c.name for c in fit.checks.failed}

@@ -177,7 +177,7 @@ def one(seed: int, profile: str, noise: str, white_only: bool,
         warmup: float | None = None, flicker: str = "spectral",
         datasheet: bool = False) -> dict:
     import gyroid
-    from gyroid.inference import Emcee, Importance, fit_log
+    from gyroid.inference import BenchOptions, Emcee, Importance, fit_log
     from gyroid.io import BenchLog
     from gyroid.models import LogNormal
 
@@ -195,7 +195,7 @@ def one(seed: int, profile: str, noise: str, white_only: bool,
         noise = "white+flicker+rw"  # the noise model whose priors those are
     if datasheet:
         chosen, noise = datasheet_priors_of_the_bench(), "white+flicker+rw"
-    fit = fit_log(BenchLog(columns), terms, noise=noise, seed=seed, priors=chosen,
+    fit = fit_log(BenchLog(columns), terms, BenchOptions(noise=noise, priors=chosen), seed=seed,
                   sampler=Importance(fallback=Emcee(progress=False)))
     seconds = round(time.time() - started, 1)  # the default fit's alone
     widths = _datasheet_widths(fit, columns, terms, seed, truth) if datasheet else None
@@ -206,7 +206,7 @@ def one(seed: int, profile: str, noise: str, white_only: bool,
     # alone does to the coefficients, apart from the noise levels' inference
     pinned = {"N_deg_sqrt_h": LogNormal(ARW, 0.01), "B_deg_h": LogNormal(B, 0.01),
               "K_deg_h_sqrt_h": LogNormal(K, 0.01)}
-    known = (fit_log(BenchLog(columns), terms, noise=noise, seed=seed, priors=pinned,
+    known = (fit_log(BenchLog(columns), terms, BenchOptions(noise=noise, priors=pinned), seed=seed,
                      sampler=Importance(fallback=Emcee(progress=False))).posterior.summary
              if fit.problem.noise.name == "white+flicker+rw" and not white_only
              and not static_hours and not warmup and not datasheet else None)

@@ -28,7 +28,7 @@ import numpy as np
 from _common import flicker_noise, results_dir, save_run
 
 import gyroid
-from gyroid.inference import Emcee, fit_log
+from gyroid.inference import BenchOptions, Emcee, fit_log
 from gyroid.io import BenchLog
 from gyroid.simulation import GyroNoise, simulate_thermal_bench
 
@@ -59,7 +59,7 @@ def mems_bench(seed: int) -> BenchLog:
 def one(seed: int, noise: str, sampler: str) -> dict:
     started = time.time()
     chosen = Emcee(progress=False) if sampler == "emcee" else None  # None: fit_log's default
-    fit = fit_log(mems_bench(seed), "thermal", noise=noise, seed=seed, sampler=chosen,
+    fit = fit_log(mems_bench(seed), "thermal", BenchOptions(noise=noise), seed=seed, sampler=chosen,
                   progress=False)
     summary = fit.posterior.summary
     inside = {name: bool(summary[name]["ci95"][0] <= value <= summary[name]["ci95"][1])

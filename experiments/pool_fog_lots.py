@@ -31,7 +31,7 @@ def one_lot(seeds: tuple[int, ...]) -> dict:
     """Pool the lot's runs under white and under auto noise: trust, run-to-run p-values,
     the population's intervals against the truth, the time."""
     import gyroid
-    from gyroid.inference import fit_pool
+    from gyroid.inference import BenchOptions, fit_pool
     from gyroid.io import BenchLog
 
     gyroid.configure()
@@ -45,7 +45,7 @@ def one_lot(seeds: tuple[int, ...]) -> dict:
     record: dict = {"seeds": list(seeds), "w0_truths": w0_truths}
     for noise in ("white", "auto"):
         begun = time.time()
-        result = fit_pool(logs, [f"seed{s}" for s in seeds], "thermal", noise=noise,
+        result = fit_pool(logs, [f"seed{s}" for s in seeds], "thermal", BenchOptions(noise=noise),
                           seed=seeds[0])
         pool = result.to_json()
         record[noise] = {

@@ -23,7 +23,7 @@ from pathlib import Path
 from _common import results_dir, save_run
 
 import gyroid
-from gyroid.inference import fit_pool
+from gyroid.inference import BenchOptions, fit_pool
 from gyroid.io import load_bench_log
 
 
@@ -46,7 +46,7 @@ def main() -> None:
     pools = {}
     for noise in ("white", "auto"):
         begun = time.time()
-        result = fit_pool(logs, labels, "thermal", seed=args.seed, noise=noise)
+        result = fit_pool(logs, labels, "thermal", BenchOptions(noise=noise), seed=args.seed)
         record = result.to_json()
         checks = result.checks.checks
         pools[noise] = {

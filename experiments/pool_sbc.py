@@ -23,7 +23,10 @@ import numpy as np  # noqa: E402
 from _common import results_dir, save_run  # noqa: E402
 from scipy import stats  # noqa: E402
 
-from gyroid.inference import fit_pool  # noqa: E402
+from gyroid.inference import (
+    BenchOptions,
+    fit_pool,  # noqa: E402
+)
 from gyroid.models import Normal  # noqa: E402
 from gyroid.simulation import (  # noqa: E402
     GyroNoise,  # noqa: E402
@@ -53,8 +56,8 @@ def one_dataset(rng: np.random.Generator, n_runs: int, seed: int) -> dict:
                                             seed=int(rng.integers(2**31))).log)
     labels = tuple(f"run_{r + 1:02d}" for r in range(n_runs))
     started = time.time()
-    result = fit_pool(logs, labels, "magnetic", seed=seed, priors=MEAN_PRIORS,
-                      spread_scales=SPREAD_SCALES, noise="white")  # the white runs as they are
+    result = fit_pool(logs, labels, "magnetic", BenchOptions(noise="white"), seed=seed,
+                      priors=MEAN_PRIORS, spread_scales=SPREAD_SCALES)  # the white runs as they are
     seconds = time.time() - started
     out = {"n_runs": n_runs, "seconds": seconds, "trustworthy": result.trustworthy,
            "converged": bool(result.posterior.converged),

@@ -31,7 +31,7 @@ from _common import flicker_noise, results_dir, save_run
 from scipy import stats
 
 import gyroid
-from gyroid.inference import BenchProblem, RollProblem
+from gyroid.inference import BenchOptions, BenchProblem, RollProblem
 from gyroid.inference._bench_predictive import bench_held_out
 from gyroid.inference._predictive import PREDICTIVE_P, predictive_scales
 from gyroid.inference._roll_predictive import roll_held_out
@@ -90,7 +90,7 @@ def _folds(kind: str, seed: int):
         problem = RollProblem.from_log(RollLog.from_columns(flight.columns), "ideal")
         return roll_held_out(problem, problem.mode())[0]
     log, noise = _bench_log(kind, rng)
-    problem = BenchProblem.from_log(log, "bias,temperature", noise=noise, t0_C=20.0)
+    problem = BenchProblem.from_log(log, "bias,temperature", BenchOptions(noise=noise, t0_C=20.0))
     return bench_held_out(problem.density, np.asarray(log.time_s))[0]
 
 

@@ -31,7 +31,7 @@ from _common import results_dir, save_run  # noqa: E402
 from scipy import stats  # noqa: E402
 
 from gyroid import BenchLog, DriftModel, GyroNoise  # noqa: E402
-from gyroid.inference import Emcee  # noqa: E402
+from gyroid.inference import BenchOptions, Emcee  # noqa: E402
 from gyroid.io import (  # noqa: E402
     load_arviz,  # noqa: E402
     run_labels,
@@ -144,8 +144,11 @@ def main() -> None:
             # white fit's checks would change the estimator under calibration).
             # The dT/dt window is the one the data were made with: the window's choice is
             # not what is calibrated here.
-            options = FitOptions(terms=terms, seed=args.seed, prior_set="paper_a_fog",
-                                 priors=priors, noise="white", rate_window_s=RATE_WINDOW_S)
+            options = FitOptions(terms=terms,
+                                 bench=BenchOptions(noise="white", priors=priors,
+                                                    prior_set="paper_a_fog",
+                                                    rate_window_s=RATE_WINDOW_S),
+                                 seed=args.seed)
             batch = run_batch(paths, options, folder / "fits", workers=args.workers,
                               progress=lambda m: print(m, flush=True) if m.startswith(
                                   f"[{args.datasets}/") else None)

@@ -75,19 +75,21 @@ def simulate(truth: dict[str, float], flicker_tau_s, flicker_unit_var: float,
 
 def one(seed: int, substeps: int = 1) -> dict:
     import gyroid
-    from gyroid.inference import BenchProblem, Emcee, Importance, fit_log
+    from gyroid.inference import BenchOptions, BenchProblem, Emcee, Importance, fit_log
     from gyroid.io import BenchLog
+    from gyroid.models._derived import RATE_WINDOW_S
 
     gyroid.configure()
     started = time.time()
     rng = np.random.default_rng(seed)
     truth = draw_truth(rng)
     clock = simulate({k: 0.0 if k != "N_deg_sqrt_h" else 1.0 for k in truth}, [], 0.0, rng)
-    noise = BenchProblem.from_log(BenchLog(clock), TERMS, noise="white+flicker+rw",
-                                  priors=priors()).density.noise
+    noise = BenchProblem.from_log(BenchLog(clock), TERMS,
+                                  BenchOptions(noise="white+flicker+rw", priors=priors(),
+                                               rate_window_s=RATE_WINDOW_S)).density.noise
     columns = simulate(truth, np.asarray(noise.flicker_tau_s), float(noise.flicker_unit_var),
                        rng, substeps)
-    fit = fit_log(BenchLog(columns), TERMS, noise="auto", priors=priors(), seed=seed,
+    fit = fit_log(BenchLog(columns), TERMS, BenchOptions(noise="auto", priors=priors()), seed=seed,
                   sampler=Importance(fallback=Emcee(progress=False)))
     draws = fit.posterior.draws.reshape(-1, len(fit.problem.names))
     ranks = {name: float(np.mean(draws[:, i] < truth[name]))

@@ -19,7 +19,7 @@ import time
 import numpy as np
 from _common import results_dir, save_run
 
-from gyroid.inference import Emcee, fit_log
+from gyroid.inference import BenchOptions, Emcee, fit_log
 from gyroid.simulation import GyroNoise, ThermalProtocol, simulate_thermal_bench
 
 #: The correlated noise every log carries (as benchmarks/scaling.py's --gm-rows).
@@ -41,7 +41,7 @@ def main() -> None:
         sim = simulate_thermal_bench(seed=args.seed + k, protocol=protocol, noise=noise)
         truth = {**sim.truth["parameters"], "sigma_gm_deg_h": GM["bias_instability_deg_h"]
                  / 0.6174, "tau_gm_s": GM["correlation_time_s"]}
-        fit = fit_log(sim.log, "thermal", noise="white+gm", seed=args.seed + k,
+        fit = fit_log(sim.log, "thermal", BenchOptions(noise="white+gm"), seed=args.seed + k,
                       sampler=Emcee(progress=False))
         draws = {name: fit.posterior.flat(name) for name in truth}
         z.append([(draws[n].mean() - v) / draws[n].std() for n, v in truth.items()])

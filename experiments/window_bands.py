@@ -21,7 +21,7 @@ from _common import results_dir, save_run
 from fog_thermal_bench import fog_log
 
 import gyroid
-from gyroid.inference import Emcee, Importance, fit_log
+from gyroid.inference import BenchOptions, Emcee, Importance, fit_log
 from gyroid.io import BenchLog
 from gyroid.workflows import compensate
 
@@ -33,7 +33,7 @@ def one(seed: int, profile: str) -> dict:
     test = fog_log(seed + 10_000, profile)
     test.pop("w0_over_the_log")
     # every default: IEEE 952 noise, importance sampling (emcee where its weights fail)
-    fit = fit_log(BenchLog(train), "thermal", noise="auto", seed=seed,
+    fit = fit_log(BenchLog(train), "thermal", BenchOptions(noise="auto"), seed=seed,
                   sampler=Importance(fallback=Emcee(progress=False)))
     result = compensate(BenchLog(test), fit.fitted_drift(), seed=seed)
     w = result.window_means

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from gyroid.inference import fit_log
+from gyroid.inference import BenchOptions, fit_log
 from gyroid.io import BenchLog
 from gyroid.models import LogNormal
 
@@ -42,7 +42,7 @@ def test_pinned_levels_leave_the_posterior_sd_and_weak_priors_warn():
     log = _fog_log(3)
     pinned = {"N_deg_sqrt_h": LogNormal(ARW, 0.01), "B_deg_h": LogNormal(B, 0.01),
               "K_deg_h_sqrt_h": LogNormal(K, 0.01)}
-    fixed = fit_log(log, "bias,temperature,temperature_sq", seed=1, priors=pinned)
+    fixed = fit_log(log, "bias,temperature,temperature_sq", BenchOptions(priors=pinned), seed=1)
     checks = {c.name: c for c in fixed.checks.checks}
     assert checks["noise_prior_dependence"].passed
     # a posterior sd from >= 400 effective draws has a relative standard error under 4 %;
@@ -66,7 +66,7 @@ def test_pinned_levels_leave_the_posterior_sd_and_weak_priors_warn():
     # pinned at those levels (drawn, not computed)
     name = allowed.widest[0]
     at = {level: LogNormal(value, 0.01) for level, value in allowed.at[name].items()}
-    there = fit_log(log, "bias,temperature,temperature_sq", seed=2, priors=at)
+    there = fit_log(log, "bias,temperature,temperature_sq", BenchOptions(priors=at), seed=2)
     assert there.posterior.summary[name]["sd"] == pytest.approx(
         allowed.widening[name] * default.posterior.summary[name]["sd"], rel=0.12)
 
@@ -82,7 +82,7 @@ def test_a_white_fit_is_weighed_by_the_same_check():
     drift = TRUTH["w0"] + TRUTH["w1"] * t + TRUTH["w2"] * t**2 + rng.normal(0.0, 0.3, n)
     log = BenchLog({"time_s": np.arange(n, dtype=float), "drift_deg_h": drift,
                     "temperature_C": 21.0 + t})
-    result = fit_log(log, "bias,temperature,temperature_sq", noise="white", seed=1,
+    result = fit_log(log, "bias,temperature,temperature_sq", BenchOptions(noise="white"), seed=1,
                      progress=False)
     check = next(c for c in result.checks.checks if c.name == "noise_prior_dependence")
     assert check.passed and "do not rest" in check.message
@@ -176,8 +176,8 @@ def test_a_white_gm_fit_of_a_walk_spans_the_default_noise_model():
     models holds every truth where the posterior's interval does not (w1 3.6 sd from its
     truth on this seed)."""
     truth = {"w0": 50.0, "w1": 3.0, "w2": 0.05}
-    fit = fit_log(_walk_log(3), "bias,temperature,temperature_sq", noise="white+gm", seed=1,
-                  progress=False)
+    fit = fit_log(_walk_log(3), "bias,temperature,temperature_sq", BenchOptions(noise="white+gm"),
+                  seed=1, progress=False)
     allowed = fit.allowed_noise
     check = next(c for c in fit.checks.checks if c.name == "noise_prior_dependence")
     assert allowed.other is not None and allowed.other.model == "white+flicker+rw"

@@ -7,7 +7,7 @@ import pytest
 
 from gyroid import BenchLog
 from gyroid._config import ONE_CORE_ENVIRONMENT, compute_threads
-from gyroid.inference import BenchProblem
+from gyroid.inference import BenchOptions, BenchProblem
 from gyroid.inference._batching import in_chunks, problem_batcher
 
 
@@ -22,7 +22,7 @@ def test_threads_give_one_threads_numbers(monkeypatch):
              + rng.normal(0.0, 0.2, n))
     log = BenchLog(columns={"time_s": np.arange(n, dtype=float),
                             "temperature_C": temperature, "drift_deg_h": drift})
-    problem = BenchProblem.from_log(log, "bias,temperature", noise="white+flicker+rw")
+    problem = BenchProblem.from_log(log, "bias,temperature", BenchOptions(noise="white+flicker+rw"))
     collapsed = problem.collapsed()
     levels = np.asarray(collapsed.noise_loc) + rng.normal(0.0, 1.0, (1100, 3))
     batch = problem_batcher(collapsed.solved)

@@ -31,7 +31,7 @@ def test_the_bare_script_baseline_fits_the_same_coefficients(tmp_path):
     import subprocess
     import sys
 
-    from gyroid.inference import Emcee, fit_log
+    from gyroid.inference import BenchOptions, Emcee, fit_log
     from gyroid.io import write_bench_log
     from gyroid.simulation import ThermalProtocol, simulate_thermal_bench
 
@@ -42,7 +42,7 @@ def test_the_bare_script_baseline_fits_the_same_coefficients(tmp_path):
     out = subprocess.run([sys.executable, str(ROOT / "benchmarks" / "bare_thermal_fit.py"),
                           str(path)], capture_output=True, text=True, check=True)
     bare = json.loads(out.stdout.strip().splitlines()[-1])["mean"]
-    ours = fit_log(sim.log, "thermal", sampler=Emcee(progress=False), noise="white")
+    ours = fit_log(sim.log, "thermal", BenchOptions(noise="white"), sampler=Emcee(progress=False))
     for name in ("w1", "wD"):
         summary = ours.posterior.summary[name]
         # Different dT/dt estimators: agreement within 3 posterior sd is the claim.

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from gyroid.inference import (
+    BenchOptions,
     Check,
     CheckReport,
     FitEvidence,
@@ -387,7 +388,7 @@ def test_the_console_says_why_a_stopped_mode_leaves_the_posterior_standing():
 
     rng = np.random.default_rng(0)
     log = BenchLog({"time_s": np.arange(600.0), "drift_deg_h": rng.normal(1.0, 0.1, 600)})
-    fit = fit_log(log, "bias", noise="white", seed=0)
+    fit = fit_log(log, "bias", BenchOptions(noise="white"), seed=0)
     assert fit.point_summary() == fit.point.summary()
     stopped = replace(fit, point=replace(fit.point, converged=False, message="max steps"))
     lines = stopped.point_summary().splitlines()

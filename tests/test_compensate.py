@@ -7,7 +7,7 @@ import pytest
 from helpers import WHITE
 
 from gyroid.cli import main
-from gyroid.inference import Emcee, fit_log
+from gyroid.inference import BenchOptions, Emcee, fit_log
 from gyroid.io import FittedDrift
 from gyroid.io._memory import memory_free_bytes
 from gyroid.simulation import PAPER_A_THERMAL, ThermalProtocol, gauss_markov, simulate_thermal_bench
@@ -63,8 +63,8 @@ def test_gauss_markov_bias_instability_is_recovered():
 def fitted_short():
     protocol = ThermalProtocol(setpoints_C=(31.0, 35.0, 40.0))
     sim = simulate_thermal_bench(seed=21, protocol=protocol)
-    return fit_log(sim.log, "thermal", seed=1, sampler=Emcee(progress=False),
-                   noise="white").fitted_drift()
+    return fit_log(sim.log, "thermal", BenchOptions(noise="white"), seed=1,
+                   sampler=Emcee(progress=False)).fitted_drift()
 
 
 def test_compensated_drift_has_the_truths_noise_level(fitted_short):

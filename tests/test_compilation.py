@@ -8,7 +8,14 @@ import numpy as np
 import pytest
 from helpers import SHORT_MAGNETIC
 
-from gyroid.inference import ALL_PARAMETERS, BenchProblem, Emcee, RollProblem, problem_batcher
+from gyroid.inference import (
+    ALL_PARAMETERS,
+    BenchOptions,
+    BenchProblem,
+    Emcee,
+    RollProblem,
+    problem_batcher,
+)
 from gyroid.io import RollLog
 from gyroid.simulation import FlightProfile, simulate_flight, simulate_magnetic_bench
 
@@ -30,7 +37,7 @@ def test_a_new_log_of_the_same_shape_reuses_the_log_posterior(compile_log):
     u = np.zeros((6, 5))
     values = []
     for log in logs:
-        density = BenchProblem.from_log(log, "magnetic").density
+        density = BenchProblem.from_log(log, "magnetic", BenchOptions(noise="white")).density
         values.append(np.asarray(problem_batcher(density.log_posterior)(u)))
     assert _compilations(compile_log, "batched_method") == 1
     assert not np.allclose(values[0], values[1])  # the second log's data, not the first's

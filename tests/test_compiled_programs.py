@@ -9,6 +9,7 @@ import pytest
 
 import gyroid
 from gyroid import _compiled_programs as programs
+from gyroid.inference import BenchOptions
 
 pytestmark = pytest.mark.skipif(programs.mapping_limit() is None,
                                 reason="no memory-mapping limit to read (not Linux)")
@@ -58,7 +59,7 @@ def test_a_fit_looks_before_it_compiles(monkeypatch):
     log = gyroid.BenchLog({"time_s": np.arange(600.0),
                            "drift_deg_h": 1.0 + rng.normal(0.0, 0.5, 600)})
     monkeypatch.setattr(programs, "mapping_limit", lambda: 2)
-    gyroid.fit_log(log, "bias", noise="white", sample=False, progress=False)
+    gyroid.fit_log(log, "bias", BenchOptions(noise="white"), sample=False, progress=False)
     # dropped before the fit compiled its own: none of this test's programs is left
     assert _program._cache_size() == 0
 

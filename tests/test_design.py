@@ -8,10 +8,11 @@ import pytest
 from helpers import SHORT_THERMAL
 
 from gyroid import GyroidInputError
-from gyroid.inference import BenchProblem, choose_rate_window
+from gyroid.inference import BenchOptions, BenchProblem, choose_rate_window
 from gyroid.io import BenchLog
 from gyroid.models import DriftModel, least_squares_from_r, with_rows
 from gyroid.models import _design as design
+from gyroid.models._derived import RATE_WINDOW_S
 from gyroid.simulation import simulate_thermal_bench
 
 
@@ -49,11 +50,15 @@ def test_stacked_r_and_least_squares_equal_numpy_on_the_whole_matrix():
 def test_sufficient_statistics_window_and_identifiability_do_not_depend_on_blocks(
         log, monkeypatch):
     model = DriftModel.from_terms("thermal")
-    one = BenchProblem.from_log(log, model, errors_in_variables=False)
+    one = BenchProblem.from_log(log, model,
+                                BenchOptions(noise="white", rate_window_s=RATE_WINDOW_S,
+                                             errors_in_variables=False))
     window, scores = choose_rate_window(log, model, t0_C=21.0)
     monkeypatch.setattr(design, "BLOCK_ROWS", 97)  # many blocks, the last one short
     assert sum(1 for _ in model.design_blocks(log.inputs())) > 10
-    many = BenchProblem.from_log(log, model, errors_in_variables=False)
+    many = BenchProblem.from_log(log, model,
+                                 BenchOptions(noise="white", rate_window_s=RATE_WINDOW_S,
+                                              errors_in_variables=False))
     for name in ("gram", "solution", "rss_min", "block_gram", "block_xr", "block_rr",
                  "block_count", "block_log_sigma"):
         np.testing.assert_allclose(

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 from scipy.stats import multivariate_normal, norm
 
-from gyroid.inference import BenchProblem, fit_log
+from gyroid.inference import BenchOptions, BenchProblem, fit_log
 from gyroid.inference._emcee import Emcee
 from gyroid.io import BenchLog
 from gyroid.models import temperature_rate_deg_c_per_h
-from gyroid.models._derived import _rate_and_floors, temperature_rate_operator
+from gyroid.models._derived import RATE_WINDOW_S, _rate_and_floors, temperature_rate_operator
 from gyroid.models._rate_error import thermometer_noise_var
 from gyroid.simulation import GyroNoise, simulate_thermal_bench
 from tests.helpers import SHORT_THERMAL
@@ -71,7 +71,9 @@ def _problem(sigma_known: bool, seed: int = 0) -> BenchProblem:
     columns = dict(sim.log.columns)
     if sigma_known:
         columns["sigma_deg_h"] = np.full(sim.log.n, sim.truth["noise"]["white_sd_deg_h"])
-    return BenchProblem.from_log(BenchLog(columns=columns), "thermal", max_rows=200)
+    return BenchProblem.from_log(BenchLog(columns=columns), "thermal",
+                                 BenchOptions(noise="white", rate_window_s=RATE_WINDOW_S),
+                                 max_rows=200)
 
 
 def _rate_error_covariance(problem: BenchProblem) -> np.ndarray:
@@ -199,12 +201,13 @@ def test_the_demo_thermal_bench_passes_white_because_the_thermometer_is_modelled
     # window, was in the residuals. Carried in the likelihood, the same fit passes every
     # check; left out, it still fails, so no threshold moved.
     sim = simulate_thermal_bench(seed=0)
-    carried = fit_log(sim.log, "thermal", seed=0, sampler=Emcee(progress=False), noise="white")
+    carried = fit_log(sim.log, "thermal", BenchOptions(noise="white"), seed=0,
+                      sampler=Emcee(progress=False))
     assert carried.problem.thermometer_sd_C == pytest.approx(0.01, rel=0.05)
     assert carried.trustworthy, carried.checks.lines()
     for name, truth in sim.truth["parameters"].items():
         summary = carried.posterior.summary[name]
         assert abs(summary["mean"] - truth) < 3.0 * summary["sd"], name
-    plain = fit_log(sim.log, "thermal", seed=0, sample=False, errors_in_variables=False,
-                    noise="white")
+    plain = fit_log(sim.log, "thermal", BenchOptions(noise="white", errors_in_variables=False),
+                    seed=0, sample=False)
     assert "residual_whiteness" in {c.name for c in plain.checks.failed}

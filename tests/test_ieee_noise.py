@@ -14,7 +14,7 @@ import pytest
 from helpers import random_blocks
 from scipy import integrate, stats
 
-from gyroid.inference import BenchProblem, fit_log
+from gyroid.inference import BenchOptions, BenchProblem, fit_log
 from gyroid.io import BenchLog
 from gyroid.noise._block_filter import (
     block_innovations,
@@ -191,14 +191,14 @@ def test_a_long_log_is_fitted_as_block_means_and_its_samples_checked_for_spikes(
     columns["drift_deg_h"] = columns["drift_deg_h"].copy()
     columns["drift_deg_h"][1234] += 5000.0
     problem = BenchProblem.from_log(BenchLog(columns), "bias,temperature",
-                                    noise="white+flicker+rw", max_rows=1000)
+                                    BenchOptions(noise="white+flicker+rw"), max_rows=1000)
     assert problem.block_rows == 5 and problem.n == 1000
     assert problem.density.step_s == pytest.approx(5.0)
     # a problem on block means crosses a process boundary (the demo's pool came back from
     # its second process holding the runs' fitted problems, and could not be pickled)
     again = pickle.loads(pickle.dumps(problem))
     assert again.log.where(3) == problem.log.where(3) == "the mean of 5 samples from row 16"
-    fit = fit_log(BenchLog(columns), "bias,temperature", noise="white+flicker+rw",
+    fit = fit_log(BenchLog(columns), "bias,temperature", BenchOptions(noise="white+flicker+rw"),
                   sample=False)
     spikes = {c.name: c for c in fit.checks.failed}["outliers_within_segments"]
     assert "row 1235" in spikes.message
@@ -211,28 +211,29 @@ def test_auto_carries_flicker_and_a_walk_whatever_the_log():
     with no power at the hour scales chooses the noise model (issue 42)."""
     rng = np.random.default_rng(2)
     for log in (_ramp_log(rng, 4000), _ramp_log(rng, 4000, b=30.0, k=20.0)):
-        fit = fit_log(log, "bias,temperature", noise="auto", sample=False)
+        fit = fit_log(log, "bias,temperature", BenchOptions(noise="auto"), sample=False)
         assert fit.problem.noise.name == "white+flicker+rw"
         assert fit.noise_choice.startswith("auto: white+flicker+rw, always")
-    assert fit_log(_ramp_log(rng, 500), "bias", noise="white",
-                   sample=False).to_json()["noise_choice"] == "asked for: white"
+    white = fit_log(_ramp_log(rng, 500), "bias", BenchOptions(noise="white"), sample=False)
+    assert white.to_json()["noise_choice"] == "asked for: white"
 
 
 @pytest.mark.slow
 def test_a_burst_log_is_read_as_it_is():
     """IEEE noise carries the wander between bursts as flicker and walk, over the gaps: asked
-    with --segment-means it says to fit the samples; auto with --segment-means does so."""
-    from gyroid.errors import GyroidInputError
-
+    for by name or by auto with --segment-means, the samples are fitted, and fit.json says
+    so."""
     rng = np.random.default_rng(3)
     log = _ramp_log(rng, 12_000, k=200.0)
     bursts = (np.arange(12_000) // 20) % 2 == 0  # 20 s on, 20 s off: 300 bursts
     columns = {name: values[bursts] for name, values in log.columns.items()}
-    with pytest.raises(GyroidInputError, match="without --segment-means"):
-        BenchProblem.from_log(BenchLog(columns), "bias,temperature",
-                              noise="white+flicker+rw", segment_means=True)
-    fit = fit_log(BenchLog(columns), "bias,temperature", noise="auto", segment_means=True,
-                  sample=False)
+    named = fit_log(BenchLog(columns), "bias,temperature",
+                    BenchOptions(noise="white+flicker+rw", segment_means=True), sample=False)
+    assert named.to_json()["noise_choice"].startswith("asked for: white+flicker+rw (on the "
+                                                      "samples")
+    fit = fit_log(BenchLog(columns), "bias,temperature",
+                  BenchOptions(noise="auto", segment_means=True), sample=False)
+    assert fit.problem.n == named.problem.n
     # the means of a walk's bursts are a walk: not white
     assert fit.problem.noise.name == "white+flicker+rw"
     assert "on the samples" in fit.noise_choice
@@ -257,7 +258,7 @@ def test_w0_is_the_bias_over_the_log_not_at_its_first_row():
     walk -= walk[:600].mean() - 3.0  # the first ten minutes at 3 deg/h
     drift = walk + rng.normal(0.0, 60.0 * 0.3, n)
     log = BenchLog({"time_s": time_s, "drift_deg_h": drift})
-    fit = fit_log(log, "bias", noise="white+flicker+rw", seed=1, progress=False)
+    fit = fit_log(log, "bias", BenchOptions(noise="white+flicker+rw"), seed=1, progress=False)
     w0 = fit.posterior.summary["w0"]
     mean_bias, first_minutes = float(walk.mean()), float(walk[:600].mean())
     assert abs(first_minutes - mean_bias) > 5.0 * w0["sd"]  # the two readings differ

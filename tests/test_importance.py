@@ -10,8 +10,9 @@ import pytest
 from helpers import SHORT_THERMAL
 
 from gyroid import BenchLog, GyroNoise
-from gyroid.inference import BenchProblem, Emcee, Importance
+from gyroid.inference import BenchOptions, BenchProblem, Emcee, Importance
 from gyroid.inference._batching import in_chunks, problem_batcher
+from gyroid.models._derived import RATE_WINDOW_S
 from gyroid.simulation import simulate_thermal_bench
 
 _EXACT = {}
@@ -38,7 +39,7 @@ def walked_problem():
              + rng.normal(0.0, 0.2, n))
     log = BenchLog(columns={"time_s": np.arange(n, dtype=float), "temperature_C": temperature,
                             "drift_deg_h": drift})
-    problem = BenchProblem.from_log(log, "bias,temperature", noise="white+flicker+rw")
+    problem = BenchProblem.from_log(log, "bias,temperature", BenchOptions(noise="white+flicker+rw"))
     return problem, problem.mode()
 
 
@@ -155,7 +156,7 @@ def test_white_noise_integrates_the_coefficients_out_on_sufficient_statistics():
     rng = np.random.default_rng(2)
     drift = 1.0 + rng.normal(0.0, 0.3, 300)
     log = BenchLog(columns={"time_s": np.arange(300.0), "drift_deg_h": drift})
-    problem = BenchProblem.from_log(log, "bias", noise="white")
+    problem = BenchProblem.from_log(log, "bias", BenchOptions(noise="white"))
     posterior = Importance().sample(problem, problem.mode(), seed=0)
     assert posterior.move == "psis" and "of the noise level (" in posterior.method
     w0 = posterior.summary["w0"]
@@ -183,7 +184,7 @@ def test_the_white_marginal_and_conditional_are_the_joint_density(sigma_given):
     if sigma_given:
         columns["sigma_deg_h"] = rng.uniform(0.05, 0.2, n)
     problem = BenchProblem.from_log(BenchLog(columns=columns), "bias,temperature",
-                                    noise="white", errors_in_variables=False)
+                                    BenchOptions(noise="white", errors_in_variables=False))
     form = collapse(problem.density)
     assert isinstance(form, SufficientCoefficients)
     point, p = problem.mode(), problem.n_model
@@ -234,7 +235,9 @@ def test_stored_block_log_likelihoods_of_rows_with_the_thermometers_covariance()
 
     sim = simulate_thermal_bench(protocol=SHORT_THERMAL, seed=5,
                                  noise=GyroNoise(temperature_noise_C=0.05))
-    problem = BenchProblem.from_log(sim.log, "thermal", noise="white", max_rows=200)
+    problem = BenchProblem.from_log(sim.log, "thermal",
+                                    BenchOptions(noise="white", rate_window_s=RATE_WINDOW_S),
+                                    max_rows=200)
     assert problem.noise.carried is not None
     posterior = Importance().sample(problem, problem.mode(), seed=3)
     fast = block_log_likelihood(problem, posterior)
@@ -268,7 +271,8 @@ def test_a_time_constant_is_sampled_as_its_exact_marginal():
     log = BenchLog(columns={"time_s": time_s, "drift_deg_h": drift})
     pinned = {"sigma_deg_h": LogNormal(0.3, 1e-3), "sigma_gm_deg_h": LogNormal(0.05, 1e-3),
               "tau_gm_s": LogNormal(100.0, 1e-3)}
-    problem = BenchProblem.from_log(log, "bias,warmup", noise="white+gm", priors=pinned)
+    problem = BenchProblem.from_log(log, "bias,warmup",
+                                    BenchOptions(noise="white+gm", priors=pinned))
     point = problem.mode()
     posterior = Importance().sample(problem, point, seed=4)
     assert posterior.move == "psis" and "positive parameter" in posterior.method

@@ -7,8 +7,9 @@ from helpers import SHORT_MAGNETIC, SHORT_THERMAL
 from scipy import stats
 
 from gyroid import BenchLog, GyroNoise
-from gyroid.inference import BenchProblem, Emcee, fit_log
+from gyroid.inference import BenchOptions, BenchProblem, Emcee, fit_log
 from gyroid.io import paper_a_table_log, paper_a_thermal_table
+from gyroid.models._derived import RATE_WINDOW_S
 from gyroid.papers import setpoint_table_fit
 from gyroid.simulation import (
     PAPER_A_DEVICE_2,
@@ -49,8 +50,8 @@ def test_linear_gaussian_flat_prior_posterior_is_exact(sampler):
     default's (importance sampling of the whole posterior) draws reach it."""
     theta = {"w0": 1.2, **PAPER_A_DEVICE_2}
     log = _heteroscedastic_magnetic_log(1, theta)
-    result = fit_log(log, "magnetic", flat_prior=True, seed=2,
-                     sampler=QUICK if sampler == "emcee" else None, noise="white")
+    result = fit_log(log, "magnetic", BenchOptions(noise="white", prior_set="flat"), seed=2,
+                     sampler=QUICK if sampler == "emcee" else None)
     assert (result.posterior.move == "psis") == (sampler == "default")
     mean, covariance = _exact_gaussian(result.problem)
     sd = np.sqrt(np.diag(covariance))
@@ -71,7 +72,8 @@ def test_linear_gaussian_flat_prior_posterior_is_exact(sampler):
 
 def test_unknown_noise_level_gives_the_exact_posterior_scale():
     sim = simulate_magnetic_bench(protocol=SHORT_MAGNETIC, seed=3)
-    problem = BenchProblem.from_log(sim.log, "magnetic", flat_prior=True)
+    problem = BenchProblem.from_log(sim.log, "magnetic",
+                                    BenchOptions(noise="white", prior_set="flat"))
     point = problem.mode()
     X = np.asarray(problem.model.design(problem.inputs))
     y = np.asarray(problem.density.drift)
@@ -91,8 +93,8 @@ def test_sufficient_statistics_equal_the_direct_sum(known_sigma):
     log = _heteroscedastic_magnetic_log(4, {"w0": 0.5, **PAPER_A_DEVICE_2})
     if not known_sigma:
         log = BenchLog(columns={k: v for k, v in log.columns.items() if k != "sigma_deg_h"})
-    fast = BenchProblem.from_log(log, "magnetic")
-    direct = BenchProblem.from_log(log, "magnetic", fast=False)
+    fast = BenchProblem.from_log(log, "magnetic", BenchOptions(noise="white"))
+    direct = BenchProblem.from_log(log, "magnetic", BenchOptions(noise="white"), fast=False)
     assert fast.density.stats is not None and direct.density.stats is None
     rng = np.random.default_rng(0)
     for _ in range(5):
@@ -122,7 +124,8 @@ def test_correlated_noise_likelihood_is_the_exact_gaussian():
     noise = GyroNoise(bias_instability_deg_h=0.1, correlation_time_s=60.0)
     protocol = MagneticProtocol(axes=("x", "z"), dwell_s=10.0, turn_gap_s=50.0)
     sim = simulate_magnetic_bench(noise=noise, protocol=protocol, seed=2)
-    problem = BenchProblem.from_log(sim.log, "bias,magnetic_x,magnetic_z", noise="white+gm")
+    problem = BenchProblem.from_log(sim.log, "bias,magnetic_x,magnetic_z",
+                                    BenchOptions(noise="white+gm"))
     x = np.array([1.0, -0.04, -0.25, 0.3, 0.16, 60.0])
     residual = sim.log.drift_deg_h - (x[0] + (x[1] * sim.log.columns["Hx_uT"]
                                               + x[2] * sim.log.columns["Hz_uT"]) / 100.0)
@@ -159,7 +162,7 @@ def test_collapsed_coefficients_are_the_exact_marginal_and_conditional(noise_mod
     sim = simulate_magnetic_bench(noise=noise, protocol=protocol, seed=2)
     for priors in (None, {"w0": Flat()}):
         problem = BenchProblem.from_log(sim.log, "bias,magnetic_x,magnetic_z",
-                                        noise=noise_model, priors=priors)
+                                        BenchOptions(noise=noise_model, priors=priors))
         collapsed = collapse(problem.density)
         p = problem.n_model
         step = problem.density.step_s
@@ -195,7 +198,8 @@ def test_collapsed_and_joint_sampling_agree():
     noise = GyroNoise(bias_instability_deg_h=0.1, correlation_time_s=60.0)
     protocol = MagneticProtocol(axes=("x", "z"), dwell_s=10.0, turn_gap_s=50.0)
     sim = simulate_magnetic_bench(noise=noise, protocol=protocol, seed=2)
-    problem = BenchProblem.from_log(sim.log, "bias,magnetic_x,magnetic_z", noise="white+gm")
+    problem = BenchProblem.from_log(sim.log, "bias,magnetic_x,magnetic_z",
+                                    BenchOptions(noise="white+gm"))
     point = problem.mode()
     collapsed = QUICK.sample(problem, point, seed=1)
     joint = QUICK.sample(_Uncollapsed(problem), point, seed=1)
@@ -233,7 +237,8 @@ def test_white_noise_likelihood_is_overconfident_on_correlated_noise():
     for seed in range(20):
         sim = simulate_magnetic_bench(noise=noise, protocol=protocol, seed=100 + seed)
         for noise_model, zs in (("white", z_white), ("white+gm", z_gm)):
-            point = BenchProblem.from_log(sim.log, "magnetic", noise=noise_model).mode()
+            point = BenchProblem.from_log(sim.log, "magnetic",
+                                          BenchOptions(noise=noise_model)).mode()
             zs.append((point.value["wy"] - PAPER_A_DEVICE_2["wy"]) / point.sd["wy"])
     assert np.std(z_white) > 1.6
     assert 0.6 < np.std(z_gm) < 1.45
@@ -257,8 +262,8 @@ def test_simulation_based_calibration_known_sigma():
                  "wz": rng.normal(0, 2)}
         log = _heteroscedastic_magnetic_log(1000 + k, truth)
         # The fit's prior must be the one the truth is drawn from: paper A's FOG priors.
-        result = fit_log(log, "magnetic", seed=k, sampler=settings, prior_set="paper_a_fog",
-                         noise="white")
+        result = fit_log(log, "magnetic", BenchOptions(noise="white", prior_set="paper_a_fog"),
+                         seed=k, sampler=settings)
         for i, name in enumerate(names):
             draws = result.posterior.draws[..., i].reshape(-1)
             ranks[name].append(np.mean(draws < truth[name]))
@@ -276,7 +281,7 @@ def test_recovery_of_paper_a_values(bench):
     else:
         sim, terms = simulate_magnetic_bench(seed=7), "magnetic"
         truth = {"w0": PAPER_A_THERMAL["w0"], **PAPER_A_DEVICE_2}
-    result = fit_log(sim.log, terms, seed=1, sampler=QUICK, noise="white")
+    result = fit_log(sim.log, terms, BenchOptions(noise="white"), seed=1, sampler=QUICK)
     outside = 0
     for name, value in truth.items():
         summary = result.posterior.summary[name]
@@ -295,7 +300,7 @@ def test_paper_a_table_bayesian_equals_weighted_least_squares():
     table = paper_a_thermal_table()
     classic = setpoint_table_fit(table.setpoint_C, table.dw_deg_h, table.sigma_deg_h)
     problem = BenchProblem.from_log(paper_a_table_log(), "bias,temperature,temperature_sq",
-                                    flat_prior=True)
+                                    BenchOptions(noise="white", prior_set="flat"))
     point = problem.mode()
     for name in ("w0", "w1", "w2"):
         assert point.value[name] == pytest.approx(classic.coefficients[name], rel=1e-8)
@@ -307,7 +312,8 @@ def test_nonlinear_effect_is_recovered_with_several_starts():
         seed=5, effects={"warmup": {"w_warmup": 3.0, "tau_warmup_min": 25.0}},
         noise=GyroNoise(arw_deg_rt_h=0.005),
     )
-    problem = BenchProblem.from_log(sim.log, "thermal,warmup")
+    problem = BenchProblem.from_log(sim.log, "thermal,warmup",
+                                    BenchOptions(noise="white", rate_window_s=RATE_WINDOW_S))
     point = problem.mode()
     assert point.converged and point.n_starts > 1
     for name, value in {"w_warmup": 3.0, "tau_warmup_min": 25.0, **PAPER_A_THERMAL}.items():
@@ -320,7 +326,8 @@ def test_posterior_predictions_of_a_linear_model_are_its_design_rows_times_the_d
     import jax
 
     sim = simulate_magnetic_bench(seed=3, protocol=SHORT_MAGNETIC)
-    result = fit_log(sim.log, "magnetic", sampler=Emcee(progress=False), noise="white")
+    result = fit_log(sim.log, "magnetic", BenchOptions(noise="white"),
+                     sampler=Emcee(progress=False))
     fast = result.predict_draws(n_draws=25, seed=4, every=3)
     flat = result.posterior.draws.reshape(-1, len(result.problem.names))
     pick = np.random.default_rng(4).choice(flat.shape[0], size=25, replace=False)
@@ -342,7 +349,8 @@ def test_every_mode_finder_starts_on_one_grid():
     grid = start_grid(model.parameters, inputs)
     median = parameter("tau_warmup_min").prior.median
     np.testing.assert_allclose(np.exp(grid[0]), median * np.asarray(START_MULTIPLES))
-    problem = BenchProblem.from_log(sim.log, model)
+    problem = BenchProblem.from_log(sim.log, model,
+                                    BenchOptions(noise="white", rate_window_s=RATE_WINDOW_S))
     starts = _Profile(problem.density).points  # the mode's profile over tau starts there
     np.testing.assert_allclose(starts[:, 0], grid[0])
     stepped = DriftModel.from_terms("thermal,bias_step")
@@ -365,9 +373,9 @@ def test_fit_log_progress_can_be_switched_off(capsys, monkeypatch):
     rng = np.random.default_rng(3)
     log = BenchLog(columns={"time_s": np.arange(500.0),
                             "drift_deg_h": 1.0 + rng.normal(0.0, 0.3, 500)})
-    fit_log(log, "bias", progress=False, noise="white")
+    fit_log(log, "bias", BenchOptions(noise="white"), progress=False)
     assert "emcee" not in capsys.readouterr().err
-    fit_log(log, "bias", noise="white")
+    fit_log(log, "bias", BenchOptions(noise="white"))
     assert "emcee" in capsys.readouterr().err
 
 
@@ -384,7 +392,7 @@ def test_fit_log_defaults_to_the_command_lines_noise():
                             "drift_deg_h": 1.0 + 0.1 * (temperature - 21.0) + walk
                             + rng.normal(0.0, 0.3, n)})
     default = fit_log(log, "bias,temperature", sample=False)
-    white = fit_log(log, "bias,temperature", sample=False, noise="white")
+    white = fit_log(log, "bias,temperature", BenchOptions(noise="white"), sample=False)
     assert default.problem.noise.name == "white+flicker+rw"
     assert default.noise_choice.startswith("auto")
     assert default.point.sd["w1"] > 5.0 * white.point.sd["w1"]
@@ -402,8 +410,8 @@ def test_white_gm_on_block_means_is_the_exact_gaussian_of_the_blocks():
     noise = GyroNoise(bias_instability_deg_h=0.1, correlation_time_s=60.0)
     protocol = MagneticProtocol(axes=("x", "z"), dwell_s=10.0, turn_gap_s=50.0)
     sim = simulate_magnetic_bench(noise=noise, protocol=protocol, seed=2)
-    problem = BenchProblem.from_log(sim.log, "bias,magnetic_x,magnetic_z", noise="white+gm",
-                                    max_rows=60)
+    problem = BenchProblem.from_log(sim.log, "bias,magnetic_x,magnetic_z",
+                                    BenchOptions(noise="white+gm"), max_rows=60)
     assert problem.block_rows > 1 and problem.n <= 60 < sim.log.n
     means, density = problem.log, problem.density
     x = np.array([1.0, -0.04, -0.25, 0.3, 0.16, 60.0])
@@ -442,7 +450,9 @@ def test_the_collapsed_forms_likelihood_is_the_densitys(terms, noise, thermomete
     sim = simulate_thermal_bench(
         protocol=SHORT_THERMAL, seed=4, noise=GyroNoise(temperature_noise_C=thermometer_C),
         effects={"warmup": {"w_warmup": 2.0, "tau_warmup_min": 20.0}})
-    problem = BenchProblem.from_log(sim.log, terms, noise=noise, max_rows=200)
+    problem = BenchProblem.from_log(sim.log, terms,
+                                    BenchOptions(noise=noise, rate_window_s=RATE_WINDOW_S),
+                                    max_rows=200)
     assert (problem.noise.carried is not None) == (thermometer_C > 0)
     rng = np.random.default_rng(2)
     truth = sim.truth["parameters"] | {"w_warmup": 2.0, "tau_warmup_min": 20.0}

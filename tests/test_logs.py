@@ -5,7 +5,9 @@ import pytest
 from helpers import SHORT_MAGNETIC, SHORT_THERMAL, write_log
 
 from gyroid import BenchProblem, GyroidInputError, load_bench_log
+from gyroid.inference import BenchOptions
 from gyroid.io import bench_log_text
+from gyroid.models._derived import RATE_WINDOW_S
 from gyroid.simulation import simulate_magnetic_bench, simulate_thermal_bench
 
 
@@ -124,12 +126,14 @@ def test_constant_columns_that_leave_a_coefficient_unidentifiable(
     columns["Hy_uT"] = np.zeros_like(columns["Hy_uT"])
     path = write_log(tmp_path / "bench.csv", columns)
     with pytest.raises(GyroidInputError, match="column Hy_uT does not vary enough to identify wy"):
-        BenchProblem.from_log(load_bench_log(path, "magnetic"), "magnetic")
+        BenchProblem.from_log(load_bench_log(path, "magnetic"), "magnetic",
+                              BenchOptions(noise="white"))
     columns = dict(thermal_columns)
     columns["temperature_C"] = np.full_like(columns["temperature_C"], 25.0)
     path = write_log(tmp_path / "bench2.csv", columns)
     with pytest.raises(GyroidInputError, match="column temperature_C does not vary enough"):
-        BenchProblem.from_log(load_bench_log(path, "thermal"), "thermal")
+        BenchProblem.from_log(load_bench_log(path, "thermal"), "thermal",
+                              BenchOptions(noise="white", rate_window_s=RATE_WINDOW_S))
 
 
 def test_collinear_terms_are_refused(tmp_path, thermal_columns):
@@ -137,7 +141,8 @@ def test_collinear_terms_are_refused(tmp_path, thermal_columns):
     columns["Hx_uT"] = (columns["temperature_C"] - 21.0) * 3.0
     path = write_log(tmp_path / "bench.csv", columns)
     with pytest.raises(GyroidInputError, match=r"cannot be told apart .*temperature"):
-        BenchProblem.from_log(load_bench_log(path), "bias,temperature,magnetic_x")
+        BenchProblem.from_log(load_bench_log(path), "bias,temperature,magnetic_x",
+                              BenchOptions(noise="white"))
 
 
 def test_kelvin_temperatures_are_refused(tmp_path, thermal_columns):

@@ -11,7 +11,7 @@ from helpers import write_log
 from scipy import stats
 
 from gyroid.cli import main
-from gyroid.inference import fit_noise
+from gyroid.inference import BenchOptions, fit_noise
 from gyroid.inference._haar import haar_statistics
 
 
@@ -262,7 +262,7 @@ def test_fit_takes_its_noise_priors_from_a_static_noise_fit(tmp_path):
     from gyroid.io import load_bench_log
 
     alone = fit_log(load_bench_log(ramp, "bias,temperature", axis="x"), "bias,temperature",
-                    noise="white+flicker+rw", sample=False).point.sd["B_deg_h"]
+                    BenchOptions(noise="white+flicker+rw"), sample=False).point.sd["B_deg_h"]
     assert record["noise"]["point_sd"]["B_deg_h"] < 0.7 * alone
 
 

@@ -9,8 +9,9 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from gyroid.inference import BenchProblem, Emcee, fit
+from gyroid.inference import BenchOptions, BenchProblem, Emcee, fit
 from gyroid.io import BenchLog
+from gyroid.models._derived import RATE_WINDOW_S
 from gyroid.models._priors import LogNormal
 from gyroid.noise import (
     NOISE_MODELS,
@@ -73,7 +74,7 @@ def _log(seed: int, n: int = 3000) -> tuple[BenchLog, dict]:
 @pytest.mark.slow
 def test_a_noise_model_defined_outside_the_library_fits_a_log():
     log, truth = _log(seed=11)
-    problem = BenchProblem.from_log(log, "bias,temperature", noise=KNOWN_TAU)
+    problem = BenchProblem.from_log(log, "bias,temperature", BenchOptions(noise=KNOWN_TAU))
     assert problem.names == ("w0", "w1", "sigma_deg_h", "sigma_gm_deg_h")
     result = fit(problem, sampler=Emcee(progress=False), seed=3)
     record = result.to_json()
@@ -122,7 +123,8 @@ def test_a_model_of_one_line_fits_a_thermal_log_and_carries_its_thermometer():
     through dT/dt as one more term (no hook to override), and every coefficient and level
     is within 4 posterior sds of the truth (one seed)."""
     log, truth = _walked_thermal_log(seed=5)
-    problem = BenchProblem.from_log(log, "thermal", noise=KALIBR)
+    problem = BenchProblem.from_log(log, "thermal",
+                                    BenchOptions(noise=KALIBR, rate_window_s=RATE_WINDOW_S))
     assert problem.noise.rate_error is not None and problem.thermometer_sd_C > 0.01
     assert problem.noise_names == ("N_deg_sqrt_h", "K_deg_h_sqrt_h")
     result = fit(problem, seed=2)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from gyroid.inference import Emcee, fit_log
+from gyroid.inference import BenchOptions, Emcee, fit_log
 from gyroid.io import parse_column_maps
 from gyroid.io._bench_reader import load_bench_log
 from gyroid.models._drift import DriftModel
@@ -21,7 +21,7 @@ SHORT = OverloadProtocol(dwell_min=10.0)
 
 def test_six_position_tumble_recovers_the_sensitivities():
     sim = simulate_overload_bench(seed=3, protocol=SHORT)
-    result = fit_log(sim.log, "overload", seed=1, sampler=QUICK, noise="white")
+    result = fit_log(sim.log, "overload", BenchOptions(noise="white"), seed=1, sampler=QUICK)
     assert result.trustworthy, result.summary()
     for name, value in OVERLOAD_TRUTH.items():
         summary = result.posterior.summary[name]
@@ -38,7 +38,7 @@ def test_three_orientations_say_what_they_leave_undetermined_and_predict_with_th
     assert len(orientations(inputs)) == 3
     note = unresolved(model, inputs)
     assert "w0 - nx - ny - nz undetermined" in note and "-X" in note
-    result = fit_log(sim.log, "overload", seed=1, sampler=QUICK, noise="white")
+    result = fit_log(sim.log, "overload", BenchOptions(noise="white"), seed=1, sampler=QUICK)
     assert not result.trustworthy
     identifiability = next(c for c in result.checks.checks if c.name == "identifiability")
     assert not identifiability.passed and "w0 - nx - ny - nz" in identifiability.message
@@ -97,8 +97,8 @@ def test_simulation_based_calibration_of_the_tumble():
         truth = {"w0": rng.normal(0, 10), **{n: rng.normal(0, 1) for n in names[1:]}}
         sim = simulate_overload_bench(parameters=truth, protocol=protocol, seed=500 + k,
                                       noise=GyroNoise(arw_deg_rt_h=0.05))
-        result = fit_log(sim.log, "overload", seed=k, sampler=QUICK, noise="white",
-                         prior_set="paper_a_fog")
+        result = fit_log(sim.log, "overload", BenchOptions(noise="white", prior_set="paper_a_fog"),
+                         seed=k, sampler=QUICK)
         posterior_names = list(result.posterior.names)
         for name in names:
             draws = np.asarray(result.posterior.draws)[..., posterior_names.index(name)]

@@ -12,7 +12,7 @@ from scipy.stats import multivariate_normal
 
 from gyroid.cli import main
 from gyroid.errors import GyroidInputError
-from gyroid.inference import PoolProblem, fit_pool
+from gyroid.inference import BenchOptions, PoolProblem, fit_pool
 from gyroid.io import run_labels
 from gyroid.models import LogNormal, Normal
 from gyroid.papers import magnetic_repeatability, repeatability_json
@@ -81,7 +81,8 @@ def test_population_mean_integrates_out_exactly_and_its_conditional_is_exact():
 def test_pooled_lot_recovers_the_population_and_its_spread():
     lot = simulate_lot("magnetic", 8, seed=4, spread=0.2, hours=SHORT_MAGNETIC.duration_s / 3600)
     # the simulator's noise is white: the exact white pool is the right model
-    result = fit_pool([r.log for r in lot.runs], lot.labels, "magnetic", seed=2, noise="white")
+    result = fit_pool([r.log for r in lot.runs], lot.labels, "magnetic",
+                      BenchOptions(noise="white"), seed=2)
     record = result.to_json()
     assert result.trustworthy, result.checks.lines()
     for name, truth in lot.population_mean.items():
@@ -109,7 +110,8 @@ def test_a_run_from_another_population_is_named():
     odd = dict(lot.runs[0].truth["parameters"])
     odd["wy"] = lot.population_mean["wy"] + 3.0  # 50 between-run sds away
     logs[3] = simulate_magnetic_bench(parameters=odd, protocol=SHORT_MAGNETIC, seed=77).log
-    result = fit_pool(logs, lot.labels, "magnetic", seed=0, noise="white")  # white runs
+    # white runs
+    result = fit_pool(logs, lot.labels, "magnetic", BenchOptions(noise="white"), seed=0)
     check = next(c for c in result.checks.checks if c.name == "run_consistency")
     assert not check.passed and check.severity == "error"
     assert "run_04" in check.message
@@ -227,8 +229,8 @@ def test_pooled_intervals_cover_at_the_nominal_rate():
         logs = [simulate_magnetic_bench(
             parameters={n: mean[n] + spread[n] * rng.standard_normal() for n in priors},
             protocol=SHORT_MAGNETIC, seed=int(rng.integers(2**31))).log for _ in range(4)]
-        result = fit_pool(logs, ("a", "b", "c", "d"), "magnetic", seed=dataset, priors=priors,
-                          spread_scales=scales, noise="white")
+        result = fit_pool(logs, ("a", "b", "c", "d"), "magnetic", BenchOptions(noise="white"),
+                          seed=dataset, priors=priors, spread_scales=scales)
         tau = result.posterior.draws.reshape(-1, result.posterior.draws.shape[-1])
         for k, n in enumerate(priors):
             for kind, truth, draws in (("mean", mean[n], result.mean_draws[..., k].ravel()),

@@ -11,7 +11,7 @@ from helpers import SHORT_MAGNETIC
 
 from gyroid import BenchLog
 from gyroid.cli import main
-from gyroid.inference import fit_log, fit_pool
+from gyroid.inference import BenchOptions, fit_log, fit_pool
 
 
 @pytest.mark.slow
@@ -25,7 +25,7 @@ def test_correlated_runs_are_refused_with_advice_pool_can_follow():
     noise = GyroNoise(arw_deg_rt_h=0.002, bias_instability_deg_h=0.3, correlation_time_s=600)
     logs = [simulate_magnetic_bench(protocol=SHORT_MAGNETIC, noise=noise, seed=s).log
             for s in (1, 2, 3)]
-    result = fit_pool(logs, ("a", "b", "c"), "magnetic", seed=0, noise="white")
+    result = fit_pool(logs, ("a", "b", "c"), "magnetic", BenchOptions(noise="white"), seed=0)
     check = next(c for c in result.checks.checks if c.name == "residual_whiteness")
     assert not check.passed and check.severity == "error"
     assert "noise_model" in check.remedies
@@ -43,7 +43,7 @@ def test_the_advice_followed_pools_each_runs_correlated_noise_fit():
     noise = GyroNoise(arw_deg_rt_h=0.002, bias_instability_deg_h=0.3, correlation_time_s=600)
     logs = [simulate_magnetic_bench(protocol=SHORT_MAGNETIC, noise=noise, seed=s).log
             for s in (1, 2, 3)]
-    result = fit_pool(logs, ("a", "b", "c"), "magnetic", seed=0, noise="white")
+    result = fit_pool(logs, ("a", "b", "c"), "magnetic", BenchOptions(noise="white"), seed=0)
     followed = fit_pool(logs, ("a", "b", "c"), "magnetic", seed=0)
     for name in ("goodness_of_fit", "residual_whiteness", "predictive"):
         assert next(c for c in followed.checks.checks if c.name == name).passed, name
@@ -99,11 +99,11 @@ def test_segment_means_reach_each_runs_correlated_noise_fit():
     logs = [BenchLog(columns=mems_burst_log(seed, hours=1.0, wander_deg_h=40.0)[0])
             for seed in (1, 2)]
     terms = "bias,temperature,temperature_rate"
-    result = fit_pool(logs, ("a", "b"), terms, seed=0, noise="white+flicker+rw",
-                      segment_means=True)
+    result = fit_pool(logs, ("a", "b"), terms,
+                      BenchOptions(noise="white+flicker+rw", segment_means=True), seed=0)
     assert result.to_json()["segment_means"] is True
-    alone = fit_log(logs[0], terms, noise="white+flicker+rw", seed=0, segment_means=True,
-                    progress=False)
+    alone = fit_log(logs[0], terms, BenchOptions(noise="white+flicker+rw", segment_means=True),
+                    seed=0, progress=False)
     mean = alone.posterior.draws.reshape(-1, len(alone.posterior.names))[:, :3].mean(axis=0)
     np.testing.assert_allclose(result.problem.own_mean[0], mean, rtol=1e-12)
     # each run is described by its own fit (built once), so the pool reports the dT/dt

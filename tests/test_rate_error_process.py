@@ -15,7 +15,7 @@ from helpers import random_blocks
 from scipy import stats
 from scipy.linalg import toeplitz
 
-from gyroid.inference import BenchProblem
+from gyroid.inference import BenchOptions, BenchProblem
 from gyroid.io import BenchLog
 from gyroid.models._rate_error import estimator_autocovariance
 from gyroid.noise._block_filter import block_innovations, flicker_times, mean_covariance
@@ -151,9 +151,10 @@ def test_every_correlated_noise_model_carries_the_thermometer(noise):
     parts' means, and a new log's (compensation) does not: its thermometer is not the
     fitted log's."""
     log = _noisy_thermometer_bench(0)
-    carried = BenchProblem.from_log(log, "thermal", noise=noise, rate_window_s=600.0)
-    left_out = BenchProblem.from_log(log, "thermal", noise=noise, rate_window_s=600.0,
-                                     errors_in_variables=False)
+    carried = BenchProblem.from_log(log, "thermal", BenchOptions(noise=noise, rate_window_s=600.0))
+    left_out = BenchProblem.from_log(log, "thermal",
+                                     BenchOptions(noise=noise, rate_window_s=600.0,
+                                                  errors_in_variables=False))
     process = carried.density.noise.rate_error
     assert process is not None and left_out.density.noise.rate_error is None
     assert carried.rate_error_wd == pytest.approx(1.997, rel=0.01)
@@ -186,6 +187,6 @@ def test_a_log_of_bursts_carries_none():
     kept = (np.asarray(log.time_s) % 300.0) < 60.0
     bursts = BenchLog(columns={k: np.asarray(v)[kept] for k, v in log.columns.items()})
     for window in (600.0, None):
-        problem = BenchProblem.from_log(bursts, "thermal", noise="white+flicker+rw",
-                                        rate_window_s=window)
+        problem = BenchProblem.from_log(bursts, "thermal", BenchOptions(
+            noise="white+flicker+rw", rate_window_s=window))
         assert problem.thermometer_sd_C == 0 and problem.density.noise.rate_error is None

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from gyroid import BenchLog
-from gyroid.inference import BenchProblem
+from gyroid.inference import BenchOptions, BenchProblem
 from gyroid.inference._rate_window import choose_rate_window
 from gyroid.inference._rate_window_marginal import marginal_window
 
@@ -47,18 +47,19 @@ def test_the_window_under_ieee_noise_is_the_marginal_likelihoods(bench):
     """The chosen window is shorter than least squares' and its marginal is far higher;
     the walk's mode is within a few times its truth at both windows (the thermometer's
     noise carried by the filter)."""
-    chosen = BenchProblem.from_log(bench, "thermal", noise="white+flicker+rw",
-                                   rate_window_s=None)
+    chosen = BenchProblem.from_log(bench, "thermal",
+                                   BenchOptions(noise="white+flicker+rw", rate_window_s=None))
     least_squares, _ = choose_rate_window(chosen.log, chosen.model, t0_C=chosen.t0_C,
                                           thermometer_var_C2=chosen.thermometer_sd_C**2)
     assert chosen.rate_window_choice.startswith("auto: the marginal likelihood's of")
     assert f"(least squares' {least_squares:.0f} s)" in chosen.rate_window_choice
     assert chosen.rate_window_s < 0.8 * least_squares
-    smeared = BenchProblem.from_log(bench, "thermal", noise="white+flicker+rw",
-                                    rate_window_s=least_squares)
+    smeared = BenchProblem.from_log(bench, "thermal",
+                                    BenchOptions(noise="white+flicker+rw",
+                                                 rate_window_s=least_squares))
     _, scores, _ = marginal_window(
-        lambda w: BenchProblem.from_log(bench, "thermal", noise="white+flicker+rw",
-                                        rate_window_s=w).density, least_squares,
+        lambda w: BenchProblem.from_log(bench, "thermal", BenchOptions(
+            noise="white+flicker+rw", rate_window_s=w)).density, least_squares,
         float(np.median(np.diff(np.asarray(smeared.log.time_s)))))
     assert scores[float(chosen.rate_window_s)] > scores[least_squares] + 50.0
     for problem in (chosen, smeared):
@@ -70,10 +71,11 @@ def test_without_the_thermometers_noise_the_walk_takes_it_in(bench):
     """Left out of the filter, the dT/dt estimator's error from the thermometer's noise
     (correlated over the window, above the white noise of a block mean here) is taken in
     as a random walk tens of times its truth, and the coefficients' intervals widen."""
-    carried = BenchProblem.from_log(bench, "thermal", noise="white+flicker+rw",
-                                    rate_window_s=864.0)
-    left_out = BenchProblem.from_log(bench, "thermal", noise="white+flicker+rw",
-                                     rate_window_s=864.0, errors_in_variables=False)
+    carried = BenchProblem.from_log(bench, "thermal",
+                                    BenchOptions(noise="white+flicker+rw", rate_window_s=864.0))
+    left_out = BenchProblem.from_log(bench, "thermal",
+                                     BenchOptions(noise="white+flicker+rw", rate_window_s=864.0,
+                                                  errors_in_variables=False))
     assert carried.density.noise.rate_error is not None
     assert left_out.density.noise.rate_error is None
     with_it, without = carried.mode(), left_out.mode()
@@ -86,7 +88,7 @@ def test_a_white_fit_keeps_least_squares_window(bench):
     """Under white noise the least-squares window stands, the thermometer's noise carried
     (its marginal likelihood chose 1528-2157 s on paper A's bench: nothing absorbs the
     smearing of dT/dt there)."""
-    white = BenchProblem.from_log(bench, "thermal", noise="white", rate_window_s=None)
+    white = BenchProblem.from_log(bench, "thermal", BenchOptions(noise="white", rate_window_s=None))
     assert white.thermometer_sd_C > 0 and white.noise.carried is not None
     assert white.rate_window_choice == "auto"
 
@@ -103,10 +105,10 @@ def test_a_model_with_a_time_constant_carries_the_thermometer_and_chooses_the_sa
     time_s = columns["time_s"]
     columns["drift_deg_h"] = columns["drift_deg_h"] + 0.5 * np.exp(-time_s / 1800.0)
     log = BenchLog(columns=columns)
-    linear = BenchProblem.from_log(log, "thermal", noise="white+flicker+rw",
-                                   rate_window_s=None)
-    warm = BenchProblem.from_log(log, "thermal,warmup", noise="white+flicker+rw",
-                                 rate_window_s=None)
+    linear = BenchProblem.from_log(log, "thermal",
+                                   BenchOptions(noise="white+flicker+rw", rate_window_s=None))
+    warm = BenchProblem.from_log(log, "thermal,warmup",
+                                 BenchOptions(noise="white+flicker+rw", rate_window_s=None))
     assert warm.thermometer_sd_C == pytest.approx(linear.thermometer_sd_C)
     assert warm.thermometer_sd_C == pytest.approx(0.01, rel=0.1)
     assert warm.rate_error_wd == pytest.approx(1.997, abs=0.05)

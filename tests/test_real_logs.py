@@ -14,8 +14,9 @@ import pytest
 from helpers import require_dataset
 
 from gyroid.cli import main
-from gyroid.inference import Emcee, fit_log
+from gyroid.inference import BenchOptions, Emcee, fit_log
 from gyroid.io import BenchLog, contiguous_segments, load_bench_log
+from gyroid.models._derived import RATE_WINDOW_S
 from gyroid.workflows import allan_deviation, compensate
 
 MAP = ["drift_deg_h=drift_x_deg_h"]
@@ -136,7 +137,7 @@ def test_segment_means_give_a_trusted_fit_of_the_real_log(tmp_path, capsys, pan_
 def test_without_its_spikes_the_bias_wander_alone_makes_it_untrustworthy(pan_log):
     keep = np.ones(pan_log.n, dtype=bool)
     keep[list(SPIKES)] = False
-    result = fit_log(_subset(pan_log, keep), THERMAL, sampler=QUICK, noise="white")
+    result = fit_log(_subset(pan_log, keep), THERMAL, BenchOptions(noise="white"), sampler=QUICK)
     failed = {c.name: c for c in result.checks.failed}
     # The whiteness check sees the wander between bursts, and so does the predictive check:
     # held-out stretches of bursts fall outside the per-sample fit's bands.
@@ -155,7 +156,7 @@ def test_held_out_bursts_are_compensated_as_well_as_numpy_least_squares(pan_log)
     burst = _bursts(pan_log)
     train = _subset(pan_log, keep & (burst % 2 == 0))
     test = _subset(pan_log, keep & (burst % 2 == 1))
-    result = fit_log(train, THERMAL, sampler=QUICK, noise="white")
+    result = fit_log(train, THERMAL, BenchOptions(noise="white"), sampler=QUICK)
     comp = compensate(test, result.fitted_drift())
     beta = np.linalg.lstsq(_plain_design(train), train.drift_deg_h, rcond=None)[0]
     plain = test.drift_deg_h - _plain_design(test) @ beta
@@ -180,7 +181,7 @@ def test_a_colder_held_out_third_is_flagged_as_extrapolation(pan_log):
     keep[list(SPIKES)] = False
     burst = _bursts(pan_log)
     result = fit_log(_subset(pan_log, keep & (burst < 17)), "bias,temperature",
-                     sampler=QUICK, noise="white")
+                     BenchOptions(noise="white"), sampler=QUICK)
     comp = compensate(_subset(pan_log, keep & (burst >= 17)), result.fitted_drift())
     check = {c.name: c for c in comp.checks.checks}["extrapolation"]
     assert not check.passed and check.severity == "error"
@@ -245,7 +246,9 @@ def test_under_ieee_noise_the_point_is_the_marginal_mode_the_posterior_centres_o
 
     keep = np.ones(pan_log.n, dtype=bool)
     keep[list(SPIKES)] = False
-    problem = BenchProblem.from_log(_subset(pan_log, keep), THERMAL, noise="white+flicker+rw")
+    problem = BenchProblem.from_log(_subset(pan_log, keep), THERMAL,
+                                    BenchOptions(noise="white+flicker+rw",
+                                                 rate_window_s=RATE_WINDOW_S))
     point = problem.mode()
     assert point.converged
     collapsed = collapse(problem.density)

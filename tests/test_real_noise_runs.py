@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from helpers import require_dataset
 
-from gyroid.inference import fit_noise, fit_unit_noise
+from gyroid.inference import BenchOptions, fit_noise, fit_unit_noise
 from gyroid.io import dataset_logs
 
 SAMPLE_S = 0.01
@@ -97,11 +97,11 @@ def test_the_mpu6050_y_axis_later_minutes_are_covered_or_the_fit_is_refused(term
     first = t < t[0] + (t[-1] - t[0]) / 2
     log = BenchLog(columns={"time_s": t[first], "drift_deg_h": y[first],
                             "temperature_C": temperature[first]})
-    fit = fit_log(log, terms, noise="auto", sampler=Emcee(progress=False))
+    fit = fit_log(log, terms, BenchOptions(noise="auto"), sampler=Emcee(progress=False))
     outside, blocks = _later_blocks_outside(fit, t, y, temperature, ~first)
     assert not fit.trustworthy or outside <= 4, (outside, blocks)  # binomial 99 %: 0-4 of 22
     if terms == "bias":
         assert fit.trustworthy and blocks == 22
-        white = fit_log(log, terms, noise="white", sampler=Emcee(progress=False))
+        white = fit_log(log, terms, BenchOptions(noise="white"), sampler=Emcee(progress=False))
         assert white.trustworthy and _later_blocks_outside(
             white, t, y, temperature, ~first)[0] >= 10  # what the issue measured

@@ -11,7 +11,7 @@ import pytest
 
 from gyroid.cli import main
 from gyroid.errors import GyroidInputError
-from gyroid.inference import fit_log
+from gyroid.inference import BenchOptions, fit_log
 from gyroid.inference._residual_checks import outliers_among
 from gyroid.io import MeansOfBlocks, load_bench_log, stream_block_means
 
@@ -76,8 +76,9 @@ def test_a_fit_of_the_stream_is_the_fit_of_the_whole_log(tmp_path):
     path = _write(tmp_path / "long.parquet", columns)
     streamed = stream_block_means(path, "bias,temperature", ("x",), (), 60, batch_rows=9_000)
     whole = MeansOfBlocks.of(load_bench_log(path, "bias,temperature", axis="x"), 60)
-    a = fit_log(streamed["x"], "bias,temperature", noise="white+flicker+rw", sample=False)
-    b = fit_log(whole, "bias,temperature", noise="white+flicker+rw", sample=False)
+    a = fit_log(streamed["x"], "bias,temperature", BenchOptions(noise="white+flicker+rw"),
+                sample=False)
+    b = fit_log(whole, "bias,temperature", BenchOptions(noise="white+flicker+rw"), sample=False)
     for name in a.point.names:
         assert a.point.value[name] == pytest.approx(b.point.value[name], rel=1e-6, abs=1e-9)
     assert a.to_json()["block_means"] == {"means": 999, "rows_per_mean": 60, "rows": 60_000}

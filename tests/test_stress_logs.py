@@ -8,7 +8,7 @@ import pytest
 from helpers import fast_ramp_log, mems_burst_log, weak_field_log, write_log
 
 from gyroid.cli import main
-from gyroid.inference import Emcee, fit_log
+from gyroid.inference import BenchOptions, Emcee, fit_log
 from gyroid.io import BenchLog
 from gyroid.simulation import GyroNoise, simulate_magnetic_bench
 
@@ -23,8 +23,8 @@ def _within(result, truth, k=4.0):
 def test_mems_gyro_with_default_priors_is_recovered_and_trusted():
     """Case 1: biases of thousands of deg/h. The default priors scale to the log."""
     columns, truth = mems_burst_log(0)
-    result = fit_log(BenchLog(columns), "bias,temperature,temperature_sq", sampler=QUICK,
-                     noise="white")
+    result = fit_log(BenchLog(columns), "bias,temperature,temperature_sq",
+                     BenchOptions(noise="white"), sampler=QUICK)
     assert result.trustworthy, result.checks.lines()
     assert _within(result, truth)
     assert result.checks.to_json()["checks"]["point_vs_posterior"]["value"] < 0.5
@@ -50,11 +50,11 @@ def test_fast_ramps_are_recovered_or_refused():
     """Case 2: 15-minute ramps. The fixed 1200 s window smears every kink: the checks must
     refuse that fit; the automatic window must recover the truth or refuse too."""
     columns, truth = fast_ramp_log(1)
-    fixed = fit_log(BenchLog(columns), "thermal", rate_window_s=1200.0, sampler=QUICK,
-                    noise="white")
+    fixed = fit_log(BenchLog(columns), "thermal", BenchOptions(noise="white", rate_window_s=1200.0),
+                    sampler=QUICK)
     assert not fixed.trustworthy
     assert not fixed.checks.to_json()["checks"]["goodness_of_fit"]["passed"]
-    auto = fit_log(BenchLog(columns), "thermal", sampler=QUICK, noise="white")
+    auto = fit_log(BenchLog(columns), "thermal", BenchOptions(noise="white"), sampler=QUICK)
     assert auto.problem.rate_window_s < 1200.0
     assert (auto.trustworthy and _within(auto, truth)) or not auto.trustworthy
 
@@ -64,10 +64,10 @@ def test_white_noise_model_on_correlated_noise_is_refused():
     """Case 3: --noise white on Gauss-Markov noise: the intervals would be far too narrow."""
     sim = simulate_magnetic_bench(seed=4, noise=GyroNoise(bias_instability_deg_h=0.1,
                                                           correlation_time_s=300.0))
-    white = fit_log(sim.log, "magnetic", sample=False, noise="white")
+    white = fit_log(sim.log, "magnetic", BenchOptions(noise="white"), sample=False)
     check = white.checks.to_json()["checks"]["residual_whiteness"]
     assert not white.trustworthy and not check["passed"] and check["severity"] == "error"
-    gm = fit_log(sim.log, "magnetic", noise="white+gm", sample=False)
+    gm = fit_log(sim.log, "magnetic", BenchOptions(noise="white+gm"), sample=False)
     assert gm.checks.to_json()["checks"]["residual_whiteness"]["severity"] == "warning"
     assert gm.trustworthy
 
@@ -76,7 +76,7 @@ def test_white_noise_model_on_correlated_noise_is_refused():
 def test_magnetic_terms_on_a_weak_field_are_not_identified():
     """Case 4: a field that varied by +/-2 uT cannot identify the magnetic coefficients."""
     columns, _ = weak_field_log(2, hours=1.5)
-    result = fit_log(BenchLog(columns), "magnetic", noise="white+gm", sampler=QUICK)
+    result = fit_log(BenchLog(columns), "magnetic", BenchOptions(noise="white+gm"), sampler=QUICK)
     check = result.checks.to_json()["checks"]["identifiability"]
     assert not check["passed"] and check["severity"] == "error", check
     assert "Hx_uT varies more" in check["message"] or "Hy_uT" in check["message"]
@@ -117,7 +117,7 @@ def test_held_out_compensation_matches_plain_least_squares(tmp_path):
     train = {k: v[burst % 2 == 0] for k, v in columns.items()}
     test = {k: v[burst % 2 == 1] for k, v in columns.items()}
     terms = "bias,temperature,temperature_sq"
-    result = fit_log(BenchLog(train), terms, sampler=QUICK, noise="white")
+    result = fit_log(BenchLog(train), terms, BenchOptions(noise="white"), sampler=QUICK)
     assert result.trustworthy
     comp = compensate(BenchLog(test), result.fitted_drift())
     t = train["temperature_C"] - 21.0
@@ -139,8 +139,8 @@ def test_bias_wander_between_bursts_is_refused_per_sample_and_covered_by_segment
     means is trusted and its 95 % intervals cover the truth: 30 intervals over 10 seeds,
     at least 25 (a binomial tail of 0.2 % at the nominal 95 %)."""
     columns, truth = mems_burst_log(0, wander_deg_h=30.0)
-    per_sample = fit_log(BenchLog(columns), "bias,temperature,temperature_sq", sampler=QUICK,
-                         noise="white")
+    per_sample = fit_log(BenchLog(columns), "bias,temperature,temperature_sq",
+                         BenchOptions(noise="white"), sampler=QUICK)
     assert not per_sample.trustworthy
     from gyroid.cli.report import check_lines
 
@@ -148,8 +148,8 @@ def test_bias_wander_between_bursts_is_refused_per_sample_and_covered_by_segment
     covered = 0
     for seed in range(10):
         columns, truth = mems_burst_log(seed, wander_deg_h=30.0)
-        result = fit_log(BenchLog(columns), "bias,temperature,temperature_sq", seed=seed,
-                         sampler=QUICK, segment_means=True, noise="white")
+        result = fit_log(BenchLog(columns), "bias,temperature,temperature_sq",
+                         BenchOptions(noise="white", segment_means=True), seed=seed, sampler=QUICK)
         assert result.trustworthy, result.checks.lines()
         assert result.segment_means == {"segments": 36, "rows": 9000}
         for name, value in truth.items():

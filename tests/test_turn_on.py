@@ -13,7 +13,7 @@ from helpers import write_log
 from gyroid import BenchLog
 from gyroid.cli import main
 from gyroid.errors import GyroidInputError
-from gyroid.inference import fit_log
+from gyroid.inference import BenchOptions, fit_log
 from gyroid.io._fitted import FittedDrift, _noise_estimate
 from gyroid.models._drift import DriftModel
 from gyroid.noise import NOISE_MODELS, NoiseEstimate
@@ -112,7 +112,7 @@ def test_another_runs_bands_hold_with_the_spread_and_not_without():
     held = {"spread": 0, "same": 0}
     for k in range(30):
         first, second = (BenchLog(_run(rng)) for _ in range(2))
-        fitted = fit_log(first, "bias", noise="white", seed=k).fitted_drift()
+        fitted = fit_log(first, "bias", BenchOptions(noise="white"), seed=k).fitted_drift()
         for key, turn_on in (("spread", TurnOn(True, TURN_ON_SD)), ("same", TurnOn())):
             result = compensate(second, fitted, seed=k, window_s=3600.0, turn_on=turn_on)
             means = result.window_means
@@ -200,7 +200,8 @@ def test_start_up_calibrated_bands_hold_on_another_run():
             columns["temperature_C"] = 15.0 + 10.0 * columns["time_s"] / 3600.0
             columns["drift_deg_h"] += 0.5 * (columns["temperature_C"] - 21.0)
             runs.append(BenchLog(columns))
-        fitted = fit_log(runs[0], "bias,temperature", noise="white", seed=k).fitted_drift()
+        fitted = fit_log(runs[0], "bias,temperature", BenchOptions(noise="white"),
+                         seed=k).fitted_drift()
         result = compensate(runs[1], fitted, seed=k, window_s=3600.0,
                             turn_on=TurnOn(True, rezero_s=300.0))
         means = result.window_means

@@ -6,6 +6,7 @@ from .errors import GyroidInputError as GyroidInputError
 from .errors import UntrustworthyResult as UntrustworthyResult
 from .inference import AbstractProblem as AbstractProblem
 from .inference import BenchFit as BenchFit
+from .inference import BenchOptions as BenchOptions
 from .inference import BenchProblem as BenchProblem
 from .inference import Emcee as Emcee
 from .inference import Importance as Importance

@@ -235,31 +235,32 @@ def fit_options(function):
     @functools.wraps(function)
     def wrapper(*args, terms, seed, noise, t0_C, prior_choice, prior_items, flat_prior,
                 rate_window, segment_means, mappings, progress, axes, instance, **kwargs):
+        from gyroid.inference._bench_options import BenchOptions
         from gyroid.inference._rate_window import parse_rate_window
         from gyroid.models._prior_scales import resolve_prior_option
-        from gyroid.pipeline._fit_file import (
-            FitOptions,
-            noise_datasheet_options,
-            noise_file_options,
-        )
+        from gyroid.noise._model import DEFAULT_NOISE
+        from gyroid.pipeline._fit_file import FitOptions, GivenNoisePriors
 
         prior_set, overrides = resolve_prior_option(prior_choice, prior_items)
-        noise_options = {"noise": noise}
+        given = None
         if noise not in NOISE_CHOICES:
             if Path(noise).suffix.lower() == ".toml":
-                noise_options = noise_datasheet_options(noise)
+                given = GivenNoisePriors.from_datasheet(noise)
             elif Path(noise).is_dir():
-                noise_options = noise_file_options(noise)
+                given = GivenNoisePriors.from_noise_fit(noise)
             else:
                 raise GyroidInputError(f"--noise {noise!r}: use one of "
                                        f"{', '.join(NOISE_CHOICES)}, a gyro datasheet "
                                        "(FILE.toml), or the --out folder of 'gyroid noise' "
                                        "(no such folder here)")
-        options = FitOptions(terms=terms, seed=seed, t0_C=t0_C, **noise_options,
-                             prior_set="flat" if flat_prior else prior_set, priors=overrides,
+            noise = DEFAULT_NOISE
+        bench = BenchOptions(noise=noise, priors=overrides,
+                             prior_set="flat" if flat_prior else prior_set, t0_C=t0_C,
                              rate_window_s=parse_rate_window(rate_window),
-                             segment_means=segment_means, maps=parse_maps(mappings),
-                             progress=progress, axes=parse_axes(axes), instance=instance)
+                             segment_means=segment_means)
+        options = FitOptions(terms=terms, bench=bench, seed=seed, maps=parse_maps(mappings),
+                             progress=progress, axes=parse_axes(axes), instance=instance,
+                             noise_priors=given)
         return function(*args, options=options, **kwargs)
 
     for decorate in reversed((
@@ -286,7 +287,9 @@ def fit_options(function):
         click.option("--segment-means", is_flag=True,
                      help="Burst-sampled log: fit one row per contiguous segment (its "
                           "mean), so the bias's wander between bursts is the estimated "
-                          "noise; the samples are still checked for spikes."),
+                          "noise; the samples are still checked for spikes. A noise model "
+                          "that carries the wander itself (auto, white+flicker+rw) fits the "
+                          "samples and says so in fit.json."),
         map_option,
         axes_option,
         instance_option,

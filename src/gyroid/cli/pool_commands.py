@@ -33,11 +33,10 @@ from gyroid.cli.report import report_checks
                    "still checked for spikes.")
 @click.option("--noise", default="auto", show_default=True,
               type=click.Choice(["auto", "white", "white+flicker+rw", "white+gm"]),
-              help="Each run's noise: a correlated model (auto: IEEE 952's white + flicker "
-                   "+ rate random walk, as 'gyroid fit' by default), each run fitted on its "
-                   "own and its coefficients' posterior pooled; or white, pooled exactly on "
-                   "sufficient statistics (right only where the runs' noise is white at "
-                   "hours, which no check can see).")
+              help="Each run's noise model, each run fitted on its own under it and its "
+                   "coefficients' posterior pooled: auto is IEEE 952's white + flicker + rate "
+                   "random walk, as 'gyroid fit' by default; white is right only where the "
+                   "runs' noise is white at hours, which no check can see.")
 @map_option
 @click.option("--axis", "axis", default=None,
               help="The gyro axis to pool, for logs of several (x, y or z).")
@@ -51,15 +50,16 @@ def pool(logs, terms, out, seed, t0_C, prior_choice, prior_items, segment_means,
     for a new run, which 'gyroid compensate --fit OUT' uses. Each log is a bench log of one
     run (docs/formats.md section 1); runs are named by file stem, or by folder when stems repeat.
     Exit code 3 when a self-check says the result must not be used."""
+    from gyroid.inference._bench_options import BenchOptions
     from gyroid.models._prior_scales import resolve_prior_option
     from gyroid.pipeline._pool_runs import pool_to_dir
 
     prior_set, overrides = resolve_prior_option(prior_choice, prior_items)
-    result = pool_to_dir(logs, terms, out, seed=seed, prior_set=prior_set, priors=overrides,
-                         t0_C=t0_C, segment_means=segment_means,
-                         noise=noise,
-                         maps=parse_maps(mappings),
-                         axis=axis, instances=instances, say=lambda m: click.echo(m, err=True))
+    runs = BenchOptions(noise=noise, prior_set=prior_set, t0_C=t0_C,
+                        segment_means=segment_means)
+    result = pool_to_dir(logs, terms, out, runs, seed=seed, priors=overrides,
+                         maps=parse_maps(mappings), axis=axis, instances=instances,
+                         say=lambda m: click.echo(m, err=True))
     click.echo(result.summary())
     click.echo(f"wrote {out / 'pool.json'}, {out / 'posterior.nc'} and {out / 'forest.png'}")
     report_checks(result.checks)

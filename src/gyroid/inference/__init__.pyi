@@ -4,6 +4,7 @@ file (lazy_loader) and imports each name on first use."""
 from ._batching import problem_batcher as problem_batcher
 from ._bench_density import BenchDensity as BenchDensity
 from ._bench_fit import fit_log as fit_log
+from ._bench_options import BenchOptions as BenchOptions
 from ._bench_problem import BenchProblem as BenchProblem
 from ._bench_result import BenchFit as BenchFit
 from ._check_report import Check as Check

@@ -5,7 +5,6 @@ and what the self-checks read."""
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
 from dataclasses import replace
 
 import equinox as eqx
@@ -16,6 +15,7 @@ from gyroid._compiled_programs import release_if_crowded
 from gyroid._exported import exported
 from gyroid.errors import GyroidInputError
 from gyroid.inference._bench_density import BenchDensity, predicted
+from gyroid.inference._bench_options import BenchOptions
 from gyroid.inference._check_report import FitEvidence
 from gyroid.inference._emcee import Emcee
 from gyroid.inference._importance import Importance
@@ -34,7 +34,6 @@ from gyroid.models._derived import (
     temperature_rate_deg_c_per_h,
 )
 from gyroid.models._drift import DriftModel
-from gyroid.models._inputs import T0_C
 from gyroid.models._prior_scales import (
     PriorBasis,
     choose_priors,
@@ -77,47 +76,44 @@ class BenchProblem(AbstractProblem):
         cls,
         log: BenchLog | MeansOfBlocks,
         terms: str | tuple[str, ...] | DriftModel,
+        options: BenchOptions | None = None,
         *,
-        noise: str | NoiseModel | None = None,
-        priors: Mapping[str, Prior] | None = None,
-        prior_set: str = "default",
-        flat_prior: bool = False,
-        t0_C: float = T0_C,
-        rate_window_s: float | None = RATE_WINDOW_S,
-        segment_means: bool = False,
         fast: bool = True,
         max_rows: int | None = None,
-        errors_in_variables: bool = True,
     ) -> BenchProblem:
-        """The problem of fitting ``terms`` to ``log``.
+        """The problem of fitting ``terms`` to ``log`` under ``options``
+        (:class:`~gyroid.inference.BenchOptions`; None: every default).
 
-        ``prior_set``: ``default`` (scaled to this log), ``paper_a_fog`` or ``flat``
-        (:mod:`gyroid.models._prior_scales`); ``priors`` overrides single parameters by
-        name; ``flat_prior=True`` is ``prior_set="flat"``. ``rate_window_s=None`` chooses
-        the dT/dt estimator's window from the data (:mod:`gyroid.inference._rate_window`).
-        ``segment_means=True`` fits one row per contiguous segment of a burst-sampled log
-        (its mean), so that the bias's wander between bursts is the noise the model
-        estimates rather than a correlation it ignores; the samples are still checked for
-        spikes, which the means would hide. ``fast=False``: no sufficient statistics (for
-        tests). Under correlated noise a log of more than ``max_rows`` rows (default
-        :data:`IEEE_MAX_ROWS`) is fitted as at most that many means of blocks of consecutive
-        samples (not with ``segment_means``; exact likelihood, a linear model loses little;
-        the samples are checked for spikes). A :class:`~gyroid.io._logs.MeansOfBlocks` (a
-        log read as a stream) is fitted as its means under any noise model.
+        The priors: the options' ``prior_set`` (:mod:`gyroid.models._prior_scales`), single
+        parameters overridden by name. An automatic dT/dt window is chosen from the data
+        (:mod:`gyroid.inference._rate_window`). ``segment_means`` fits one row per contiguous
+        segment of a burst-sampled log (its mean), so that the bias's wander between bursts
+        is the noise the model estimates rather than a correlation it ignores, unless the
+        noise model carries that wander itself (then the samples are fitted); the samples
+        are still checked for spikes, which the means would hide. ``fast=False``: no
+        sufficient statistics (for tests). Under correlated noise a log of more than
+        ``max_rows`` rows (default :data:`IEEE_MAX_ROWS`) is fitted as at most that many
+        means of blocks of consecutive samples (not with segment means; exact likelihood, a
+        linear model loses little; the samples are checked for spikes). A
+        :class:`~gyroid.io._logs.MeansOfBlocks` (a log read as a stream) is fitted as its
+        means under any noise model.
 
-        Errors in variables (``errors_in_variables=False``: none): a model reading dT/dt
-        on a log with a noisy thermometer carries that noise through the rate estimator
-        (:mod:`gyroid.inference._thermometer`) as a term of the noise model (more than
-        ``max_rows`` rows: block means; :meth:`~gyroid.noise.NoiseModel.with_rate_error`).
+        Errors in variables (unless the options' ``errors_in_variables`` is False): a model
+        reading dT/dt on a log with a noisy thermometer carries that noise through the rate
+        estimator (:mod:`gyroid.inference._thermometer`) as a term of the noise model (more
+        than ``max_rows`` rows: block means; :meth:`~gyroid.noise.NoiseModel.with_rate_error`).
         Under correlated noise the automatic window is the marginal likelihood's
         (:mod:`gyroid.inference._rate_window_marginal`)."""
+        options = options or BenchOptions()
+        noise, t0_C, segment_means = (options.noise_model, options.t0_C,
+                                      options.fits_segment_means)
+        rate_window_s = options.rate_window_s
         release_if_crowded()  # the build compiles most of a fit's programs
-        noise = noise_model(noise)
         cap = IEEE_MAX_ROWS if max_rows is None else max_rows
         model = terms if isinstance(terms, DriftModel) else DriftModel.from_terms(terms)
         # the thermometer's noise to carry (degC^2, a sample's), the filter's wD scaling it
         thermometer_var, wd = (0.0, 0.0) if (
-            segment_means or not errors_in_variables or not reads_rate(model)) else (
+            segment_means or not options.errors_in_variables or not reads_rate(model)) else (
             thermometer_to_carry(log, model, rate_window_s, t0_C, cap))
         log, block_rows, samples = _rows_fitted(log, noise, segment_means,
                                                 carry_thermometer=thermometer_var > 0, cap=cap)
@@ -131,11 +127,11 @@ class BenchProblem(AbstractProblem):
             choice = "given"
         inputs = _with_rate_window(log, inputs, rate_window_s)
         model.check_identifiable(inputs, frozenset(log.columns))
-        chosen_set = "flat" if flat_prior else prior_set
         chosen, basis = choose_priors(model, inputs, np.asarray(log.drift_deg_h),
-                                      _noise_priors(noise, log, inputs, block_rows, chosen_set,
+                                      _noise_priors(noise, log, inputs, block_rows,
+                                                    options.prior_set,
                                                     log.sigma_deg_h is not None),
-                                      prior_set=chosen_set, overrides=priors)
+                                      prior_set=options.prior_set, overrides=options.priors)
 
         def density_at(window_s: float) -> BenchDensity:
             return _density(log, model, chosen, _with_rate_window(log, base, window_s), noise,
@@ -143,7 +139,7 @@ class BenchProblem(AbstractProblem):
                             thermometer_var_row=thermometer_var_row, fast=fast)
 
         density, noise_mode, choice = _by_marginal(density_at, log, rate_window_s, choice)
-        return cls(density=density, log=log, prior_set=chosen_set, prior_basis=basis,
+        return cls(density=density, log=log, prior_set=options.prior_set, prior_basis=basis,
                    rate_window_choice=choice, block_rows=block_rows, segments=samples,
                    thermometer_sd_C=math.sqrt(thermometer_var), rate_error_wd=wd,
                    noise_mode=noise_mode)
@@ -346,11 +342,6 @@ def _rows_fitted(log: BenchLog | MeansOfBlocks, noise: NoiseModel, segment_means
                 f"{log.rows_per_mean} samples (it was read as a stream); leave "
                 "--segment-means out")
         log, block_rows, samples = log.log, log.rows_per_mean, log.samples
-    if noise.wanders and segment_means:
-        raise GyroidInputError(
-            f"--segment-means with --noise {noise.name}: this noise model reads a log of "
-            "bursts as it is (the wander between bursts is its flicker or random walk); "
-            "fit the samples, without --segment-means")
     if (carry_thermometer or (noise.correlated and not segment_means)) and log.n > cap:
         reduced = MeansOfBlocks.of(log, -(-log.n // cap))
         log, block_rows, samples = reduced.log, reduced.rows_per_mean, reduced.samples

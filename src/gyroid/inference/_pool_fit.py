@@ -12,6 +12,7 @@ import numpy as np
 
 from gyroid.errors import GyroidInputError
 from gyroid.inference._bench_fit import fit_log
+from gyroid.inference._bench_options import BenchOptions
 from gyroid.inference._bench_problem import BenchProblem
 from gyroid.inference._bench_result import BenchFit
 from gyroid.inference._check_report import CheckReport
@@ -21,10 +22,8 @@ from gyroid.inference._pool_result import PoolFit
 from gyroid.inference._problem import AbstractSampler
 from gyroid.io._logs import BenchLog
 from gyroid.models._drift import DriftModel
-from gyroid.models._inputs import T0_C
 from gyroid.models._prior_scales import reference_sd
 from gyroid.models._priors import Flat, Normal, Prior
-from gyroid.noise._model import NoiseModel, noise_model
 
 
 def pool_priors(problems: Sequence[BenchProblem],
@@ -61,33 +60,29 @@ def pool_problem(
     logs: Sequence[BenchLog],
     labels: Sequence[str],
     terms: str | tuple[str, ...] | DriftModel,
+    options: BenchOptions | None = None,
     *,
-    prior_set: str = "default",
     priors: Mapping[str, Prior] | None = None,
     spread_scales: Mapping[str, float] | None = None,
-    t0_C: float = T0_C,
-    segment_means: bool = False,
-    noise: str | NoiseModel = "auto",
     seed: int = 0,
     progress: Callable[[str], None] | None = None,
 ) -> PoolProblem:
     """The pooled problem of ``logs`` (one per run or unit, named by ``labels``) under one
-    drift model. ``priors`` overrides population means' priors by name, ``spread_scales``
-    the half-normal scales of between-run sds (default: the mean's prior scale).
-    ``segment_means=True`` pools burst logs on one row per burst (as a single fit does),
-    the samples still checked for spikes.
+    drift model, each run fitted on its own under ``options`` (:class:`BenchOptions`, a single
+    fit's; None: every default) by :func:`~gyroid.inference.fit_log`, seeds ``seed``,
+    ``seed + 1``, ... ``priors`` overrides the population means' priors by name,
+    ``spread_scales`` the half-normal scales of between-run sds (default: the mean's prior
+    scale). With the options' ``segment_means`` burst logs are pooled on one row per burst
+    (as a single fit does), the samples still checked for spikes.
 
-    ``noise``: the noise model each run is fitted under on its own
-    (:func:`~gyroid.inference.fit_log`, seeds ``seed``, ``seed + 1``, ...; its dT/dt window
-    and its thermometer's noise as a single fit's): ``auto`` (the default, as a single
-    fit's: IEEE 952's white + flicker + rate random walk), ``white`` or another. Each run's
-    coefficients' posterior mean and covariance are one Gaussian observation of them
-    (:func:`pooled_fits`): the run-to-run test then weighs each run by what its own noise
-    leaves known. ``white`` is right only where each run's noise is white at the scales
-    that decide its coefficients, which its whiteness check cannot see at hours: of 10 lots
-    of three 10 h FOG runs with identical coefficients it trusted 5, each saying the runs
-    differ at p < 0.01 (``experiments/pool_fog_lots.py``). ``progress`` hears of each run
-    fitted."""
+    Each run's coefficients' posterior mean and covariance are one Gaussian observation of
+    them (:func:`pooled_fits`): the run-to-run test then weighs each run by what its own
+    noise leaves known. Under the default noise model (``auto``, IEEE 952's white + flicker
+    + rate random walk) that includes the flicker and walk a run's whiteness check cannot
+    see at hours; ``white`` is right only where each run's noise is white at the scales
+    that decide its coefficients: of 10 lots of three 10 h FOG runs with identical
+    coefficients it trusted 5, each saying the runs differ at p < 0.01
+    (``experiments/pool_fog_lots.py``). ``progress`` hears of each run fitted."""
     if len(logs) < 2:
         raise GyroidInputError("pooling needs at least two logs (runs or units of one gyro "
                                "type); for one log use 'gyroid fit'")
@@ -102,15 +97,13 @@ def pool_problem(
             "'gyroid fit', or pool without it")
     names = model.parameter_names
     _check_options(names, priors, spread_scales)  # before any run is fitted
-    kind = noise_model(noise)
-    fits = tuple(_run_fits(logs, labels, model, kind, prior_set=prior_set, t0_C=t0_C,
-                           seed=seed, segment_means=segment_means, progress=progress))
+    options = options or BenchOptions()
+    fits = tuple(_run_fits(logs, labels, model, options, seed=seed, progress=progress))
     mean_priors, scales, reference = pool_priors([f.problem for f in fits], priors)
     for name, scale in (spread_scales or {}).items():
         scales[names.index(name)] = scale
-    return pooled_fits(fits, labels, model, kind, mean_priors=mean_priors,
-                       spread_scales=scales, reference=reference, t0_C=t0_C,
-                       segment_means=segment_means)
+    return pooled_fits(fits, labels, model, options, mean_priors=mean_priors,
+                       spread_scales=scales, reference=reference)
 
 
 def _check_options(names: tuple[str, ...], priors: Mapping[str, Prior] | None,
@@ -133,12 +126,17 @@ def _check_options(names: tuple[str, ...], priors: Mapping[str, Prior] | None,
 
 
 def fit_pool(logs: Sequence[BenchLog], labels: Sequence[str],
-             terms: str | tuple[str, ...] | DriftModel, *, seed: int = 0,
-             sampler: AbstractSampler | None = None, **options) -> PoolFit:
-    """Pool ``logs`` (:func:`pool_problem`, whose keyword ``options`` it takes) and fit them:
-    the mode, NUTS (or ``sampler``), derived draws, the checks."""
-    return fit(pool_problem(logs, labels, terms, seed=seed, **options), sampler=sampler,
-               seed=seed)
+             terms: str | tuple[str, ...] | DriftModel, options: BenchOptions | None = None,
+             *, priors: Mapping[str, Prior] | None = None,
+             spread_scales: Mapping[str, float] | None = None, seed: int = 0,
+             sampler: AbstractSampler | None = None,
+             progress: Callable[[str], None] | None = None) -> PoolFit:
+    """Pool ``logs`` (:func:`pool_problem`: each run fitted under ``options``, the
+    population means' ``priors``, the between-run sds' ``spread_scales``) and fit them: the
+    mode, NUTS (or ``sampler``), derived draws, the checks."""
+    problem = pool_problem(logs, labels, terms, options, priors=priors,
+                           spread_scales=spread_scales, seed=seed, progress=progress)
+    return fit(problem, sampler=sampler, seed=seed)
 
 
 #: A run's own checks that a pooled fit of the runs' posteriors keeps: those of its
@@ -150,23 +148,20 @@ RUN_RESIDUAL_CHECKS = frozenset({"goodness_of_fit", "residual_whiteness", "outli
 
 
 def _run_fits(logs: Sequence[BenchLog], labels: Sequence[str], model: DriftModel,
-              noise: NoiseModel, *, prior_set: str, t0_C: float, seed: int,
-              segment_means: bool, progress: Callable[[str], None] | None):
-    """Each log fitted on its own under ``noise`` (seeds ``seed``, ``seed + 1``, ...; on its
-    segments' means with ``segment_means``; every other default of ``fit_log``)."""
+              options: BenchOptions, *, seed: int,
+              progress: Callable[[str], None] | None):
+    """Each log fitted on its own under ``options`` (seeds ``seed``, ``seed + 1``, ...)."""
     for k, log in enumerate(logs):
-        single = fit_log(log, model, noise=noise, seed=seed + k, prior_set=prior_set,
-                         t0_C=t0_C, segment_means=segment_means, progress=False)
+        single = fit_log(log, model, options, seed=seed + k, progress=False)
         if progress is not None:
             progress(f"  {labels[k]} fitted ({k + 1} of {len(logs)})")
         yield single
 
 
 def pooled_fits(fits: Sequence[BenchFit], labels: Sequence[str], model: DriftModel,
-                noise: NoiseModel, *, mean_priors, spread_scales: np.ndarray,
-                reference: np.ndarray, t0_C: float, segment_means: bool = False
-                ) -> PoolProblem:
-    """Each run's own fit under ``noise`` (:func:`_run_fits`): its coefficients'
+                options: BenchOptions, *, mean_priors, spread_scales: np.ndarray,
+                reference: np.ndarray) -> PoolProblem:
+    """Each run's own fit under ``options`` (:func:`_run_fits`): its coefficients'
     posterior mean and covariance taken as one Gaussian observation of its run's
     coefficients (their weakly informative single-fit priors counted once more:
     negligible where the run identifies a coefficient; under white noise the Gaussian
@@ -175,6 +170,7 @@ def pooled_fits(fits: Sequence[BenchFit], labels: Sequence[str], model: DriftMod
     :meth:`PoolProblem.from_estimates`; each run's residual and noise checks kept, and its
     fitted problem as the run's description."""
     p = len(model.parameter_names)
+    noise = options.noise_model
     means, covariances, reports, levels = [], [], [], []
     for single in fits:
         posterior = single.posterior
@@ -191,10 +187,11 @@ def pooled_fits(fits: Sequence[BenchFit], labels: Sequence[str], model: DriftMod
     sds = np.sqrt(np.diagonal(covariances, axis1=1, axis2=2))
     return PoolProblem.from_estimates(
         model.parameter_names, tuple(labels), means, covariances, mean_priors=mean_priors,
-        spread_scales=spread_scales, terms=tuple(model.terms), t0_C=t0_C,
+        spread_scales=spread_scales, terms=tuple(model.terms), t0_C=options.t0_C,
         own_mean=means, own_sd=sds, reference=reference,
         runs=tuple(f.problem for f in fits), run_reports=tuple(reports),
-        run_noise=noise.name, run_noise_levels=tuple(levels), segment_means=segment_means)
+        run_noise=noise.name, run_noise_levels=tuple(levels),
+        segment_means=options.segment_means)
 
 
 def pool_estimates(names: tuple[str, ...], labels: tuple[str, ...], estimates: np.ndarray,

@@ -317,7 +317,8 @@ def noise_model(kind: str | NoiseModel | None) -> NoiseModel:
         return kind
     name = "white" if kind is None else DEFAULT_NOISE if kind == "auto" else kind
     if name not in NOISE_MODELS:
-        raise GyroidInputError(f"--noise {kind!r}: use one of {', '.join(NOISE_MODELS)}")
+        raise GyroidInputError(f"--noise {kind!r}: use one of {', '.join(NOISE_MODELS)} "
+                               "or auto")
     return NOISE_MODELS[name]
 
 

@@ -81,7 +81,7 @@ class Study:
         self.echo("[2/6] fitting both benches (optimistix + importance sampling) ...")
         for name, terms in (("thermal", "thermal"), ("magnetic", "magnetic")):
             sim = self.benches[name]
-            self.fits[name] = fit_log(sim.log, terms, seed=self.seed, noise="auto",
+            self.fits[name] = fit_log(sim.log, terms, seed=self.seed,
                                       sampler=Importance())
             write(self.folder(f"{name}/fit"), self.fits[name], truth=sim.truth["parameters"])
         magnetic, fit = self.benches["magnetic"], self.fits["magnetic"]

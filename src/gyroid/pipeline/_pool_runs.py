@@ -8,6 +8,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from gyroid.errors import GyroidInputError
+from gyroid.inference._bench_options import BenchOptions
 from gyroid.inference._pool_fit import fit_pool
 from gyroid.inference._pool_result import PoolFit
 from gyroid.io._bench_reader import bench_log_from_table
@@ -15,28 +16,24 @@ from gyroid.io._logs import BenchLog, run_labels
 from gyroid.io._outputs import output_dir
 from gyroid.io._tables import read_log_table
 from gyroid.io._units import ColumnMap
-from gyroid.models._inputs import T0_C
 from gyroid.models._priors import Prior
-from gyroid.noise._model import noise_model
 from gyroid.reports._write import write
 
 
-def pool_to_dir(paths: tuple[Path, ...], terms: str, out: Path, *, seed: int = 0,
-                prior_set: str = "default", priors: Mapping[str, Prior] | None = None,
-                t0_C: float = T0_C, segment_means: bool = False, noise: str = "auto",
-                maps: tuple[ColumnMap, ...] = (), axis: str | None = None,
-                instances: str | None = None,
+def pool_to_dir(paths: tuple[Path, ...], terms: str, out: Path,
+                options: BenchOptions | None = None, *, seed: int = 0,
+                priors: Mapping[str, Prior] | None = None, maps: tuple[ColumnMap, ...] = (),
+                axis: str | None = None, instances: str | None = None,
                 say: Callable[[str], None] = lambda _m: None) -> PoolFit:
-    """Pool ``terms`` over the runs read from ``paths`` (:func:`pool_runs`) and write
-    ``pool.json``, ``posterior.nc`` and ``forest.png`` to ``out``; ``noise``: the noise model
-    each run is fitted under before pooling (:func:`fit_pool`)."""
+    """Pool ``terms`` over the runs read from ``paths`` (:func:`pool_runs`), each fitted under
+    ``options`` before pooling, the population means' ``priors`` (:func:`fit_pool`), and
+    write ``pool.json``, ``posterior.nc`` and ``forest.png`` to ``out``."""
+    options = options or BenchOptions()
     loaded, labels = pool_runs(paths, terms, maps=maps, axis=axis, instances=instances)
     rows = sum(log.n for log in loaded)
-    kind = noise_model(noise)
     say(f"pooling {terms} over {len(loaded)} runs ({rows} rows), each fitted under "
-        f"{kind.name} noise ...")
-    result = fit_pool(loaded, labels, terms, seed=seed, prior_set=prior_set, priors=priors,
-                      t0_C=t0_C, segment_means=segment_means, noise=noise, progress=say)
+        f"{options.noise_model.name} noise ...")
+    result = fit_pool(loaded, labels, terms, options, seed=seed, priors=priors, progress=say)
     with output_dir(out) as stage:
         write(stage, result)
     return result

@@ -32,6 +32,7 @@ import numpy as np
 
 from gyroid.errors import GyroidInputError
 from gyroid.inference._bench_checks import bench_checks
+from gyroid.inference._bench_options import BenchOptions
 from gyroid.inference._bench_problem import BenchProblem
 from gyroid.inference._problem import PointEstimate
 from gyroid.inference._rate_window import choose_rate_window
@@ -41,7 +42,6 @@ from gyroid.models._drift import DriftModel
 from gyroid.models._effects import EFFECTS, EXTRA_PREFIX, parameter
 from gyroid.models._inputs import T0_C, DriftInputs
 from gyroid.models._terms import resolve_terms
-from gyroid.noise._model import noise_model
 from gyroid.workflows._discrepancy_report import (
     DiscrepancyReport,
     NoiseLevels,
@@ -221,9 +221,9 @@ class _Search:
         columns) by its problem under white + Gauss-Markov noise, flat coefficient
         priors."""
         log = self.log if log is None else log
-        problem = BenchProblem.from_log(log, model, noise=noise_model("white+gm"), prior_set="flat",
-                                        t0_C=self.t0_C, rate_window_s=self.window_s,
-                                        errors_in_variables=False)
+        problem = BenchProblem.from_log(log, model, BenchOptions(
+            noise="white+gm", prior_set="flat", t0_C=self.t0_C, rate_window_s=self.window_s,
+            errors_in_variables=False))
         point = problem.mode()
         inputs = self.inputs if log is self.log else log.inputs(
             t0_C=self.t0_C, rate_window_s=self.window_s)
