@@ -44,34 +44,55 @@ def write(folder: str | Path, result, **context) -> list[Path]:
 
 def _bench_fit(folder: Path, result: BenchFit, truth: dict[str, float] | None = None
                ) -> list[Path]:
-    """fit.json, posterior.nc, fit.png and pair.png."""
+    """fit.json, posterior.nc, fit.png and pair.png; the figures drawn on a thread while
+    the posterior's file is computed and written (:func:`_beside`)."""
     from gyroid.io._arviz import write_netcdf
     from gyroid.models._effects import parameter
     from gyroid.plotting import fit_overview, pair_plot, plot_step, save
 
-    (folder / "fit.json").write_text(json_text(result.to_json()))
-    written = [folder / "fit.json"]
-    if result.posterior is not None:
-        write_netcdf(result.inference_data(), folder / "posterior.nc")
-        written.append(folder / "posterior.nc")
     log = result.fitted_log  # e.g. the segment means, not the samples
-    step = plot_step(log.n)
     point_prediction = result.problem.predict(result.point.u)
-    draws = result.predict_draws(every=step)
+    draws = result.predict_draws(every=plot_step(log.n))
     if result.block_means:
         label = f"means of {result.block_means['rows_per_mean']} logged samples"
     elif result.segment_means:
         label = "means of the logged segments"
     else:
         label = "logged drift"
-    written += save(fit_overview(log.time_s, log.drift_deg_h, draws, point_prediction,
-                                 data_label=label), folder / "fit")
-    if result.posterior is not None:
-        names = list(result.model_names)
-        flat = result.posterior.draws.reshape(-1, len(result.problem.names))[:, : len(names)]
-        units = {n: parameter(n).unit for n in names}
-        written += save(pair_plot(flat, names, units, truth), folder / "pair")
-    return written
+    names = list(result.model_names)
+    flat = (None if result.posterior is None else
+            result.posterior.draws.reshape(-1, len(result.problem.names))[:, : len(names)])
+
+    def figures() -> list[Path]:
+        paths = save(fit_overview(log.time_s, log.drift_deg_h, draws, point_prediction,
+                                  data_label=label), folder / "fit")
+        if flat is not None:
+            units = {n: parameter(n).unit for n in names}
+            paths += save(pair_plot(flat, names, units, truth), folder / "pair")
+        return paths
+
+    def files() -> list[Path]:
+        (folder / "fit.json").write_text(json_text(result.to_json()))
+        if result.posterior is None:
+            return [folder / "fit.json"]
+        write_netcdf(result.inference_data(), folder / "posterior.nc")
+        return [folder / "fit.json", folder / "posterior.nc"]
+
+    return _beside(files, figures)
+
+
+def _beside(files: Callable[[], list[Path]], figures: Callable[[], list[Path]]
+            ) -> list[Path]:
+    """Run ``figures`` (matplotlib, which holds Python's lock) on a thread while ``files``
+    runs here (a posterior's pointwise log-likelihood is compiled code, which releases it):
+    a fit's figures then cost little of its time. Only the thread touches matplotlib; an
+    error in either is raised here, after both have stopped; the paths, files first."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    with ThreadPoolExecutor(max_workers=1, thread_name_prefix="gyroid-figures") as pool:
+        drawn = pool.submit(figures)
+        written = files()
+        return written + drawn.result()
 
 
 def _roll_fit(folder: Path, result: RollFit) -> list[Path]:
