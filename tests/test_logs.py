@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from helpers import SHORT_MAGNETIC, SHORT_THERMAL, write_log
 
-from gyroid import BenchProblem, GyroidInputError, load_bench_log
+from gyroid import BenchLog, BenchProblem, GyroidInputError, load_bench_log
 from gyroid.inference import BenchOptions
 from gyroid.io import bench_log_text
 from gyroid.models._derived import RATE_WINDOW_S
@@ -276,6 +276,18 @@ def test_a_gzip_log_is_read_like_the_plain_one(tmp_path, thermal_columns):
     packed = load_bench_log(write_bench_log(tmp_path / "a.csv.gz", thermal_columns), "thermal")
     for name in plain.columns:
         np.testing.assert_array_equal(plain.columns[name], packed.columns[name])
+
+
+def test_a_bench_log_object_is_written_with_its_comments(tmp_path, thermal_columns):
+    """A script writes the BenchLog it holds; the arguments swapped are one clear error."""
+    from gyroid.io import write_bench_log
+
+    log = BenchLog(columns=thermal_columns, comments=("chamber 3",))
+    read = load_bench_log(write_bench_log(tmp_path / "a.csv", log), "thermal")
+    assert "chamber 3" in read.comments
+    np.testing.assert_allclose(read.drift_deg_h, log.drift_deg_h, rtol=1e-9)
+    with pytest.raises(GyroidInputError, match="the path comes first"):
+        write_bench_log(log, tmp_path / "b.csv")  # type: ignore[arg-type]
 
 
 def test_a_jittered_clock_is_one_stretch_and_a_real_pause_still_splits_it():

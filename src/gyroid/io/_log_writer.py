@@ -9,7 +9,8 @@ from pathlib import Path
 
 import numpy as np
 
-from gyroid.io._logs import BENCH_COLUMNS
+from gyroid.errors import GyroidInputError
+from gyroid.io._logs import BENCH_COLUMNS, BenchLog
 from gyroid.io._outputs import atomic_path
 from gyroid.io._units import AXIS_COLUMN
 
@@ -60,11 +61,17 @@ WRITE_BATCH_ROWS = 1_000_000
 
 
 def write_bench_log(
-    path: str | Path, columns: Mapping[str, np.ndarray], comments: Iterable[str] = ()
+    path: str | Path, columns: Mapping[str, np.ndarray] | BenchLog, comments: Iterable[str] = ()
 ) -> Path:
-    """Write a bench log atomically: ``.csv`` or ``.csv.gz`` (contract CSV with the comment
-    and units lines; values by pyarrow's CSV writer, in batches) or ``.parquet`` (comments
-    in the file's metadata). Memory stays bounded on 10^7-row logs."""
+    """Write a bench log (a :class:`~gyroid.io.BenchLog`, its comments kept, or its columns)
+    atomically: ``.csv`` or ``.csv.gz`` (contract CSV with the comment and units lines; values
+    by pyarrow's CSV writer, in batches) or ``.parquet`` (comments in the file's metadata).
+    Memory stays bounded on 10^7-row logs."""
+    if not isinstance(path, str | Path):
+        raise GyroidInputError(f"write_bench_log(path, log): the path comes first, then the "
+                               f"log; got a {type(path).__name__} for the path")
+    if isinstance(columns, BenchLog):
+        columns, comments = columns.columns, (*columns.comments, *comments)
     with bench_log_writer(path, _ordered(columns), comments) as append:
         append(columns)
     return Path(path)
