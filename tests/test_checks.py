@@ -160,6 +160,13 @@ def test_a_prior_that_fights_the_data_is_an_error_and_a_misplaced_one_a_warning(
     check = prior_data_conflict(_evidence(draws, [-40.0], [Normal(0.0, 10.0)]))
     assert not check.passed and check.severity == "warning"
     assert prior_data_conflict(_evidence(draws, [-40.0], [Flat()])).passed
+    # both at once (a datasheet's walk level 40x below the log's, beside a pulled prior):
+    # the message names the one the log overrules too
+    both = np.column_stack([rng.normal(-1500.0, 1.0, 4000), rng.normal(-40.0, 0.1, 4000)])
+    check = prior_data_conflict(_evidence(both, [-1500.0, -40.0],
+                                          [Normal(0.0, 10.0), Normal(0.0, 10.0)],
+                                          names=("a", "b")))
+    assert check.severity == "error" and "b sits 4.0 prior sd" in check.message
 
 
 def test_point_and_posterior_must_agree():

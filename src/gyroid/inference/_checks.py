@@ -188,17 +188,18 @@ def prior_data_conflict(evidence: FitEvidence) -> Check:
         sd = np.full(mean.size, np.nan)
     else:
         mean, sd = moments
-    worst_pull, worst_tail = (0.0, None), (0.0, None)
+    pulls: dict[str, float] = {}
+    tails: dict[str, float] = {}
     for i, (name, prior) in enumerate(zip(evidence.names, evidence.priors, strict=True)):
         pm = _prior_moments(prior)
         if pm is None:
             continue
         loc, scale = pm
-        tail = abs(mean[i] - loc) / scale
-        pull = abs(sd[i] * (mean[i] - loc) / scale**2) if np.isfinite(sd[i]) else tail
-        worst_pull = max(worst_pull, (float(pull), name), key=lambda t: t[0])
-        worst_tail = max(worst_tail, (float(tail), name), key=lambda t: t[0])
-    pull, name = worst_pull
+        tails[name] = float(abs(mean[i] - loc) / scale)
+        pulls[name] = (float(abs(sd[i] * (mean[i] - loc) / scale**2)) if np.isfinite(sd[i])
+                       else tails[name])
+    name = max(pulls, key=lambda n: pulls[n], default=None)
+    pull = pulls[name] if name is not None else 0.0
     if name is not None and pull > PRIOR_PULL_SD:
         i = evidence.names.index(name)
         prior = evidence.priors[i]
@@ -206,11 +207,18 @@ def prior_data_conflict(evidence: FitEvidence) -> Check:
         # show) does not bias the coefficients: a warning; a coefficient's is an error.
         severity: Severity = "error" if i < evidence.n_model else "warning"
         form = "lognormal(MEDIAN,LOG_SD)" if isinstance(prior, LogNormal) else "normal(MU,SD)"
+        # a prior the log overrules (a datasheet's level 40x off) is news beside one it pulls
+        others = {n: t for n, t in tails.items() if n != name}
+        far = max(others, key=lambda n: others[n], default=None)
+        also = (f"; {far} sits {others[far]:.1f} prior sd from its prior's centre, where the "
+                "log dominates: that prior is misplaced for this gyro"
+                if far is not None and others[far] > PRIOR_TAIL_SD else "")
         return Check("prior_data_conflict", False, severity, pull, PRIOR_PULL_SD,
                      f"the prior of {name} ({prior.describe()}) disagrees with the log and "
                      f"pulls its posterior by {pull:.1f} posterior sd; widen it ({name} = "
-                     f"{form}) or choose another prior set", ("prior",))
-    tail, tail_name = worst_tail
+                     f"{form}) or choose another prior set{also}", ("prior",))
+    tail_name = max(tails, key=lambda n: tails[n], default=None)
+    tail = tails[tail_name] if tail_name is not None else 0.0
     if tail_name is not None and tail > PRIOR_TAIL_SD:
         return Check("prior_data_conflict", False, "warning", tail, PRIOR_TAIL_SD,
                      f"{tail_name} sits {tail:.1f} prior sd from its prior's centre, but the "
