@@ -233,7 +233,10 @@ def _smoothed(draws: np.ndarray, solved: np.ndarray, log_weight: np.ndarray
     if finite.sum() < log_weight.size // 2:
         return None
     floor = np.min(log_weight[finite]) - 1e3  # a zero weight, in what PSIS accepts
-    smoothed, pareto_k = load_arviz().psislw(np.where(finite, log_weight, floor))
+    # ArviZ's tail fit weighs its grid of shapes by 1 / sum(exp(differences)); where
+    # those overflow the weight's limit, 0, is what it gets: the warning says nothing
+    with np.errstate(over="ignore"):
+        smoothed, pareto_k = load_arviz().psislw(np.where(finite, log_weight, floor))
     w = np.where(finite, np.exp(smoothed - np.max(smoothed)), 0.0)
     w /= w.sum()
     return _Weighted(draws, solved, w, float(pareto_k), float(1.0 / np.sum(w**2)))
