@@ -35,7 +35,10 @@ def bench_predictive(density: BenchDensity, time_s: np.ndarray,
     noise, time constants) are held in each fold's refit under correlated noise (a
     generalised least-squares fit; a carried thermometer's noise included)."""
     folds, part_s = bench_held_out(density, time_s, point_u)
-    return predictive_check(folds, part_s=part_s, remedies=density.noise.remedies)
+    bursts = len(contiguous_segments(np.asarray(time_s))) > 1
+    remedies = tuple(code for code in density.noise.remedies
+                     if bursts or code != "segment_means")  # no bursts: no burst means
+    return predictive_check(folds, part_s=part_s, remedies=remedies)
 
 
 def bench_held_out(density: BenchDensity, time_s: np.ndarray,

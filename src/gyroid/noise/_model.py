@@ -103,10 +103,12 @@ class NoiseModel(eqx.Module):
     @property
     def remedies(self) -> tuple[str, ...]:
         """What a failed predictive check advises (codes of the checks' remedies): a
-        correlated model under white noise, more terms under one short process."""
+        correlated model under white noise, more terms under one short process; a burst
+        log's means where this model does not carry the wander between bursts itself (one
+        that does fits the samples whatever is asked)."""
         more = (("noise_model",) if not self.without_rate_error().correlated
                 else () if {"B", "K"} <= set(self.codes) else ("noise_terms",))
-        return (*more, "segment_means", "discrepancy")
+        return (*more, *(() if self.wanders else ("segment_means",)), "discrepancy")
 
     @property
     def rival(self) -> NoiseModel | None:
