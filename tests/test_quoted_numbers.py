@@ -863,7 +863,9 @@ def test_small_logs_under_the_default_noise():
             "`gyroid discrepancy` " + three([r["discrepancy"]["seconds"] for r in rows],
                                             "{:.1f}"),
             f"import floor, {floor:.2f} s in this run: {min(budget):.1f}-{max(budget):.1f} s",
-            f"the fit is {min(over):.1f}x it at every length",
+            (f"the fit is {min(over):.1f}x it at every length"
+             if f"{min(over):.1f}" == f"{max(over):.1f}" else
+             f"the fit is {min(over):.1f}-{max(over):.1f}x it"),
             three([f["seconds"] for f in fair], "{:.2f}") + " s, "
             + three([f / c["seconds"] for f, c in zip(fit, fair, strict=True)], "{:.1f}x")
             + " faster",
