@@ -30,7 +30,8 @@ from gyroid.cli.report import report_checks
 @click.option("--segment-means", is_flag=True,
               help="Burst-sampled logs: pool one row per contiguous segment (its mean), so "
                    "the bias's wander between bursts is each run's noise; the samples are "
-                   "still checked for spikes.")
+                   "still checked for spikes. A noise model that carries the wander itself "
+                   "(auto, white+flicker+rw) fits each run's samples.")
 @click.option("--noise", default="auto", show_default=True,
               type=click.Choice(["auto", "white", "white+flicker+rw", "white+gm"]),
               help="Each run's noise model, each run fitted on its own under it and its "
