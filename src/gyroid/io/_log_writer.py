@@ -67,7 +67,7 @@ def write_bench_log(
     atomically: ``.csv`` or ``.csv.gz`` (contract CSV with the comment and units lines; values
     by pyarrow's CSV writer, in batches) or ``.parquet`` (comments in the file's metadata).
     Memory stays bounded on 10^7-row logs."""
-    if not isinstance(path, str | Path):
+    if isinstance(path, BenchLog | Mapping):  # any os.PathLike stays a path
         raise GyroidInputError(f"write_bench_log(path, log): the path comes first, then the "
                                f"log; got a {type(path).__name__} for the path")
     if isinstance(columns, BenchLog):
