@@ -84,7 +84,7 @@ DOCUMENTED_CHECKS: dict[str, dict[str, str]] = {
     "pool": _BENCH_CHECKS | {name: f"pool-{name}" for name in (
         "run_consistency", "between_run_sd_identified")},
     "noise": {name: f"noise-{name}" for name in (
-        "outliers", "prefilter", "level_fit", "level_runs", "dispersion")} | {
+        "outliers", "prefilter", "level_fit", "level_runs", "dispersion", "allan_interval")} | {
         name: name for name in ("convergence", "point_vs_posterior", "prior_data_conflict")},
 }
 

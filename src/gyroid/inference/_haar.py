@@ -104,3 +104,23 @@ def haar_statistics(rate_deg_h: np.ndarray, tau0_s: float,
         count=np.asarray([levels[m][0] for m in kept]),
         sum_sq=np.asarray([levels[m][1] for m in kept]),
         tau0_s=float(tau0_s), n_samples=int(rate.size), segments=len(segments))
+
+
+def overlapping_haar(rate_deg_h: np.ndarray, segments: list[tuple[int, int]],
+                     m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The overlapping Haar coefficients at ``m`` samples per block (every pair of adjacent
+    blocks, at every sample, never across a gap): per level their sum of squares
+    ((deg/h)^2) and (levels, stretches) their count per stretch of ``segments``. The sum
+    over ``2`` times the count is the overlapping Allan variance."""
+    rate = np.asarray(rate_deg_h, dtype=float)
+    sums = np.zeros(len(m))
+    counts = np.zeros((len(m), len(segments)), dtype=int)
+    for j, (start, stop) in enumerate(segments):
+        angle = np.concatenate([[0.0], np.cumsum(rate[start:stop])])  # deg/h samples
+        for i, level in enumerate(int(x) for x in m):
+            if stop - start < 2 * level:
+                continue
+            e = (angle[2 * level:] - 2.0 * angle[level:-level] + angle[: -2 * level]) / level
+            sums[i] += float(e @ e)
+            counts[i, j] = e.size
+    return sums, counts

@@ -23,10 +23,12 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
+from typing import NamedTuple
 
 import numpy as np
 from scipy.stats import chi2
 
+from gyroid.inference._allan_interval import AllanInterval, MeasuredAllan, measure
 from gyroid.inference._check_report import Check, CheckReport
 from gyroid.inference._fit import fit
 from gyroid.inference._haar import HaarStatistics, haar_statistics
@@ -71,6 +73,8 @@ class NoiseFit(FitResult):
     spec: dict | None = None
     #: The shortest levels left out for a prefilter (the ``prefilter`` check), None if none.
     left_out: HaarStatistics | None = None
+    #: The overlapping Allan deviation with its interval under the model (``allan_interval``).
+    overlapping: AllanInterval | None = None
 
     @property
     def terms(self) -> tuple[str, ...]:
@@ -100,10 +104,7 @@ class NoiseFit(FitResult):
     def gm_tc_s(self) -> float:
         """G's correlation time, s: the median over the draws of sets with G (each sampled
         at its own best time), else the time that best fits every term together."""
-        with_g = self.mixture[:, TERM_NAMES.index("G")] > 0
-        if not with_g.any():
-            return self.stats.gm_tc_s
-        return float(np.median(self.mixture_tc_s[with_g]))
+        return median_gm_time(self.mixture, self.mixture_tc_s, self.stats.gm_tc_s)
 
     def term_lines(self) -> list[str]:
         """One line per term (:meth:`reported_terms` and F): its mean, 90 % interval, unit
@@ -203,6 +204,8 @@ class NoiseFit(FitResult):
                       "model_adev_deg_h": band[1].tolist(),
                       "model_adev_90_deg_h": [band[0].tolist(), band[2].tolist()],
                       "estimator": "non-overlapping Haar (block pairs never across a gap)",
+                      "overlapping": (None if self.overlapping is None
+                                      else self.overlapping.to_json()),
                       "left_out": None if self.left_out is None else {
                           "tau_s": self.left_out.tau_s.tolist(),
                           "adev_deg_h": np.sqrt(self.left_out.avar).tolist(),
@@ -235,7 +238,8 @@ def fit_noise(rate_deg_h: np.ndarray, sample_s: float, *,
     """Fit a static rate log's noise (deg/h every ``sample_s`` seconds; ``segments``: its
     contiguous stretches): every set of terms the log supports sampled and averaged by
     weight, the checks of each set that matters and of the averaged model's fit to every
-    averaging time."""
+    averaging time, and of what it states (each term's interval, or its bound) against the
+    log's overlapping Allan deviation."""
     cleaned, outliers = remove_outliers(rate_deg_h, segments, sample_s=sample_s)
     every_level = haar_statistics(cleaned, sample_s, segments)
     stats, prefiltered = drop_prefiltered(every_level)
@@ -250,6 +254,43 @@ def fit_noise(rate_deg_h: np.ndarray, sample_s: float, *,
         choice = choose_terms(fitted)  # every likelihood scaled alike: the same best times
         if dispersion > DISPERSION_MAX:  # refused: its best set alone is sampled, to show
             choice = replace(choice, weights={choice.best: 1.0})
+    measured = measure(cleaned, stats, segments or [(0, cleaned.size)])
+    average = _averaged(choice, stats, fitted, measured, seed=seed, sampler=sampler,
+                        label=label)
+    models, mixture, mixture_tc, avar, overlapping = average
+    checks = [*models[0][1].checks.checks]
+    for weight, model in models[1:]:
+        if weight >= CHECKED_WEIGHT:
+            checks += [replace(c, name=f"{c.name}[{'+'.join(model.terms)}]")
+                       for c in model.checks.failed]
+    checks.append(outliers.check(where))
+    checks.append(prefilter_check(prefiltered, sample_s))
+    checks.append(level_fit(stats, avar))
+    checks.append(level_runs(stats, avar))
+    checks.append(dispersion_check(dispersion, lack, dof))
+    checks.append(overlapping.check())
+    return NoiseFit(choice, stats, models, mixture, mixture_tc, CheckReport(tuple(checks)),
+                    label, dispersion, left_out=left_out, overlapping=overlapping)
+
+
+class _Average(NamedTuple):
+    """The sampled sets of terms (weight, fit), the model-averaged draws and their G times,
+    the median model's Allan variance per level and the overlapping interval against it."""
+
+    models: tuple[tuple[float, NoiseModelFit], ...]
+    mixture: np.ndarray
+    mixture_tc_s: np.ndarray
+    avar: np.ndarray
+    overlapping: AllanInterval
+
+
+def _averaged(choice: TermChoice, stats: HaarStatistics, fitted: HaarStatistics,
+              measured: MeasuredAllan, *, seed: int, sampler: AbstractSampler | None,
+              label: str) -> _Average:
+    """Each weighed set of ``choice`` sampled on ``fitted`` (``stats``, deflated for
+    overdispersion) and their draws mixed by weight; the overlapping Allan deviation
+    against the model's 90 % band, its top raised by each unresolved term at its upper
+    bound (``stats``' G time, the bound's)."""
     rng = np.random.default_rng(seed)
     models, blocks, times = [], [], []
     for k, (names, weight) in enumerate(choice.weights.items()):
@@ -264,19 +305,24 @@ def fit_noise(rate_deg_h: np.ndarray, sample_s: float, *,
         blocks.append(block)
         times.append(np.full(take.size, choice.gm_tc_s.get(names, stats.gm_tc_s)))
     mixture, mixture_tc = np.concatenate(blocks), np.concatenate(times)
-    avar = np.median(mixture_avar(stats, mixture, mixture_tc), axis=0)
-    checks = [*models[0][1].checks.checks]
-    for weight, model in models[1:]:
-        if weight >= CHECKED_WEIGHT:
-            checks += [replace(c, name=f"{c.name}[{'+'.join(model.terms)}]")
-                       for c in model.checks.failed]
-    checks.append(outliers.check(where))
-    checks.append(prefilter_check(prefiltered, sample_s))
-    checks.append(level_fit(stats, avar))
-    checks.append(level_runs(stats, avar))
-    checks.append(dispersion_check(dispersion, lack, dof))
-    return NoiseFit(choice, stats, tuple(models), mixture, mixture_tc,
-                    CheckReport(tuple(checks)), label, dispersion, left_out=left_out)
+    levels = mixture_avar(stats, mixture, mixture_tc)
+    avar = np.median(levels, axis=0)
+    bounded = sum((bound**2 * shapes(stats, (name,))[:, 0]
+                   for name, bound in choice.upper_bound_95.items() if np.isfinite(bound)),
+                  np.zeros(stats.m.size))
+    band = np.stack([np.quantile(levels, 0.05, axis=0), avar,
+                     np.quantile(levels, 0.95, axis=0) + bounded])
+    amplitudes = {name: float(np.median(mixture[:, k])) for k, name in enumerate(TERM_NAMES)}
+    tc_s = median_gm_time(mixture, mixture_tc, stats.gm_tc_s)
+    return _Average(tuple(models), mixture, mixture_tc, avar,
+                    measured.against(amplitudes, tc_s, band, stats))
+
+
+def median_gm_time(mixture: np.ndarray, tc_s: np.ndarray, otherwise: float) -> float:
+    """G's correlation time (s): the median over the model-averaged draws of sets with G
+    (``tc_s`` each draw's), else ``otherwise``."""
+    with_g = mixture[:, TERM_NAMES.index("G")] > 0
+    return float(np.median(tc_s[with_g])) if with_g.any() else otherwise
 
 
 def mixture_avar(stats: HaarStatistics, mixture: np.ndarray, tc_s: np.ndarray) -> np.ndarray:

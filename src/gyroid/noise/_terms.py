@@ -32,7 +32,11 @@ from gyroid.noise._allan_terms import (
     Prefilter,
     Quantisation,
     RateRamp,
+    finite_reach,
+    flicker_haar_covariance,
     gauss_markov_avar,
+    gauss_markov_haar_covariance,
+    second_differenced,
 )
 from gyroid.noise._block_filter import Processes, flicker_times
 from gyroid.noise._rate_error_process import RateErrorProcess
@@ -170,6 +174,10 @@ class AngleRandomWalk(AbstractWhiteTerm, AbstractAllanTerm):
 
     def allan_variance(self, tau_s, tau0_s, tc_s):
         return 3600.0 / tau_s
+
+    def haar_covariance(self, lag_s, tau_s, tc_s):
+        return finite_reach(second_differenced(lambda u: -1800.0 * u, lag_s, tau_s),
+                            lag_s, tau_s)
     units: ClassVar[dict[str, str]] = {"N_deg_sqrt_h": "deg/sqrt(h)"}
 
     def default_priors(self, level_deg_h, step_s, rows_per_mean):
@@ -220,6 +228,9 @@ class Flicker(AbstractNoiseTerm, AbstractAllanTerm):
 
     def allan_variance(self, tau_s, tau0_s, tc_s):
         return np.full_like(tau_s, 2.0 * math.log(2.0) / math.pi)
+
+    def haar_covariance(self, lag_s, tau_s, tc_s):
+        return flicker_haar_covariance(lag_s, tau_s)
     units: ClassVar[dict[str, str]] = {"B_deg_h": "deg/h"}
     over_spans: ClassVar[bool] = True
     wanders: ClassVar[bool] = True
@@ -259,6 +270,10 @@ class RateRandomWalk(AbstractNoiseTerm, AbstractAllanTerm):
 
     def allan_variance(self, tau_s, tau0_s, tc_s):
         return (tau_s / 3.0 + tau0_s**2 / (6.0 * tau_s)) / 3600.0
+
+    def haar_covariance(self, lag_s, tau_s, tc_s):
+        return finite_reach(second_differenced(lambda u: u**3 / (12.0 * 3600.0), lag_s,
+                                               tau_s), lag_s, tau_s)
     units: ClassVar[dict[str, str]] = {"K_deg_h_sqrt_h": "deg/h/sqrt(h)"}
     over_spans: ClassVar[bool] = True
     wanders: ClassVar[bool] = True
@@ -292,6 +307,9 @@ class GaussMarkovBias(AbstractNoiseTerm, AbstractAllanTerm):
 
     def allan_variance(self, tau_s, tau0_s, tc_s):
         return gauss_markov_avar(tau_s, tau0_s, tc_s)
+
+    def haar_covariance(self, lag_s, tau_s, tc_s):
+        return gauss_markov_haar_covariance(lag_s, tau_s, tc_s)
 
     def default_priors(self, level_deg_h, step_s, rows_per_mean):
         return {"sigma_gm_deg_h": LogNormal(level_deg_h / 3.0, 3.0),

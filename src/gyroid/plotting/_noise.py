@@ -14,8 +14,11 @@ _TERM_STYLES = {"Q": (0, (1, 1)), "N": ":", "B": "--", "K": "-.", "R": (0, (5, 1
 def noise_allan_figure(result) -> Figure:
     """Log-log Allan deviation of a :class:`~gyroid.inference.NoiseFit`: the log's (per
     averaging time, with its chi-square 68 % interval; the shortest ones a prefilter shapes,
-    left out of the fit, in grey), the model-averaged fit's median and 90 % band, and each
-    resolved term at its median amplitude."""
+    left out of the fit, in grey), its overlapping Allan deviation with the 99 % interval
+    the ``allan_interval`` check reads (filled where the model's band misses it; the band's
+    top with each unresolved term at its bound marked where that raises it), the
+    model-averaged fit's median and 90 % band, and each resolved term at its median
+    amplitude."""
     from scipy import stats as st
 
     data = result.stats
@@ -34,6 +37,22 @@ def noise_allan_figure(result) -> Figure:
         ax.errorbar(tau, adev, yerr=[adev - lower, upper - adev], fmt="o", ms=3.5,
                     mfc="white", mec="0.0", ecolor="0.3", elinewidth=0.8, capsize=2,
                     label="log (Haar, 68 % interval)")
+        overlapping = result.overlapping
+        if overlapping is not None and overlapping.tau_s.size:
+            x, y = overlapping.tau_s * 1.08, overlapping.adev_deg_h  # beside the Haar points
+            ax.errorbar(x, y, yerr=[y - overlapping.lower_deg_h, overlapping.upper_deg_h - y],
+                        fmt="D", ms=3.0, mfc="0.5", mec="0.0", ecolor="0.0", elinewidth=1.4,
+                        capsize=0, label="log (overlapping, 99 % interval)")
+            raised = overlapping.model_high_deg_h > 1.05 * np.interp(
+                overlapping.tau_s, grid, high)
+            if raised.any():  # the band's top with each unresolved term at its bound
+                ax.loglog(overlapping.tau_s[raised], overlapping.model_high_deg_h[raised],
+                          "_", ms=9, mew=1.2, color="0.3",
+                          label="model's top, unresolved terms at their bounds")
+            missed = overlapping.outside
+            if missed.any():
+                ax.loglog(x[missed], y[missed], "D", ms=5.0, color="0.0",
+                          label="model misses (allan_interval)")
         if result.left_out is not None:  # shaped by a prefilter: shown, not fitted
             shaped = np.sqrt(result.left_out.avar)
             ax.loglog(result.left_out.tau_s, shaped, "s", ms=3.5, color="0.55",
