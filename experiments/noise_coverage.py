@@ -169,6 +169,7 @@ def one(grade: Grade, seed: int) -> dict:
         gyroid_answer[name] = {"resolved": entry["resolved"], "inside": inside,
                                "median": float(np.median(fit.draws(name))),
                                "bound": entry.get("upper_bound_95")}
+    interval = fit.overlapping
     slope = slope_method(rate, grade.sample_s)
     package = allan_variance_package(rate, grade.sample_s)
     return {"grade": grade.name, "seed": seed, "rows": rate.size, "truth": truth,
@@ -186,7 +187,59 @@ def one(grade: Grade, seed: int) -> dict:
             "terms_resolved": list(fit.terms),
             "slope": {k: slope[k] for k in truth if k in slope},
             "allan_variance": {k: package[k] for k in truth if k in package},
+            "allan_interval": {
+                "passed": bool(interval.check().passed),
+                "missed_s": interval.tau_s[interval.outside].tolist(),
+                # the truth's own Allan deviation against the same intervals (None on a
+                # filtered log, whose truth has no closed form)
+                "truth_missed": (None if grade.cutoff_hz is not None else
+                                 truth_misses(rate, grade, truth, gm_tau_s, interval))},
             "fit_seconds": round(seconds, 2)}
+
+
+def truth_avar(tau_s: np.ndarray, grade: Grade, truth: dict[str, float],
+               gm_tau_s: float | None) -> np.ndarray:
+    """The truth's Allan variance ((deg/h)^2) by each term's IEEE Std 952 form (G's for a
+    first-order process sampled every ``sample_s``), written here."""
+    avar = (60.0 * truth["N"]) ** 2 / tau_s
+    if "B" in truth:
+        avar = avar + 2.0 * math.log(2.0) / math.pi * truth["B"] ** 2
+    if "K" in truth:
+        avar = avar + (truth["K"] / 60.0) ** 2 * tau_s / 3.0
+    if "Q" in truth:
+        avar = avar + 3.0 * (3600.0 * truth["Q"]) ** 2 / tau_s**2
+    if "G" in truth and gm_tau_s is not None:
+        x = tau_s / gm_tau_s
+        avar = avar + truth["G"] ** 2 / x**2 * (2.0 * x - 3.0 + 4.0 * np.exp(-x)
+                                                 - np.exp(-2.0 * x))
+    return avar
+
+
+def truth_misses(rate: np.ndarray, grade: Grade, truth: dict[str, float],
+                 gm_tau_s: float | None, interval) -> dict[str, int]:
+    """At how many of the levels ``allan_interval`` reads the truth's Allan deviation lies
+    outside the overlapping one's 95 % and 99 % chi-square intervals, their degrees of
+    freedom under the truth's own terms: what a right model can be asked."""
+    from scipy.stats import chi2
+
+    from gyroid.inference._allan_interval import overlapping_edf
+
+    amplitudes = {k: v for k, v in truth.items() if k != "G"} | (
+        {"G": truth["G"]} if "G" in truth else {})
+    tc = gm_tau_s if gm_tau_s is not None else float("nan")
+    model = np.sqrt(truth_avar(interval.tau_s, grade, truth, gm_tau_s))
+    out = {}
+    for confidence in (0.95, 0.99):
+        missed = 0
+        for tau, adev, m_model in zip(interval.tau_s, interval.adev_deg_h, model, strict=True):
+            m = int(round(tau / grade.sample_s))
+            edf = overlapping_edf(m, [rate.size - 2 * m + 1], grade.sample_s, amplitudes, tc)
+            tail = (1.0 - confidence) / 2.0
+            low = adev * math.sqrt(edf / chi2.ppf(1.0 - tail, edf))
+            high = adev * math.sqrt(edf / chi2.ppf(tail, edf))
+            missed += not low <= m_model <= high
+        out[str(confidence)] = missed
+    return out
 
 
 def _relative_error(runs: list[dict], method: str, name: str) -> dict[str, float] | None:
@@ -230,6 +283,11 @@ def summarise(runs: list[dict]) -> dict:
             "false_detections_excluding_zero": {
                 t: sum(t in r.get("false_detections_excluding_zero", ()) for r in mine)
                 for t in FALSE_CANDIDATES if t not in grade.nominal},
+            "allan_interval": {
+                "refused": sum(not r["allan_interval"]["passed"] for r in mine),
+                "truth_outside_at_two_or_more": None if grade.cutoff_hz is not None else {
+                    c: sum(r["allan_interval"]["truth_missed"][c] >= 2 for r in mine)
+                    for c in ("0.95", "0.99")}},
             "fit_seconds_median": round(float(np.median([r["fit_seconds"] for r in mine])), 2)}
     return out
 

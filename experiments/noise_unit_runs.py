@@ -4,7 +4,8 @@
 contaminated by outliers (which had exited 0 with B = 44.6 deg/h where its own Allan
 deviation at 328-1000 s is 5.5-8.8 deg/h).
 
-Per ADIS run and axis: gyroid's fit (trusted or not, why, N and B); per axis, the unit over
+Per ADIS run and axis: gyroid's fit (trusted or not, why, N and B, where it misses the
+overlapping Allan deviation's interval); per axis, the unit over
 the runs (:func:`gyroid.inference.fit_unit_noise`): its N and B, the interval a new run
 should land in and how many runs it holds; and held out: each run left out in turn, the
 unit pooled over the other five, whether the left-out run's N and B lie in the interval
@@ -38,7 +39,26 @@ def run_row(name: str, axis: str, fit) -> dict:
     return {"run": name, "axis": axis, "trustworthy": fit.trustworthy,
             "failed": [c.name for c in fit.checks.failed],
             "N": terms["N"], "B": terms["B"], "prefilter": fit.prefilter()["resolved"],
-            "gauss_markov": fit.gauss_markov()["resolved"]}
+            "gauss_markov": fit.gauss_markov()["resolved"],
+            # what it states against the overlapping Allan deviation's 99 % interval
+            # (the median model alone against its 95 % interval too: issue 63's bar)
+            "allan_interval": allan_bar(fit)}
+
+
+def allan_bar(fit) -> dict:
+    """Averaging times where the fit misses the overlapping Allan deviation's interval: the
+    ``allan_interval`` check's (its 90 % band, unresolved terms up to their bounds, against
+    the 99 % interval), and the median model alone against the 95 % interval (the same
+    degrees of freedom)."""
+    from scipy.stats import chi2
+
+    ov = fit.overlapping
+    low = ov.adev_deg_h * np.sqrt(ov.edf / chi2.ppf(0.975, ov.edf))
+    high = ov.adev_deg_h * np.sqrt(ov.edf / chi2.ppf(0.025, ov.edf))
+    median_out = (ov.model_adev_deg_h < low) | (ov.model_adev_deg_h > high)
+    return {"tau_s": [float(ov.tau_s[0]), float(ov.tau_s[-1])],
+            "missed_s": ov.tau_s[ov.outside].tolist(),
+            "median_outside_95_s": ov.tau_s[median_out].tolist()}
 
 
 def mtig(rate: np.ndarray, seed: int) -> dict:
