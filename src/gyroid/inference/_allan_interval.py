@@ -15,11 +15,11 @@ alone it is Greenhall's, ``allantools.edf_greenhall``, within 0.5 % from 64 samp
 block; the tests check it, and a bias's against simulation). Each level's interval is the
 two-sided :data:`CONFIDENCE` chi-square interval; at all but one of them it must meet what
 the fit states: the model-averaged Allan deviation's 90 % band, its top raised by each term
-the fit does not resolve at its upper bound (a log whose flicker floor the fit leaves
-unresolved, with a bound, has a model without it, and that model alone missed the 99 %
-interval at two levels on 4 of 50 FOG logs simulated with flicker, in a one-off run of
-``experiments/noise_coverage.py`` before the bounds were counted; the bound holds the truth
-on each).
+the fit does not resolve at its upper bound (an unresolved prefilter deficit F lowers its
+foot instead). A log whose flicker floor the fit leaves unresolved, with a bound, has a
+model without it, and that model alone missed the 99 % interval at two levels on 4 of 50
+FOG logs simulated with flicker, in a one-off run of ``experiments/noise_coverage.py``
+before the bounds were counted; the bound holds the truth on each.
 
 Why 99 % and one level spared: the overlapping deviations of adjacent averaging times are
 correlated, and the last few carry few degrees of freedom. On logs simulated outside
@@ -65,7 +65,7 @@ class AllanInterval:
     upper_deg_h: np.ndarray
     model_adev_deg_h: np.ndarray
     #: The model's 90 % band there (5th and 95th percentiles over the draws; the top with
-    #: each unresolved term at its upper bound).
+    #: each unresolved term at its upper bound, the foot with an unresolved F at its).
     model_low_deg_h: np.ndarray
     model_high_deg_h: np.ndarray
 
