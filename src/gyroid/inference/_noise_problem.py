@@ -117,34 +117,38 @@ class NoiseProblem(AbstractProblem):
         return tuple(Normal(float(a), float(b)) for a, b in
                      zip(self.density.prior_loc, self.density.prior_scale, strict=True))
 
+    def _gaussian_terms(self, u: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The prior's and the readings' log-density at log-amplitudes ``u`` (rows; the
+        density's ``log_prior + log_reading`` on the host) and its gradient: the one place
+        the host writes them, for the importance sampler and the mode."""
+        density = self.density
+        loc, scale = np.asarray(density.prior_loc), np.asarray(density.prior_scale)
+        read, read_sd = np.asarray(density.reading_loc), np.asarray(density.reading_scale)
+        value = (np.sum(-0.5 * ((u - loc) / scale) ** 2 - np.log(scale), axis=-1)
+                 - 0.5 * u.shape[-1] * math.log(2.0 * math.pi)
+                 - 0.5 * np.sum(((u - read) / read_sd) ** 2, axis=-1))
+        return value, -(u - loc) / scale**2 - (u - read) / read_sd**2
+
     def host_log_posterior(self) -> Callable[[np.ndarray], np.ndarray]:
         g = shapes(self.stats, self.terms)
-        loc, scale = np.asarray(self.density.prior_loc), np.asarray(self.density.prior_scale)
-        read, read_sd = (np.asarray(self.density.reading_loc),
-                         np.asarray(self.density.reading_scale))
 
         def log_posterior(u: np.ndarray) -> np.ndarray:
             u = np.atleast_2d(u)
             with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
                 ll = level_log_likelihood(2.0 * (np.exp(2.0 * u) @ g.T), self.stats
                                           ).sum(axis=-1)
-            prior = np.sum(-0.5 * ((u - loc) / scale) ** 2 - np.log(scale), axis=-1)
-            out = ll + prior - 0.5 * np.sum(((u - read) / read_sd) ** 2, axis=-1)
+            out = ll + self._gaussian_terms(u)[0]
             return np.where(np.isfinite(out), out, -np.inf)
 
         return log_posterior
 
     def mode(self) -> PointEstimate:
         g = shapes(self.stats, self.terms)
-        loc, scale = np.asarray(self.density.prior_loc), np.asarray(self.density.prior_scale)
-        read, read_sd = (np.asarray(self.density.reading_loc),
-                         np.asarray(self.density.reading_scale))
 
         def target(u: np.ndarray) -> tuple[float, np.ndarray]:
             ll, grad = _log_likelihood_and_gradient(u, g, 0.0, self.stats)
-            return (ll - 0.5 * float(np.sum(((u - loc) / scale) ** 2))
-                    - 0.5 * float(np.sum(((u - read) / read_sd) ** 2)),
-                    grad - (u - loc) / scale**2 - (u - read) / read_sd**2)
+            value, gradient = self._gaussian_terms(u)
+            return ll + float(value), grad + gradient
 
         extra = [np.asarray(self.start)] if self.start else []
         best = _SEARCH.maximise(target, [*extra, *_starts(self.stats, self.terms)],
