@@ -130,6 +130,13 @@ def test_spikes_that_decide_the_answer_are_an_error_naming_their_rows():
     one[100] = 6.0
     check = outliers(one)
     assert not check.passed and check.severity == "warning" and "row 101" in check.message
+    assert "remove spikes" in check.message and check.remedies == ()
+    # a bias step: the largest excursion and its neighbour, two isolated ones elsewhere
+    step = z.copy()
+    step[[4000, 4001, 900, 2500]] = [11.0, 6.0, 5.5, -5.2]
+    check = outliers(step)
+    assert "the largest comes with its neighbour (row 4001)" in check.message
+    assert "remove spikes" not in check.message and check.remedies == ("discrepancy",)
 
 
 def test_goodness_of_fit_against_a_stated_sigma():

@@ -182,11 +182,16 @@ def outliers_among(n: int, rows: np.ndarray, z: np.ndarray, z_sum_sq: float, *,
         consequence = (f"together they move a bias-like coefficient by {shift:.2f} sd of its "
                        "estimate")
     # Isolated excursions are spikes; neighbours beyond z_max are a stretch the model
-    # misses (or correlated noise), which removing rows would hide rather than mend.
+    # misses (or correlated noise), which removing rows would hide rather than mend. A
+    # bias step shows as the largest excursion with its neighbour beside it, the rest
+    # elsewhere (a held-out thermal cycle's: rows at +11 and +6 sd, two more apart).
     in_runs = np.isin(rows - 1, rows) | np.isin(rows + 1, rows)
-    structure = in_runs.mean() > 0.5
+    structure = bool(in_runs.mean() > 0.5 or in_runs[worst[0]])
+    first = f"{where(int(rows[worst[0]])) if where else f'row {int(rows[worst[0]]) + 1}'}"
     advice = ("most come in runs of neighbouring rows: structure the model or the noise model "
-              "misses, not spikes; look for the missing effect" if structure else
+              "misses, not spikes; look for the missing effect" if in_runs.mean() > 0.5 else
+              f"the largest comes with its neighbour ({first}): a step or a stretch the "
+              "model misses, not a spike; look for the missing effect" if structure else
               "remove spikes from the log, or find their cause")
     return Check(name, False, severity, shift, OUTLIER_SHIFT_SD,
                  f"{rows.size} sample(s) lie beyond {z_max:.1f} sd of the model ({named}{more}); "
