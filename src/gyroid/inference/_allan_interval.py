@@ -44,7 +44,7 @@ from gyroid.inference._noise_terms import term
 
 #: Two-sided confidence of each level's interval.
 CONFIDENCE = 0.99
-#: Levels tested: from this averaging time (s; or the shortest fitted) ...
+#: Levels tested: the fitted ones from this averaging time (s) ...
 SHORTEST_S = 1.0
 #: ... to this fraction of the log's longest contiguous stretch.
 LONGEST_FRACTION = 0.1
@@ -81,8 +81,12 @@ class AllanInterval:
         where = ", ".join(f"{t:.3g} s ({m / a:.3g}x)" for t, m, a in zip(
             self.tau_s[self.outside], self.model_adev_deg_h[self.outside],
             self.adev_deg_h[self.outside], strict=True))
+        if not self.tau_s.size:
+            return Check("allan_interval", True, "error", 0, 1,
+                         f"no fitted averaging time lies from {SHORTEST_S:g} s to a tenth of "
+                         "the log: the overlapping Allan deviation is not tested")
         span = (f"{self.tau_s.size} averaging times from {self.tau_s[0]:.3g} to "
-                f"{self.tau_s[-1]:.3g} s" if self.tau_s.size else "no averaging times")
+                f"{self.tau_s[-1]:.3g} s")
         if missed <= 1:
             return Check("allan_interval", True, "error", missed, 1,
                          f"the model's Allan deviation meets the overlapping one's "
