@@ -118,9 +118,18 @@ def overlapping_haar(rate_deg_h: np.ndarray, segments: list[tuple[int, int]],
     for j, (start, stop) in enumerate(segments):
         angle = np.concatenate([[0.0], np.cumsum(rate[start:stop])])  # deg/h samples
         for i, level in enumerate(int(x) for x in m):
-            if stop - start < 2 * level:
+            size = stop - start - 2 * level + 1
+            if size < 1:
                 continue
-            e = (angle[2 * level:] - 2.0 * angle[level:-level] + angle[: -2 * level]) / level
-            sums[i] += float(e @ e)
-            counts[i, j] = e.size
+            # in chunks: a 10^8-sample log's temporaries stay a few MB, not GB
+            for a in range(0, size, OVERLAPPING_CHUNK):
+                b = min(a + OVERLAPPING_CHUNK, size)
+                e = (angle[a + 2 * level:b + 2 * level] - 2.0 * angle[a + level:b + level]
+                     + angle[a:b]) / level
+                sums[i] += float(e @ e)
+            counts[i, j] = size
     return sums, counts
+
+
+#: Overlapping Haar coefficients computed at a time.
+OVERLAPPING_CHUNK = 1 << 20
