@@ -117,6 +117,7 @@ def _check(fit, name):
     return check
 
 
+@pytest.mark.slow
 def test_a_log_the_terms_describe_passes_and_a_cycling_one_is_refused():
     """White noise and flicker: the check passes. The same log with a 40 s temperature
     cycle's square wave on it (a bump and a dip no sum of the terms makes): refused, with
