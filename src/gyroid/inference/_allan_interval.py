@@ -14,8 +14,8 @@ and ``edf = 2 E[s]^2 / var s`` sums it over the lags (for white noise, flicker a
 alone it is Greenhall's, ``allantools.edf_greenhall``, within 0.5 % from 64 samples per
 block; the tests check it, and a bias's against simulation). Each level's interval is the
 two-sided :data:`CONFIDENCE` chi-square interval; at all but one of them it must meet what
-the fit states: the model-averaged Allan deviation's 90 % band, its top raised by each term
-the fit does not resolve at its upper bound (an unresolved prefilter deficit F lowers its
+the fit states: the model-averaged Allan deviation's 90 % band, its top raised by any one
+term the fit does not resolve at its upper bound (an unresolved prefilter deficit F lowers its
 foot instead). A log whose flicker floor the fit leaves unresolved, with a bound, has a
 model without it, and that model alone missed the 99 % interval at two levels on 4 of 50
 FOG logs simulated with flicker, in a one-off run of ``experiments/noise_coverage.py``
@@ -65,7 +65,7 @@ class AllanInterval:
     upper_deg_h: np.ndarray
     model_adev_deg_h: np.ndarray
     #: The model's 90 % band there (5th and 95th percentiles over the draws; the top with
-    #: each unresolved term at its upper bound, the foot with an unresolved F at its).
+    #: any one unresolved term at its upper bound, the foot an unresolved F at its).
     model_low_deg_h: np.ndarray
     model_high_deg_h: np.ndarray
 
@@ -93,8 +93,8 @@ class AllanInterval:
                          f"{CONFIDENCE:.0%} interval at {span}"
                          + (f" but {where}" if missed else ""))
         return Check("allan_interval", False, "error", missed, 1,
-                     f"the model's Allan deviation (its 90 % band, unresolved terms up to "
-                     f"their bounds) misses the overlapping "
+                     f"the model's Allan deviation (its 90 % band, any unresolved term up to "
+                     f"its bound) misses the overlapping "
                      f"one's {CONFIDENCE:.0%} interval at {missed} of {span}: {where} (the "
                      "median model over the measured): something no set of the terms "
                      "describes shapes the log there (a bump from vibration or temperature "

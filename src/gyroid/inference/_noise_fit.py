@@ -289,7 +289,7 @@ def _averaged(choice: TermChoice, stats: HaarStatistics, fitted: HaarStatistics,
               label: str) -> _Average:
     """Each weighed set of ``choice`` sampled on ``fitted`` (``stats``, deflated for
     overdispersion) and their draws mixed by weight; the overlapping Allan deviation
-    against the model's 90 % band, its top raised by each unresolved term at its upper
+    against the model's 90 % band, its top raised by any one unresolved term at its upper
     bound (``stats``' G time, the bound's; an unresolved F lowers its foot)."""
     rng = np.random.default_rng(seed)
     models, blocks, times = [], [], []
@@ -310,10 +310,13 @@ def _averaged(choice: TermChoice, stats: HaarStatistics, fitted: HaarStatistics,
     bounded = np.array([bound**2 * shapes(stats, (name,))[:, 0]
                         for name, bound in choice.upper_bound_95.items()
                         if np.isfinite(bound)]).reshape(-1, stats.m.size)
-    # each unresolved term up to its bound raises the band's top (F, a deficit, its foot)
+    # any one unresolved term up to its bound raises the band's top (F, a deficit, its
+    # foot): each bound is its own statement, not all of them at once
     band = np.stack([np.maximum(np.quantile(levels, 0.05, axis=0)
-                                + np.minimum(bounded, 0.0).sum(axis=0), 0.0), avar,
-                     np.quantile(levels, 0.95, axis=0) + np.maximum(bounded, 0.0).sum(axis=0)])
+                                + np.minimum(bounded, 0.0).min(axis=0, initial=0.0), 0.0),
+                     avar,
+                     np.quantile(levels, 0.95, axis=0)
+                     + np.maximum(bounded, 0.0).max(axis=0, initial=0.0)])
     amplitudes = {name: float(np.median(mixture[:, k])) for k, name in enumerate(TERM_NAMES)}
     tc_s = median_gm_time(mixture, mixture_tc, stats.gm_tc_s)
     return _Average(tuple(models), mixture, mixture_tc, avar,

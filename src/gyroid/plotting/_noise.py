@@ -16,7 +16,7 @@ def noise_allan_figure(result) -> Figure:
     averaging time, with its chi-square 68 % interval; the shortest ones a prefilter shapes,
     left out of the fit, in grey), its overlapping Allan deviation with the 99 % interval
     the ``allan_interval`` check reads (filled where the model's band misses it; the band's
-    top with each unresolved term at its bound marked where that raises it), the
+    top with any one unresolved term at its bound marked where that raises it), the
     model-averaged fit's median and 90 % band, and each resolved term at its median
     amplitude."""
     from scipy import stats as st
@@ -45,10 +45,10 @@ def noise_allan_figure(result) -> Figure:
                         capsize=0, label="log (overlapping, 99 % interval)")
             raised = overlapping.model_high_deg_h > 1.05 * np.interp(
                 overlapping.tau_s, grid, high)
-            if raised.any():  # the band's top with each unresolved term at its bound
+            if raised.any():  # the band's top, any one unresolved term at its bound
                 ax.loglog(overlapping.tau_s[raised], overlapping.model_high_deg_h[raised],
                           "_", ms=9, mew=1.2, color="0.3",
-                          label="model's top, unresolved terms at their bounds")
+                          label="model's top, any unresolved term at its bound")
             missed = overlapping.outside
             if missed.any():
                 ax.loglog(x[missed], y[missed], "D", ms=5.0, color="0.0",
