@@ -12,8 +12,11 @@ terms (white: angle random walk N; flicker: bias instability B, ``flicker_noise`
 random walk K; for the MEMS grade also angle quantisation Q), so the intervals are checked
 over a range of truths, not one point. Per term, gyroid's answer is its 90 % interval when
 it resolves the term, else its one-sided 95 % upper bound; coverage of each is counted
-against the binomial band. Where gyroid resolves a term, its posterior median's error is
-compared with
+against the binomial band. Per log also the ``allan_interval`` check (what the fit states
+against the overlapping Allan deviation's 99 % interval) and, where the truth has a closed
+form (every grade but the filtered phone's), at how many of the same averaging times the
+truth's own Allan deviation lies outside the 95 % and 99 % intervals: what a right model
+can be asked. Where gyroid resolves a term, its posterior median's error is compared with
 
 * ``slope``: the IEEE Std 952 reading of an Allan plot as MathWorks documents it
   (allantools' overlapping Allan deviation at octave averaging times; the line of slope
