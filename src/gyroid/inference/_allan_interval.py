@@ -228,4 +228,4 @@ def measure(rate_deg_h: np.ndarray, stats: HaarStatistics,
     longest = max(stop - start for start, stop in segments)
     m = tested_levels(stats, longest)
     sums, counts = overlapping_haar(rate_deg_h, segments, m)
-    return MeasuredAllan(m, sums, counts, stats.tau0_s)
+    return MeasuredAllan(m, sums.sum(axis=1), counts, stats.tau0_s)

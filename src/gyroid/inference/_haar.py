@@ -109,11 +109,11 @@ def haar_statistics(rate_deg_h: np.ndarray, tau0_s: float,
 def overlapping_haar(rate_deg_h: np.ndarray, segments: list[tuple[int, int]],
                      m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The overlapping Haar coefficients at ``m`` samples per block (every pair of adjacent
-    blocks, at every sample, never across a gap): per level their sum of squares
-    ((deg/h)^2) and (levels, stretches) their count per stretch of ``segments``. The sum
-    over ``2`` times the count is the overlapping Allan variance."""
+    blocks, at every sample, never across a gap): (levels, stretches) their sum of squares
+    ((deg/h)^2) and their count per stretch of ``segments``. The sum over ``2`` times the
+    count is the overlapping Allan variance."""
     rate = np.asarray(rate_deg_h, dtype=float)
-    sums = np.zeros(len(m))
+    sums = np.zeros((len(m), len(segments)))
     counts = np.zeros((len(m), len(segments)), dtype=int)
     for j, (start, stop) in enumerate(segments):
         angle = np.concatenate([[0.0], np.cumsum(rate[start:stop])])  # deg/h samples
@@ -126,7 +126,7 @@ def overlapping_haar(rate_deg_h: np.ndarray, segments: list[tuple[int, int]],
                 b = min(a + OVERLAPPING_CHUNK, size)
                 e = (angle[a + 2 * level:b + 2 * level] - 2.0 * angle[a + level:b + level]
                      + angle[a:b]) / level
-                sums[i] += float(e @ e)
+                sums[i, j] += float(e @ e)
             counts[i, j] = size
     return sums, counts
 

@@ -26,6 +26,7 @@ import allantools
 import numpy as np
 
 from gyroid.errors import GyroidInputError
+from gyroid.inference._haar import overlapping_haar
 from gyroid.io._logs import contiguous_segments
 
 #: How sure a bias-instability floor must be to stand above the white line (the several
@@ -156,22 +157,17 @@ def _tau_grid(m_max: int, points_per_decade: int) -> np.ndarray:
 def _pooled(rate, sample_s, segments, points_per_decade) -> AllanDeviation:
     lengths = np.array([b - a for a, b in segments])
     m_grid = _tau_grid(int(lengths.max()) // 4, points_per_decade)
-    phases = [np.concatenate([[0.0], np.cumsum(rate[a:b])]) * sample_s for a, b in segments]
+    sums, counts = overlapping_haar(rate, segments, m_grid)
     rows: list[tuple[float, float, float, float, int, float]] = []
-    for m in m_grid:
-        total, count, edf = 0.0, 0, 0.0
-        for x in phases:
-            if x.size < 2 * m + 2:
-                continue
-            d = x[2 * m:] - 2.0 * x[m:-m] + x[: -2 * m]
-            total += float(np.sum(d**2))
-            count += d.size
-            edf += allantools.edf_greenhall(alpha=0, d=2, m=int(m), N=x.size - 1,
-                                            overlapping=True)
+    for m, level_sums, level_counts in zip(m_grid, sums, counts, strict=True):
+        used = level_counts >= 2  # a stretch of two blocks and a sample more
+        count = int(level_counts[used].sum())
         if count == 0:
             continue
+        edf = sum(allantools.edf_greenhall(alpha=0, d=2, m=int(m), N=int(n), overlapping=True)
+                  for n in lengths[used])
         tau = m * sample_s
-        dev = float(np.sqrt(total / (2.0 * tau**2 * count)))
+        dev = float(np.sqrt(level_sums[used].sum() / (2.0 * count)))
         lo, hi = allantools.confidence_interval(dev, edf)
         rows.append((tau, dev, lo, hi, count, edf))
     taus, adev, lower, upper, clusters, edfs = (np.asarray(column) for column in
