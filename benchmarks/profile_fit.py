@@ -35,10 +35,10 @@ STAGES = {
     ("_rate_window_marginal.py", "marginal_window"): "rate_window_marginal_search",
     ("_rate_window.py", "choose_rate_window"): "rate_window_least_squares",
     ("_rate_error_process.py", "matched"): "thermometer_rate_error_match",
-    ("_marginal_mode.py", "collapsed_mode"): "final_mode",
+    ("_point.py", "point_estimate"): "final_mode",
     ("_importance.py", "sample"): "importance_sampling",
     ("_allowed_noise.py", "allowed_noise"): "noise_priors_check",
-    ("_bench_result.py", "bench_checks"): "other_checks",
+    ("_bench_checks.py", "bench_checks"): "other_checks",
 }
 #: The calls whose own time is compiled work or waiting for it (on the main thread: a batch
 #: of evaluations runs on worker threads, which the main thread waits for on a lock).

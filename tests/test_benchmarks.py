@@ -47,3 +47,21 @@ def test_the_bare_script_baseline_fits_the_same_coefficients(tmp_path):
         summary = ours.posterior.summary[name]
         # Different dT/dt estimators: agreement within 3 posterior sd is the claim.
         assert abs(bare[name] - summary["mean"]) < 3 * summary["sd"], name
+
+
+
+def test_the_profiles_stages_name_functions_the_library_defines(monkeypatch):
+    """benchmarks/profile_fit.py sums cProfile's cumulative time per stage by file and
+    function name: a renamed or moved function would read 0 s, silently (two stages did)."""
+    import ast
+
+    monkeypatch.syspath_prepend(str(ROOT / "benchmarks"))  # it imports its neighbours
+    spec = importlib.util.spec_from_file_location("profile_fit",
+                                                  ROOT / "benchmarks" / "profile_fit.py")
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    for (file, function), stage in module.STAGES.items():
+        [path] = (ROOT / "src" / "gyroid").rglob(file)
+        defined = {node.name for node in ast.walk(ast.parse(path.read_text()))
+                   if isinstance(node, ast.FunctionDef)}
+        assert function in defined, f"{stage}: {file} defines no {function}"
