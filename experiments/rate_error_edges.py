@@ -1,0 +1,194 @@
+"""Experiment (issues 60 and 63): how well the filter's process carries the thermometer's
+noise through dT/dt, against the exact covariance of that error, on the same rows.
+
+Under correlated noise (the default, IEEE 952's) a fit carries the thermometer's noise as one
+more process of its block filter, a damped oscillator matched to the dT/dt estimator's
+*interior* error (:mod:`gyroid.noise._rate_error_process`); under white noise alone it
+carries the exact covariance ``wD^2 v L L'`` of that error over the rows (``L`` the
+estimator as a matrix, :func:`gyroid.models.temperature_rate_operator`). Within one window
+of either end of a log the estimator is one-sided and its error is not the interior's: at
+the first row some five times the interior's variance, correlated over the window.
+
+Each seed simulates a bench, builds its default fit's problem (the window, the block means,
+wD and the thermometer's level as a fit chooses them) and finds its mode. At the mode's noise
+levels the coefficients' generalised least squares (flat priors; what the collapsed marginal
+gives at those levels) is solved densely on the fitted rows under four covariances of the
+rate error, beside the gyro's own noise (the filter's terms written out,
+:meth:`gyroid.noise.NoiseModel.part_covariance`):
+
+* ``exact``: ``wD^2 v L L'``;
+* ``process``: the fit's (the matched process's covariance over the rows);
+* ``process_exact_ends``: the process's, with the rows within one window of either end
+  taking the exact covariance among themselves and none with the other rows (a design for
+  carrying the ends exactly in the filter: their error as a few random effects);
+* ``left_out``: none.
+
+Recorded per way and coefficient: each estimate's shift from the exact one and its sd's ratio
+to the exact sd, and the z-scores against the truth; and per seed what the fit's
+``thermometer_noise`` check reads (:func:`gyroid.inference._thermometer.stated_coverage`:
+how often the process's 95 % intervals hold the truth under the exact covariance). A dense
+check of the filter: the ``process`` way's estimates equal the fit's mode (its
+``mode_check`` is their largest difference, in sds).
+
+    python experiments/rate_error_edges.py --seeds 12
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+from _common import results_dir, save_run
+from fog_thermal_bench import TRUTH as FOG_TRUTH
+from fog_thermal_bench import fog_log
+
+import gyroid
+from gyroid.inference import BenchOptions
+from gyroid.inference._bench_problem import BenchProblem
+from gyroid.inference._thermometer import COVERED_FROM, carried_thermometer, stated_coverage
+from gyroid.io import BenchLog
+from gyroid.simulation import GyroNoise, simulate_thermal_bench
+
+WAYS = ("exact", "process", "process_exact_ends", "left_out")
+
+
+def paper_a(seed: int, thermometer_c: float) -> tuple[BenchLog, dict[str, float]]:
+    """Paper A's thermal bench (1 Hz, 10.3 h, white gyro noise) with a noisy thermometer."""
+    sim = simulate_thermal_bench(seed=seed, noise=GyroNoise(temperature_noise_C=thermometer_c))
+    return sim.log, dict(sim.truth["parameters"])
+
+
+def fog_smooth(seed: int) -> tuple[BenchLog, dict[str, float]]:
+    """The FOG bench of ``fog_thermal_bench.py`` (smooth profile: flicker, a walk, a 0.01 degC
+    thermometer), w0's truth the bias over the log."""
+    columns = fog_log(seed, "smooth")
+    truth = {**FOG_TRUTH, "w0": columns.pop("w0_over_the_log")}
+    return BenchLog(columns), truth
+
+
+CASES = {
+    "paper_a_0.01C": lambda seed: paper_a(seed, 0.01),
+    "paper_a_0.05C": lambda seed: paper_a(seed, 0.05),
+    "fog_smooth_0.01C": fog_smooth,
+}
+
+
+def covariances(problem: BenchProblem, values: dict[str, float]) -> dict[str, np.ndarray]:
+    """The fitted rows' covariance under each way of carrying the rate error, at the noise
+    levels ``values`` (natural units)."""
+    log = problem.log
+    carried = carried_thermometer(log, problem.rate_window_s, problem.rate_error_wd,
+                                  problem.thermometer_sd_C**2 / problem.block_rows)
+    if carried is None:
+        raise ValueError("this fit carries no thermometer noise")
+    time_s = np.asarray(log.time_s)
+    n = time_s.size
+    step = float(np.median(np.diff(time_s)))
+    noise = problem.noise
+    white = float(noise.row_white_sd(values, step_s=problem.density.step_s,
+                                     row_scale=problem.density.row_scale))
+    white_var = np.full(n, white**2)
+    rows = np.arange(n)
+    gyro = noise.without_rate_error().part_covariance(time_s, rows, n, step, white_var, values,
+                                                      block_means=True)
+    process = noise.part_covariance(time_s, rows, n, step, white_var, values,
+                                    block_means=True) - gyro
+    exact = carried.covariance()
+    window = problem.rate_window_s
+    ends = (time_s < time_s[0] + window) | (time_s > time_s[-1] - window)
+    joined = process.copy()
+    joined[np.ix_(ends, ends)] = exact[np.ix_(ends, ends)]
+    joined[np.ix_(ends, ~ends)] = 0.0
+    joined[np.ix_(~ends, ends)] = 0.0
+    return {"exact": gyro + exact, "process": gyro + process,
+            "process_exact_ends": gyro + joined, "left_out": gyro}
+
+
+def generalised_least_squares(design: np.ndarray, drift: np.ndarray, covariance: np.ndarray
+                              ) -> tuple[np.ndarray, np.ndarray]:
+    """The coefficients' estimates and sds under ``covariance`` (flat priors)."""
+    factor = np.linalg.cholesky(covariance)
+    x = np.linalg.solve(factor, design)
+    y = np.linalg.solve(factor, drift)
+    precision = x.T @ x
+    estimate = np.linalg.solve(precision, x.T @ y)
+    return estimate, np.sqrt(np.diag(np.linalg.inv(precision)))
+
+
+def one(case: str, seed: int) -> dict:
+    """One seed of a case: each way's estimates against the exact way's and the truth."""
+    log, truth = CASES[case](seed)
+    problem = BenchProblem.from_log(log, "thermal", BenchOptions())
+    point = problem.mode()
+    names = list(problem.model.parameter_names)
+    values = {k: point.value[k] for k in problem.noise_names}
+    design = np.asarray(problem.model.design(problem.inputs))
+    drift = np.asarray(problem.density.drift)
+    rows = covariances(problem, values)
+    solved = {way: generalised_least_squares(design, drift, c) for way, c in rows.items()}
+    _, coverage = stated_coverage(design, rows["process"], rows["exact"])
+    exact, exact_sd = solved["exact"]
+    true = np.array([truth[n] for n in names])
+    mode = np.array([point.value[n] for n in names])
+    return {
+        "seed": seed, "rate_window_s": problem.rate_window_s, "rows": problem.log.n,
+        "thermometer_sd_C": problem.thermometer_sd_C, "wD": problem.rate_error_wd,
+        "mode_check": float(np.max(np.abs(mode - solved["process"][0]) / solved["process"][1])),
+        "stated_coverage": dict(zip(names, coverage.tolist(), strict=True)),
+        "ways": {way: {"shift_sd": dict(zip(names, ((est - exact) / exact_sd).tolist(),
+                                            strict=True)),
+                       "sd_ratio": dict(zip(names, (sd / exact_sd).tolist(), strict=True)),
+                       "z": dict(zip(names, ((est - true) / sd).tolist(), strict=True))}
+                 for way, (est, sd) in solved.items()},
+    }
+
+
+def summarise(runs: list[dict]) -> dict:
+    """Per way and coefficient: the shifts from the exact estimates (median and largest
+    size, in exact sds), the sd ratios' range, and the z-scores' sd and count outside 1.96."""
+    names = list(runs[0]["ways"]["exact"]["z"])
+    out = {}
+    for way in WAYS:
+        out[way] = {}
+        for n in names:
+            shift = np.abs([r["ways"][way]["shift_sd"][n] for r in runs])
+            ratio = [r["ways"][way]["sd_ratio"][n] for r in runs]
+            z = np.array([r["ways"][way]["z"][n] for r in runs])
+            out[way][n] = {"shift_median": round(float(np.median(shift)), 3),
+                           "shift_max": round(float(np.max(shift)), 3),
+                           "sd_ratio_min": round(float(np.min(ratio)), 3),
+                           "sd_ratio_max": round(float(np.max(ratio)), 3),
+                           "z_sd": round(float(np.std(z)), 3),
+                           "outside_95": int(np.sum(np.abs(z) > 1.96))}
+    worst = [min(r["stated_coverage"].values()) for r in runs]
+    return {"seeds": len(runs), "mode_check_max": max(r["mode_check"] for r in runs),
+            "check_coverage": [round(min(worst), 3), round(max(worst), 3)],
+            "check_warned": sum(w < COVERED_FROM for w in worst),
+            "rate_window_s": sorted({round(r["rate_window_s"]) for r in runs}), "ways": out}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--seeds", type=int, default=12)
+    parser.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
+    args = parser.parse_args()
+    gyroid.configure()
+    started = time.time()
+    results = {}
+    for case in args.cases:
+        runs = []
+        for seed in range(args.seed, args.seed + args.seeds):
+            runs.append(one(case, seed))
+            print(f"{case}: seed {seed} done", flush=True)
+        results[case] = {"summary": summarise(runs), "runs": runs}
+    save_run(results_dir("rate_error_edges"), seed=args.seed,
+             config={"seeds": args.seeds, "cases": args.cases, "ways": list(WAYS),
+                     "fit": "BenchOptions() (IEEE 952 noise), thermal terms; GLS at the "
+                            "mode's noise levels on the fitted rows"},
+             results=results, started=started)
+
+
+if __name__ == "__main__":
+    main()
