@@ -95,25 +95,26 @@ def thermometer_noise(problem: BenchProblem, point: PointEstimate) -> Check:
     (under correlated noise) gives intervals that hold the truth less than
     :data:`~gyroid.inference._thermometer.COVERED_FROM` of the time under that error's exact
     covariance, at the mode's noise levels (:func:`~gyroid.inference._thermometer.
-    stated_coverage` on :func:`carried_rows`)."""
-    name = "thermometer_noise"
+    stated_coverage` on :func:`carried_rows`). Its value is the worst coefficient's share of
+    misses (larger is worse, as a pool's runs are combined)."""
+    name, missed = "thermometer_noise", round(1.0 - COVERED_FROM, 3)
     noise = problem.noise
     if noise.rate_error is None:
         how = ("carried exactly, beside white noise" if noise.carried is not None else
                "not carried (none measured, negligible, or a log of bursts)")
-        return Check(name, True, "warning", None, COVERED_FROM,
+        return Check(name, True, "warning", None, missed,
                      f"the thermometer's noise in dT/dt is {how}")
     ratio, coverage = stated_coverage(*carried_rows(problem, point))
     worst = int(np.argmin(coverage))
     coefficient, held = problem.model.parameter_names[worst], float(coverage[worst])
     if held >= COVERED_FROM:
-        return Check(name, True, "warning", round(held, 3), COVERED_FROM,
+        return Check(name, True, "warning", round(1.0 - held, 3), missed,
                      "the thermometer's noise in dT/dt, carried as a process of the noise "
                      "model's filter: under its exact covariance every coefficient's 95 % "
                      f"interval holds the truth at least {100 * held:.1f} % of the time (at "
                      "the mode's noise levels)")
     return Check(
-        name, False, "warning", round(held, 3), COVERED_FROM,
+        name, False, "warning", round(1.0 - held, 3), missed,
         f"{coefficient}'s 95 % interval holds the truth only about {100 * held:.1f} % of "
         f"the time: the thermometer's noise in dT/dt (a {problem.thermometer_sd_C:.2g} degC "
         "thermometer) is carried as a stationary process, which misses its larger, one-sided "
