@@ -115,14 +115,15 @@ def thermometer_noise(problem: BenchProblem, point: PointEstimate) -> Check:
                      "the mode's noise levels)")
     return Check(
         name, False, "warning", round(1.0 - held, 3), missed,
-        f"{coefficient}'s 95 % interval holds the truth only about {100 * held:.1f} % of "
-        f"the time: the thermometer's noise in dT/dt (a {problem.thermometer_sd_C:.2g} degC "
-        "thermometer) is carried as a stationary process, which misses its larger, one-sided "
-        f"error within a window ({problem.rate_window_s:.0f} s) of the log's ends; under the "
-        f"exact covariance {coefficient}'s error is {float(ratio[worst]):.2f}x its stated sd "
-        "(at the mode's noise levels); a longer --rate-window, a quieter or averaged "
-        "thermometer, or --noise white where the gyro's noise is white (which carries it "
-        "exactly) narrows the gap")
+        f"{coefficient}'s 95 % interval holds the truth about {100 * held:.1f} % of the "
+        "time, not 95 %, under the thermometer's exact error in dT/dt: the noise model "
+        f"carries that error (a {problem.thermometer_sd_C:.2g} degC thermometer's) as a "
+        "stationary process, which misses its larger, one-sided part within a window "
+        f"({problem.rate_window_s:.0f} s) of the log's ends; under the exact covariance "
+        f"{coefficient}'s error is {float(ratio[worst]):.2f}x its stated sd (at the mode's "
+        "noise levels); a longer --rate-window, a quieter or averaged thermometer, or "
+        "--noise white where the gyro's noise is white (which carries it exactly) narrows "
+        "the gap")
 
 
 def carried_rows(problem: BenchProblem, point: PointEstimate
