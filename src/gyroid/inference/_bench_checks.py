@@ -101,7 +101,8 @@ def thermometer_noise(problem: BenchProblem, point: PointEstimate) -> Check:
     noise = problem.noise
     if noise.rate_error is None:
         how = ("carried exactly, beside white noise" if noise.carried is not None else
-               "not carried (none measured, negligible, or a log of bursts)")
+               "not carried (the model reads no dT/dt, the thermometer's noise is "
+               "negligible or not measured, or the rows are bursts or unevenly spaced)")
         return Check(name, True, "warning", None, missed,
                      f"the thermometer's noise in dT/dt is {how}")
     ratio, coverage = stated_coverage(*carried_rows(problem, point))
@@ -128,10 +129,11 @@ def thermometer_noise(problem: BenchProblem, point: PointEstimate) -> Check:
 
 def carried_rows(problem: BenchProblem, point: PointEstimate
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """A fit that carries the thermometer's noise as its filter's process, at the mode's
-    noise levels: the model's columns over the fitted rows, the rows' covariance as the
-    filter states it (the gyro's terms and the process's) and with the rate error's exact
-    covariance in the process's place (dense: at most a thousand block means)."""
+    """What :func:`thermometer_noise` compares, for a fit whose filter carries the
+    thermometer's noise as a process, at the mode's noise levels: the model's columns over
+    the fitted rows, the rows' covariance as the filter states it (the gyro's terms and the
+    process's), and the same with the rate error's exact covariance in the process's place
+    (dense: at most a thousand block means)."""
     log, density, noise = problem.log, problem.density, problem.noise
     if noise.rate_error is None:
         raise ValueError("this fit carries no process for the thermometer's noise")
