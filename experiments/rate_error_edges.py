@@ -24,11 +24,20 @@ rate error, beside the gyro's own noise (the filter's terms written out,
 * ``left_out``: none.
 
 Recorded per way and coefficient: each estimate's shift from the exact one and its sd's ratio
-to the exact sd, and the z-scores against the truth; and per seed what the fit's
-``thermometer_noise`` check reads (:func:`gyroid.inference._thermometer.stated_coverage`:
-how often the process's 95 % intervals hold the truth under the exact covariance). A dense
-check of the filter: the ``process`` way's estimates equal the fit's mode (its
-``mode_check`` is their largest difference, in sds).
+to the exact sd, and the z-scores against the truth; and per seed the ``sandwich_coverage``
+(:func:`sandwich_coverage`): how often the process's stated 95 % intervals would hold the
+truth if the rows' covariance were the ``exact`` way's. A dense check of the filter: the
+``process`` way's estimates equal the fit's mode (its ``mode_check`` is their largest
+difference, in sds).
+
+Why the sandwich is not a self-check of every fit (one was built and withdrawn): the mode's
+flicker and walk take in part of what the process misses, so the ``exact`` way adds the
+whole rate error to levels that already hold some of it, and over-states the rows'
+covariance. Its own z-scores' sd is then below 1, and the sandwich reads the stated
+intervals as too narrow where they are not: with the window fixed at 1200 s
+(``paper_a_0.05C_window_1200s``) it read 85-90 % on fits whose intervals held the truth as
+stated (``eiv_calibration.py --noise auto``: z-scores' sd 0.94-1.11 over 30 seeds). A right
+reading needs the noise levels refitted under the exact covariance.
 
     python experiments/rate_error_edges.py --seeds 12
 """
@@ -42,11 +51,12 @@ import numpy as np
 from _common import results_dir, save_run
 from fog_thermal_bench import TRUTH as FOG_TRUTH
 from fog_thermal_bench import fog_log
+from scipy import linalg, stats
 
 import gyroid
 from gyroid.inference import BenchOptions
 from gyroid.inference._bench_problem import BenchProblem
-from gyroid.inference._thermometer import COVERED_FROM, carried_thermometer, stated_coverage
+from gyroid.inference._thermometer import carried_thermometer
 from gyroid.io import BenchLog
 from gyroid.simulation import GyroNoise, simulate_thermal_bench
 
@@ -67,11 +77,27 @@ def fog_smooth(seed: int) -> tuple[BenchLog, dict[str, float]]:
     return BenchLog(columns), truth
 
 
+#: Each case: its log and truth per seed, and the fit's options.
 CASES = {
-    "paper_a_0.01C": lambda seed: paper_a(seed, 0.01),
-    "paper_a_0.05C": lambda seed: paper_a(seed, 0.05),
-    "fog_smooth_0.01C": fog_smooth,
+    "paper_a_0.01C": (lambda seed: paper_a(seed, 0.01), BenchOptions()),
+    "paper_a_0.05C": (lambda seed: paper_a(seed, 0.05), BenchOptions()),
+    "paper_a_0.05C_window_1200s": (lambda seed: paper_a(seed, 0.05),
+                                   BenchOptions(rate_window_s=1200.0)),
+    "fog_smooth_0.01C": (fog_smooth, BenchOptions()),
 }
+_Z95 = float(stats.norm.ppf(0.975))
+
+
+def sandwich_coverage(design: np.ndarray, stated: np.ndarray, exact: np.ndarray
+                      ) -> np.ndarray:
+    """How often each coefficient's 95 % interval from generalised least squares under the
+    rows' ``stated`` covariance holds the truth when their covariance is ``exact``: its
+    estimate's sd then (the sandwich ``A^-1 G' C G A^-1``, ``G = S^-1 X``, ``A = X' G``)
+    against the stated sd."""
+    whitened = linalg.cho_solve(linalg.cho_factor(stated), design)
+    inverse = np.linalg.inv(design.T @ whitened)
+    true = inverse @ (whitened.T @ exact @ whitened) @ inverse
+    return 2.0 * stats.norm.cdf(_Z95 / np.sqrt(np.diag(true) / np.diag(inverse))) - 1.0
 
 
 def covariances(problem: BenchProblem, values: dict[str, float]) -> dict[str, np.ndarray]:
@@ -118,8 +144,9 @@ def generalised_least_squares(design: np.ndarray, drift: np.ndarray, covariance:
 
 def one(case: str, seed: int) -> dict:
     """One seed of a case: each way's estimates against the exact way's and the truth."""
-    log, truth = CASES[case](seed)
-    problem = BenchProblem.from_log(log, "thermal", BenchOptions())
+    simulate, options = CASES[case]
+    log, truth = simulate(seed)
+    problem = BenchProblem.from_log(log, "thermal", options)
     point = problem.mode()
     names = list(problem.model.parameter_names)
     values = {k: point.value[k] for k in problem.noise_names}
@@ -127,7 +154,7 @@ def one(case: str, seed: int) -> dict:
     drift = np.asarray(problem.density.drift)
     rows = covariances(problem, values)
     solved = {way: generalised_least_squares(design, drift, c) for way, c in rows.items()}
-    _, coverage = stated_coverage(design, rows["process"], rows["exact"])
+    coverage = sandwich_coverage(design, rows["process"], rows["exact"])
     exact, exact_sd = solved["exact"]
     true = np.array([truth[n] for n in names])
     mode = np.array([point.value[n] for n in names])
@@ -135,7 +162,7 @@ def one(case: str, seed: int) -> dict:
         "seed": seed, "rate_window_s": problem.rate_window_s, "rows": problem.log.n,
         "thermometer_sd_C": problem.thermometer_sd_C, "wD": problem.rate_error_wd,
         "mode_check": float(np.max(np.abs(mode - solved["process"][0]) / solved["process"][1])),
-        "stated_coverage": dict(zip(names, coverage.tolist(), strict=True)),
+        "sandwich_coverage": dict(zip(names, coverage.tolist(), strict=True)),
         "ways": {way: {"shift_sd": dict(zip(names, ((est - exact) / exact_sd).tolist(),
                                             strict=True)),
                        "sd_ratio": dict(zip(names, (sd / exact_sd).tolist(), strict=True)),
@@ -161,10 +188,9 @@ def summarise(runs: list[dict]) -> dict:
                            "sd_ratio_max": round(float(np.max(ratio)), 3),
                            "z_sd": round(float(np.std(z)), 3),
                            "outside_95": int(np.sum(np.abs(z) > 1.96))}
-    worst = [min(r["stated_coverage"].values()) for r in runs]
+    worst = [min(r["sandwich_coverage"].values()) for r in runs]
     return {"seeds": len(runs), "mode_check_max": max(r["mode_check"] for r in runs),
-            "check_coverage": [round(min(worst), 3), round(max(worst), 3)],
-            "check_warned": sum(w < COVERED_FROM for w in worst),
+            "sandwich_coverage": [round(min(worst), 3), round(max(worst), 3)],
             "rate_window_s": sorted({round(r["rate_window_s"]) for r in runs}), "ways": out}
 
 
@@ -185,7 +211,8 @@ def main() -> None:
         results[case] = {"summary": summarise(runs), "runs": runs}
     save_run(results_dir("rate_error_edges"), seed=args.seed,
              config={"seeds": args.seeds, "cases": args.cases, "ways": list(WAYS),
-                     "fit": "BenchOptions() (IEEE 952 noise), thermal terms; GLS at the "
+                     "fit": "BenchOptions() (IEEE 952 noise; the 1200 s case its window "
+                            "fixed), thermal terms; GLS at the "
                             "mode's noise levels on the fitted rows"},
              results=results, started=started)
 

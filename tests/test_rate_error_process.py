@@ -16,8 +16,6 @@ from scipy import stats
 from scipy.linalg import toeplitz
 
 from gyroid.inference import BenchOptions, BenchProblem
-from gyroid.inference._bench_checks import carried_rows, thermometer_noise
-from gyroid.inference._thermometer import stated_coverage
 from gyroid.io import BenchLog
 from gyroid.models._rate_error import estimator_autocovariance
 from gyroid.noise._block_filter import block_innovations, flicker_times, mean_covariance
@@ -27,7 +25,6 @@ from gyroid.noise._rate_error_process import (
     divergence_per_block,
     match,
 )
-from gyroid.simulation import GyroNoise, simulate_thermal_bench
 
 
 def _position_kernel(lag, variance, omega, quality):
@@ -193,61 +190,3 @@ def test_a_log_of_bursts_carries_none():
         problem = BenchProblem.from_log(bursts, "thermal", BenchOptions(
             noise="white+flicker+rw", rate_window_s=window))
         assert problem.thermometer_sd_C == 0 and problem.density.noise.rate_error is None
-
-
-def test_stated_coverage_is_what_least_squares_under_the_stated_covariance_covers():
-    """:func:`~gyroid.inference._thermometer.stated_coverage` (what the ``thermometer_noise``
-    check reads): under the stated covariance itself every 95 % interval holds the truth
-    95 % of the time; under four times it, at twice the stated sd (2 Phi(1.96 / 2) - 1); under
-    a covariance of another shape, as often as simulated errors say (20 000 draws, within
-    four binomial sds)."""
-    n = 60
-    t = np.linspace(0.0, 1.0, n)
-    design = np.column_stack([np.ones(n), t, t**2])
-    lag = np.abs(t[:, None] - t[None, :])
-    stated = 0.5 * np.eye(n) + 0.2 * np.exp(-lag / 0.05)
-    ratio, coverage = stated_coverage(design, stated, stated)
-    np.testing.assert_allclose(ratio, 1.0, rtol=1e-9)
-    np.testing.assert_allclose(coverage, 0.95, rtol=1e-9)
-    ratio, coverage = stated_coverage(design, stated, 4.0 * stated)
-    np.testing.assert_allclose(ratio, 2.0, rtol=1e-9)
-    np.testing.assert_allclose(coverage, 2.0 * stats.norm.cdf(stats.norm.ppf(0.975) / 2.0) - 1.0,
-                               rtol=1e-9)
-    exact = 0.5 * np.eye(n) + 0.6 * np.exp(-lag / 0.2)
-    ratio, coverage = stated_coverage(design, stated, exact)
-    draws = 20_000
-    errors = np.linalg.cholesky(exact) @ np.random.default_rng(5).standard_normal((n, draws))
-    whitened = np.linalg.solve(stated, design)
-    precision = design.T @ whitened
-    estimates = np.linalg.solve(precision, whitened.T @ errors)  # the truth is zero
-    sd = np.sqrt(np.diag(np.linalg.inv(precision)))
-    held = np.mean(np.abs(estimates) <= stats.norm.ppf(0.975) * sd[:, None], axis=1)
-    assert np.all(ratio > 1.2)  # a case where the stated intervals are too narrow
-    np.testing.assert_allclose(held, coverage,
-                               atol=4.0 * np.sqrt(coverage * (1 - coverage) / draws).max())
-
-
-@pytest.mark.slow
-def test_the_thermometer_noise_check_warns_where_the_process_misses_the_ends():
-    """On paper A's bench the process's intervals hold the truth 85.7 % of the time under
-    the rate error's exact covariance with a 0.05 degC thermometer (the check warns) and
-    93.8 % with 0.01 degC (seed 0; ``experiments/rate_error_edges.py`` over 20 seeds). The
-    covariance the check calls stated is the filter's: least squares under it gives the
-    fit's mode. Under white noise the thermometer is carried exactly and nothing is
-    judged."""
-    for thermometer_c, warns in ((0.05, True), (0.01, False)):
-        sim = simulate_thermal_bench(seed=0, noise=GyroNoise(temperature_noise_C=thermometer_c))
-        problem = BenchProblem.from_log(sim.log, "thermal", BenchOptions())
-        point = problem.mode()
-        design, stated, _ = carried_rows(problem, point)
-        whitened = np.linalg.solve(stated, design)
-        gls = np.linalg.solve(design.T @ whitened, whitened.T @ np.asarray(problem.density.drift))
-        names = problem.model.parameter_names
-        np.testing.assert_allclose(gls, [point.value[k] for k in names],
-                                   atol=1e-3 * min(point.sd[k] for k in names))
-        check = thermometer_noise(problem, point)
-        assert check.passed is not warns and check.value == pytest.approx(
-            0.143 if warns else 0.062, abs=0.002)  # the share of misses
-    white = BenchProblem.from_log(sim.log, "thermal", BenchOptions(noise="white"))
-    check = thermometer_noise(white, white.mode())
-    assert check.passed and check.value is None and "exactly" in check.message

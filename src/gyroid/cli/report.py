@@ -73,8 +73,7 @@ REMEDY_FLAGS = {
 }
 _BENCH_CHECKS = {name: name for name in (
     "prior_data_conflict", "point_vs_posterior", "goodness_of_fit", "residual_whiteness",
-    "outliers", "identifiability", "convergence", "rate_estimate", "thermometer_noise",
-    "noise_prior_dependence")}
+    "outliers", "identifiability", "convergence", "rate_estimate", "noise_prior_dependence")}
 #: Per command, the checks that docs/checks.md has an entry for and that entry's anchor
 #: (tests/test_docs.py keeps the two in step): the console names it beside a failed one.
 DOCUMENTED_CHECKS: dict[str, dict[str, str]] = {

@@ -141,11 +141,10 @@ def fit_pool(logs: Sequence[BenchLog], labels: Sequence[str],
 
 #: A run's own checks that a pooled fit of the runs' posteriors keeps: those of its
 #: residuals and noise (a single run need not identify every coefficient the lot does), and
-#: how far its intervals rest on the noise levels' priors and on the process that carries
-#: its thermometer's noise (the pool's rest on them too).
+#: how far its intervals rest on the noise levels' priors (the pool's rest on them too).
 RUN_RESIDUAL_CHECKS = frozenset({"goodness_of_fit", "residual_whiteness", "outliers",
                                  "predictive", "outliers_within_segments",
-                                 "noise_prior_dependence", "thermometer_noise"})
+                                 "noise_prior_dependence"})
 
 
 def _run_fits(logs: Sequence[BenchLog], labels: Sequence[str], model: DriftModel,

@@ -1,27 +1,12 @@
 """Whether a fit carries the thermometer's noise through the dT/dt estimator (errors in
 variables, :mod:`gyroid.noise._rate_error_rows`), and how much: measured on the log, left out
 where negligible or where the estimator cannot be written as a matrix over the rows (a log
-of bursts); times wD at its least-squares value on the log, fixed for the fit; the term a
-fit's noise model carries on its rows (:func:`carried_thermometer`); and, where that term
-is the filter's process (under correlated noise), how often the intervals it gives hold the
-truth under the error's exact covariance (:func:`stated_coverage`).
-
-Why the last: the process is matched to the estimator's error in the log's interior, where
-it is stationary. Within a window of either end the estimator is one-sided and its error
-larger (about five times the interior's variance at the first row) and correlated over the
-window, which no stationary process carries. On paper A's thermal bench with a 0.05 degC
-thermometer (``experiments/rate_error_edges.py``, 20 seeds, generalised least squares at
-the default fit's mode) the process's intervals were 0.78-0.95 of the exact ones and its
-estimates 0.3-0.5 exact sds from the exact ones (median; up to 1.5): the z-scores' sd was
-1.29-1.44 against the exact covariance's 0.77-0.99. With 0.01 degC the estimates moved a
-median 0.1-0.3 sd, the intervals were 0.96-0.99 of the exact ones; on a FOG bench with
-windows of one to two hours, 0.02-0.03 sd.
-"""
+of bursts); times wD at its least-squares value on the log, fixed for the fit; and the
+term a fit's noise model carries on its rows (:func:`carried_thermometer`)."""
 
 from __future__ import annotations
 
 import numpy as np
-from scipy import linalg, stats
 
 from gyroid.inference._rate_window import grid_least_squares, window_grid
 from gyroid.io._logs import BenchLog, MeansOfBlocks
@@ -153,23 +138,3 @@ def carried_thermometer(log: BenchLog, window_s: float, wd: float, thermometer_v
                                                                  thermometer_var)
                                 if even else None),
         white_var=white_level_var(np.asarray(log.drift_deg_h)))
-
-
-#: The share of the time a stated 95 % interval must hold the truth, under the error's exact
-#: covariance, for the process that carries it to pass (a miss rate at most twice the stated).
-COVERED_FROM = 0.90
-_Z95 = float(stats.norm.ppf(0.975))
-
-
-def stated_coverage(design: np.ndarray, stated: np.ndarray, exact: np.ndarray
-                    ) -> tuple[np.ndarray, np.ndarray]:
-    """Of coefficients estimated by generalised least squares under the rows' ``stated``
-    covariance (``design`` their columns): each estimate's sd over its stated sd when the
-    rows' covariance is ``exact`` (the sandwich ``A^-1 G' C G A^-1``, ``G = S^-1 X``,
-    ``A = X' G``), and how often its stated 95 % interval then holds the truth."""
-    factor = linalg.cho_factor(stated)
-    whitened = linalg.cho_solve(factor, design)
-    inverse = np.linalg.inv(design.T @ whitened)
-    true = inverse @ (whitened.T @ exact @ whitened) @ inverse
-    ratio = np.sqrt(np.diag(true) / np.diag(inverse))
-    return ratio, 2.0 * stats.norm.cdf(_Z95 / ratio) - 1.0
