@@ -39,7 +39,7 @@ intervals as too narrow where they are not: with the window fixed at 1200 s
 stated (``eiv_calibration.py --noise auto``: z-scores' sd 0.94-1.11 over 30 seeds). A right
 reading needs the noise levels refitted under the exact covariance.
 
-    python experiments/rate_error_edges.py --seeds 12
+    python experiments/rate_error_edges.py --seeds 20
 """
 
 from __future__ import annotations
@@ -197,7 +197,7 @@ def summarise(runs: list[dict]) -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--seeds", type=int, default=12)
+    parser.add_argument("--seeds", type=int, default=20)
     parser.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
     args = parser.parse_args()
     gyroid.configure()

@@ -49,7 +49,6 @@ def test_the_bare_script_baseline_fits_the_same_coefficients(tmp_path):
         assert abs(bare[name] - summary["mean"]) < 3 * summary["sd"], name
 
 
-
 def test_the_profiles_stages_name_functions_the_library_defines(monkeypatch):
     """benchmarks/profile_fit.py sums cProfile's cumulative time per stage by file and
     function name: a renamed or moved function would read 0 s, silently (two stages did)."""

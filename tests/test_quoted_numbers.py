@@ -1161,7 +1161,6 @@ def test_a_held_out_cycle_after_a_bias_step():
             f"held-out error to {span(steps['with_bias_step']['held_out_over_least_squares'])}x")
 
 
-
 def test_the_thermometers_process_against_its_exact_covariance():
     """experiments/results/rate_error_edges: at the default fit's mode, the filter's process
     for the thermometer's noise against that error's exact covariance (dense least squares
