@@ -106,8 +106,8 @@ def covariances(problem: BenchProblem, values: dict[str, float]) -> dict[str, np
     log = problem.log
     carried = carried_thermometer(log, problem.rate_window_s, problem.rate_error_wd,
                                   problem.thermometer_sd_C**2 / problem.block_rows)
-    if carried is None:
-        raise ValueError("this fit carries no thermometer noise")
+    if carried is None or problem.noise.rate_error is None:
+        raise ValueError("this fit carries no thermometer noise as its filter's process")
     time_s = np.asarray(log.time_s)
     n = time_s.size
     step = float(np.median(np.diff(time_s)))
@@ -118,8 +118,7 @@ def covariances(problem: BenchProblem, values: dict[str, float]) -> dict[str, np
     rows = np.arange(n)
     gyro = noise.without_rate_error().part_covariance(time_s, rows, n, step, white_var, values,
                                                       block_means=True)
-    process = noise.part_covariance(time_s, rows, n, step, white_var, values,
-                                    block_means=True) - gyro
+    process = noise.rate_error.row_covariance()  # what part_covariance adds for it
     exact = carried.covariance()
     window = problem.rate_window_s
     ends = (time_s < time_s[0] + window) | (time_s > time_s[-1] - window)
