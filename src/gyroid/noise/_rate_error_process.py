@@ -18,11 +18,9 @@ al. 2017's SHO term): two states, no power at zero frequency, a damped oscillati
 autocovariance. Its mean over a block is exact, ``(x(end) - x(start)) / L``. Its three
 parameters (the rate error's variance, ``omega``, ``Q``) are those whose Gaussian is
 closest to the estimator's (Kullback-Leibler, per block mean, with the log's white noise
-beside it) among those with the estimator's power at low frequencies, where the drift's
-columns vary (:func:`match`): on paper A's benches the matched process leaves 3-7 % of the
-divergence that ignoring the error leaves (10 % at a 1 h window). The parameters are fixed
-for the log (the thermometer's level is measured on it, wD is its least-squares value), not
-sampled.
+beside it): on paper A's benches the matched process leaves 3-5 % of the divergence that
+ignoring the error leaves. The parameters are fixed for the log (the thermometer's level is
+measured on it, wD is its least-squares value), not sampled.
 """
 
 from __future__ import annotations
@@ -177,46 +175,25 @@ class RateErrorProcess(eqx.Module):
         return cov
 
 
-def low_frequency_power(autocovariance: np.ndarray) -> float:
-    """The constant ``c`` of a zero-mean-power sequence's spectrum near zero frequency,
-    ``S(w) ~ c w^2`` (w in rad per lag; ``autocovariance`` at lags 0, 1, ..., zero beyond):
-    ``c = -sum_k k^2 gamma_k`` over positive lags, the power a regressor that varies slowly
-    against the lag sees."""
-    gamma = np.asarray(autocovariance, dtype=float)
-    return float(-np.sum(np.arange(1, gamma.size) ** 2 * gamma[1:]))
-
-
 def match(autocovariance: np.ndarray, step_s: float, white_var: float
           ) -> tuple[float, float, float, float, float]:
-    """The oscillator (velocity variance, omega rad/s, Q) closest (:func:`divergence_per_block`)
-    to an error of ``autocovariance`` beside white noise ``white_var`` with the same power
-    at low frequencies (:func:`low_frequency_power`), the divergence per block it leaves and
-    the divergence without it. Started from the degree-5 differentiator's shape (omega
-    about 9 per window, Q about 1.6), the window read from the kernel's support.
-
-    Why the constraint: the drift's columns (temperature, its square, dT/dt) vary over
-    hours, many rows, where both spectra rise as ``w^2``; the coefficients' precision is
-    read there. The divergence alone weighs every frequency alike and is won at the
-    kernel's lobe: on paper A's bench (a 0.05 degC thermometer, a 1287 s window on 38 s
-    rows) its best oscillator had 0.4 of the estimator's low-frequency power, and wD's sd
-    under it was 0.79-0.85 of the exact covariance's (dense generalised least squares,
-    6 seeds; 1.01 with the constraint, which left 5.3 % of the divergence against 3.6 %)."""
+    """The oscillator (velocity variance, omega rad/s, Q) whose block means' Gaussian is
+    closest (:func:`divergence_per_block`) to an error of ``autocovariance`` beside white
+    noise ``white_var``, the divergence per block it leaves and the divergence without it.
+    Started from the degree-5 differentiator's shape (omega about 9 per window, Q about
+    1.6), the window read from the kernel's support."""
     target = np.asarray(autocovariance, dtype=float)
     window_s = max(target.size - 1, 1) * step_s
     lags = min(_FREQUENCIES // 2, max(8 * target.size, 64))
-    power = low_frequency_power(target)
-
-    def process(p) -> tuple[float, float, float]:
-        omega, quality = np.exp(p)
-        unit = low_frequency_power(block_autocovariance(lags, step_s, 1.0, omega, quality))
-        return power / unit, omega, quality
 
     def loss(p):
-        trial = block_autocovariance(lags, step_s, *process(p))
+        variance, omega, quality = np.exp(p)
+        trial = block_autocovariance(lags, step_s, variance, omega, quality)
         return divergence_per_block(target, trial, white_var)
 
-    best = minimize(loss, np.log([9.0 / window_s, 1.6]), method="Nelder-Mead",
+    start = np.log([max(target[0], 1e-300), 9.0 / window_s, 1.6])
+    best = minimize(loss, start, method="Nelder-Mead",
                     options={"xatol": 1e-4, "fatol": 1e-9, "maxiter": 2000})
-    variance, omega, quality = (float(x) for x in process(best.x))
+    variance, omega, quality = (float(x) for x in np.exp(best.x))
     without = divergence_per_block(target, np.zeros(1), white_var)
     return variance, omega, quality, float(best.fun), without
