@@ -1196,3 +1196,34 @@ def test_the_thermometers_process_against_its_exact_covariance():
             f"{100 * fixed['sandwich_coverage'][1]:.0f} %)",
             f"the exact covariance moves the estimates a median {moved[0][0]:.2f} to "
             f"{moved[0][1]:.2f} of their sd")
+
+
+def test_the_thermometers_process_at_low_frequencies():
+    """experiments/results/rate_error_edges: the fit's process has too little of the dT/dt
+    estimator's power at low frequencies (wD's sd too small under it); matched at that power
+    it gives wD the exact sd and still misses the ends; and the flicker at the mode on
+    logs of a gyro with none."""
+    runs = _results("rate_error_edges")
+    noisy = runs["paper_a_0.05C"]["summary"]
+    ratio = noisy["low_frequency_power_ratio"]
+    assert ratio[1] < 0.5  # less than half the power, on every seed
+
+    def spread(way, key, names=("w0", "w1", "w2", "wD")):
+        values = [noisy["ways"][way][n][key] for n in names]
+        return min(values), max(values)
+
+    wd = noisy["ways"]["process"]["wD"]
+    matched = noisy["ways"]["process_low_frequency"]["wD"]
+    assert wd["sd_ratio_max"] < 0.9 and abs(matched["sd_ratio_min"] - 1) < 0.02
+    others = spread("process_low_frequency", "shift_median", ("w0", "w1", "w2"))
+    assert others[0] > 0.3  # the ends: still moved
+    flicker = noisy["B_deg_h_at_mode"]
+    _quoted(f"columns vary it has {ratio[0]:.2f} to {ratio[1]:.2f} of the estimator's power, "
+            f"and wD's sd under it is {wd['sd_ratio_min']:.2f} to",
+            f"{wd['sd_ratio_max']:.2f} of the exact one ({matched['sd_ratio_min']:.2f} to "
+            f"{matched['sd_ratio_max']:.2f} under an oscillator",
+            f"moves the other estimates a median {others[0]:.2f} to {others[1]:.2f} of their sd",
+            f"B at the mode ranges from {flicker[0]:.4f} to {flicker[2]:.4f} deg/h "
+            f"(median {flicker[1]:.4f})",
+            f"interior, the estimator's power at low frequencies, of which it has {ratio[0]:.2f} "
+            f"to {ratio[1]:.2f}")
