@@ -26,7 +26,12 @@ rate error, beside the gyro's own noise (the filter's terms written out,
   power at low frequencies (:func:`low_frequency_match`; the drift's columns vary there,
   over hours). The fit's process has some 0.4 of it (``low_frequency_power_ratio``), and
   at the mode's levels wD's sd under it is some 0.8 of the exact one; the flicker takes in
-  the difference on some logs (``B_deg_h`` at the mode, on logs of a gyro with none).
+  the difference on some logs (``B_deg_h`` at the mode, on logs of a gyro with none);
+* ``process_low_frequency_exact_ends``: that oscillator, with the rows whose estimator is
+  one-sided (within half a window of either end) taking the exact covariance with every
+  row: a design for carrying the ends in the filter (the one-sided rows' error has a rank
+  of some five per end, the polynomial fits' coefficients, so their exact covariance and
+  its cross-covariance are a few random effects and a low-rank correction).
 
 Recorded per way and coefficient: each estimate's shift from the exact one and its sd's ratio
 to the exact sd, and the z-scores against the truth; and per seed the ``sandwich_coverage``
@@ -71,7 +76,8 @@ from gyroid.noise._rate_error_process import (
 )
 from gyroid.simulation import GyroNoise, simulate_thermal_bench
 
-WAYS = ("exact", "process", "process_exact_ends", "left_out", "process_low_frequency")
+WAYS = ("exact", "process", "process_exact_ends", "left_out", "process_low_frequency",
+        "process_low_frequency_exact_ends")
 
 
 def paper_a(seed: int, thermometer_c: float) -> tuple[BenchLog, dict[str, float]]:
@@ -183,10 +189,16 @@ def covariances(problem: BenchProblem, values: dict[str, float]) -> dict[str, np
     joined[np.ix_(ends, ends)] = exact[np.ix_(ends, ends)]
     joined[np.ix_(ends, ~ends)] = 0.0
     joined[np.ix_(~ends, ends)] = 0.0
-    matched = low_frequency_match(carried.autocovariance(), step, carried.white_var)
+    matched = _process_covariance(time_s, *low_frequency_match(carried.autocovariance(), step,
+                                                               carried.white_var))
+    one_sided = (time_s < time_s[0] + window / 2) | (time_s > time_s[-1] - window / 2)
+    exact_ends = matched.copy()
+    exact_ends[one_sided, :] = exact[one_sided, :]
+    exact_ends[:, one_sided] = exact[:, one_sided]
     return {"exact": gyro + exact, "process": gyro + process,
             "process_exact_ends": gyro + joined, "left_out": gyro,
-            "process_low_frequency": gyro + _process_covariance(time_s, *matched)}
+            "process_low_frequency": gyro + matched,
+            "process_low_frequency_exact_ends": gyro + exact_ends}
 
 
 def generalised_least_squares(design: np.ndarray, drift: np.ndarray, covariance: np.ndarray
