@@ -166,12 +166,18 @@ def _process_covariance(time_s: np.ndarray, variance: float, omega: float, quali
     return RateErrorProcess(**(system | scalars)).row_covariance()
 
 
+def _carried(problem: BenchProblem):
+    """The thermometer's noise the fit carries, on its rows (the exact covariance and the
+    interior's autocovariance)."""
+    return carried_thermometer(problem.log, problem.rate_window_s, problem.rate_error_wd,
+                               problem.thermometer_sd_C**2 / problem.block_rows)
+
+
 def covariances(problem: BenchProblem, values: dict[str, float]) -> dict[str, np.ndarray]:
     """The fitted rows' covariance under each way of carrying the rate error, at the noise
     levels ``values`` (natural units)."""
     log = problem.log
-    carried = carried_thermometer(log, problem.rate_window_s, problem.rate_error_wd,
-                                  problem.thermometer_sd_C**2 / problem.block_rows)
+    carried = _carried(problem)
     if carried is None or problem.noise.rate_error is None:
         raise ValueError("this fit carries no thermometer noise as its filter's process")
     time_s = np.asarray(log.time_s)
@@ -236,8 +242,7 @@ def one(case: str, seed: int) -> dict:
     coverage = sandwich_coverage(design, rows["process"], rows["exact"])
     exact, exact_sd = solved["exact"]
     true = np.array([truth[n] for n in names])
-    carried = carried_thermometer(problem.log, problem.rate_window_s, problem.rate_error_wd,
-                                  problem.thermometer_sd_C**2 / problem.block_rows)
+    carried = _carried(problem)
     step = float(np.median(np.diff(np.asarray(problem.log.time_s))))
     power_ratio = (low_frequency_power(block_autocovariance(
         8 * carried.autocovariance().size, step, float(problem.noise.rate_error.variance),
