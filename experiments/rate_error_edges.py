@@ -34,7 +34,10 @@ rate error, beside the gyro's own noise (the filter's terms written out,
   its cross-covariance are a few random effects and a low-rank correction). It is a
   covariance only where the process's covariance of the other rows holds what the
   one-sided rows explain of them; the seeds where it does not are counted
-  (``not_positive_definite``) and left out of that way's summary.
+  (``not_positive_definite``) and left out of that way's summary;
+* ``two_oscillators`` and ``two_oscillators_exact_ends``: the same two ways with two
+  independent oscillators (four filter states) matched together at that power
+  (:func:`two_oscillator_match`), which also follow the kernel's negative lobe.
 
 Recorded per way and coefficient: each estimate's shift from the exact one and its sd's ratio
 to the exact sd, and the z-scores against the truth; and per seed the ``sandwich_coverage``
@@ -80,7 +83,7 @@ from gyroid.noise._rate_error_process import (
 from gyroid.simulation import GyroNoise, simulate_thermal_bench
 
 WAYS = ("exact", "process", "process_exact_ends", "left_out", "process_low_frequency",
-        "process_low_frequency_exact_ends")
+        "process_low_frequency_exact_ends", "two_oscillators", "two_oscillators_exact_ends")
 
 
 def paper_a(seed: int, thermometer_c: float) -> tuple[BenchLog, dict[str, float]]:
@@ -153,6 +156,40 @@ def low_frequency_match(autocovariance: np.ndarray, step_s: float, white_var: fl
     return process(best.x)
 
 
+def two_oscillator_match(autocovariance: np.ndarray, step_s: float, white_var: float
+                         ) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    """Two independent oscillators (each velocity variance, omega rad/s, Q) of least
+    divergence from the estimator's error among pairs with its low-frequency power (shared
+    between them), from two starts (the single oscillator's shape beside a faster one; a
+    slower, damped one beside a faster, sharper one)."""
+    target = np.asarray(autocovariance, dtype=float)
+    lags = max(8 * target.size, 64)
+    power = low_frequency_power(target)
+    window_s = max(target.size - 1, 1) * step_s
+
+    def pair(p) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+        w1, q1, w2, q2 = np.exp(p[:4])
+        share = 1.0 / (1.0 + np.exp(-p[4]))
+        u1 = low_frequency_power(block_autocovariance(lags, step_s, 1.0, w1, q1))
+        u2 = low_frequency_power(block_autocovariance(lags, step_s, 1.0, w2, q2))
+        return (share * power / u1, w1, q1), ((1.0 - share) * power / u2, w2, q2)
+
+    def loss(p) -> float:
+        first, second = pair(p)
+        trial = (block_autocovariance(lags, step_s, *first)
+                 + block_autocovariance(lags, step_s, *second))
+        return divergence_per_block(target, trial, white_var)
+
+    starts = ([9.0, 1.6, 20.0, 1.6, 0.0], [6.0, 1.0, 14.0, 3.0, 1.0])
+    best = min((optimize.minimize(loss, np.concatenate([np.log(np.array(x[:4]) / [window_s, 1.0,
+                                                                               window_s, 1.0]),
+                                                        [x[4]]]),
+                                  method="Nelder-Mead",
+                                  options={"xatol": 1e-5, "fatol": 1e-11, "maxiter": 6000})
+                for x in starts), key=lambda r: r.fun)
+    return pair(best.x)
+
+
 def _process_covariance(time_s: np.ndarray, variance: float, omega: float, quality: float
                         ) -> np.ndarray:
     """An oscillator's covariance over the rows, set up on their blocks as a fit sets up its
@@ -200,14 +237,22 @@ def covariances(problem: BenchProblem, values: dict[str, float]) -> dict[str, np
     joined[np.ix_(~ends, ends)] = 0.0
     matched = _process_covariance(time_s, *low_frequency_match(carried.autocovariance(), step,
                                                                carried.white_var))
+    first, second = two_oscillator_match(carried.autocovariance(), step, carried.white_var)
+    pair = _process_covariance(time_s, *first) + _process_covariance(time_s, *second)
     one_sided = (time_s < time_s[0] + window / 2) | (time_s > time_s[-1] - window / 2)
-    exact_ends = matched.copy()
-    exact_ends[one_sided, :] = exact[one_sided, :]
-    exact_ends[:, one_sided] = exact[:, one_sided]
+
+    def exact_ends(approximation: np.ndarray) -> np.ndarray:
+        out = approximation.copy()
+        out[one_sided, :] = exact[one_sided, :]
+        out[:, one_sided] = exact[:, one_sided]
+        return out
+
     return {"exact": gyro + exact, "process": gyro + process,
             "process_exact_ends": gyro + joined, "left_out": gyro,
             "process_low_frequency": gyro + matched,
-            "process_low_frequency_exact_ends": gyro + exact_ends}
+            "process_low_frequency_exact_ends": gyro + exact_ends(matched),
+            "two_oscillators": gyro + pair,
+            "two_oscillators_exact_ends": gyro + exact_ends(pair)}
 
 
 def generalised_least_squares(design: np.ndarray, drift: np.ndarray, covariance: np.ndarray
@@ -237,7 +282,7 @@ def one(case: str, seed: int) -> dict:
         try:
             solved[way] = generalised_least_squares(design, drift, c)
         except np.linalg.LinAlgError:  # a design's covariance that is not one
-            if way != "process_low_frequency_exact_ends":
+            if not way.endswith("_exact_ends") or way == "process_exact_ends":
                 raise
     coverage = sandwich_coverage(design, rows["process"], rows["exact"])
     exact, exact_sd = solved["exact"]
