@@ -1227,3 +1227,18 @@ def test_the_thermometers_process_at_low_frequencies():
             f"(median {flicker[1]:.4f})",
             f"interior, the estimator's power at low frequencies, of which it has {ratio[0]:.2f} "
             f"to {ratio[1]:.2f}")
+
+
+def test_the_design_for_one_thermometer_carrier():
+    """experiments/results/rate_error_edges: two oscillators at the estimator's low-frequency
+    power with the one-sided rows exact give the exact estimates on paper A's noisiest
+    thermometer, and are a covariance on every seed (one oscillator so built is not)."""
+    runs = _results("rate_error_edges")
+    noisy = runs["paper_a_0.05C"]["summary"]
+    pair = noisy["ways"]["two_oscillators_exact_ends"]
+    assert noisy["not_positive_definite"]["two_oscillators_exact_ends"] == 0
+    assert noisy["not_positive_definite"]["process_low_frequency_exact_ends"] > 0
+    shifts = [c["shift_median"] for c in pair.values()]
+    assert max(c["shift_max"] for c in pair.values()) < 0.3
+    _quoted(f"give the exact estimates to a median {min(shifts):.2f} to {max(shifts):.2f} of "
+            "their sd (way")
