@@ -133,65 +133,61 @@ def low_frequency_power(autocovariance: np.ndarray) -> float:
     return float(-np.sum(np.arange(1, gamma.size) ** 2 * gamma[1:]))
 
 
-def low_frequency_match(autocovariance: np.ndarray, step_s: float, white_var: float
-                        ) -> tuple[float, float, float]:
-    """The oscillator (velocity variance, omega rad/s, Q) of least divergence from the
-    estimator's error among those with its low-frequency power: the library's match
-    (:func:`gyroid.noise._rate_error_process.match`) with that constraint, from the same
-    start."""
+def matched_at_low_frequency(autocovariance: np.ndarray, step_s: float, white_var: float,
+                             starts: tuple[tuple[float, ...], ...], options: dict
+                             ) -> list[tuple[float, float, float]]:
+    """Independent oscillators (each velocity variance, omega rad/s, Q) of least divergence
+    from the estimator's error among those whose summed low-frequency power is its own: the
+    library's match (:func:`gyroid.noise._rate_error_process.match`) with that constraint,
+    for one oscillator or two. Each start gives per oscillator omega (radians per window)
+    and Q, then for two the logit of the first one's share of the power; the search runs
+    over the logarithms of omega (rad/s) and Q, and the best of Nelder-Mead's searches
+    (``options``) is kept."""
     target = np.asarray(autocovariance, dtype=float)
     lags = max(8 * target.size, 64)
     power = low_frequency_power(target)
+    window_s = max(target.size - 1, 1) * step_s
 
-    def process(p) -> tuple[float, float, float]:
-        omega, quality = np.exp(p)
-        unit = low_frequency_power(block_autocovariance(lags, step_s, 1.0, omega, quality))
-        return power / unit, omega, quality
+    def coordinates(start: tuple[float, ...]) -> np.ndarray:
+        count = (len(start) + 1) // 3
+        shape = [np.log(v / window_s) if i % 2 == 0 else np.log(v)
+                 for i, v in enumerate(start[:2 * count])]
+        return np.array([*shape, *start[2 * count:]])
+
+    def oscillators(p) -> list[tuple[float, float, float]]:
+        count = (len(p) + 1) // 3
+        shape = np.exp(p[:2 * count]).reshape(count, 2)
+        first = 1.0 if count == 1 else 1.0 / (1.0 + np.exp(-p[2 * count]))
+        shares = [first] if count == 1 else [first, 1.0 - first]
+        return [(share * power / low_frequency_power(block_autocovariance(
+            lags, step_s, 1.0, omega, quality)), omega, quality)
+            for share, (omega, quality) in zip(shares, shape, strict=True)]
 
     def loss(p) -> float:
-        return divergence_per_block(target, block_autocovariance(lags, step_s, *process(p)),
-                                    white_var)
+        trial = sum(block_autocovariance(lags, step_s, *o) for o in oscillators(p))
+        return divergence_per_block(target, trial, white_var)
 
-    window_s = max(target.size - 1, 1) * step_s
-    best = optimize.minimize(loss, np.log([9.0 / window_s, 1.6]), method="Nelder-Mead",
-                             options={"xatol": 1e-4, "fatol": 1e-9, "maxiter": 2000})
-    return process(best.x)
+    searches = [optimize.minimize(loss, coordinates(x), method="Nelder-Mead", options=options)
+                for x in starts]
+    return oscillators(min(searches, key=lambda r: r.fun).x)
+
+
+def low_frequency_match(autocovariance: np.ndarray, step_s: float, white_var: float
+                        ) -> tuple[float, float, float]:
+    """One oscillator (:func:`matched_at_low_frequency`), from the library match's start
+    (omega 9 per window, Q 1.6)."""
+    return matched_at_low_frequency(autocovariance, step_s, white_var, ((9.0, 1.6),),
+                                    {"xatol": 1e-4, "fatol": 1e-9, "maxiter": 2000})[0]
 
 
 def two_oscillator_match(autocovariance: np.ndarray, step_s: float, white_var: float
-                         ) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
-    """Two independent oscillators (each velocity variance, omega rad/s, Q) of least
-    divergence from the estimator's error among pairs with its low-frequency power (shared
-    between them), from two starts (the single oscillator's shape beside a faster one; a
-    slower, damped one beside a faster, sharper one)."""
-    target = np.asarray(autocovariance, dtype=float)
-    lags = max(8 * target.size, 64)
-    power = low_frequency_power(target)
-    window_s = max(target.size - 1, 1) * step_s
-
-    def pair(p) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
-        w1, q1, w2, q2 = np.exp(p[:4])
-        share = 1.0 / (1.0 + np.exp(-p[4]))
-        u1 = low_frequency_power(block_autocovariance(lags, step_s, 1.0, w1, q1))
-        u2 = low_frequency_power(block_autocovariance(lags, step_s, 1.0, w2, q2))
-        return (share * power / u1, w1, q1), ((1.0 - share) * power / u2, w2, q2)
-
-    def loss(p) -> float:
-        first, second = pair(p)
-        trial = (block_autocovariance(lags, step_s, *first)
-                 + block_autocovariance(lags, step_s, *second))
-        return divergence_per_block(target, trial, white_var)
-
-    def start(omega_1: float, q_1: float, omega_2: float, q_2: float, share_logit: float
-              ) -> np.ndarray:
-        """Search coordinates from omegas in radians per window."""
-        return np.array([np.log(omega_1 / window_s), np.log(q_1), np.log(omega_2 / window_s),
-                         np.log(q_2), share_logit])
-
-    searches = [optimize.minimize(loss, x, method="Nelder-Mead",
-                                  options={"xatol": 1e-5, "fatol": 1e-11, "maxiter": 6000})
-                for x in (start(9.0, 1.6, 20.0, 1.6, 0.0), start(6.0, 1.0, 14.0, 3.0, 1.0))]
-    return pair(min(searches, key=lambda r: r.fun).x)
+                         ) -> list[tuple[float, float, float]]:
+    """Two oscillators (:func:`matched_at_low_frequency`), from two starts: the single
+    oscillator's shape beside a faster one, and a slower, damped one beside a faster,
+    sharper one."""
+    return matched_at_low_frequency(autocovariance, step_s, white_var,
+                                    ((9.0, 1.6, 20.0, 1.6, 0.0), (6.0, 1.0, 14.0, 3.0, 1.0)),
+                                    {"xatol": 1e-5, "fatol": 1e-11, "maxiter": 6000})
 
 
 def _process_covariance(time_s: np.ndarray, variance: float, omega: float, quality: float
@@ -239,9 +235,10 @@ def covariances(problem: BenchProblem, values: dict[str, float]) -> dict[str, np
     joined[np.ix_(ends, ends)] = exact[np.ix_(ends, ends)]
     joined[np.ix_(ends, ~ends)] = 0.0
     joined[np.ix_(~ends, ends)] = 0.0
-    matched = _process_covariance(time_s, *low_frequency_match(carried.autocovariance(), step,
+    interior = carried.autocovariance()
+    matched = _process_covariance(time_s, *low_frequency_match(interior, step,
                                                                carried.white_var))
-    first, second = two_oscillator_match(carried.autocovariance(), step, carried.white_var)
+    first, second = two_oscillator_match(interior, step, carried.white_var)
     pair = _process_covariance(time_s, *first) + _process_covariance(time_s, *second)
     one_sided = (time_s < time_s[0] + window / 2) | (time_s > time_s[-1] - window / 2)
 
