@@ -1161,6 +1161,15 @@ def test_a_held_out_cycle_after_a_bias_step():
             f"held-out error to {span(steps['with_bias_step']['held_out_over_least_squares'])}x")
 
 
+def _way_spread(summary: dict, way: str, key: str,
+                names: tuple[str, ...] | None = None) -> tuple[float, float]:
+    """rate_error_edges: the least and greatest of a way's ``key`` over its coefficients
+    (``names``, or all of them)."""
+    per = summary["ways"][way]
+    values = [per[n][key] for n in (per if names is None else names)]
+    return min(values), max(values)
+
+
 def test_the_thermometers_process_against_its_exact_covariance():
     """experiments/results/rate_error_edges: at the default fit's mode, the filter's process
     for the thermometer's noise against that error's exact covariance (dense least squares
@@ -1172,19 +1181,15 @@ def test_the_thermometers_process_against_its_exact_covariance():
         "paper_a_0.05C", "paper_a_0.01C", "fog_smooth_0.01C", "paper_a_0.05C_window_1200s"))
     assert max(s["mode_check_max"] for s in (noisy, fine, fog, fixed)) < 1e-3
 
-    def spread(summary, way, key):
-        values = [c[key] for c in summary["ways"][way].values()]
-        return min(values), max(values)
-
-    exact, process = spread(noisy, "exact", "z_sd"), spread(noisy, "process", "z_sd")
+    exact, process = _way_spread(noisy, "exact", "z_sd"), _way_spread(noisy, "process", "z_sd")
     assert process[0] > exact[1]  # at the same levels, the process widens the z-scores
     # the exact covariance at the process's levels over-states the noise (its z-scores'
     # sd below 1), and the sandwich then reads as too narrow what holds as stated
     held = _results("eiv_calibration_ieee")["thermometer_0.05C"]["carried_window_1200s"]
-    assert spread(fixed, "exact", "z_sd")[1] < 1.0 and max(held["z_sd"].values()) < 1.2
+    assert _way_spread(fixed, "exact", "z_sd")[1] < 1.0 and max(held["z_sd"].values()) < 1.2
     assert fixed["sandwich_coverage"][0] < 0.9
-    moved = [spread(s, "process", "shift_median") for s in (noisy, fine, fog)]
-    fixed_exact = spread(fixed, "exact", "z_sd")
+    moved = [_way_spread(s, "process", "shift_median") for s in (noisy, fine, fog)]
+    fixed_exact = _way_spread(fixed, "exact", "z_sd")
     _quoted(f"z-scores' sds of {exact[0]:.2f} to {exact[1]:.2f} over {noisy['seeds']} seeds "
             f"where the process gives {process[0]:.2f} to {process[1]:.2f}, and moves the "
             f"estimates a median {moved[0][0]:.2f} to {moved[0][1]:.2f} of their sd",
@@ -1208,14 +1213,10 @@ def test_the_thermometers_process_at_low_frequencies():
     ratio = noisy["low_frequency_power_ratio"]
     assert ratio[1] < 0.5  # less than half the power, on every seed
 
-    def spread(way, key, names=("w0", "w1", "w2", "wD")):
-        values = [noisy["ways"][way][n][key] for n in names]
-        return min(values), max(values)
-
     wd = noisy["ways"]["process"]["wD"]
     matched = noisy["ways"]["process_low_frequency"]["wD"]
     assert wd["sd_ratio_max"] < 0.9 and abs(matched["sd_ratio_min"] - 1) < 0.02
-    others = spread("process_low_frequency", "shift_median", ("w0", "w1", "w2"))
+    others = _way_spread(noisy, "process_low_frequency", "shift_median", ("w0", "w1", "w2"))
     assert others[0] > 0.3  # the ends: still moved
     flicker = noisy["B_deg_h_at_mode"]
     _quoted(f"columns vary it has {ratio[0]:.2f} to {ratio[1]:.2f} of the estimator's power, "
