@@ -125,7 +125,7 @@ def test_a_model_of_one_line_fits_a_thermal_log_and_carries_its_thermometer():
     log, truth = _walked_thermal_log(seed=5)
     problem = BenchProblem.from_log(log, "thermal",
                                     BenchOptions(noise=KALIBR, rate_window_s=RATE_WINDOW_S))
-    assert problem.noise.rate_error is not None and problem.thermometer_sd_C > 0.01
+    assert problem.noise.carried is not None and problem.thermometer_sd_C > 0.01
     assert problem.noise_names == ("N_deg_sqrt_h", "K_deg_h_sqrt_h")
     result = fit(problem, seed=2)
     record = result.to_json()

@@ -76,8 +76,8 @@ def test_without_the_thermometers_noise_the_walk_takes_it_in(bench):
     left_out = BenchProblem.from_log(bench, "thermal",
                                      BenchOptions(noise="white+flicker+rw", rate_window_s=864.0,
                                                   errors_in_variables=False))
-    assert carried.density.noise.rate_error is not None
-    assert left_out.density.noise.rate_error is None
+    assert carried.density.noise.carried is not None
+    assert left_out.density.noise.carried is None
     with_it, without = carried.mode(), left_out.mode()
     assert without.value["K_deg_h_sqrt_h"] > 30.0 * WALK
     assert with_it.value["K_deg_h_sqrt_h"] < 5.0 * WALK

@@ -114,21 +114,20 @@ class BenchFit(Fit[BenchProblem]):
                    "wD_fixed": problem.rate_error_wd}
         how = ("the thermometer's white noise, measured by the logged temperature's third "
                "differences, passed through the dT/dt estimator and times wD's least-squares "
-               "value (wD_fixed): ")
-        process = noise.rate_error
-        if process is None:
-            return carried | {"how": how + "a covariance wD^2 v L L' over the rows beside the "
-                                           "white noise's, exact"}
+               "value (wD_fixed): in the log's interior a process of the noise model's "
+               "filter, oscillators' velocities matched to the estimator's error with its "
+               "power at low frequencies (divergence_left: the share of the divergence "
+               "from leaving it out that remains); on the one-sided rows within half a "
+               "window of either end, their exact error and its covariance with every row")
+        process = noise.carried.process
+        oscillators = [{"sd_deg_h": math.sqrt(float(v)), "omega_rad_s": float(w),
+                        "quality": float(q)} for v, w, q in np.asarray(process.oscillators)]
         return carried | {
-            "process": {"sd_deg_h": math.sqrt(float(process.variance)),
-                        "omega_rad_s": float(process.omega),
-                        "quality": float(process.quality),
+            "process": {"oscillators": oscillators,
                         "divergence_left": float(process.divergence)
                         / max(float(process.divergence_without), 1e-300)},
-            "how": how + "one more process of the noise model's filter, a damped "
-                         "oscillator's velocity matched to the estimator's error "
-                         "(divergence_left: the share of the divergence from leaving it "
-                         "out that remains)"}
+            "one_sided_rows": noise.carried.ends.count,
+            "how": how}
 
     @property
     def input_ranges(self) -> dict[str, list[float]]:

@@ -15,10 +15,9 @@ marginal (three dimensions for IEEE 952 noise, one for white noise's unknown lev
 instead of those plus the coefficients) and then ``beta`` given each draw gives draws of
 the same posterior as sampling them jointly.
 
-* :class:`CollapsedCoefficients`: correlated noise, one Kalman pass over the data and every
-  column of the design giving ``a`` and ``A`` (O(n p) an evaluation), or, for white noise
-  beside a carried thermometer's, the rows' coordinates in their covariance's eigenbasis
-  (O(n^2 p): :mod:`gyroid.noise._rate_error_rows`);
+* :class:`CollapsedCoefficients`: correlated noise (a carried thermometer's included, under
+  every noise model), one Kalman pass over the data and every column of the design giving
+  ``a`` and ``A`` (O(n p) an evaluation);
 * :class:`SufficientCoefficients`: white rows, ``A'A`` and ``A'a`` from the R factor of the
   rows' weighted design and drift (O(p^2) an evaluation, whatever the log's length).
 """

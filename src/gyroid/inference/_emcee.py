@@ -6,7 +6,7 @@ is at least ``tau_factor`` integrated autocorrelation times long and every param
 ``max_steps``. After the first chunk each chunk is sized from the current autocorrelation
 time to reach ``tau_factor`` times it, so few checks are needed. The log-posterior is the
 problem's density, jit-compiled and vmapped over walkers (``vectorize=True``), or its NumPy
-form where that is cheaper (the thermometer's eigenbasis).
+form where that is cheaper (a static log's noise terms).
 
 A linear drift model is sampled collapsed (:mod:`gyroid.inference._collapsed`: filtered
 under correlated noise, on sufficient statistics under white noise): emcee walks the noise

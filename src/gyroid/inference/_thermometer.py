@@ -10,13 +10,18 @@ import numpy as np
 
 from gyroid.inference._rate_window import grid_least_squares, window_grid
 from gyroid.io._logs import BenchLog, MeansOfBlocks
-from gyroid.models._derived import MAX_OPERATOR_ROWS, RATE_POLY_DEGREE, estimator_grid_size
+from gyroid.models._derived import (
+    MAX_OPERATOR_ROWS,
+    RATE_POLY_DEGREE,
+    estimator_grid_size,
+    temperature_rate_operator,
+)
 from gyroid.models._drift import DriftModel
 from gyroid.models._inputs import ACCEL_COLUMNS, FIELD_COLUMNS
 from gyroid.models._rate_error import (
     estimator_autocovariance,
+    one_sided_rows,
     rate_coefficient_index,
-    rate_error_covariance,
     thermometer_noise_var,
     white_level_var,
 )
@@ -121,20 +126,21 @@ def _operator_fits(log: BenchLog | MeansOfBlocks, rate_window_s: float | None,
 def carried_thermometer(log: BenchLog, window_s: float, wd: float, thermometer_var: float
                         ) -> CarriedThermometer | None:
     """The thermometer's noise a fit carries (a row's variance ``thermometer_var``, degC^2;
-    none when 0) through the estimator's window ``window_s`` (s), times ``wd**2``: the rows'
-    covariance, and the interior's autocovariance at lags of one row (none for a log of
-    bursts, whose estimator differentiates on a grid across the gaps: a kernel not the
-    rows')."""
+    none when 0) through the estimator's window ``window_s`` (s), times ``wd``: the rows'
+    error per unit noise, the one-sided rows, and the interior's autocovariance at lags of
+    one row (none for a log of bursts, whose estimator differentiates on a grid across the
+    gaps: a kernel not the rows')."""
     if thermometer_var <= 0 or log.n < 2:
         return None
     time_s = np.asarray(log.time_s)
     temperature = np.asarray(log.columns["temperature_C"])
     step = float(np.median(np.diff(time_s)))
     even = estimator_grid_size(time_s, window_s) <= 1.05 * log.n
+    scale = wd * np.sqrt(thermometer_var)
     return CarriedThermometer(
-        covariance=lambda: wd**2 * rate_error_covariance(time_s, temperature, window_s,
-                                                         thermometer_var),
+        operator=lambda: scale * temperature_rate_operator(time_s, temperature, window_s),
         autocovariance=lambda: (wd**2 * estimator_autocovariance(window_s, step,
                                                                  thermometer_var)
                                 if even else None),
+        one_sided=one_sided_rows(time_s, window_s),
         white_var=white_level_var(np.asarray(log.drift_deg_h)))

@@ -112,7 +112,7 @@ def _slope_kernel(half: int, degree: int) -> tuple[np.ndarray, np.ndarray, float
     return x, centre, float(centre @ centre)
 
 
-def _half_and_degree(window_s: float, step: float, size: int) -> tuple[int, int]:
+def half_and_degree(window_s: float, step: float, size: int) -> tuple[int, int]:
     """The estimator's half window (samples) and polynomial degree for ``window_s`` on a
     grid of ``size`` points ``step`` apart: shortened to the grid, and the degree with it,
     when the window is longer (degree below 1: a single slope over the whole grid)."""
@@ -127,7 +127,7 @@ def _half_and_degree(window_s: float, step: float, size: int) -> tuple[int, int]
 def slope_kernel_weights(window_s: float, step_s: float) -> np.ndarray:
     """The interior estimator's weights on ``2 half + 1`` samples ``step_s`` apart (degC/h
     per degC): the rate at a window's centre is their dot product with its temperatures."""
-    half, degree = _half_and_degree(window_s, step_s, 2**62)
+    half, degree = half_and_degree(window_s, step_s, 2**62)
     return _slope_kernel(half, degree)[1] / (half * step_s / 3600.0)
 
 
@@ -191,7 +191,7 @@ def temperature_rate_deg_c_per_h(
     return _rate_and_floors(time_s, temperature_C, window_s)[0]
 
 
-def _grid_plan(time_s: np.ndarray, window_s: float) -> tuple[str, float]:
+def grid_plan(time_s: np.ndarray, window_s: float) -> tuple[str, float]:
     """Where the estimator differentiates a log with at least two rows, and the step of
     that grid (s): ``"binned"`` (means over bins of ``window_s / MAX_WINDOW_SAMPLES``),
     ``"uniform"`` (the rows themselves) or ``"interpolated"`` (a uniform grid at the median
@@ -215,7 +215,7 @@ def _rate_and_floors(time_s: np.ndarray, temperature_C: np.ndarray, window_s: fl
     n = time_s.size
     if n < 2:
         return np.zeros(n), None
-    kind, step = _grid_plan(time_s, window_s)
+    kind, step = grid_plan(time_s, window_s)
     uniform = kind == "uniform"
     if kind == "binned":
         offset = time_s - time_s[0]
@@ -235,7 +235,7 @@ def _rate_and_floors(time_s: np.ndarray, temperature_C: np.ndarray, window_s: fl
         m = int(np.floor((time_s[-1] - time_s[0]) / step)) + 1
         grid_t = time_s[0] + step * np.arange(m)
         grid_T = _interp(grid_t, time_s, temperature_C)
-    half, degree = _half_and_degree(window_s, step, grid_t.size)
+    half, degree = half_and_degree(window_s, step, grid_t.size)
     if degree < 1:
         slope = (grid_T[-1] - grid_T[0]) / (grid_t[-1] - grid_t[0])
         return np.broadcast_to(slope * 3600.0, temperature_C.shape).copy(), None
@@ -281,7 +281,7 @@ def estimator_grid_size(time_s: np.ndarray, window_s: float) -> int:
     time_s = np.asarray(time_s, dtype=float)
     if time_s.size < 2:
         return time_s.size
-    kind, step = _grid_plan(time_s, window_s)
+    kind, step = grid_plan(time_s, window_s)
     if kind == "uniform":
         return time_s.size
     return int(np.floor((time_s[-1] - time_s[0]) / step)) + 1
@@ -306,9 +306,9 @@ def temperature_rate_operator(
                          f"{MAX_OPERATOR_ROWS})")
     _, floors = _rate_and_floors(time_s, temperature_C, window_s)
     if n >= 2 and floors is not None:
-        kind, step = _grid_plan(time_s, window_s)
+        kind, step = grid_plan(time_s, window_s)
         if kind == "uniform":
-            return _uniform_operator(n, step, *_half_and_degree(window_s, step, n), floors)
+            return _uniform_operator(n, step, *half_and_degree(window_s, step, n), floors)
     return _rate_and_floors(time_s, np.eye(n), window_s, floors)[0]
 
 

@@ -22,7 +22,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from gyroid.models._derived import slope_kernel_weights, temperature_rate_operator
+from gyroid.models._derived import (
+    estimator_grid_size,
+    grid_plan,
+    half_and_degree,
+    slope_kernel_weights,
+)
 from gyroid.models._drift import DriftModel
 
 #: Rows are aggregated by these factors when the thermometer's noise is measured on the
@@ -84,13 +89,16 @@ def thermometer_noise_var(time_s: np.ndarray, temperature_C: np.ndarray,
     return max(estimates)
 
 
-def rate_error_covariance(time_s: np.ndarray, temperature_C: np.ndarray, window_s: float,
-                          noise_var_C2: float) -> np.ndarray:
-    """Covariance of the estimated dT/dt's error at every row, (degC/h)^2: ``v L L'`` for a
-    white thermometer noise of variance ``noise_var_C2`` per row (at most
-    :data:`~gyroid.models._derived.MAX_OPERATOR_ROWS` rows)."""
-    operator = temperature_rate_operator(time_s, temperature_C, window_s)
-    return noise_var_C2 * (operator @ operator.T)
+def one_sided_rows(time_s: np.ndarray, window_s: float) -> np.ndarray:
+    """The rows (a boolean mask) where the estimator's window is one-sided: within its half
+    window (on the grid it differentiates on) of either end of the log."""
+    time_s = np.asarray(time_s, dtype=float)
+    if time_s.size < 2:
+        return np.ones(time_s.size, dtype=bool)
+    _, step = grid_plan(time_s, window_s)
+    half, _ = half_and_degree(window_s, step, estimator_grid_size(time_s, window_s))
+    reach = half * step * (1.0 - 1e-9)
+    return (time_s - time_s[0] < reach) | (time_s[-1] - time_s < reach)
 
 
 def estimator_autocovariance(window_s: float, step_s: float, noise_var_C2: float

@@ -160,11 +160,11 @@ def block_innovations(
     if rate_error is not None:
         phi, qxx, c, qxm, start = _with_process(phi, qxx, c, qxm, start, rate_error)
         block, q_block = rate_error.transition, rate_error.state_noise
-        scale = jnp.concatenate([scale, jnp.ones(2)])  # the rate error's own noise
+        scale = jnp.concatenate([scale, jnp.ones(block.shape[-1])])  # its own noise
         r = r + rate_error.mean_noise
     transition = (phi, link, block)
     # the new state noise as its parts: a diagonal, the running mean's entry (both per unit
-    # level), the rate error's 2 x 2 block (which no level changes)
+    # level), the rate error's block (which no level changes)
     q = (qxx, q_link, q_block)
     if not centred:
         return _anchored(observed, transition, c, q, qxm, r, update, start, scale)
@@ -172,8 +172,8 @@ def block_innovations(
 
 
 def _with_process(phi, qxx, c, qxm, start, process: RateErrorProcess):
-    """The block filter's system with the rate error's two states appended (their
-    transition and state noise, 2 x 2 blocks, are applied apart: :func:`_transit`,
+    """The block filter's system with the rate error's states appended (their transition
+    and state noise, square blocks, are applied apart: :func:`_transit`,
     :func:`_plus_noise`)."""
     n, s = c.shape
     k = s + process.stationary.shape[0]
@@ -187,27 +187,29 @@ def _with_process(phi, qxx, c, qxm, start, process: RateErrorProcess):
 def _transit(transition, m, j):
     """The transition applied to ``m`` along its leading (state) axis: a diagonal, the
     running mean's link (state ``j + 1`` gains ``link`` times state ``j``) and the rate
-    error's 2 x 2 block on the last two states; O(states) where a dense product is
-    O(states^2) per column (the filter's ``F P F'`` was its cost)."""
+    error's block on the last states; O(states) where a dense product is O(states^2) per
+    column (the filter's ``F P F'`` was its cost)."""
     diag, link, block = transition
     out = diag.reshape((-1,) + (1,) * (m.ndim - 1)) * m
     if link is not None:
         out = out.at[j + 1].add(link * m[j])
     if block is not None:
-        out = out.at[-2:].set(jnp.tensordot(block, m[-2:], axes=1))
+        k = block.shape[-1]
+        out = out.at[-k:].set(jnp.tensordot(block, m[-k:], axes=1))
     return out
 
 
 def _plus_noise(cov, noise, scale, j):
     """``cov`` plus a block's new state noise given as its parts (:func:`ieee_innovations`):
     the diagonal and the running mean's covariance with the walk (states ``j + 1`` and
-    ``j``), per unit level, times each state's ``scale``; the rate error's 2 x 2 block."""
+    ``j``), per unit level, times each state's ``scale``; the rate error's block."""
     diag, link, block = noise
     out = cov + jnp.diag(scale * diag)
     if link is not None:
         out = out.at[j + 1, j].add(scale[j] * link).at[j, j + 1].add(scale[j] * link)
     if block is not None:
-        out = out.at[-2:, -2:].add(block)
+        k = block.shape[-1]
+        out = out.at[-k:, -k:].add(block)
     return out
 
 

@@ -31,13 +31,11 @@ from gyroid.noise._base import RowClock, parts_mean_covariance
 from gyroid.noise._block_filter import block_innovations, log_span_s, part_covariance
 from gyroid.noise._kalman import gauss_markov_innovations, gauss_markov_mean_covariance
 from gyroid.noise._rate_error_process import RateErrorProcess
-from gyroid.noise._rate_error_rows import CarriedThermometer, RowEigenbasis
+from gyroid.noise._rate_error_rows import CarriedThermometer, OneSidedRows
 from gyroid.noise._terms import (
     AbstractNoiseTerm,
-    AbstractRateError,
     AbstractWhiteTerm,
     AngleRandomWalk,
-    ExactRateError,
     Flicker,
     GaussMarkovBias,
     RateError,
@@ -140,25 +138,22 @@ class NoiseModel(eqx.Module):
         """This model set up for a log of rows ``step_s`` apart lasting ``duration_s``."""
         return NoiseModel(self.name, tuple(t.for_log(step_s, duration_s) for t in self.terms))
 
-    def with_rate_error(self, carried: CarriedThermometer, *, d0: np.ndarray,
-                        span_s: np.ndarray, gap_s: np.ndarray, step_s: float) -> NoiseModel:
+    def with_rate_error(self, carried: CarriedThermometer, *, span_s: np.ndarray,
+                        gap_s: np.ndarray, step_s: float) -> NoiseModel:
         """This model carrying the thermometer's noise through the dT/dt estimator
-        (``carried``, on the log's rows: each row's white variance per unit level ``d0``,
-        spans ``span_s`` after gaps ``gap_s``, ``step_s`` apart) as one more term: beside
-        white noise alone the rows' exact covariance (:class:`~gyroid.noise._terms.
-        ExactRateError`), beside a correlated term a process of the block filter matched
-        to it (:class:`~gyroid.noise._terms.RateError`; none where the rows are not evenly
-        spaced for it)."""
+        (``carried``, on the log's rows: spans ``span_s`` after gaps ``gap_s``, ``step_s``
+        apart) as one more term (:class:`~gyroid.noise._terms.RateError`), under every
+        noise model: a process of the block filter matched to the estimator's interior
+        error, the one-sided rows exact; none where the rows are not evenly spaced for the
+        process (a log of bursts)."""
         gyro = self.without_rate_error()
-        if not gyro.correlated:
-            rows = RowEigenbasis.of(carried.covariance(), d0, np.ones(np.size(d0), dtype=bool))
-            return NoiseModel(self.name, (*gyro.terms, ExactRateError(rows)))
         autocovariance = carried.autocovariance()
         if autocovariance is None:
             return gyro
         process = RateErrorProcess.matched(autocovariance, step_s, carried.white_var,
-                                           span_s, gap_s)
-        return NoiseModel(self.name, (*gyro.terms, RateError(process)))
+                                           span_s, gap_s, observed=~carried.one_sided)
+        ends = OneSidedRows.of(carried.operator(), carried.one_sided, process)
+        return NoiseModel(self.name, (*gyro.terms, RateError(process, ends)))
 
     def without_rate_error(self) -> NoiseModel:
         """This model without a carried rate error (the gyro's noise, not the fitted log's
@@ -166,27 +161,12 @@ class NoiseModel(eqx.Module):
         if self.carried is None:
             return self
         return NoiseModel(self.name, tuple(t for t in self.terms
-                                           if not isinstance(t, AbstractRateError)))
-
-    def on_rows(self, keep: np.ndarray) -> NoiseModel:
-        """This model on the rows ``keep`` of its log (a boolean mask): a carried exact
-        rate error's covariance is then the kept rows' (their marginal)."""
-        carried = self.carried
-        if not isinstance(carried, ExactRateError):
-            return self
-        return NoiseModel(self.name, (*self.without_rate_error().terms,
-                                      ExactRateError(carried.rows.on_rows(keep))))
+                                           if not isinstance(t, RateError)))
 
     @property
-    def carried(self) -> AbstractRateError | None:
+    def carried(self) -> RateError | None:
         """The thermometer's noise this model carries (a term), or None."""
-        return next((t for t in self.terms if isinstance(t, AbstractRateError)), None)
-
-    @property
-    def rate_error(self) -> RateErrorProcess | None:
-        """The rate error's process in the block filter, or None."""
-        carried = self.carried
-        return carried.process if isinstance(carried, RateError) else None
+        return next((t for t in self.terms if isinstance(t, RateError)), None)
 
     # ----- priors and starts ------------------------------------------------------------
     def default_priors(self, level_deg_h: float, step_s: float, rows_per_mean: int
@@ -238,12 +218,12 @@ class NoiseModel(eqx.Module):
 
     def innovations(self, observed, white, values: Mapping, clock: RowClock):
         """The innovations of ``observed`` (rows; trailing columns filtered alike) and
-        their variances under this model, white sd ``white``; None for independent rows."""
+        their variances under this model, white sd ``white``; None for independent rows.
+        A carried rate error's one-sided rows are filtered as columns beside ``observed``
+        and corrected for after (:meth:`~gyroid.noise._rate_error_rows.OneSidedRows.
+        innovations`)."""
         if not self.correlated:
             return None
-        carried = self.carried
-        if isinstance(carried, ExactRateError):
-            return carried.rows.innovations(observed, white)
         processes = [g for t in self.terms if (g := t.processes(values)) is not None]
         diffusion, centred = self._walk(values)
         if self._at_instants(clock.gap_s is not None, processes, centred):
@@ -252,9 +232,18 @@ class NoiseModel(eqx.Module):
                                             level * np.sqrt(unit), taus[0], clock.weight)
         span = jnp.full_like(clock.steps_s, clock.step_s)
         gap = jnp.zeros_like(span) if clock.gap_s is None else clock.gap_s
-        return block_innovations(observed, span, gap, jnp.broadcast_to(white**2, span.shape),
-                                 processes, diffusion, clock.weight, centred=centred,
-                                 rate_error=self.rate_error)
+        carried = self.carried
+        columns = observed.reshape(observed.shape[0], -1)
+        if carried is not None:
+            columns = jnp.concatenate([columns, carried.ends.loadings], axis=1)
+        innovation, variance = block_innovations(
+            columns, span, gap, jnp.broadcast_to(white**2, span.shape), processes,
+            diffusion, clock.weight, centred=centred,
+            rate_error=None if carried is None else carried.process)
+        if carried is not None:
+            update = jnp.ones_like(span) if clock.weight is None else clock.weight
+            innovation, variance = carried.ends.innovations(innovation, variance, update)
+        return innovation.reshape(observed.shape), variance
 
     def part_covariance(self, time_s: np.ndarray, part: np.ndarray, n_parts: int,
                         step_s: float, white_var: np.ndarray, values: Mapping, *,
