@@ -122,17 +122,38 @@ class CollapsedCoefficients(AbstractMarginal):
         return filtered
 
     def _normal_equations(self, v: Float[Array, " k"]) -> NormalEquations:
-        innovation, variance = self._innovations(v)
+        white, values = self.row_filter.levels_of(v)
+        filtered = self.row_filter.filtered(self.columns, white, values)
+        if filtered is None:
+            innovation = self.columns
+            variance = jnp.broadcast_to(white**2, self.weight.shape)
+            ends = None
+        else:
+            innovation, variance, ends = filtered
         # a held-out row's weight 0 outside the root: sqrt(0 / variance) has no gradient
         scale = jnp.sqrt(self.weight) * jnp.sqrt(1.0 / variance)
         a, design = innovation[:, 0] * scale, innovation[:, 1:] * scale[:, None]
-
-        def residual_sq(beta):
-            residual = a - design @ beta
-            return residual @ residual
-
         log_norm = -0.5 * jnp.sum(self.weight * (jnp.log(variance) + _LOG_2PI))
-        return design.T @ design, design.T @ a, residual_sq, log_norm
+        carried = self.row_filter.noise.carried
+        if ends is None or carried is None:
+            def residual_sq(beta):
+                residual = a - design @ beta
+                return residual @ residual
+
+            return design.T @ design, design.T @ a, residual_sq, log_norm
+        # a carried rate error's one-sided rows: the filter's covariance plus a low-rank
+        # correction, by Woodbury's identity on the filter's whitened columns
+        products, inner, log_det = carried.ends.whitened_products(
+            jnp.column_stack([a, design]), ends * scale[:, None])
+        on_a, on_design = products[:, 0], products[:, 1:]
+
+        def corrected_sq(beta):
+            residual, on = a - design @ beta, on_a - on_design @ beta
+            return residual @ residual - on @ inner @ on
+
+        return (design.T @ design - on_design.T @ inner @ on_design,
+                design.T @ a - on_design.T @ inner @ on_a, corrected_sq,
+                log_norm - 0.5 * log_det)
 
     def with_columns(self, columns: Float[Array, "n 1+r"]) -> CollapsedCoefficients:
         """This form on other columns (the drift less the model at zero real coefficients,

@@ -216,34 +216,53 @@ class NoiseModel(eqx.Module):
         walks = [d for t in self.terms if (d := t.diffusion(values)) is not None]
         return (sum(walks), True) if walks else (0.0, False)
 
-    def innovations(self, observed, white, values: Mapping, clock: RowClock):
-        """The innovations of ``observed`` (rows; trailing columns filtered alike) and
-        their variances under this model, white sd ``white``; None for independent rows.
-        A carried rate error's one-sided rows are filtered as columns beside ``observed``
-        and corrected for after (:meth:`~gyroid.noise._rate_error_rows.OneSidedRows.
-        innovations`)."""
+    def filtered(self, observed, white, values: Mapping, clock: RowClock):
+        """The filter's innovations of ``observed`` (rows; trailing columns filtered alike)
+        and their variances under this model, white sd ``white``, and a carried rate error's
+        one-sided rows' loadings filtered alike (rows by ``k``; None without one): the
+        rows' covariance is the filter's plus those loadings' low-rank correction
+        (:class:`~gyroid.noise._rate_error_rows.OneSidedRows`); None for independent
+        rows."""
         if not self.correlated:
             return None
         processes = [g for t in self.terms if (g := t.processes(values)) is not None]
         diffusion, centred = self._walk(values)
         if self._at_instants(clock.gap_s is not None, processes, centred):
             taus, level, unit = processes[0]
-            return gauss_markov_innovations(observed, clock.steps_s, white,
-                                            level * np.sqrt(unit), taus[0], clock.weight)
+            return (*gauss_markov_innovations(observed, clock.steps_s, white,
+                                              level * np.sqrt(unit), taus[0], clock.weight),
+                    None)
         span = jnp.full_like(clock.steps_s, clock.step_s)
         gap = jnp.zeros_like(span) if clock.gap_s is None else clock.gap_s
         carried = self.carried
         columns = observed.reshape(observed.shape[0], -1)
+        width = columns.shape[1]
         if carried is not None:
             columns = jnp.concatenate([columns, carried.ends.loadings], axis=1)
         innovation, variance = block_innovations(
             columns, span, gap, jnp.broadcast_to(white**2, span.shape), processes,
             diffusion, clock.weight, centred=centred,
             rate_error=None if carried is None else carried.process)
-        if carried is not None:
-            update = jnp.ones_like(span) if clock.weight is None else clock.weight
-            innovation, variance = carried.ends.innovations(innovation, variance, update)
-        return innovation.reshape(observed.shape), variance
+        ends = None if carried is None else innovation[:, width:]
+        return innovation[:, :width].reshape(observed.shape), variance, ends
+
+    def innovations(self, observed, white, values: Mapping, clock: RowClock):
+        """The innovations of ``observed`` (rows; trailing columns filtered alike) and
+        their variances under this model, in time order, white sd ``white``; None for
+        independent rows. A carried rate error's one-sided rows are filtered as columns
+        beside ``observed`` and corrected for after (:meth:`~gyroid.noise.
+        _rate_error_rows.OneSidedRows.innovations`)."""
+        filtered = self.filtered(observed, white, values, clock)
+        if filtered is None:
+            return None
+        innovation, variance, ends = filtered
+        carried = self.carried
+        if ends is None or carried is None:
+            return innovation, variance
+        update = jnp.ones_like(variance) if clock.weight is None else clock.weight
+        data = innovation.reshape(innovation.shape[0], -1)
+        corrected, variance = carried.ends.innovations(data, ends, variance, update)
+        return corrected.reshape(innovation.shape), variance
 
     def part_covariance(self, time_s: np.ndarray, part: np.ndarray, n_parts: int,
                         step_s: float, white_var: np.ndarray, values: Mapping, *,

@@ -48,9 +48,6 @@ from gyroid.noise._rate_error_process import RateErrorProcess
 #: A singular value of the one-sided rows' operator below this share of the largest is
 #: rounding, not a direction of their error.
 _RANK_TOLERANCE = 1e-9
-#: The one-sided rows' rank is padded to a multiple of this (six per end: the end windows'
-#: polynomials' coefficients) with zero columns, which change nothing.
-PAD_RANK = 12
 
 
 @dataclass(frozen=True)
@@ -94,15 +91,11 @@ class OneSidedRows(eqx.Module):
         rank = int(np.sum(values > _RANK_TOLERANCE * max(values[0], 1e-300))) if values.size \
             else 0
         basis = basis[:rank]
-        # zero columns to a multiple of PAD_RANK: logs of one length share the programs
-        width = -(-rank // PAD_RANK) * PAD_RANK
-        loadings = np.zeros((operator.shape[0], 2 * width))
+        loadings = np.zeros((operator.shape[0], 2 * rank))
         loadings[one_sided, :rank] = ends @ basis.T
-        loadings[~one_sided, width:width + rank] = operator[~one_sided] @ basis.T
-        identity = np.eye(width)
-        inflation = np.zeros((width, width))
-        inflation[:rank, :rank] = _inflation(loadings[:, width:width + rank], one_sided,
-                                             process)
+        loadings[~one_sided, rank:] = operator[~one_sided] @ basis.T
+        identity = np.eye(rank)
+        inflation = _inflation(loadings[:, rank:], one_sided, process)
         middle = np.block([[identity, identity], [identity, inflation]])
         return cls(jnp.asarray(loadings), jnp.asarray(middle))
 
@@ -117,15 +110,15 @@ class OneSidedRows(eqx.Module):
         loadings = np.asarray(self.loadings)
         return loadings @ np.asarray(self.middle) @ loadings.T
 
-    def innovations(self, filtered, variance, update) -> tuple[Array, Array]:
-        """The innovations and their variances under the filter's covariance plus ``U M
-        U'``, from the filter's (``filtered``: rows by columns, ``U``'s columns last;
-        ``variance``: each row's), rows with ``update == 0`` predicted through: a filter
-        whose states are ``c``'s coordinates, constant, with prior covariance ``M``, each
-        row observing its filtered loadings beside its filtered data (independent rows of
-        those variances given the states)."""
+    def innovations(self, data, loadings, variance, update) -> tuple[Array, Array]:
+        """The innovations and their variances, in time order, under the filter's
+        covariance plus ``U M U'``, from the filter's innovations of the data (``data``:
+        rows by columns) and of ``U`` (``loadings``) and their variances (``variance``),
+        rows with ``update == 0`` predicted through: a filter whose states are ``c``'s
+        coordinates, constant, with prior covariance ``M``, each row observing its filtered
+        loadings beside its filtered data (independent rows of those variances given the
+        states). A marginal needs only their sums (:meth:`whitened_products`)."""
         k = self.middle.shape[0]
-        data, loadings = filtered[:, :-k], filtered[:, -k:]
 
         def step(carry, row):
             states, cov = carry  # the states' estimate (per data column) and covariance
@@ -142,6 +135,22 @@ class OneSidedRows(eqx.Module):
         _, (innovation, total) = jax.lax.scan(step, start, (data, loadings, variance, update))
         return innovation, total
 
+
+    def whitened_products(self, data, loadings) -> tuple[Array, Array, Array]:
+        """From the filter's whitened innovations of the data (``data``, rows by columns,
+        each row over its sd, held-out rows zero) and of ``U`` (``loadings``, alike): the
+        data's cross-products under the rows' whole covariance, by Woodbury's identity
+        (``C^-1 = I - u (I + M u'u)^-1 M u'`` in those coordinates), as ``data'data``
+        less ``w' inner w``: ``w = u' data`` and ``inner = (I + M u'u)^-1 M`` (symmetric),
+        and ``log det(I + M u'u)``, the rows' log-determinant beside the filter's (not a
+        number where the sum is no covariance)."""
+        k = self.middle.shape[0]
+        product = loadings.T @ loadings
+        total = jnp.eye(k) + self.middle @ product
+        inner = jnp.linalg.solve(total, self.middle)
+        sign, log_det = jnp.linalg.slogdet(total)
+        return (loadings.T @ data, 0.5 * (inner + inner.T),
+                jnp.where(sign > 0, log_det, jnp.nan))
 
 def _inflation(explained: np.ndarray, one_sided: np.ndarray, process: RateErrorProcess
                ) -> np.ndarray:

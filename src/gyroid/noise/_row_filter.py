@@ -55,6 +55,10 @@ class RowFilter(eqx.Module):
         """:meth:`NoiseModel.innovations` on these rows (None for independent rows)."""
         return self.noise.innovations(observed, white, values, self.clock)
 
+    def filtered(self, observed, white, values: Mapping):
+        """:meth:`NoiseModel.filtered` on these rows (None for independent rows)."""
+        return self.noise.filtered(observed, white, values, self.clock)
+
     def row_log_likelihood(self, residual, white, values: Mapping) -> Array:
         """Each row's log-likelihood (0 for a row held out): independent rows', else
         :meth:`rows_of` its residual's innovations."""
