@@ -463,6 +463,8 @@ def test_the_thermometer_carried_under_the_default_noise():
     fine, noisy = runs["thermometer_0.01C"], runs["thermometer_0.05C"]
     z_sd = noisy["carried"]["z_sd"].values()
     fixed = noisy["carried_window_1200s"]
+    # within the binomial 95 % band for 30 intervals at 5 % (at most 4 outside), every way
+    assert max(max(outside(w)) for w in (fine["carried"], noisy["carried"], fixed)) <= 4
     _quoted(f"with a 0.01 degC thermometer at most {max(outside(fine['carried']))} of {n}",
             f"with 0.05 degC, up to {max(outside(noisy['carried']))} of {n}",
             f"the z-scores' sd is {min(z_sd):.2f} to {max(z_sd):.2f}",
