@@ -230,8 +230,11 @@ class RateErrorProcess(eqx.Module):
         n = np.size(span_s)
         observed = np.ones(n) if observed is None else np.asarray(observed, dtype=float)
 
-        def side_by_side(key):  # per block, each oscillator's 2 x 2 on the diagonal
-            return np.stack([block_diag(*(s[key][i] for s in systems)) for i in range(n)])
+        def side_by_side(key: str) -> np.ndarray:  # each oscillator's 2 x 2 on the diagonal
+            out = np.zeros((n, 2 * len(systems), 2 * len(systems)))
+            for i, system in enumerate(systems):
+                out[:, 2 * i:2 * i + 2, 2 * i:2 * i + 2] = system[key]
+            return out
 
         arrays = {
             "transition": side_by_side("transition"),
