@@ -15,7 +15,7 @@ thermometer (``experiments/rate_error_edges.py``).
 
 Those rows' errors are exact here. Each end's rows are slopes of polynomials fitted to the
 same window's samples, so their rows of ``L`` span a few dimensions (at most the polynomial's
-coefficients, six per end): with ``S`` an orthonormal basis of that span (``r`` rows) the
+coefficients: five or six per end): with ``S`` an orthonormal basis of that span (``r`` rows) the
 one-sided rows' error is ``A c`` with ``c = S e ~ N(0, I)`` and ``A = L_O S'``, and the other
 rows' errors have covariance ``B = L_R S'`` with ``c``. The rows' covariance is then the
 process's on the other rows (none on the one-sided ones) plus ``U M U'``, ``U = [[A, 0],
@@ -25,10 +25,11 @@ other rows; where it does not, ``G`` inflates their covariance along ``B`` by th
 makes it one (:func:`_inflation`). ``M`` is indefinite, a correction, not a process; the
 rows' innovations under the sum are those of the filter's (``U`` filtered beside the data)
 corrected by a second filter whose states are ``c``'s coordinates with prior covariance
-``M`` (:meth:`OneSidedRows.innovations`), exact. Measured densely on paper A's
-bench (20 seeds each): with two oscillators the estimates are the exact covariance's to a
-median 0.04-0.06 of their sd at 0.05 degC and 0.02 at 0.01 degC, and the sum was a
-covariance on every seed.
+``M`` (:meth:`OneSidedRows.innovations`), exact; a marginal needs only their sums, by
+Woodbury's identity (:meth:`OneSidedRows.whitened_products`). At a fit's mode on paper A's
+bench (20 seeds each, ``experiments/rate_error_edges.py``) the estimates are the exact
+covariance's to a median 0.04-0.07 of their sd with a 0.05 degC thermometer and 0.01-0.02
+with 0.01 degC. The cost: ``U``'s ``2r`` columns (some 20) filtered beside the data.
 """
 
 from __future__ import annotations
