@@ -265,13 +265,12 @@ def test_the_inflation_is_none_where_the_process_holds_the_one_sided_rows_share(
                                                                  rate_window_s=900.0))
     term = problem.density.noise.carried
     process = term.process
-    width = term.ends.middle.shape[0] // 2
-    explained = np.asarray(term.ends.loadings)[:, width:]
+    explained = term.ends.explained
     one_sided = np.asarray(process.mean_noise) == 0.0
     large = eqx.tree_at(lambda p: (p.state_noise, p.mean_noise, p.cross_noise, p.stationary),
                         process, (4.0 * process.state_noise, 4.0 * process.mean_noise,
                                   4.0 * process.cross_noise, 4.0 * process.stationary))
     np.testing.assert_allclose(_inflation(explained, one_sided, large), 0.0, atol=1e-12)
-    inflation = np.asarray(term.ends.middle)[width:, width:]
+    inflation = term.ends.inflation
     assert np.linalg.eigvalsh(inflation)[-1] > 0.0
     assert np.linalg.eigvalsh(inflation)[0] > -1e-12

@@ -111,6 +111,7 @@ def block_innovations(
     update: Float[Array, " n"] | None = None,
     centred: bool = True,
     rate_error: RateErrorProcess | None = None,
+    late: tuple[int, int] | None = None,
 ) -> tuple[Float[Array, "n ..."], Float[Array, " n"]]:
     """Innovations of the block means ``observed`` (trailing columns filtered alike) and
     their variances, under white noise of per-block variance ``white_var`` ((deg/h)^2) plus
@@ -124,7 +125,13 @@ def block_innovations(
     ``centred``: the walk diffuse at the start and averaging zero over the blocks (module
     docstring); the first row learnt from then carries the constraint's innovation.
     ``centred=False``: the walk from zero at the first block (for a model without a walk,
-    whose filter needs no diffuse start)."""
+    whose filter needs no diffuse start).
+
+    ``late``: ``(row, count)`` when ``observed``'s last ``count`` columns (it is rows by
+    columns then) are zero before ``row``: they are filtered from there on only, exactly
+    (a column zero up to a row has zero innovations and states there), the rest of the
+    filter's work on them saved (a carried rate error's loadings at the log's end,
+    :class:`~gyroid.noise._rate_error_rows.OneSidedRows`)."""
     tau_s = jnp.concatenate([jnp.zeros(0), *(p[0] for p in processes)])
     phi, c, qxx, qmm, qxm = block_transitions(span_s, gap_s, tau_s, 1.0, 1.0)
     j = tau_s.size
@@ -167,8 +174,8 @@ def block_innovations(
     # level), the rate error's block (which no level changes)
     q = (qxx, q_link, q_block)
     if not centred:
-        return _anchored(observed, transition, c, q, qxm, r, update, start, scale)
-    return _centred(observed, transition, c, q, qxm, r, update, start, j, scale)
+        return _anchored(observed, transition, c, q, qxm, r, update, start, scale, late)
+    return _centred(observed, transition, c, q, qxm, r, update, start, j, scale, late)
 
 
 def _with_process(phi, qxx, c, qxm, start, process: RateErrorProcess):
@@ -213,7 +220,7 @@ def _plus_noise(cov, noise, scale, j):
     return out
 
 
-def _centred(observed, transition, c, q, qxm, r, update, start_cov, j, scale):
+def _centred(observed, transition, c, q, qxm, r, update, start_cov, j, scale, late):
     """The block filter with the walk (state ``j``) diffuse at the start and its running
     mean (state ``j + 1``) observed as zero at the end (module docstring)."""
     a = j + 1
@@ -245,8 +252,8 @@ def _centred(observed, transition, c, q, qxm, r, update, start_cov, j, scale):
         return (mean, cov, d, pending * (1.0 - u_k)), (innovation, s_mm)
 
     start = (jnp.zeros((n_states, *observed.shape[1:])), start_cov, start_d, jnp.ones(()))
-    (mean, cov, _, _), (innovation, total) = jax.lax.scan(
-        step, start, (observed, transition, c, q, qxm, r, update))
+    (mean, cov, _, _), (innovation, total) = _scan(
+        step, start, (observed, transition, c, q, qxm, r, update), late)
     # the walk's weighted mean over the log, observed as zero
     first = jnp.argmax(update > 0)
     innovation = innovation.at[first].set(-mean[a])
@@ -254,7 +261,7 @@ def _centred(observed, transition, c, q, qxm, r, update, start_cov, j, scale):
     return innovation, total
 
 
-def _anchored(observed, transition, c, q, qxm, r, update, start_cov, scale):
+def _anchored(observed, transition, c, q, qxm, r, update, start_cov, scale, late):
     """The block filter with the walk from zero at the first block (``centred=False``)."""
     n_states = c.shape[1]
 
@@ -272,9 +279,29 @@ def _anchored(observed, transition, c, q, qxm, r, update, start_cov, scale):
         return (mean, cov), (innovation, s_mm)
 
     start = (jnp.zeros((n_states, *observed.shape[1:])), start_cov)
-    _, (innovation, total) = jax.lax.scan(step, start, (observed, transition, c, q, qxm, r,
-                                                         update))
+    _, (innovation, total) = _scan(step, start, (observed, transition, c, q, qxm, r, update),
+                                   late)
     return innovation, total
+
+
+def _scan(step, start, rows, late):
+    """The filter's ``step`` over ``rows`` (the observed columns first) from ``start`` (the
+    states' means first, states by columns): with ``late`` (:func:`block_innovations`), its
+    trailing columns' means started at zero at their row, their innovations zero before."""
+    if late is None or late[1] == 0 or not 0 < late[0] < rows[0].shape[0]:
+        return jax.lax.scan(step, start, rows)
+    row, count = late
+    observed, rest = rows[0], rows[1:]
+    width = observed.shape[1] - count
+    head = jax.tree_util.tree_map(lambda x: x[:row], rest)
+    tail = jax.tree_util.tree_map(lambda x: x[row:], rest)
+    carry, (early, early_total) = jax.lax.scan(
+        step, (start[0][:, :width], *start[1:]), (observed[:row, :width], *head))
+    mean = jnp.concatenate([carry[0], jnp.zeros((carry[0].shape[0], count))], axis=1)
+    carry, (later, later_total) = jax.lax.scan(step, (mean, *carry[1:]),
+                                               (observed[row:], *tail))
+    early = jnp.concatenate([early, jnp.zeros((row, count))], axis=1)
+    return carry, (jnp.concatenate([early, later]), jnp.concatenate([early_total, later_total]))
 
 
 def mean_covariance(start_s: np.ndarray, end_s: np.ndarray, white_var: np.ndarray,

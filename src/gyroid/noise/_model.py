@@ -242,7 +242,8 @@ class NoiseModel(eqx.Module):
         innovation, variance = block_innovations(
             columns, span, gap, jnp.broadcast_to(white**2, span.shape), processes,
             diffusion, clock.weight, centred=centred,
-            rate_error=None if carried is None else carried.process)
+            rate_error=None if carried is None else carried.process,
+            late=None if carried is None else carried.ends.late)
         ends = None if carried is None else innovation[:, width:]
         return innovation[:, :width].reshape(observed.shape), variance, ends
 
