@@ -65,6 +65,30 @@ def test_the_filter_is_the_exact_likelihood_of_block_means_of_any_lengths_and_ga
                                atol=1e-12)
 
 
+@pytest.mark.parametrize("centred", [True, False])
+def test_columns_zero_up_to_a_row_are_filtered_from_it_alike(centred):
+    """``late``: trailing columns zero before a row, filtered from that row on only, get
+    the innovations the whole filter gives them (zero before it), the other columns
+    theirs unchanged; first rows held out, so the walk's diffuse level is revealed before
+    the late columns start (the constraint's innovation at its row, theirs too)."""
+    rng = np.random.default_rng(4)
+    span, gap, _, end = _blocks(rng, 60)
+    taus, unit = flicker_times(span.min(), end[-1])
+    late_from = 41
+    columns = rng.normal(size=(60, 5))
+    columns[:late_from, 3:] = 0.0
+    held_out = (np.arange(60) >= 3).astype(float)
+    args = (jnp.asarray(span), jnp.asarray(gap), jnp.asarray((60.0 * 0.3) ** 2 / span),
+            [(jnp.asarray(taus), 6.0, unit)], (10.0 / 60.0) ** 2 if centred else 0.0,
+            jnp.asarray(held_out))
+    whole, variance = block_innovations(jnp.asarray(columns), *args, centred=centred)
+    late, late_variance = block_innovations(jnp.asarray(columns), *args, centred=centred,
+                                            late=(late_from, 2))
+    np.testing.assert_allclose(np.asarray(late), np.asarray(whole), rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(np.asarray(late_variance), np.asarray(variance), rtol=1e-12)
+    assert np.all(np.asarray(late)[:late_from, 3:][held_out[:late_from] > 0][1:] == 0.0)
+
+
 def test_a_walk_without_a_walk_is_a_constant_the_constraint_removes():
     """K = 0: the diffuse level cannot wander, and averaging zero it is zero: the
     centred filter gives the likelihood without any walk (the stationary noise's)."""
