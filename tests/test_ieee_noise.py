@@ -89,6 +89,41 @@ def test_columns_zero_up_to_a_row_are_filtered_from_it_alike(centred):
     assert np.all(np.asarray(late)[:late_from, 3:][held_out[:late_from] > 0][1:] == 0.0)
 
 
+@pytest.mark.parametrize("centred", [True, False])
+@pytest.mark.parametrize("held_out", [0, 3])
+def test_constant_states_read_by_the_first_rows_add_their_covariance(centred, held_out):
+    """``early``: constant standard-normal states read through loadings ``V`` on the first
+    rows, filtered there and left out after: the likelihood is the dense Gaussian's with
+    ``V V'`` added, first rows held out or not (the diffuse level revealed among them or
+    after them), and with trailing columns read late beside them."""
+    rng = np.random.default_rng(5)
+    span, gap, start, end = _blocks(rng, 50)
+    taus, unit = flicker_times(span.min(), end[-1])
+    white = (60.0 * 0.3) ** 2 / span
+    k = (10.0 / 60.0) ** 2 if centred else 0.0
+    cov = (_centred_covariance(start, end, white, 6.0, 10.0, taus, unit, span) if centred
+           else mean_covariance(start, end, white, [(taus, 6.0, unit)], 0.0, 0.0))
+    loadings = np.zeros((50, 2))
+    loadings[:9] = 3.0 * rng.normal(size=(9, 2))
+    total = cov + loadings @ loadings.T
+    y = rng.multivariate_normal(np.zeros(50), total)
+    kept = np.arange(50) >= held_out
+    exact = stats.multivariate_normal(np.zeros(kept.sum()),
+                                      total[np.ix_(kept, kept)]).logpdf(y[kept])
+    columns = np.column_stack([y, np.where(np.arange(50) >= 40, y, 0.0)])
+    args = (jnp.asarray(span), jnp.asarray(gap), jnp.asarray(white),
+            [(jnp.asarray(taus), 6.0, unit)], k, jnp.asarray(kept, dtype=float))
+    innovation, variance = block_innovations(jnp.asarray(columns), *args, centred=centred,
+                                             late=(40, 1), early=jnp.asarray(loadings[:9]))
+    terms = innovation[:, 0] ** 2 / variance + jnp.log(2 * np.pi * variance)
+    filtered = -0.5 * float(jnp.sum(jnp.where(jnp.asarray(kept), terms, 0.0)))
+    assert filtered == pytest.approx(exact, rel=1e-9)
+    whole, _ = block_innovations(jnp.asarray(columns), *args, centred=centred,
+                                 early=jnp.asarray(loadings[:9]))
+    np.testing.assert_allclose(np.asarray(innovation), np.asarray(whole), rtol=1e-12,
+                               atol=1e-12)
+
+
 def test_a_walk_without_a_walk_is_a_constant_the_constraint_removes():
     """K = 0: the diffuse level cannot wander, and averaging zero it is zero: the
     centred filter gives the likelihood without any walk (the stationary noise's)."""

@@ -39,6 +39,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from itertools import pairwise
 
 import equinox as eqx
 import jax
@@ -112,6 +113,7 @@ def block_innovations(
     centred: bool = True,
     rate_error: RateErrorProcess | None = None,
     late: tuple[int, int] | None = None,
+    early: Float[Array, "m r"] | None = None,
 ) -> tuple[Float[Array, "n ..."], Float[Array, " n"]]:
     """Innovations of the block means ``observed`` (trailing columns filtered alike) and
     their variances, under white noise of per-block variance ``white_var`` ((deg/h)^2) plus
@@ -131,7 +133,12 @@ def block_innovations(
     columns then) are zero before ``row``: they are filtered from there on only, exactly
     (a column zero up to a row has zero innovations and states there), the rest of the
     filter's work on them saved (a carried rate error's loadings at the log's end,
-    :class:`~gyroid.noise._rate_error_rows.OneSidedRows`)."""
+    :class:`~gyroid.noise._rate_error_rows.OneSidedRows`).
+
+    ``early``: ``r`` more states, constant and independent standard normals, that the
+    first ``m`` rows read through these loadings (a carried rate error's error at the log's
+    start): filtered over those rows and then left out, exactly (no later row reads
+    them), where ``r`` columns of a Woodbury correction would be filtered over every row."""
     tau_s = jnp.concatenate([jnp.zeros(0), *(p[0] for p in processes)])
     phi, c, qxx, qmm, qxm = block_transitions(span_s, gap_s, tau_s, 1.0, 1.0)
     j = tau_s.size
@@ -174,8 +181,10 @@ def block_innovations(
     # level), the rate error's block (which no level changes)
     q = (qxx, q_link, q_block)
     if not centred:
-        return _anchored(observed, transition, c, q, qxm, r, update, start, scale, late)
-    return _centred(observed, transition, c, q, qxm, r, update, start, j, scale, late)
+        return _anchored(observed, transition, c, q, qxm, r, update, start, scale,
+                         (late, early))
+    return _centred(observed, transition, c, q, qxm, r, update, start, j, scale,
+                    (late, early))
 
 
 def _with_process(phi, qxx, c, qxm, start, process: RateErrorProcess):
@@ -220,14 +229,14 @@ def _plus_noise(cov, noise, scale, j):
     return out
 
 
-def _centred(observed, transition, c, q, qxm, r, update, start_cov, j, scale, late):
+def _centred(observed, transition, c, q, qxm, r, update, start_cov, j, scale, parts):
     """The block filter with the walk (state ``j``) diffuse at the start and its running
     mean (state ``j + 1``) observed as zero at the end (module docstring)."""
     a = j + 1
     n_states = c.shape[1]
     start_d = jnp.zeros(n_states).at[j].set(1.0)  # the diffuse level's coefficients
 
-    def step(carry, row):
+    def step(scale, carry, row):
         mean, cov, d, pending = carry  # states at the previous block's end; d: of the level
         y, f_k, c_k, q_k, qxm_k, r_k, u_k = row
         pc = cov @ c_k
@@ -253,7 +262,7 @@ def _centred(observed, transition, c, q, qxm, r, update, start_cov, j, scale, la
 
     start = (jnp.zeros((n_states, *observed.shape[1:])), start_cov, start_d, jnp.ones(()))
     (mean, cov, _, _), (innovation, total) = _scan(
-        step, start, (observed, transition, c, q, qxm, r, update), late)
+        step, scale, start, (observed, transition, c, q, qxm, r, update), *parts)
     # the walk's weighted mean over the log, observed as zero
     first = jnp.argmax(update > 0)
     innovation = innovation.at[first].set(-mean[a])
@@ -261,11 +270,11 @@ def _centred(observed, transition, c, q, qxm, r, update, start_cov, j, scale, la
     return innovation, total
 
 
-def _anchored(observed, transition, c, q, qxm, r, update, start_cov, scale, late):
+def _anchored(observed, transition, c, q, qxm, r, update, start_cov, scale, parts):
     """The block filter with the walk from zero at the first block (``centred=False``)."""
     n_states = c.shape[1]
 
-    def step(carry, row):
+    def step(scale, carry, row):
         mean, cov = carry  # of the states at the previous block's end
         y, f_k, c_k, q_k, qxm_k, r_k, u_k = row
         pc = cov @ c_k
@@ -279,29 +288,93 @@ def _anchored(observed, transition, c, q, qxm, r, update, start_cov, scale, late
         return (mean, cov), (innovation, s_mm)
 
     start = (jnp.zeros((n_states, *observed.shape[1:])), start_cov)
-    _, (innovation, total) = _scan(step, start, (observed, transition, c, q, qxm, r, update),
-                                   late)
+    _, (innovation, total) = _scan(step, scale, start,
+                                   (observed, transition, c, q, qxm, r, update), *parts)
     return innovation, total
 
 
-def _scan(step, start, rows, late):
-    """The filter's ``step`` over ``rows`` (the observed columns first) from ``start`` (the
-    states' means first, states by columns): with ``late`` (:func:`block_innovations`), its
-    trailing columns' means started at zero at their row, their innovations zero before."""
-    if late is None or late[1] == 0 or not 0 < late[0] < rows[0].shape[0]:
-        return jax.lax.scan(step, start, rows)
-    row, count = late
-    observed, rest = rows[0], rows[1:]
-    width = observed.shape[1] - count
-    head = jax.tree_util.tree_map(lambda x: x[:row], rest)
-    tail = jax.tree_util.tree_map(lambda x: x[row:], rest)
-    carry, (early, early_total) = jax.lax.scan(
-        step, (start[0][:, :width], *start[1:]), (observed[:row, :width], *head))
-    mean = jnp.concatenate([carry[0], jnp.zeros((carry[0].shape[0], count))], axis=1)
-    carry, (later, later_total) = jax.lax.scan(step, (mean, *carry[1:]),
-                                               (observed[row:], *tail))
-    early = jnp.concatenate([early, jnp.zeros((row, count))], axis=1)
-    return carry, (jnp.concatenate([early, later]), jnp.concatenate([early_total, later_total]))
+def _scan(step, scale, start, rows, late, early):
+    """The filter's ``step(scale, carry, row)`` over ``rows`` (the observed, the transition,
+    the observation's loadings, the new noise, its covariance with the mean, the white
+    variance, the updates) from ``start`` (the states' means, states by columns, their
+    covariance, then what else the filter carries): with ``late``, the observed's trailing
+    columns' means started at zero at their row, their innovations zero before; with
+    ``early``, its constant states set before the rate error's (the last ``k``) over its
+    rows and left out after (:func:`block_innovations`)."""
+    n = rows[0].shape[0]
+    row, count = late if late is not None and late[1] and 0 < late[0] < n else (n, 0)
+    rows_early = 0 if early is None else early.shape[0]
+    width = rows[0].shape[1] - count if count else None
+    carry = start if not count else (start[0][:, :width], *start[1:])
+    if rows_early:
+        at = _early_at(rows)
+        carry = _with_early(carry, early.shape[1], at)
+    outputs = []
+    for low, high in pairwise(sorted({0, n, rows_early, row})):
+        if low == row:
+            carry = (jnp.concatenate([carry[0], jnp.zeros((carry[0].shape[0], count))],
+                                     axis=1), *carry[1:])
+        if rows_early and low == rows_early:
+            carry = _without_early(carry, early.shape[1], at)
+        part = jax.tree_util.tree_map(lambda x, low=low, high=high: x[low:high], rows)
+        if low < row and count:
+            part = (part[0][:, :width], *part[1:])
+        scale_part = scale
+        if low < rows_early:
+            part, scale_part = _early_rows(part, scale, early, at)
+        carry, (innovation, total) = jax.lax.scan(
+            lambda c, x, s=scale_part: step(s, c, x), carry, part)
+        if low < row and count:
+            innovation = jnp.concatenate([innovation, jnp.zeros((high - low, count))], axis=1)
+        outputs.append((innovation, total))
+    return carry, tuple(jnp.concatenate(o) for o in zip(*outputs, strict=True))
+
+
+def _early_at(rows) -> int:
+    """Where the early states go among the states: before the rate error's block."""
+    (phi, _, block) = rows[1]
+    return phi.shape[1] - (0 if block is None else block.shape[-1])
+
+
+def _insert(x, values, at: int, axis: int):
+    """``values`` inserted into ``x`` before index ``at`` along ``axis``."""
+    head = jax.lax.slice_in_dim(x, 0, at, axis=axis)
+    tail = jax.lax.slice_in_dim(x, at, x.shape[axis], axis=axis)
+    return jnp.concatenate([head, values, tail], axis=axis)
+
+
+def _with_early(carry, k: int, at: int):
+    """The filter's carry with ``k`` constant states inserted at ``at``: means zero,
+    variances one, independent of the rest (and, centred, no share of the diffuse
+    level)."""
+    mean, cov, *rest = carry
+    mean = _insert(mean, jnp.zeros((k, *mean.shape[1:])), at, 0)
+    cov = _insert(_insert(cov, jnp.zeros((k, cov.shape[1])), at, 0),
+                  jnp.zeros((cov.shape[0] + k, k)), at, 1)
+    cov = cov.at[at:at + k, at:at + k].set(jnp.eye(k))
+    if rest and rest[0].ndim == 1:  # the diffuse level's coefficients
+        rest = [_insert(rest[0], jnp.zeros(k), at, 0), *rest[1:]]
+    return (mean, cov, *rest)
+
+
+def _without_early(carry, k: int, at: int):
+    """The carry with the ``k`` states at ``at`` left out (their marginal)."""
+    keep = np.r_[0:at, at + k:carry[1].shape[0]]
+    mean, cov, *rest = carry
+    if rest and rest[0].ndim == 1:
+        rest = [rest[0][keep], *rest[1:]]
+    return (mean[keep], cov[np.ix_(keep, keep)], *rest)
+
+
+def _early_rows(part, scale, early, at: int):
+    """The early rows' system with the constant states inserted at ``at``: transition one,
+    no new noise, read through ``early``."""
+    observed, (phi, link, block), c, (qxx, q_link, q_block), qxm, r, update = part
+    m, k = early.shape
+    ones, zeros = jnp.ones((m, k)), jnp.zeros((m, k))
+    return ((observed, (_insert(phi, ones, at, 1), link, block), _insert(c, early, at, 1),
+             (_insert(qxx, zeros, at, 1), q_link, q_block), _insert(qxm, zeros, at, 1), r,
+             update), _insert(scale, jnp.zeros(k), at, 0))
 
 
 def mean_covariance(start_s: np.ndarray, end_s: np.ndarray, white_var: np.ndarray,
