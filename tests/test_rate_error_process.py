@@ -228,7 +228,8 @@ def test_the_carried_error_is_exact_on_the_one_sided_rows_and_a_covariance(noise
     time_s = np.asarray(problem.log.time_s)
     one_sided = (time_s < time_s[0] + 450.0) | (time_s > time_s[-1] - 450.0)
     assert term.ends.count == one_sided.sum() > 0
-    assert term.ends.late is not None  # the log's end's columns filtered from their row
+    # the start's error as states of its first rows, the end's columns filtered from their row
+    assert term.ends.early is not None and term.ends.late is not None
     exact = carried_thermometer(problem.log, problem.rate_window_s, problem.rate_error_wd,
                                 problem.thermometer_sd_C**2 / problem.block_rows).covariance()
     design = term.row_covariance()

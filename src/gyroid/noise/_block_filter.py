@@ -303,19 +303,19 @@ def _scan(step, scale, start, rows, late, early):
     rows and left out after (:func:`block_innovations`)."""
     n = rows[0].shape[0]
     row, count = late if late is not None and late[1] and 0 < late[0] < n else (n, 0)
-    rows_early = 0 if early is None else early.shape[0]
+    rows_early, states = (0, 0) if early is None else early.shape
+    at = _early_at(rows)
     width = rows[0].shape[1] - count if count else None
     carry = start if not count else (start[0][:, :width], *start[1:])
     if rows_early:
-        at = _early_at(rows)
-        carry = _with_early(carry, early.shape[1], at)
+        carry = _with_early(carry, states, at)
     outputs = []
     for low, high in pairwise(sorted({0, n, rows_early, row})):
         if low == row:
             carry = (jnp.concatenate([carry[0], jnp.zeros((carry[0].shape[0], count))],
                                      axis=1), *carry[1:])
         if rows_early and low == rows_early:
-            carry = _without_early(carry, early.shape[1], at)
+            carry = _without_early(carry, states, at)
         part = jax.tree_util.tree_map(lambda x, low=low, high=high: x[low:high], rows)
         if low < row and count:
             part = (part[0][:, :width], *part[1:])

@@ -243,7 +243,8 @@ class NoiseModel(eqx.Module):
             columns, span, gap, jnp.broadcast_to(white**2, span.shape), processes,
             diffusion, clock.weight, centred=centred,
             rate_error=None if carried is None else carried.process,
-            late=None if carried is None else carried.ends.late)
+            late=None if carried is None else carried.ends.late,
+            early=None if carried is None else carried.ends.early)
         ends = None if carried is None else innovation[:, width:]
         return innovation[:, :width].reshape(observed.shape), variance, ends
 

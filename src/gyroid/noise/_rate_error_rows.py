@@ -83,22 +83,32 @@ class CarriedThermometer:
 
 class OneSidedRows(eqx.Module):
     """The one-sided rows' rate error, exact, beside a process carried on the other rows
-    (module docstring): ``loadings`` ``U`` (rows by ``2r``) and ``middle`` ``M``, their
-    columns in the filter's order: each end's own (its ``A``, then its ``B``), the log's
-    start's first. Each end's columns are zero but within a window or so of it, so the
-    filter reads the end's last ``late[1]`` columns only from row ``late[0]`` on
-    (:func:`~gyroid.noise._block_filter.block_innovations`; exact: a column that is zero
-    up to a row has zero innovations there)."""
+    (module docstring): ``U M U'`` as constant states the log's first rows read
+    (``early``) plus a low-rank correction, ``loadings`` by ``middle``.
 
-    loadings: Float[Array, "n 2r"]
-    middle: Float[Array, "2r 2r"]
+    ``U M U' = V V' - B H B'`` with ``V = A + B`` (``A`` and ``B`` have no row in common)
+    and ``H = I - G``. Where the two ends' errors share no thermometer sample each end has
+    its own directions, and the start's ``V_s c_s`` is read by the first rows only: states
+    the filter carries over those rows (``early``: ``V_s`` there) and then leaves out. The
+    correction is then ``-B_s H_ss B_s'``, the cross terms ``-B H B'`` between the ends,
+    and the end's ``[A_e, B_e]`` in ``[[I, I], [I, I - H_ee]]``: columns ``[B_s, A_e,
+    B_e]``. The end's are zero but in its last window or so, so the filter reads them only
+    from row ``late[0]`` on. Where the ends share samples (a log shorter than two windows)
+    there is no early part, and the columns are ``[A, B]`` in ``[[I, I], [I, G]]``."""
+
+    loadings: Float[Array, "n w"]
+    middle: Float[Array, "w w"]
+    #: ``V_s`` on the log's first rows (None: no early part).
+    early: Float[Array, "m r"] | None
+    #: ``G`` (:func:`_inflation`), ``r`` by ``r`` in ``c``'s directions' order.
+    inflation: Float[Array, "r r"]
     #: How many rows are one-sided (their loadings on ``c`` itself, not zero).
     count: int = eqx.field(static=True)
     #: The row from which the trailing columns are read, and how many they are; None: all
     #: read from the first row.
     late: tuple[int, int] | None = eqx.field(static=True)
-    #: Where each of ``[A, B]``'s columns (``c``'s directions in order) is in ``loadings``.
-    order: tuple[int, ...] = eqx.field(static=True)
+    #: Where ``B``'s columns (``c``'s directions in order) are in ``loadings``.
+    explained_at: tuple[int, ...] = eqx.field(static=True)
 
     @classmethod
     def of(cls, operator: np.ndarray, one_sided: np.ndarray, process: RateErrorProcess
@@ -117,45 +127,48 @@ class OneSidedRows(eqx.Module):
         on_ends[one_sided] = operator[one_sided] @ basis.T
         explained = np.zeros((n, rank))
         explained[~one_sided] = operator[~one_sided] @ basis.T
-        identity = np.eye(rank)
-        middle = np.block([[identity, identity],
-                           [identity, _inflation(explained, one_sided, process)]])
-        # each end's directions' A and B side by side, the start's first
-        order, first = [], 0
-        for base in bases:
-            order += [*range(first, first + len(base)), *range(rank + first,
-                                                            rank + first + len(base))]
-            first += len(base)
-        loadings = np.concatenate([on_ends, explained], axis=1)[:, order]
-        late = None
-        if len(bases) == 2 and len(bases[1]):
-            tail = 2 * len(bases[1])
-            nonzero = np.flatnonzero(np.any(loadings[:, -tail:] != 0.0, axis=1))
-            # rounded down to a sixteenth of the rows: few compiled shapes across windows
-            step = max(n // 16, 1)
-            start = int(nonzero[0]) // step * step if nonzero.size else 0
-            late = (start, tail) if start > 0 else None
-        canonical = tuple(int(i) for i in np.argsort(order)) if order else ()
-        return cls(jnp.asarray(loadings), jnp.asarray(middle[np.ix_(order, order)]),
-                   int(one_sided.sum()), late, canonical)
+        inflation = _inflation(explained, one_sided, process)
+        count = int(one_sided.sum())
+        start = len(bases[0]) if len(bases) == 2 and len(bases[1]) else 0
+        if not start:
+            identity = np.eye(rank)
+            return cls(jnp.asarray(np.concatenate([on_ends, explained], axis=1)),
+                       jnp.asarray(np.block([[identity, identity], [identity, inflation]])),
+                       None, jnp.asarray(inflation), count, None,
+                       tuple(range(rank, 2 * rank)))
+        s, e = slice(0, start), slice(start, rank)
+        ending = rank - start
+        early = on_ends[:, s] + explained[:, s]  # V_s
+        rows = int(np.flatnonzero(np.any(early != 0.0, axis=1))[-1]) + 1
+        less = np.eye(rank) - inflation  # H
+        loadings = np.concatenate([explained[:, s], on_ends[:, e], explained[:, e]], axis=1)
+        zero, identity = np.zeros((start, ending)), np.eye(ending)
+        middle = np.block([[-less[s, s], zero, -less[s, e]],
+                           [zero.T, identity, identity],
+                           [-less[e, s], identity, identity - less[e, e]]])
+        # the end's columns read from their first row, rounded down to a sixteenth of the
+        # rows (few compiled shapes across windows), after the early rows
+        nonzero = np.flatnonzero(np.any(loadings[:, start:] != 0.0, axis=1))
+        step = max(n // 16, 1)
+        first = int(nonzero[0]) // step * step if nonzero.size else 0
+        late = (first, 2 * ending) if first > rows else None
+        return cls(jnp.asarray(loadings), jnp.asarray(middle), jnp.asarray(early[:rows]),
+                   jnp.asarray(inflation), count, late,
+                   (*range(start), *range(start + 2 * ending - ending, start + 2 * ending)))
 
     @property
     def explained(self) -> np.ndarray:
         """``B``: the other rows' error's covariance with ``c`` (rows by ``r``)."""
-        rank = len(self.order) // 2
-        return np.asarray(self.loadings)[:, list(self.order[rank:])]
-
-    @property
-    def inflation(self) -> np.ndarray:
-        """``G`` (:func:`_inflation`), ``r`` by ``r``."""
-        rank = len(self.order) // 2
-        at = list(self.order[rank:])
-        return np.asarray(self.middle)[np.ix_(at, at)]
+        return np.asarray(self.loadings)[:, list(self.explained_at)]
 
     def covariance(self) -> np.ndarray:
-        """``U M U'`` over the rows, (deg/h)^2 (dense)."""
+        """``V_s V_s' + U M U'`` over the rows, (deg/h)^2 (dense)."""
         loadings = np.asarray(self.loadings)
-        return loadings @ np.asarray(self.middle) @ loadings.T
+        out = loadings @ np.asarray(self.middle) @ loadings.T
+        if self.early is not None:
+            early = np.asarray(self.early)
+            out[:early.shape[0], :early.shape[0]] += early @ early.T
+        return out
 
     def innovations(self, data, loadings, variance, update) -> tuple[Array, Array]:
         """The innovations and their variances, in time order, under the filter's
