@@ -139,17 +139,20 @@ class OneSidedRows(eqx.Module):
         s, e = slice(0, start), slice(start, rank)
         ending = rank - start
         early = on_ends[:, s] + explained[:, s]  # V_s
-        rows = int(np.flatnonzero(np.any(early != 0.0, axis=1))[-1]) + 1
+        # the rows that read V_s, rounded up to a sixteenth of the rows (few compiled shapes
+        # across windows; the rows beyond read it as zero)
+        step = max(n // 16, 1)
+        rows = min(-(-(int(np.flatnonzero(np.any(early != 0.0, axis=1))[-1]) + 1) // step)
+                   * step, n)
         less = np.eye(rank) - inflation  # H
         loadings = np.concatenate([explained[:, s], on_ends[:, e], explained[:, e]], axis=1)
         zero, identity = np.zeros((start, ending)), np.eye(ending)
         middle = np.block([[-less[s, s], zero, -less[s, e]],
                            [zero.T, identity, identity],
                            [-less[e, s], identity, identity - less[e, e]]])
-        # the end's columns read from their first row, rounded down to a sixteenth of the
-        # rows (few compiled shapes across windows), after the early rows
+        # the end's columns read from their first row, rounded down alike, after the early
+        # rows
         nonzero = np.flatnonzero(np.any(loadings[:, start:] != 0.0, axis=1))
-        step = max(n // 16, 1)
         first = int(nonzero[0]) // step * step if nonzero.size else 0
         late = (first, 2 * ending) if first > rows else None
         return cls(jnp.asarray(loadings), jnp.asarray(middle), jnp.asarray(early[:rows]),
