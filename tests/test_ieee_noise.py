@@ -16,12 +16,8 @@ from scipy import integrate, stats
 
 from gyroid.inference import BenchOptions, BenchProblem, fit_log
 from gyroid.io import BenchLog
-from gyroid.noise._block_filter import (
-    block_innovations,
-    flicker_times,
-    mean_covariance,
-    part_covariance,
-)
+from gyroid.noise._block_filter import block_innovations, flicker_times
+from gyroid.noise._mean_covariance import mean_covariance, part_covariance
 
 
 def _blocks(rng, n):

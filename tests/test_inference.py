@@ -405,7 +405,7 @@ def test_white_gm_on_block_means_is_the_exact_gaussian_of_the_blocks():
     the blocks one step long after their gaps. The filter's likelihood equals the dense
     Gaussian with that covariance (written pair by pair, tested against the kernels'
     integrals in tests/test_ieee_noise.py)."""
-    from gyroid.noise._block_filter import mean_covariance
+    from gyroid.noise._mean_covariance import mean_covariance
 
     noise = GyroNoise(bias_instability_deg_h=0.1, correlation_time_s=60.0)
     protocol = MagneticProtocol(axes=("x", "z"), dwell_s=10.0, turn_gap_s=50.0)

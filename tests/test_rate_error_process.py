@@ -20,7 +20,8 @@ from gyroid.inference import BenchOptions, BenchProblem
 from gyroid.inference._thermometer import carried_thermometer
 from gyroid.io import BenchLog
 from gyroid.models._rate_error import estimator_autocovariance
-from gyroid.noise._block_filter import block_innovations, flicker_times, mean_covariance
+from gyroid.noise._block_filter import block_innovations, flicker_times
+from gyroid.noise._mean_covariance import mean_covariance
 from gyroid.noise._rate_error_process import (
     RateErrorProcess,
     block_autocovariance,

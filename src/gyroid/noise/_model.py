@@ -28,8 +28,9 @@ from jaxtyping import Array
 from gyroid.errors import GyroidInputError
 from gyroid.models._priors import Prior
 from gyroid.noise._base import RowClock, parts_mean_covariance
-from gyroid.noise._block_filter import block_innovations, log_span_s, part_covariance
+from gyroid.noise._block_filter import block_innovations
 from gyroid.noise._kalman import gauss_markov_innovations, gauss_markov_mean_covariance
+from gyroid.noise._mean_covariance import log_span_s, part_covariance
 from gyroid.noise._rate_error_process import RateErrorProcess
 from gyroid.noise._rate_error_rows import CarriedThermometer, OneSidedRows
 from gyroid.noise._terms import (

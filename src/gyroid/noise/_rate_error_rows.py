@@ -31,14 +31,15 @@ bench (20 seeds each, ``experiments/rate_error_edges.py``) the estimates are the
 covariance's to a median 0.04-0.07 of their sd with a 0.05 degC thermometer and 0.01-0.02
 with 0.01 degC.
 
-The cost: ``U``'s ``2r`` columns (some 20) filtered beside the data. Where the two ends'
-errors share no thermometer sample (a log longer than two windows) each end has its own
-directions, and the end's columns, zero but in the last window or so, are filtered from
-there on only (exact). On paper A's bench at 10^4 rows (1000 block means, 20 columns, one
-run each on a shared two-core machine) 1024 evaluations of the marginal took 2.9-4.2 s with
-both ends' columns filtered over every row, 1.3-1.8 s with the end's from its row (0.84 s
-with no columns; main's single oscillator, no exact ends, 0.71 s); a warm default fit 23.4
-s -> 16.4 s (main 6.1 s): the start's columns are most of what is left.
+The cost. Filtered beside the data, ``U``'s ``2r`` columns (20 on paper A's bench) made a warm
+default fit of its 10^4-row log 23.4 s where main's single oscillator takes 5.5-6.1 s (one
+shared two-core machine, one day). Each end with its own directions and the end's columns
+read from their row: 16.4 s. The start's ``V_s c_s`` as states of the first rows (52 of the
+1000 block means, left out after), the correction's columns ``[B_s, A_e, B_e]`` (15, the end's
+10 read over the last 70 rows): 11.1 s. What is left is the correction's start columns
+(five, filtered over every row) and the process's four states: 2000 evaluations of the
+marginal in chunks of 500 took 2.9-3.9 s, 1.5-2.0 s without the correction's columns, 1.2 s
+on main (timed in turn in one process).
 """
 
 from __future__ import annotations
