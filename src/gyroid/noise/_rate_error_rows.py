@@ -158,7 +158,7 @@ class OneSidedRows(eqx.Module):
         late = (first, 2 * ending) if first > rows else None
         return cls(jnp.asarray(loadings), jnp.asarray(middle), jnp.asarray(early[:rows]),
                    jnp.asarray(inflation), count, late,
-                   (*range(start), *range(start + 2 * ending - ending, start + 2 * ending)))
+                   (*range(start), *range(start + ending, start + 2 * ending)))
 
     @property
     def explained(self) -> np.ndarray:
