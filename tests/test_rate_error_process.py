@@ -213,24 +213,30 @@ def test_a_log_of_bursts_carries_none():
         assert problem.thermometer_sd_C == 0 and problem.density.noise.carried is None
 
 
-@pytest.mark.parametrize("noise", ["white", "white+flicker+rw"])
-def test_the_carried_error_is_exact_on_the_one_sided_rows_and_a_covariance(noise):
+@pytest.mark.parametrize(("noise", "window_s"), [("white", 900.0),
+                                                 ("white+flicker+rw", 900.0),
+                                                 ("white+flicker+rw", 6000.0)])
+def test_the_carried_error_is_exact_on_the_one_sided_rows_and_a_covariance(noise, window_s):
     """The term every noise model carries: on the one-sided rows (within half a window of
     either end) the estimator's exact error, among themselves and with every other row;
     the process on the rest; a covariance (the least inflation along the one-sided rows'
     directions where the process falls short); and the filter's likelihood with it, rows
-    held out or not, the dense Gaussian's."""
+    held out or not, the dense Gaussian's. With a 900 s window the log's ends share no
+    thermometer sample: the start's error is states of the first rows, the end's columns
+    are filtered from their row; with 6000 s on the 3 h log they share some, and the ends'
+    directions are one set of columns."""
     log = _noisy_thermometer_bench(2, hours=3.0)
     problem = BenchProblem.from_log(log, "thermal", BenchOptions(noise=noise,
-                                                                 rate_window_s=900.0))
+                                                                 rate_window_s=window_s))
     density = problem.density
     term = density.noise.carried
     assert term is not None
     time_s = np.asarray(problem.log.time_s)
-    one_sided = (time_s < time_s[0] + 450.0) | (time_s > time_s[-1] - 450.0)
+    half = window_s / 2.0
+    one_sided = (time_s < time_s[0] + half) | (time_s > time_s[-1] - half)
     assert term.ends.count == one_sided.sum() > 0
-    # the start's error as states of its first rows, the end's columns filtered from their row
-    assert term.ends.early is not None and term.ends.late is not None
+    apart = window_s < 1000.0
+    assert (term.ends.early is not None) == apart and (term.ends.late is not None) == apart
     exact = carried_thermometer(problem.log, problem.rate_window_s, problem.rate_error_wd,
                                 problem.thermometer_sd_C**2 / problem.block_rows).covariance()
     design = term.row_covariance()
