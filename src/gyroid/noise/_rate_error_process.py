@@ -48,6 +48,13 @@ def _stationary(variance: float, omega: float) -> np.ndarray:
     return np.diag([variance / omega**2, variance])
 
 
+def _transitions(drift: np.ndarray, times_s: np.ndarray) -> np.ndarray:
+    """``expm(drift t)`` for each time ``t`` (s), computed once per distinct time (a log's
+    blocks share a few spans and gaps)."""
+    distinct, where = np.unique(times_s, return_inverse=True)
+    return expm(drift[None] * distinct[:, None, None])[where.reshape(-1)]
+
+
 def block_system(span_s: np.ndarray, gap_s: np.ndarray, variance: float, omega: float,
                  quality: float) -> dict[str, np.ndarray]:
     """Per block (a mean of the velocity over ``span_s`` after a pause ``gap_s``, s): the
@@ -59,8 +66,7 @@ def block_system(span_s: np.ndarray, gap_s: np.ndarray, variance: float, omega: 
     stationary = _stationary(variance, omega)
     span = np.asarray(span_s, dtype=float)
     gap = np.asarray(gap_s, dtype=float)
-    f_l = expm(a[None] * span[:, None, None])
-    f_g = expm(a[None] * gap[:, None, None])
+    f_l, f_g = _transitions(a, span), _transitions(a, gap)
 
     def noise(f):
         return stationary[None] - f @ stationary @ np.swapaxes(f, 1, 2)
