@@ -43,9 +43,17 @@ their standard errors). Stages of 4000: worst 2.7, after 12 000-24 000 draws. A 
 of 1000, then 1000 a stage: 3 seeds of 12 stopped after 2000 draws with weights that called
 themselves reliable (k 0.37-0.66, 400 effective) and errors of 14-20 standard errors (the
 walk's tail, where w1 is wide, unvisited). 2000, then 1000 a stage: errors of 5.2 and 6.0
-on 2 seeds, the many small adapted stages' weights overstating their effective number. On
-easy posteriors (paper A's bench, two FOG benches) the smaller stages had saved 15-30 % of a
-fit.
+on 2 seeds, the many small adapted stages' weights overstating their effective number. A
+first stage of 2000, then stages of 4000: 2 seeds of 6 stopped after the first stage (k
+0.49 and 0.57) with errors of 17 standard errors. On easy posteriors (paper A's bench, two
+FOG benches) the smaller stages had saved 15-30 % of a fit. Where the first stage's draws
+go on paper A's bench (seeds 0 and 1): the part about the mode with the doubled covariance
+keeps 40-44 % of its draws effective, the one times eight 10-11 %, the flicker's and the
+walk's prior-tail parts 34-39 % (those levels' posterior is near their prior), and the
+white level's prior-tail part under 1 % (the log resolves it: 0.4 % of the posterior's
+mass is that part's), a fifth of the stage; leaving a level's tail part out needs a test
+that the log resolves that level which also sees what the mode's curvature cannot (the
+walked log's K above).
 
 Kept draws: ``MAX_STORED_SAMPLES`` resampled by the smoothed weights (systematic
 resampling, then shuffled into four chains), each with its coefficients drawn afresh
