@@ -198,12 +198,15 @@ def one(case: str, seed: int) -> dict:
     exact, exact_sd = solved["exact"]
     true = np.array([truth[n] for n in names])
     mode = np.array([point.value[n] for n in names])
-    ends = problem.noise.carried.ends
+    term = problem.noise.carried
+    ends = term.ends
     return {
         "seed": seed, "rate_window_s": problem.rate_window_s, "rows": problem.log.n,
         "thermometer_sd_C": problem.thermometer_sd_C, "wD": problem.rate_error_wd,
-        "one_sided_rows": ends.count,
-        "inflated": bool(np.any(ends.inflation != 0.0)),
+        "one_sided_rows": int(_carried(problem).one_sided.sum()),
+        "one_sided_exact": ends is not None,
+        "one_sided_shift_sd": float(term.one_sided_shift_sd),
+        "inflated": ends is not None and bool(np.any(ends.inflation != 0.0)),
         "low_frequency_power_ratio": power_ratio,
         "levels": values,
         "mode_check": float(np.max(np.abs(mode - solved["carried"][0]) / solved["carried"][1])),
@@ -238,6 +241,9 @@ def summarise(runs: list[dict]) -> dict:
     flicker = [r["levels"].get("B_deg_h", 0.0) for r in runs]
     return {"seeds": len(runs), "mode_check_max": max(r["mode_check"] for r in runs),
             "inflated": sum(r["inflated"] for r in runs),
+            "one_sided_exact": sum(r["one_sided_exact"] for r in runs),
+            "one_sided_shift_sd": [round(min(r["one_sided_shift_sd"] for r in runs), 3),
+                                   round(max(r["one_sided_shift_sd"] for r in runs), 3)],
             "low_frequency_power_ratio": [round(min(ratio), 3), round(max(ratio), 3)],
             "B_deg_h_at_mode": [float(np.min(flicker)), float(np.median(flicker)),
                                 float(np.max(flicker))],

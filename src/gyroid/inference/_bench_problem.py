@@ -21,6 +21,7 @@ from gyroid.inference._emcee import Emcee
 from gyroid.inference._importance import Importance
 from gyroid.inference._marginal_target import MarginalTarget, marginal_target
 from gyroid.inference._mode import Optimum
+from gyroid.inference._one_sided import weigh_one_sided
 from gyroid.inference._point import point_estimate
 from gyroid.inference._point_profiled import collapsed_log_likelihood
 from gyroid.inference._problem import AbstractProblem, PointEstimate
@@ -139,6 +140,7 @@ class BenchProblem(AbstractProblem):
                             thermometer_var_row=thermometer_var_row, fast=fast)
 
         density, noise_mode, choice = _by_marginal(density_at, log, rate_window_s, choice)
+        density, noise_mode = weigh_one_sided(density, noise_mode)
         return cls(density=density, log=log, prior_set=options.prior_set, prior_basis=basis,
                    rate_window_choice=choice, block_rows=block_rows, segments=samples,
                    thermometer_sd_C=math.sqrt(thermometer_var), rate_error_wd=wd,

@@ -23,6 +23,7 @@ from gyroid.io._logs import BenchLog
 from gyroid.models._design import rows_of
 from gyroid.models._effects import parameter
 from gyroid.models._priors import Prior
+from gyroid.models._rate_error import one_sided_rows
 from gyroid.noise._base import predictive_level
 from gyroid.noise._estimate import NoiseEstimate
 
@@ -112,21 +113,30 @@ class BenchFit(Fit[BenchProblem]):
             return None
         carried = {"thermometer_sd_C": problem.thermometer_sd_C,
                    "wD_fixed": problem.rate_error_wd}
+        term = noise.carried
+        exact = term.ends is not None
+        shift = float(term.one_sided_shift_sd)
         how = ("the thermometer's white noise, measured by the logged temperature's third "
                "differences, passed through the dT/dt estimator and times wD's least-squares "
                "value (wD_fixed): in the log's interior a process of the noise model's "
                "filter, oscillators' velocities matched to the estimator's error with its "
                "power at low frequencies (divergence_left: the share of the divergence "
                "from leaving it out that remains); on the one-sided rows within half a "
-               "window of either end, their exact error and its covariance with every row")
-        process = noise.carried.process
+               "window of either end, "
+               + ("their exact error and its covariance with every row" if exact else
+                  "the same process: their exact error would move no coefficient by more "
+                  f"than {shift:.2g} of its sd (one_sided_shift_sd)"))
+        process = term.process
         oscillators = [{"sd_deg_h": math.sqrt(float(v)), "omega_rad_s": float(w),
                         "quality": float(q)} for v, w, q in np.asarray(process.oscillators)]
+        one_sided = one_sided_rows(np.asarray(problem.log.time_s), problem.rate_window_s)
         return carried | {
             "process": {"oscillators": oscillators,
                         "divergence_left": float(process.divergence)
                         / max(float(process.divergence_without), 1e-300)},
-            "one_sided_rows": noise.carried.ends.count,
+            "one_sided_rows": int(one_sided.sum()),
+            "one_sided_exact": exact,
+            "one_sided_shift_sd": shift if math.isfinite(shift) else None,
             "how": how}
 
     @property

@@ -135,7 +135,7 @@ class CollapsedCoefficients(AbstractMarginal):
         a, design = innovation[:, 0] * scale, innovation[:, 1:] * scale[:, None]
         log_norm = -0.5 * jnp.sum(self.weight * (jnp.log(variance) + _LOG_2PI))
         carried = self.row_filter.noise.carried
-        if ends is None or carried is None:
+        if ends is None or carried is None or carried.ends is None:
             def residual_sq(beta):
                 residual = a - design @ beta
                 return residual @ residual

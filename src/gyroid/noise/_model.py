@@ -154,7 +154,26 @@ class NoiseModel(eqx.Module):
         process = RateErrorProcess.matched(autocovariance, step_s, carried.white_var,
                                            span_s, gap_s, observed=~carried.one_sided)
         ends = OneSidedRows.of(carried.operator(), carried.one_sided, process)
-        return NoiseModel(self.name, (*gyro.terms, RateError(process, ends)))
+        return NoiseModel(self.name, (*gyro.terms, RateError(process, ends, jnp.asarray(np.nan))))
+
+    def one_sided_weighed(self, shift_sd: float, by_process: bool, *, span_s: np.ndarray,
+                          gap_s: np.ndarray) -> NoiseModel:
+        """This model with its carried rate error's one-sided rows weighed: what their exact
+        error moves the coefficients by, ``shift_sd`` (in their sds), recorded, and with
+        ``by_process`` those rows read by the interior's process like every other row (on
+        rows of spans ``span_s`` after gaps ``gap_s``, s), their exact error dropped
+        (:func:`~gyroid.inference._one_sided.weigh_one_sided`)."""
+        term = self.carried
+        if term is None:
+            raise ValueError("one_sided_weighed: this model carries no rate error")
+        process, ends = term.process, term.ends
+        if by_process:
+            process = RateErrorProcess.of(np.asarray(process.oscillators), span_s, gap_s, None,
+                                          float(process.divergence),
+                                          float(process.divergence_without))
+            ends = None
+        new = RateError(process, ends, jnp.asarray(shift_sd))
+        return NoiseModel(self.name, tuple(new if t is term else t for t in self.terms))
 
     def without_rate_error(self) -> NoiseModel:
         """This model without a carried rate error (the gyro's noise, not the fitted log's
@@ -236,17 +255,18 @@ class NoiseModel(eqx.Module):
         span = jnp.full_like(clock.steps_s, clock.step_s)
         gap = jnp.zeros_like(span) if clock.gap_s is None else clock.gap_s
         carried = self.carried
+        exact = None if carried is None else carried.ends
         columns = observed.reshape(observed.shape[0], -1)
         width = columns.shape[1]
-        if carried is not None:
-            columns = jnp.concatenate([columns, carried.ends.loadings], axis=1)
+        if exact is not None:
+            columns = jnp.concatenate([columns, exact.loadings], axis=1)
         innovation, variance = block_innovations(
             columns, span, gap, jnp.broadcast_to(white**2, span.shape), processes,
             diffusion, clock.weight, centred=centred,
             rate_error=None if carried is None else carried.process,
-            late=None if carried is None else carried.ends.late,
-            early=None if carried is None else carried.ends.early)
-        ends = None if carried is None else innovation[:, width:]
+            late=None if exact is None else exact.late,
+            early=None if exact is None else exact.early)
+        ends = None if exact is None else innovation[:, width:]
         return innovation[:, :width].reshape(observed.shape), variance, ends
 
     def innovations(self, observed, white, values: Mapping, clock: RowClock):
@@ -260,7 +280,7 @@ class NoiseModel(eqx.Module):
             return None
         innovation, variance, ends = filtered
         carried = self.carried
-        if ends is None or carried is None:
+        if ends is None or carried is None or carried.ends is None:
             return innovation, variance
         update = jnp.ones_like(variance) if clock.weight is None else clock.weight
         data = innovation.reshape(innovation.shape[0], -1)

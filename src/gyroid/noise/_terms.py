@@ -333,11 +333,17 @@ class RateError(AbstractNoiseTerm):
     block filter matched to the estimator's error (:class:`~gyroid.noise.
     _rate_error_process.RateErrorProcess`), on the one-sided rows at its ends the exact
     error and its covariance with every row (:class:`~gyroid.noise._rate_error_rows.
-    OneSidedRows`); the same under every noise model. It makes the filter read the rows
-    as block means."""
+    OneSidedRows`; None where the process read on them too moves no coefficient by more
+    than a tolerance: :meth:`~gyroid.noise.NoiseModel.with_rate_error`); the same under every
+    noise model. It makes the filter read the rows as block means."""
 
     process: RateErrorProcess
-    ends: OneSidedRows
+    ends: OneSidedRows | None
+    #: The largest rms shift of a coefficient, in its sd, from reading the one-sided rows by
+    #: the process (:func:`~gyroid.noise._rate_error_rows.coefficient_shift`); not a number
+    #: where it was not weighed (no coefficients' columns given, or no white floor
+    #: measured). An array: logs of one shape share one compilation.
+    one_sided_shift_sd: Float[Array, ""]
 
     code: ClassVar[str] = "T"
     level_names: ClassVar[tuple[str, ...]] = ()
@@ -356,7 +362,8 @@ class RateError(AbstractNoiseTerm):
 
     def row_covariance(self) -> np.ndarray:
         """Its covariance over the fitted log's rows, (deg/h)^2, as the likelihood reads it."""
-        return self.process.row_covariance() + self.ends.covariance()
+        rows = self.process.row_covariance()
+        return rows if self.ends is None else rows + self.ends.covariance()
 
 
 #: The terms a static log's Allan variance is fitted with (``gyroid noise``), in
