@@ -20,7 +20,11 @@ rate error, beside the gyro's own noise (the filter's terms written out,
 
 * ``exact``: ``wD^2 v L L'``;
 * ``carried``: the fit's (the term's covariance over the rows); its estimates are the fit's
-  mode (``mode_check``, their largest difference in sds: a dense check of the filter);
+  mode (``mode_check``, their largest difference in sds: a dense check of the filter). The
+  fit weighs the one-sided rows' exact error at the mode (:mod:`gyroid.inference._one_sided`)
+  and where reading them by the process moves no coefficient by more than 0.1 sd it does so
+  (then this way is ``oscillators_alone``'s); per seed ``one_sided_shift_sd`` and
+  ``one_sided_exact``;
 * ``oscillators_alone``: the fit's two oscillators on every row, the one-sided rows not
   carried apart;
 * ``one_oscillator``: what fits carried before (to 2026-11-30): one oscillator on every row,

@@ -39,7 +39,9 @@ read from their row: 16.4 s. The start's ``V_s c_s`` as states of the first rows
 10 read over the last 70 rows): 11.1 s. What is left is the correction's start columns
 (five, filtered over every row) and the process's four states: 2000 evaluations of the
 marginal in chunks of 500 took 2.9-3.9 s, 1.5-2.0 s without the correction's columns, 1.2 s
-on main (timed in turn in one process).
+on main (timed in turn in one process). So a fit weighs them first
+(:mod:`gyroid.inference._one_sided`): where their exact error moves no coefficient by more
+than :data:`ONE_SIDED_TOLERANCE` of its sd, the process reads them like every other row.
 """
 
 from __future__ import annotations
@@ -221,6 +223,7 @@ class OneSidedRows(eqx.Module):
         sign, log_det = jnp.linalg.slogdet(total)
         return (loadings.T @ data, 0.5 * (inner + inner.T),
                 jnp.where(sign > 0, log_det, jnp.nan))
+
 
 def coefficient_shift(design: np.ndarray, exact: np.ndarray, approximate: np.ndarray,
                       gyro: np.ndarray) -> float:
