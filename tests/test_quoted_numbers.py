@@ -1196,3 +1196,15 @@ def test_the_thermometers_carrier_against_its_exact_covariance():
             f"frequencies and blind to the one-sided rows, moved them a median "
             f"{former[0]:.2f} to {former[1]:.2f}.",
             f"alike ({power[0]:.2f} to {power[1]:.2f} of the estimator's low-frequency power")
+    # the one-sided rows weighed: read by the process on the FOG bench, exact on paper A's
+    papers = (noisy, white, fine, runs["paper_a_0.05C_window_1200s"]["summary"])
+    weighed = [s["one_sided_shift_sd"] for s in papers]
+    alone = [_way_spread(s, "oscillators_alone", "shift_median") for s in papers]
+    assert fog["one_sided_exact"] == 0 and all(s["one_sided_exact"] == s["seeds"]
+                                               for s in papers)
+    assert fog["one_sided_shift_sd"][1] <= 0.1 < min(w[0] for w in weighed)
+    _quoted(f"Over the same seeds that was every FOG log ({fog['one_sided_shift_sd'][0]:.2f} "
+            f"to {fog['one_sided_shift_sd'][1]:.2f} sd), and none of paper A's "
+            f"({min(w[0] for w in weighed):.2f} to {max(w[1] for w in weighed):.2f}): there "
+            f"a process alone moved them a median {min(a[0] for a in alone):.2f} to "
+            f"{max(a[1] for a in alone):.2f}.")
