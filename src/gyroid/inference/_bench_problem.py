@@ -21,7 +21,7 @@ from gyroid.inference._emcee import Emcee
 from gyroid.inference._importance import Importance
 from gyroid.inference._marginal_target import MarginalTarget, marginal_target
 from gyroid.inference._mode import Optimum
-from gyroid.inference._one_sided import weigh_one_sided
+from gyroid.inference._one_sided import weigh_one_sided, windows_in_one_form
 from gyroid.inference._point import point_estimate
 from gyroid.inference._point_profiled import collapsed_log_likelihood
 from gyroid.inference._problem import AbstractProblem, PointEstimate
@@ -139,8 +139,12 @@ class BenchProblem(AbstractProblem):
                             window_s=window_s, block_rows=block_rows, wd=wd,
                             thermometer_var_row=thermometer_var_row, fast=fast)
 
-        density, noise_mode, choice = _by_marginal(density_at, log, rate_window_s, choice)
-        density, noise_mode = weigh_one_sided(density, noise_mode)
+        # the windows compared in one form (the one-sided rows weighed at a guess), the
+        # chosen one's weighed at its mode
+        form_at, exact_at = windows_in_one_form(density_at, rate_window_s)
+        density, noise_mode, choice = _by_marginal(form_at, log, rate_window_s, choice)
+        density, noise_mode = weigh_one_sided(
+            density, exact_at(float(density.rate_window_s)), noise_mode)
         return cls(density=density, log=log, prior_set=options.prior_set, prior_basis=basis,
                    rate_window_choice=choice, block_rows=block_rows, segments=samples,
                    thermometer_sd_C=math.sqrt(thermometer_var), rate_error_wd=wd,

@@ -9,9 +9,17 @@ do is weighed at the noise levels' marginal mode, with the gyro's whole noise th
 rms shift of the generalised least-squares coefficients, in their sds, were the one-sided
 rows read by the interior's process like every other row
 (:func:`~gyroid.noise._rate_error_rows.coefficient_shift`).
-At most :data:`~gyroid.noise._rate_error_rows.ONE_SIDED_TOLERANCE`, the process reads them
-and the mode is found again on that density from the one found; else they stay exact. The
-shift is recorded either way (``one_sided_shift_sd`` in fit.json).
+At most :data:`~gyroid.noise._rate_error_rows.ONE_SIDED_TOLERANCE`, the process reads them;
+else they stay exact. The shift is recorded either way (``one_sided_shift_sd`` in fit.json).
+
+The dT/dt window search compares two windows by their marginal modes, three BFGS starts
+each: on the exact form it took 5.6 s of a 13 s FOG fit (1.2 s on main's single
+oscillator). So its windows are all built in the form the shift picks at the noise model's
+own guess of the levels (:func:`windows_in_one_form`), and the chosen window is weighed
+again at its mode, the mode found again where the form changes. The guess puts flicker
+and a walk above the mode's, so the shift there was 0.064-0.072 sd on the FOG bench
+(0.046-0.066 at the mode) and 0.12-0.24 on paper A's with a 0.01 degC thermometer
+(0.18-0.30 at the mode; seeds 0-3).
 
 Measured (``experiments/rate_error_edges.py``, 20 seeds per case): on paper A's bench the
 weighed shift was 0.16-0.39 sd with a 0.01 degC thermometer and 0.48-1.07 with 0.05 degC
@@ -22,6 +30,8 @@ the z-scores' sds within 0.01 of the exact's.
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -55,32 +65,69 @@ def one_sided_shift(density: BenchDensity, noise_u: np.ndarray) -> float:
                              term.row_covariance(), everywhere.row_covariance(), gyro)
 
 
-def weigh_one_sided(density: BenchDensity, noise_mode: Optimum | None
+def windows_in_one_form(density_at: Callable[[float], BenchDensity], first_s: float
+                        ) -> tuple[Callable[[float], BenchDensity],
+                                   Callable[[float], BenchDensity]]:
+    """The densities a fit's dT/dt window search compares, all in one form, and the exact
+    ones (each built once): the one-sided rows read by the process at every window where,
+    at the noise model's guess of its levels on the first window (``first_s``, s), that
+    moves no coefficient by more than the tolerance (the search's modes are then found on
+    the cheaper form); else exact. The fit then weighs them at its mode
+    (:func:`weigh_one_sided`). ``density_at``: the exact density at a window (s)."""
+    built: dict[float, BenchDensity] = {}
+
+    def exact_at(window_s: float) -> BenchDensity:
+        if window_s not in built:
+            built[window_s] = density_at(window_s)
+        return built[window_s]
+
+    first = exact_at(first_s)
+    term = first.noise.carried
+    by_process = (term is not None and term.ends is not None
+                  and filtered_form(first) is not None
+                  and one_sided_shift(first, noise_guess(first)[0]) <= ONE_SIDED_TOLERANCE)
+
+    def at(window_s: float) -> BenchDensity:
+        exact = exact_at(window_s)
+        return _weighed(exact, float("nan"), True) if by_process else exact
+
+    return at, exact_at
+
+
+def weigh_one_sided(density: BenchDensity, exact: BenchDensity, noise_mode: Optimum | None
                     ) -> tuple[BenchDensity, Optimum | None]:
-    """``density`` with its carried thermometer's one-sided rows read by the interior's
-    process where that moves no coefficient by more than :data:`~gyroid.noise.
-    _rate_error_rows.ONE_SIDED_TOLERANCE` of its sd at the noise levels' marginal mode
-    (``noise_mode``, found here when None), and that mode, found again on the density
-    returned (module docstring). Unchanged where nothing is carried exactly or the model
-    is not linear in every coefficient (no marginal: carried exactly)."""
-    term = density.noise.carried
-    collapsed = filtered_form(density)
-    if term is None or term.ends is None or collapsed is None:
+    """The density a fit reads at its window: ``exact`` (the density there with the
+    one-sided rows exact) with those rows read by the interior's process where that moves
+    no coefficient by more than :data:`~gyroid.noise._rate_error_rows.ONE_SIDED_TOLERANCE`
+    of its sd at the noise levels' marginal mode, and that mode. ``density``: the form the
+    window search found the mode ``noise_mode`` on (found here on it when None); where the
+    weighing takes the other form, the mode is found again on it from that one (module
+    docstring). ``density`` unchanged where nothing is carried exactly or the model is not
+    linear in every coefficient (no marginal: carried exactly)."""
+    term = exact.noise.carried
+    if term is None or term.ends is None or filtered_form(exact) is None:
         return density, noise_mode
-    correlated = correlated_levels(density)
+    correlated = correlated_levels(exact)
     if noise_mode is None:
-        noise_mode, _ = marginal_mode(collapsed, noise_guess(density)[0], correlated,
-                                      lanes=1 + len(correlated))
-    shift = one_sided_shift(density, noise_mode.value)
-    span, gap = _spans(density)
+        noise_mode, _ = marginal_mode(filtered_form(density), noise_guess(density)[0],
+                                      correlated, lanes=1 + len(correlated))
+    shift = one_sided_shift(exact, noise_mode.value)
     by_process = shift <= ONE_SIDED_TOLERANCE
-    weighed = eqx.tree_at(lambda d: d.noise, density, density.noise.one_sided_weighed(
-        shift, by_process, span_s=span, gap_s=gap))
-    if not by_process:
-        return weighed, noise_mode
+    weighed = _weighed(exact, shift, by_process)
+    carried = density.noise.carried
+    if carried is not None and (carried.ends is None) == by_process:
+        return weighed, noise_mode  # the mode is this form's
     again, _ = marginal_mode(filtered_form(weighed), noise_mode.value, (),
                              lanes=1 + len(correlated))
     return weighed, again
+
+
+def _weighed(exact: BenchDensity, shift_sd: float, by_process: bool) -> BenchDensity:
+    """``exact`` with its one-sided rows weighed (:meth:`~gyroid.noise.NoiseModel.
+    one_sided_weighed`)."""
+    span, gap = _spans(exact)
+    return eqx.tree_at(lambda d: d.noise, exact, exact.noise.one_sided_weighed(
+        shift_sd, by_process, span_s=span, gap_s=gap))
 
 
 def _spans(density: BenchDensity) -> tuple[np.ndarray, np.ndarray]:
