@@ -24,8 +24,8 @@ and a walk above the mode's, so the shift there was 0.064-0.072 sd on the FOG be
 Measured (``experiments/rate_error_edges.py``, 20 seeds per case): on paper A's bench the
 weighed shift was 0.16-0.39 sd with a 0.01 degC thermometer and 0.48-1.07 with 0.05 degC
 (every log kept exact); on the FOG bench of ``experiments/fog_thermal_bench.py`` (flicker,
-a walk, 0.01 degC) 0.024-0.079, and every log's one-sided rows went to the process, its
-coefficients then a median 0.018-0.025 sd and at most 0.077 from the exact covariance's,
+a walk, 0.01 degC) 0.025-0.078, and every log's one-sided rows went to the process, its
+coefficients then a median 0.018-0.025 sd and at most 0.083 from the exact covariance's,
 the z-scores' sds within 0.01 of the exact's.
 """
 
