@@ -91,7 +91,7 @@ def _folds(kind: str, seed: int):
         return roll_held_out(problem, problem.mode())[0]
     log, noise = _bench_log(kind, rng)
     problem = BenchProblem.from_log(log, "bias,temperature", BenchOptions(noise=noise, t0_C=20.0))
-    return bench_held_out(problem.density, np.asarray(log.time_s))[0]
+    return bench_held_out(problem.density, np.asarray(problem.log.time_s))[0]
 
 
 def run_kind(kind: str, seeds: list[int]) -> dict:

@@ -45,8 +45,12 @@ def bench_held_out(density: BenchDensity, time_s: np.ndarray,
                    point_u: np.ndarray | None = None
                    ) -> tuple[list[HeldOut] | None, float | None]:
     """The held-out folds of a bench log's density and the median part's duration (s);
-    None when the log is too short to hold a stretch out."""
+    None when the log is too short to hold a stretch out. ``time_s``: the density's rows'
+    times (a fit of block means: the means', ``BenchProblem.log.time_s``)."""
     time_s = np.asarray(time_s)
+    if time_s.shape != (density.n,):
+        raise ValueError(f"bench_held_out: {time_s.size} times for a density of {density.n} "
+                         "rows (a fit of block means: pass the means' times)")
     segments = tuple(contiguous_segments(time_s))
     parts = stretches(density.n, segments if len(segments) > 1 else None)
     if parts is None:
