@@ -42,7 +42,6 @@ from gyroid.inference._collapsed import filtered_form
 from gyroid.inference._marginal_mode import marginal_mode
 from gyroid.inference._mode import Optimum
 from gyroid.inference._point import correlated_levels, noise_guess
-from gyroid.noise._rate_error_process import RateErrorProcess
 from gyroid.noise._rate_error_rows import ONE_SIDED_TOLERANCE, coefficient_shift
 
 
@@ -60,7 +59,8 @@ def one_sided_shift(density: BenchDensity, noise_u: np.ndarray) -> float:
     gyro = density.noise.without_rate_error().part_covariance(
         time_s, np.arange(n), n, density.step_s, white_var,
         {k: float(v) for k, v in values.items()}, block_means=True)
-    everywhere = RateErrorProcess.of(np.asarray(term.process.oscillators), *_spans(density))
+    everywhere = _weighed(density, float("nan"), True).noise.carried
+    assert everywhere is not None  # weighed, the carried term is kept
     return coefficient_shift(np.asarray(density.model.design(density.inputs)),
                              term.row_covariance(), everywhere.row_covariance(), gyro)
 
