@@ -652,8 +652,9 @@ def _fog_phrases() -> dict[str, str]:
     assert all(v == len(default) for v in only["inside_95"].values())
     white_seconds = _results("fog_thermal_bench_white_only_white")["summary"]["smooth"][
         "median_seconds"]
-    out["seconds"] = (f"a median {smooth['median_seconds']:.0f} s with two such fits running "
-                      f"side by side (`experiments/results/fog_thermal_bench/`), against "
+    out["seconds"] = (f"a median {smooth['median_seconds']:.0f} s in that run, two such fits "
+                      f"side by side and another study's beside them "
+                      f"(`experiments/results/fog_thermal_bench/`), against "
                       f"{white_seconds:.1f} s for `--noise white`")
     return out
 
