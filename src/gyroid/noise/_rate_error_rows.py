@@ -239,7 +239,7 @@ def coefficient_shift(design: np.ndarray, exact: np.ndarray, approximate: np.nda
         factor = np.linalg.cholesky(covariance)
         whitened = solve_triangular(factor, design, lower=True)
         precision = whitened.T @ whitened
-        weights = solve_triangular(factor, whitened, lower=True, trans="T")  # C^-1 X
+        weights = solve_triangular(factor, whitened, lower=True, trans=1)  # C^-1 X (1: transposed)
         return np.linalg.solve(precision, weights.T), precision
 
     on_right, precision = estimator(right)
