@@ -78,6 +78,7 @@ def one(seed: int, substeps: int = 1) -> dict:
     from gyroid.inference import BenchOptions, BenchProblem, Emcee, Importance, fit_log
     from gyroid.io import BenchLog
     from gyroid.models._derived import RATE_WINDOW_S
+    from gyroid.noise import Flicker
 
     gyroid.configure()
     started = time.time()
@@ -87,8 +88,8 @@ def one(seed: int, substeps: int = 1) -> dict:
     noise = BenchProblem.from_log(BenchLog(clock), TERMS,
                                   BenchOptions(noise="white+flicker+rw", priors=priors(),
                                                rate_window_s=RATE_WINDOW_S)).density.noise
-    columns = simulate(truth, np.asarray(noise.flicker_tau_s), float(noise.flicker_unit_var),
-                       rng, substeps)
+    flicker = next(t for t in noise.terms if isinstance(t, Flicker))
+    columns = simulate(truth, np.asarray(flicker.tau_s), float(flicker.unit_var), rng, substeps)
     fit = fit_log(BenchLog(columns), TERMS, BenchOptions(noise="auto", priors=priors()), seed=seed,
                   sampler=Importance(fallback=Emcee(progress=False)))
     draws = fit.posterior.draws.reshape(-1, len(fit.problem.names))
