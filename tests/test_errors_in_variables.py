@@ -1,6 +1,6 @@
 """Errors in variables: the thermometer's noise carried through the dT/dt estimator into the
-white-noise likelihood (models/_rate_error.py; the noise model's rate error, a process with
-the one-sided rows exact, noise/_rate_error_rows.py), wD at its least-squares value."""
+white-noise likelihood (models/_rate_error.py; the noise model's exact rate error,
+noise/_rate_error_rows.py), wD at its least-squares value."""
 
 import jax.numpy as jnp
 import numpy as np
@@ -107,13 +107,13 @@ def test_the_likelihood_is_the_dense_gaussian(sigma_known):
         masked = density.without_rows(held)
         assert float(masked.log_likelihood(jnp.asarray(u))) == pytest.approx(
             marginal.logpdf(residual[kept]), abs=1e-6)
-        # each row's density given the rows before it (the filter's innovations)
+        # leave-one-out rows: each row's density given every other row
         rows = np.asarray(density.log_likelihood_rows(jnp.asarray(u)))
         for i in (0, 17, problem.n - 1):
-            before = np.arange(problem.n) < i
-            gain = covariance[i, before] @ np.linalg.inv(covariance[np.ix_(before, before)])
-            mean = gain @ residual[before]
-            variance = covariance[i, i] - gain @ covariance[before, i]
+            others = np.arange(problem.n) != i
+            gain = covariance[i, others] @ np.linalg.inv(covariance[np.ix_(others, others)])
+            mean = gain @ residual[others]
+            variance = covariance[i, i] - gain @ covariance[others, i]
             expected = (-0.5 * np.log(2 * np.pi * variance)
                         - 0.5 * (residual[i] - mean) ** 2 / variance)
             assert rows[i] == pytest.approx(expected, abs=1e-8)

@@ -221,28 +221,31 @@ def _exact(problem: BenchProblem):
                                   problem.thermometer_sd_C**2 / problem.block_rows)
     gap = np.zeros(density.n) if density.gap_s is None else np.asarray(density.gap_s)
     noise = density.noise.without_rate_error().with_rate_error(
-        carried, span_s=np.full(density.n, density.step_s), gap_s=gap,
-        step_s=density.step_s)
+        carried, d0=np.full(density.n, density.row_scale**2),
+        span_s=np.full(density.n, density.step_s), gap_s=gap, step_s=density.step_s)
     return eqx.tree_at(lambda d: d.noise, density, noise)
 
 
-@pytest.mark.parametrize("noise", ["white", "white+flicker+rw"])
-def test_the_one_sided_rows_are_read_by_the_process_only_where_that_moves_nothing(noise):
+@pytest.mark.parametrize(("noise", "window_s"), [("white+gm", 600.0),
+                                                 ("white+flicker+rw", 900.0)])
+def test_the_one_sided_rows_are_read_by_the_process_only_where_that_moves_nothing(noise,
+                                                                                 window_s):
     """A fit weighs its one-sided rows' exact error at the noise levels' marginal mode: on
-    this bench with white noise it moves the coefficients, and it stays; beside the flicker
-    and walk the default model allows, less than the tolerance, and the process reads those
-    rows. There the fit's mode moves from the exact density's by less than the tolerance
-    (in the exact posterior's sds)."""
+    this bench beside a Gauss-Markov bias, with a 600 s window, it moves the coefficients,
+    and it stays; beside the flicker and walk the default model allows, less than the
+    tolerance, and the process reads those rows. There the fit's mode moves from the exact
+    density's by less than the tolerance (in the exact posterior's sds)."""
     from gyroid.inference._point import point_estimate
     from gyroid.noise._rate_error_rows import ONE_SIDED_TOLERANCE
 
     log = _noisy_thermometer_bench(2, hours=3.0)
     problem = BenchProblem.from_log(log, "thermal", BenchOptions(noise=noise,
-                                                                 rate_window_s=900.0))
-    term = problem.density.noise.carried
+                                                                 rate_window_s=window_s))
+    term = problem.density.noise.carried_process
+    assert term is not None
     shift = float(term.one_sided_shift_sd)
     assert (term.ends is None) == (shift <= ONE_SIDED_TOLERANCE)
-    assert (term.ends is None) == (noise != "white")
+    assert (term.ends is None) == (noise != "white+gm")
     if term.ends is not None:
         return
     exact = point_estimate(_exact(problem))
@@ -252,7 +255,22 @@ def test_the_one_sided_rows_are_read_by_the_process_only_where_that_moves_nothin
     assert max(moved) < ONE_SIDED_TOLERANCE
 
 
-@pytest.mark.parametrize(("noise", "window_s"), [("white", 900.0),
+def test_beside_white_noise_alone_the_rate_error_is_exact():
+    """Beside white noise alone the thermometer's noise is the rows' exact covariance
+    (its eigenbasis): no process, nothing weighed."""
+    from gyroid.noise._terms import ExactRateError
+
+    log = _noisy_thermometer_bench(2, hours=3.0)
+    problem = BenchProblem.from_log(log, "thermal", BenchOptions(noise="white",
+                                                                 rate_window_s=900.0))
+    term = problem.density.noise.carried
+    assert isinstance(term, ExactRateError) and problem.density.noise.carried_process is None
+    exact = carried_thermometer(problem.log, problem.rate_window_s, problem.rate_error_wd,
+                                problem.thermometer_sd_C**2 / problem.block_rows).covariance()
+    np.testing.assert_allclose(term.row_covariance(), exact, rtol=0, atol=1e-12 * np.max(exact))
+
+
+@pytest.mark.parametrize(("noise", "window_s"), [("white+gm", 900.0),
                                                  ("white+flicker+rw", 900.0),
                                                  ("white+flicker+rw", 6000.0)])
 def test_the_carried_error_is_exact_on_the_one_sided_rows_and_a_covariance(noise, window_s):
@@ -268,8 +286,8 @@ def test_the_carried_error_is_exact_on_the_one_sided_rows_and_a_covariance(noise
     problem = BenchProblem.from_log(log, "thermal", BenchOptions(noise=noise,
                                                                  rate_window_s=window_s))
     density = _exact(problem)  # the fit may read the one-sided rows by the process
-    term = density.noise.carried
-    assert term is not None
+    term = density.noise.carried_process
+    assert term is not None and term.ends is not None
     time_s = np.asarray(problem.log.time_s)
     half = window_s / 2.0
     one_sided = (time_s < time_s[0] + half) | (time_s > time_s[-1] - half)
@@ -309,9 +327,10 @@ def test_the_inflation_is_none_where_the_process_holds_the_one_sided_rows_share(
     from gyroid.noise._rate_error_rows import _inflation
 
     log = _noisy_thermometer_bench(2, hours=3.0)
-    problem = BenchProblem.from_log(log, "thermal", BenchOptions(noise="white",
+    problem = BenchProblem.from_log(log, "thermal", BenchOptions(noise="white+gm",
                                                                  rate_window_s=900.0))
-    term = problem.density.noise.carried
+    term = _exact(problem).noise.carried_process
+    assert term is not None and term.ends is not None
     process = term.process
     explained = term.ends.explained
     one_sided = np.asarray(process.mean_noise) == 0.0

@@ -113,7 +113,9 @@ class BenchDensity(AbstractDensity):
         # read as block means: each row the mean over one step, after a gap (a pause)
         gap = np.maximum(np.concatenate([[0.0], steps]) - step, 0.0)
         if thermometer is not None:
-            noise = noise.with_rate_error(thermometer, span_s=np.full(gap.size, step),
+            d0 = (np.full(time_s.size, row_scale**2) if sigma is None
+                  else np.asarray(sigma) ** 2)
+            noise = noise.with_rate_error(thermometer, d0=d0, span_s=np.full(gap.size, step),
                                           gap_s=gap, step_s=step)
         gap_s = jnp.asarray(gap) if noise.rows_as_means(rows_per_mean) else None
         problem = cls(
@@ -161,8 +163,9 @@ class BenchDensity(AbstractDensity):
         through them without an observation (exact: the marginal likelihood of the rows
         kept). The sufficient statistics, which sum every row, are dropped too."""
         keep = ~np.asarray(held_out, dtype=bool)
-        return eqx.tree_at(lambda q: (q.weight, q.stats), self,
-                           (jnp.asarray(keep, dtype=float), None),
+        # the rows' exact covariance, if the noise model carries one, is the kept rows'
+        return eqx.tree_at(lambda q: (q.weight, q.stats, q.noise), self,
+                           (jnp.asarray(keep, dtype=float), None, self.noise.on_rows(keep)),
                            is_leaf=lambda x: x is None)
 
     # ----- parameter bookkeeping -------------------------------------------------------

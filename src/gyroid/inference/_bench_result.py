@@ -113,23 +113,29 @@ class BenchFit(Fit[BenchProblem]):
             return None
         carried = {"thermometer_sd_C": problem.thermometer_sd_C,
                    "wD_fixed": problem.rate_error_wd}
-        term = noise.carried
-        exact = term.ends is not None
-        shift = float(term.one_sided_shift_sd)
+        one_sided = one_sided_rows(np.asarray(problem.log.time_s), problem.rate_window_s)
         how = ("the thermometer's white noise, measured by the logged temperature's third "
                "differences, passed through the dT/dt estimator and times wD's least-squares "
-               "value (wD_fixed): in the log's interior a process of the noise model's "
-               "filter, oscillators' velocities matched to the estimator's error with its "
-               "power at low frequencies (divergence_left: the share of the divergence "
-               "from leaving it out that remains); on the one-sided rows within half a "
-               "window of either end, "
-               + ("their exact error and its covariance with every row" if exact else
-                  "the same process: their exact error would move no coefficient by more "
-                  f"than {shift:.2g} of its sd (one_sided_shift_sd)"))
+               "value (wD_fixed): ")
+        term = noise.carried_process
+        if term is None:  # beside white noise alone
+            return carried | {"process": None, "one_sided_rows": int(one_sided.sum()),
+                              "one_sided_exact": True, "one_sided_shift_sd": None,
+                              "how": how + "a covariance wD^2 v L L' over the rows beside the "
+                                           "white noise's, exact"}
+        exact = term.ends is not None
+        shift = float(term.one_sided_shift_sd)
+        how += ("in the log's interior a process of the noise model's "
+                "filter, oscillators' velocities matched to the estimator's error with its "
+                "power at low frequencies (divergence_left: the share of the divergence "
+                "from leaving it out that remains); on the one-sided rows within half a "
+                "window of either end, "
+                + ("their exact error and its covariance with every row" if exact else
+                   "the same process: their exact error would move no coefficient by more "
+                   f"than {shift:.2g} of its sd (one_sided_shift_sd)"))
         process = term.process
         oscillators = [{"sd_deg_h": math.sqrt(float(v)), "omega_rad_s": float(w),
                         "quality": float(q)} for v, w, q in np.asarray(process.oscillators)]
-        one_sided = one_sided_rows(np.asarray(problem.log.time_s), problem.rate_window_s)
         return carried | {
             "process": {"oscillators": oscillators,
                         "divergence_left": float(process.divergence)

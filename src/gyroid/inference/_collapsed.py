@@ -15,9 +15,11 @@ marginal (three dimensions for IEEE 952 noise, one for white noise's unknown lev
 instead of those plus the coefficients) and then ``beta`` given each draw gives draws of
 the same posterior as sampling them jointly.
 
-* :class:`CollapsedCoefficients`: correlated noise (a carried thermometer's included, under
-  every noise model), one Kalman pass over the data and every column of the design giving
-  ``a`` and ``A`` (O(n p) an evaluation);
+* :class:`CollapsedCoefficients`: correlated noise, one Kalman pass over the data and every
+  column of the design giving ``a`` and ``A`` (O(n p) an evaluation; a carried thermometer's
+  beside it as one more process), or, for white noise beside a carried thermometer's, the
+  rows' coordinates in their covariance's eigenbasis (O(n^2 p):
+  :mod:`gyroid.noise._rate_error_rows`);
 * :class:`SufficientCoefficients`: white rows, ``A'A`` and ``A'a`` from the R factor of the
   rows' weighted design and drift (O(p^2) an evaluation, whatever the log's length).
 """
@@ -134,7 +136,7 @@ class CollapsedCoefficients(AbstractMarginal):
         scale = jnp.sqrt(self.weight) * jnp.sqrt(1.0 / variance)
         a, design = innovation[:, 0] * scale, innovation[:, 1:] * scale[:, None]
         log_norm = -0.5 * jnp.sum(self.weight * (jnp.log(variance) + _LOG_2PI))
-        carried = self.row_filter.noise.carried
+        carried = self.row_filter.noise.carried_process
         if ends is None or carried is None or carried.ends is None:
             def residual_sq(beta):
                 residual = a - design @ beta

@@ -49,7 +49,7 @@ def one_sided_shift(density: BenchDensity, noise_u: np.ndarray) -> float:
     """The largest rms shift of a coefficient, in its sd, from reading ``density``'s carried
     one-sided rows by the interior's process, at the noise levels ``noise_u`` (sampling
     coordinates): the gyro's noise there written out over the rows, dense."""
-    term = density.noise.carried
+    term = density.noise.carried_process
     if term is None or term.ends is None:
         raise ValueError("one_sided_shift: the density carries no exact one-sided rows")
     white, values = density.levels_of(jnp.asarray(noise_u))
@@ -59,7 +59,7 @@ def one_sided_shift(density: BenchDensity, noise_u: np.ndarray) -> float:
     gyro = density.noise.without_rate_error().part_covariance(
         time_s, np.arange(n), n, density.step_s, white_var,
         {k: float(v) for k, v in values.items()}, block_means=True)
-    everywhere = _weighed(density, float("nan"), True).noise.carried
+    everywhere = _weighed(density, float("nan"), True).noise.carried_process
     assert everywhere is not None  # weighed, the carried term is kept
     return coefficient_shift(np.asarray(density.model.design(density.inputs)),
                              term.row_covariance(), everywhere.row_covariance(), gyro)
@@ -82,7 +82,7 @@ def windows_in_one_form(density_at: Callable[[float], BenchDensity], first_s: fl
         return built[window_s]
 
     first = exact_at(first_s)
-    term = first.noise.carried
+    term = first.noise.carried_process
     by_process = (term is not None and term.ends is not None
                   and filtered_form(first) is not None
                   and one_sided_shift(first, noise_guess(first)[0]) <= ONE_SIDED_TOLERANCE)
@@ -104,7 +104,7 @@ def weigh_one_sided(density: BenchDensity, exact: BenchDensity, noise_mode: Opti
     weighing takes the other form, the mode is found again on it from that one (module
     docstring). ``density`` unchanged where nothing is carried exactly or the model is not
     linear in every coefficient (no marginal: carried exactly)."""
-    term = exact.noise.carried
+    term = exact.noise.carried_process
     if term is None or term.ends is None or filtered_form(exact) is None:
         return density, noise_mode
     correlated = correlated_levels(exact)
@@ -114,7 +114,7 @@ def weigh_one_sided(density: BenchDensity, exact: BenchDensity, noise_mode: Opti
     shift = one_sided_shift(exact, noise_mode.value)
     by_process = shift <= ONE_SIDED_TOLERANCE
     weighed = _weighed(exact, shift, by_process)
-    carried = density.noise.carried
+    carried = density.noise.carried_process
     if carried is not None and (carried.ends is None) == by_process:
         return weighed, noise_mode  # the mode is this form's
     again, _ = marginal_mode(filtered_form(weighed), noise_mode.value, (),

@@ -97,5 +97,5 @@ def _by_noise_level(density, collapsed, flat: np.ndarray, chunk: int) -> np.ndar
 @eqx.filter_jit
 def _rows_of(row_filter, innovation, variance):
     """Each draw's rows' log-likelihoods from their innovations (:meth:`~gyroid.noise.
-    RowFilter.rows_of`)."""
+    RowFilter.rows_of`: the rows' own, also where the innovations are not in time order)."""
     return jax.vmap(row_filter.rows_of)(innovation, variance)

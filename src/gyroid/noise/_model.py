@@ -32,11 +32,13 @@ from gyroid.noise._block_filter import block_innovations
 from gyroid.noise._kalman import gauss_markov_innovations, gauss_markov_mean_covariance
 from gyroid.noise._mean_covariance import log_span_s, part_covariance
 from gyroid.noise._rate_error_process import RateErrorProcess
-from gyroid.noise._rate_error_rows import CarriedThermometer, OneSidedRows
+from gyroid.noise._rate_error_rows import CarriedThermometer, OneSidedRows, RowEigenbasis
 from gyroid.noise._terms import (
     AbstractNoiseTerm,
+    AbstractRateError,
     AbstractWhiteTerm,
     AngleRandomWalk,
+    ExactRateError,
     Flicker,
     GaussMarkovBias,
     RateError,
@@ -139,15 +141,21 @@ class NoiseModel(eqx.Module):
         """This model set up for a log of rows ``step_s`` apart lasting ``duration_s``."""
         return NoiseModel(self.name, tuple(t.for_log(step_s, duration_s) for t in self.terms))
 
-    def with_rate_error(self, carried: CarriedThermometer, *, span_s: np.ndarray,
-                        gap_s: np.ndarray, step_s: float) -> NoiseModel:
+    def with_rate_error(self, carried: CarriedThermometer, *, d0: np.ndarray,
+                        span_s: np.ndarray, gap_s: np.ndarray, step_s: float) -> NoiseModel:
         """This model carrying the thermometer's noise through the dT/dt estimator
-        (``carried``, on the log's rows: spans ``span_s`` after gaps ``gap_s``, ``step_s``
-        apart) as one more term (:class:`~gyroid.noise._terms.RateError`), under every
-        noise model: a process of the block filter matched to the estimator's interior
-        error, the one-sided rows exact; none where the rows are not evenly spaced for the
-        process (a log of bursts)."""
+        (``carried``, on the log's rows: each row's white variance per unit level ``d0``,
+        spans ``span_s`` after gaps ``gap_s``, ``step_s`` apart) as one more term: beside
+        white noise alone the rows' exact covariance (:class:`~gyroid.noise._terms.
+        ExactRateError`; :mod:`gyroid.noise._rate_error_rows` says why a process will not
+        do there), beside a correlated term a process of the block filter matched to the
+        estimator's interior error, the one-sided rows exact
+        (:class:`~gyroid.noise._terms.RateError`; none where the rows are not evenly
+        spaced for the process: a log of bursts)."""
         gyro = self.without_rate_error()
+        if not gyro.correlated:
+            rows = RowEigenbasis.of(carried.covariance(), d0, np.ones(np.size(d0), dtype=bool))
+            return NoiseModel(self.name, (*gyro.terms, ExactRateError(rows)))
         autocovariance = carried.autocovariance()
         if autocovariance is None:
             return gyro
@@ -164,8 +172,8 @@ class NoiseModel(eqx.Module):
         rows of spans ``span_s`` after gaps ``gap_s``, s), their exact error dropped
         (:func:`~gyroid.inference._one_sided.weigh_one_sided`)."""
         term = self.carried
-        if term is None:
-            raise ValueError("one_sided_weighed: this model carries no rate error")
+        if not isinstance(term, RateError):
+            raise ValueError("one_sided_weighed: this model carries no rate error process")
         process, ends = term.process, term.ends
         if by_process:
             process = RateErrorProcess.of(np.asarray(process.oscillators), span_s, gap_s, None,
@@ -181,12 +189,28 @@ class NoiseModel(eqx.Module):
         if self.carried is None:
             return self
         return NoiseModel(self.name, tuple(t for t in self.terms
-                                           if not isinstance(t, RateError)))
+                                           if not isinstance(t, AbstractRateError)))
+
+    def on_rows(self, keep: np.ndarray) -> NoiseModel:
+        """This model on the rows ``keep`` of its log (a boolean mask): a carried exact
+        rate error's covariance is then the kept rows' (their marginal)."""
+        carried = self.carried
+        if not isinstance(carried, ExactRateError):
+            return self
+        return NoiseModel(self.name, (*self.without_rate_error().terms,
+                                      ExactRateError(carried.rows.on_rows(keep))))
 
     @property
-    def carried(self) -> RateError | None:
+    def carried(self) -> AbstractRateError | None:
         """The thermometer's noise this model carries (a term), or None."""
-        return next((t for t in self.terms if isinstance(t, RateError)), None)
+        return next((t for t in self.terms if isinstance(t, AbstractRateError)), None)
+
+    @property
+    def carried_process(self) -> RateError | None:
+        """The thermometer's noise this model carries as a process of its filter (beside a
+        correlated term), or None."""
+        carried = self.carried
+        return carried if isinstance(carried, RateError) else None
 
     # ----- priors and starts ------------------------------------------------------------
     def default_priors(self, level_deg_h: float, step_s: float, rows_per_mean: int
@@ -242,9 +266,12 @@ class NoiseModel(eqx.Module):
         one-sided rows' loadings filtered alike (rows by ``k``; None without one): the
         rows' covariance is the filter's plus those loadings' low-rank correction
         (:class:`~gyroid.noise._rate_error_rows.OneSidedRows`); None for independent
-        rows."""
+        rows. Beside white noise alone a carried rate error's rows are their coordinates in
+        its covariance's eigenbasis (independent, not in time order)."""
         if not self.correlated:
             return None
+        if isinstance(exact_rows := self.carried, ExactRateError):
+            return (*exact_rows.rows.innovations(observed, white), None)
         processes = [g for t in self.terms if (g := t.processes(values)) is not None]
         diffusion, centred = self._walk(values)
         if self._at_instants(clock.gap_s is not None, processes, centred):
@@ -254,7 +281,7 @@ class NoiseModel(eqx.Module):
                     None)
         span = jnp.full_like(clock.steps_s, clock.step_s)
         gap = jnp.zeros_like(span) if clock.gap_s is None else clock.gap_s
-        carried = self.carried
+        carried = self.carried_process
         exact = None if carried is None else carried.ends
         columns = observed.reshape(observed.shape[0], -1)
         width = columns.shape[1]
@@ -279,7 +306,7 @@ class NoiseModel(eqx.Module):
         if filtered is None:
             return None
         innovation, variance, ends = filtered
-        carried = self.carried
+        carried = self.carried_process
         if ends is None or carried is None or carried.ends is None:
             return innovation, variance
         update = jnp.ones_like(variance) if clock.weight is None else clock.weight

@@ -1,7 +1,8 @@
 """A noise model set on a log's rows (:class:`RowFilter`): each row's white sd and the levels
 by name from their sampling coordinates, and the rows' log-likelihood (each row's, and
-joint) and standardised residuals, whatever the terms: independent rows, or a filter's
-innovations."""
+joint) and standardised residuals, whatever the terms: independent rows, a filter's
+innovations, or the rows' exact covariance where a carried thermometer's stands beside
+white noise alone."""
 
 from __future__ import annotations
 
@@ -14,6 +15,7 @@ from jaxtyping import Array, Float
 
 from gyroid.noise._base import RowClock
 from gyroid.noise._model import NoiseModel
+from gyroid.noise._terms import ExactRateError
 
 _LOG_2PI = math.log(2.0 * math.pi)
 
@@ -71,16 +73,28 @@ class RowFilter(eqx.Module):
     def rows_of(self, innovation, variance) -> Array:
         """Each row's log-likelihood from the innovations of its residual and their
         variances (:meth:`innovations`; 0 for a row held out): each innovation's given the
-        rows before it."""
-        rows = -0.5 * innovation**2 / variance - 0.5 * jnp.log(variance) - 0.5 * _LOG_2PI
+        rows before it, or, under the rows' exact covariance (a carried thermometer's
+        beside white noise), each row's given every other row."""
+        if isinstance(carried := self.noise.carried, ExactRateError):
+            rows = carried.rows.leave_one_out_rows(innovation, variance)
+        else:
+            rows = -0.5 * innovation**2 / variance - 0.5 * jnp.log(variance) - 0.5 * _LOG_2PI
         return rows if self.weight is None else rows * self.weight
 
     def log_likelihood(self, residual, white, values: Mapping) -> Array:
         """The rows' joint log-likelihood (the rows held out left out)."""
-        return jnp.sum(self.row_log_likelihood(residual, white, values))
+        carried = self.noise.carried
+        if not isinstance(carried, ExactRateError):  # independent rows, or innovations
+            return jnp.sum(self.row_log_likelihood(residual, white, values))
+        innovation, variance = carried.rows.innovations(residual, white)
+        rows = innovation**2 / variance + jnp.log(variance) + _LOG_2PI
+        return -0.5 * jnp.sum(rows if self.weight is None else rows * self.weight)
 
     def standardised(self, residual, white, values: Mapping) -> Array:
         """The residual over its modelled sd, in time order: independent N(0, 1) where the
-        model and the noise model are right (a filter's innovations)."""
+        model and the noise model are right (a filter's innovations; under the rows'
+        exact covariance, its Cholesky factor's)."""
+        if isinstance(carried := self.noise.carried, ExactRateError):
+            return carried.rows.standardised(residual, white)
         filtered = self.innovations(residual, white, values)
         return residual / white if filtered is None else filtered[0] / jnp.sqrt(filtered[1])

@@ -5,7 +5,7 @@ A term of a drift log's noise (:class:`AbstractNoiseTerm`) owns its levels' name
 priors, where a mode-finder starts them, and its states in the one block filter
 (:mod:`gyroid.noise._block_filter`): stationary Gauss-Markov processes (``processes``), a
 random walk's diffusion (``diffusion``), or the rate error's process and one-sided
-rows. A noise model
+rows (beside white noise alone, the rows' exact covariance instead). A noise model
 (:class:`~gyroid.noise._model.NoiseModel`) is a tuple of them, its white term first.
 
 N, B, K and G are also terms of a static log's Allan variance
@@ -41,7 +41,7 @@ from gyroid.noise._allan_terms import (
 )
 from gyroid.noise._block_filter import Processes, flicker_times
 from gyroid.noise._rate_error_process import RateErrorProcess
-from gyroid.noise._rate_error_rows import OneSidedRows
+from gyroid.noise._rate_error_rows import OneSidedRows, RowEigenbasis
 
 
 def high_frequency_sd(residual: np.ndarray) -> float:
@@ -327,29 +327,14 @@ class GaussMarkovBias(AbstractNoiseTerm, AbstractAllanTerm):
         return jnp.reshape(values["tau_gm_s"], (1,)), values["sigma_gm_deg_h"], 1.0
 
 
-class RateError(AbstractNoiseTerm):
+class AbstractRateError(AbstractNoiseTerm):
     """The thermometer's noise through the dT/dt estimator, times wD (its least-squares
-    value, fixed for the log): no level of its own. In the log's interior a process of the
-    block filter matched to the estimator's error (:class:`~gyroid.noise.
-    _rate_error_process.RateErrorProcess`), on the one-sided rows at its ends the exact
-    error and its covariance with every row (:class:`~gyroid.noise._rate_error_rows.
-    OneSidedRows`; None where the process read on them too moves no coefficient by more
-    than a tolerance: :meth:`~gyroid.noise.NoiseModel.with_rate_error`); the same under every
-    noise model. It makes the filter read the rows as block means."""
-
-    process: RateErrorProcess
-    ends: OneSidedRows | None
-    #: The largest rms shift of a coefficient, in its sd, from reading the one-sided rows by
-    #: the process (:func:`~gyroid.noise._rate_error_rows.coefficient_shift`); not a number
-    #: where it was not weighed (no coefficients' columns given, or no white floor
-    #: measured). An array: logs of one shape share one compilation.
-    one_sided_shift_sd: Float[Array, ""]
+    value, fixed for the log; :mod:`gyroid.noise._rate_error_rows`): no level of its own."""
 
     code: ClassVar[str] = "T"
     level_names: ClassVar[tuple[str, ...]] = ()
     units: ClassVar[dict[str, str]] = {}
     wanders: ClassVar[bool] = False
-    over_spans: ClassVar[bool] = True
 
     def default_priors(self, level_deg_h, step_s, rows_per_mean):
         return {}
@@ -360,10 +345,45 @@ class RateError(AbstractNoiseTerm):
     def start(self, residual, white, *, step_s, row_scale, dof, alone):
         return {}, {}
 
+    @abc.abstractmethod
     def row_covariance(self) -> np.ndarray:
         """Its covariance over the fitted log's rows, (deg/h)^2, as the likelihood reads it."""
+
+
+class RateError(AbstractRateError):
+    """The rate error beside a correlated term: in the log's interior a process of the
+    block filter matched to the estimator's error (:class:`~gyroid.noise.
+    _rate_error_process.RateErrorProcess`), on the one-sided rows at its ends the exact
+    error and its covariance with every row (:class:`~gyroid.noise._rate_error_rows.
+    OneSidedRows`; None where the process read on them too moves no coefficient by more
+    than a tolerance: :meth:`~gyroid.noise.NoiseModel.one_sided_weighed`). It makes the
+    filter read the rows as block means."""
+
+    process: RateErrorProcess
+    ends: OneSidedRows | None
+    #: The largest rms shift of a coefficient, in its sd, from reading the one-sided rows by
+    #: the process (:func:`~gyroid.noise._rate_error_rows.coefficient_shift`); not a number
+    #: where it was not weighed (no coefficients' columns given, or no white floor
+    #: measured). An array: logs of one shape share one compilation.
+    one_sided_shift_sd: Float[Array, ""]
+
+    over_spans: ClassVar[bool] = True
+
+    def row_covariance(self) -> np.ndarray:
         rows = self.process.row_covariance()
         return rows if self.ends is None else rows + self.ends.covariance()
+
+
+class ExactRateError(AbstractRateError):
+    """The rate error beside white noise alone: the rows' exact covariance, in its
+    eigenbasis (:class:`~gyroid.noise._rate_error_rows.RowEigenbasis`)."""
+
+    rows: RowEigenbasis
+
+    over_spans: ClassVar[bool] = False
+
+    def row_covariance(self) -> np.ndarray:
+        return np.asarray(self.rows.covariance)
 
 
 #: The terms a static log's Allan variance is fitted with (``gyroid noise``), in

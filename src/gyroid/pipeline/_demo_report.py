@@ -126,13 +126,14 @@ def _carried(fit) -> str:
     carried = fit.errors_in_variables
     if carried is None:
         return ""
-    if "process" in carried:  # under correlated noise: a process of the filter
+    if carried.get("process"):  # under correlated noise: a process of the filter
         return (f" The likelihood carries the thermometer's noise "
                 f"({carried['thermometer_sd_C']:.3f} degC, measured on the log) through the "
                 f"dT/dt estimator's {fit.problem.rate_window_s:.0f} s window, times wD's "
-                f"least-squares value ({carried['wD_fixed']:.3g}), as two more states of the "
-                "noise model's filter (errors in variables): left out, the flicker and the "
-                "walk would take it in and widen every interval.")
+                f"least-squares value ({carried['wD_fixed']:.3g}), as two oscillators in the "
+                "noise model's filter, the log's ends exact where they matter (errors in "
+                "variables): left out, the flicker and the walk would take it in and widen "
+                "every interval.")
     means = fit.block_means
     rows = (f" It is fitted on {means['means']} means of {means['rows_per_mean']} samples, "
             "over which that covariance is held." if means else "")
