@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 
 import equinox as eqx
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -213,12 +214,52 @@ def test_a_log_of_bursts_carries_none():
         assert problem.thermometer_sd_C == 0 and problem.density.noise.carried is None
 
 
+def _carried_of(problem: BenchProblem):
+    """The thermometer's noise the problem's fit carries, on its rows."""
+    return carried_thermometer(problem.log, problem.rate_window_s, problem.rate_error_wd,
+                               problem.thermometer_sd_C**2 / problem.block_rows)
+
+
+def test_a_fits_windows_share_their_compiled_shapes():
+    """Every window a fit's search tries carries the one-sided rows in the same shapes (the
+    widest window's reach, each end's directions padded to its polynomial's coefficients):
+    one compiled program serves the search. Padded, the carried covariance is the same."""
+    log = _noisy_thermometer_bench(2, hours=3.0)
+    problem = BenchProblem.from_log(log, "thermal", BenchOptions(noise="white+flicker+rw",
+                                                                 rate_window_s=900.0))
+    density = problem.density
+    gap = np.zeros(density.n) if density.gap_s is None else np.asarray(density.gap_s)
+
+    def ends(window_s: float, widest_s: float | None):
+        carried = carried_thermometer(problem.log, window_s, problem.rate_error_wd,
+                                      problem.thermometer_sd_C**2 / problem.block_rows,
+                                      widest_s)
+        noise = density.noise.without_rate_error().with_rate_error(
+            carried, d0=np.full(density.n, density.row_scale**2),
+            span_s=np.full(density.n, density.step_s), gap_s=gap, step_s=density.step_s)
+        term = noise.carried_process
+        assert term is not None and term.ends is not None
+        return term
+
+    def shapes(term):
+        leaves, structure = jax.tree_util.tree_flatten(term.ends)
+        return structure, [np.shape(x) for x in leaves]
+
+    widest = ends(900.0, None)
+    for window_s in (450.0, 600.0):
+        narrower = ends(window_s, 900.0)
+        assert shapes(narrower) == shapes(widest)
+        alone = ends(window_s, None)
+        assert shapes(alone) != shapes(widest)
+        np.testing.assert_allclose(narrower.row_covariance(), alone.row_covariance(),
+                                   rtol=0, atol=1e-12 * np.max(np.abs(alone.row_covariance())))
+
+
 def _exact(problem: BenchProblem):
     """The problem's density with its carried thermometer's one-sided rows exact (as
     :meth:`~gyroid.noise.NoiseModel.with_rate_error` builds it, before a fit weighs them)."""
     density = problem.density
-    carried = carried_thermometer(problem.log, problem.rate_window_s, problem.rate_error_wd,
-                                  problem.thermometer_sd_C**2 / problem.block_rows)
+    carried = _carried_of(problem)
     gap = np.zeros(density.n) if density.gap_s is None else np.asarray(density.gap_s)
     noise = density.noise.without_rate_error().with_rate_error(
         carried, d0=np.full(density.n, density.row_scale**2),
@@ -265,8 +306,7 @@ def test_beside_white_noise_alone_the_rate_error_is_exact():
                                                                  rate_window_s=900.0))
     term = problem.density.noise.carried
     assert isinstance(term, ExactRateError) and problem.density.noise.carried_process is None
-    exact = carried_thermometer(problem.log, problem.rate_window_s, problem.rate_error_wd,
-                                problem.thermometer_sd_C**2 / problem.block_rows).covariance()
+    exact = _carried_of(problem).covariance()
     np.testing.assert_allclose(term.row_covariance(), exact, rtol=0, atol=1e-12 * np.max(exact))
 
 
@@ -291,11 +331,10 @@ def test_the_carried_error_is_exact_on_the_one_sided_rows_and_a_covariance(noise
     time_s = np.asarray(problem.log.time_s)
     half = window_s / 2.0
     one_sided = (time_s < time_s[0] + half) | (time_s > time_s[-1] - half)
-    assert term.ends.count == one_sided.sum() > 0
+    assert np.array_equal(_carried_of(problem).one_sided, one_sided) and one_sided.any()
     apart = window_s < 1000.0
     assert (term.ends.early is not None) == apart and (term.ends.late is not None) == apart
-    exact = carried_thermometer(problem.log, problem.rate_window_s, problem.rate_error_wd,
-                                problem.thermometer_sd_C**2 / problem.block_rows).covariance()
+    exact = _carried_of(problem).covariance()
     design = term.row_covariance()
     scale = np.max(np.abs(exact))
     np.testing.assert_allclose(design[one_sided], exact[one_sided], atol=1e-9 * scale)

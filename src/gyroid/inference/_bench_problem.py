@@ -135,9 +135,11 @@ class BenchProblem(AbstractProblem):
                                       prior_set=options.prior_set, overrides=options.priors)
 
         def density_at(window_s: float) -> BenchDensity:
+            # the search tries no window wider than the first (rate_window_s)
             return _density(log, model, chosen, _with_rate_window(log, base, window_s), noise,
                             window_s=window_s, block_rows=block_rows, wd=wd,
-                            thermometer_var_row=thermometer_var_row, fast=fast)
+                            thermometer_var_row=thermometer_var_row, fast=fast,
+                            widest_s=rate_window_s)
 
         # the windows compared in one form (the one-sided rows weighed at a guess), the
         # chosen one's weighed at its mode
@@ -294,16 +296,18 @@ class BenchProblem(AbstractProblem):
 
 def _density(log: BenchLog, model: DriftModel, priors, inputs, noise: NoiseModel, *,
              window_s: float, block_rows: int, wd: float, thermometer_var_row: float,
-             fast: bool = True) -> BenchDensity:
+             fast: bool = True, widest_s: float | None = None) -> BenchDensity:
     """The density of ``model`` on ``log``'s rows (each the mean of ``block_rows`` samples)
     under ``noise``, dT/dt estimated over ``window_s`` (s) in ``inputs``, the thermometer's
-    noise carried through it (a row's variance, degC^2, times ``wd**2``): one construction
-    for a fit's windows and for its rows under another noise model
+    noise carried through it (a row's variance, degC^2, times ``wd**2``; ``widest_s``: the
+    widest window the fit tries, s, whose shapes every window's carried term takes): one
+    construction for a fit's windows and for its rows under another noise model
     (:meth:`BenchProblem.under_noise`)."""
     return BenchDensity.from_log(log, model, priors, inputs, noise=noise,
                                  rate_window_s=window_s, fast=fast, rows_per_mean=block_rows,
                                  thermometer=carried_thermometer(log, window_s, wd,
-                                                                 thermometer_var_row))
+                                                                 thermometer_var_row,
+                                                                 widest_s))
 
 
 def _by_marginal(density_at, log: BenchLog, window_s: float, choice: str

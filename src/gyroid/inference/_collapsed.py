@@ -19,7 +19,7 @@ the same posterior as sampling them jointly.
   column of the design giving ``a`` and ``A`` (O(n p) an evaluation; a carried thermometer's
   beside it as one more process), or, for white noise beside a carried thermometer's, the
   rows' coordinates in their covariance's eigenbasis (O(n^2 p):
-  :mod:`gyroid.noise._rate_error_rows`);
+  :mod:`gyroid.noise._rate_error_eigenbasis`);
 * :class:`SufficientCoefficients`: white rows, ``A'A`` and ``A'a`` from the R factor of the
   rows' weighted design and drift (O(p^2) an evaluation, whatever the log's length).
 """

@@ -22,6 +22,7 @@ from gyroid.models._rate_error import (
     estimator_autocovariance,
     one_sided_rows,
     rate_coefficient_index,
+    rows_sharing_the_ends,
     thermometer_noise_var,
     white_level_var,
 )
@@ -123,13 +124,15 @@ def _operator_fits(log: BenchLog | MeansOfBlocks, rate_window_s: float | None,
     return max(1.0, per_row) * min(rows.n, cap) <= MAX_OPERATOR_ROWS
 
 
-def carried_thermometer(log: BenchLog, window_s: float, wd: float, thermometer_var: float
-                        ) -> CarriedThermometer | None:
+def carried_thermometer(log: BenchLog, window_s: float, wd: float, thermometer_var: float,
+                        widest_s: float | None = None) -> CarriedThermometer | None:
     """The thermometer's noise a fit carries (a row's variance ``thermometer_var``, degC^2;
     none when 0) through the estimator's window ``window_s`` (s), times ``wd``: the rows'
     error per unit noise, the one-sided rows, and the interior's autocovariance at lags of
     one row (none for a log of bursts, whose estimator differentiates on a grid across the
-    gaps: a kernel not the rows')."""
+    gaps: a kernel not the rows'); the rows the one-sided ones share samples with at the
+    widest window the fit tries, ``widest_s`` (s; None: this one), and the most directions
+    an end's error spans (its polynomial's coefficients), so that its windows share shapes."""
     if thermometer_var <= 0 or log.n < 2:
         return None
     time_s = np.asarray(log.time_s)
@@ -143,4 +146,6 @@ def carried_thermometer(log: BenchLog, window_s: float, wd: float, thermometer_v
                                                                  thermometer_var)
                                 if even else None),
         one_sided=one_sided_rows(time_s, window_s),
-        white_var=white_level_var(np.asarray(log.drift_deg_h)))
+        white_var=white_level_var(np.asarray(log.drift_deg_h)),
+        reach=rows_sharing_the_ends(time_s, max(window_s, widest_s or window_s)),
+        directions=RATE_POLY_DEGREE + 1)

@@ -31,8 +31,9 @@ from gyroid.noise._base import RowClock, parts_mean_covariance
 from gyroid.noise._block_filter import block_innovations
 from gyroid.noise._kalman import gauss_markov_innovations, gauss_markov_mean_covariance
 from gyroid.noise._mean_covariance import log_span_s, part_covariance
+from gyroid.noise._rate_error_eigenbasis import RowEigenbasis
 from gyroid.noise._rate_error_process import RateErrorProcess
-from gyroid.noise._rate_error_rows import CarriedThermometer, OneSidedRows, RowEigenbasis
+from gyroid.noise._rate_error_rows import CarriedThermometer, OneSidedRows
 from gyroid.noise._terms import (
     AbstractNoiseTerm,
     AbstractRateError,
@@ -147,7 +148,7 @@ class NoiseModel(eqx.Module):
         (``carried``, on the log's rows: each row's white variance per unit level ``d0``,
         spans ``span_s`` after gaps ``gap_s``, ``step_s`` apart) as one more term: beside
         white noise alone the rows' exact covariance (:class:`~gyroid.noise._terms.
-        ExactRateError`; :mod:`gyroid.noise._rate_error_rows` says why a process will not
+        ExactRateError`; :mod:`gyroid.noise._rate_error_eigenbasis` says why a process will not
         do there), beside a correlated term a process of the block filter matched to the
         estimator's interior error, the one-sided rows exact
         (:class:`~gyroid.noise._terms.RateError`; none where the rows are not evenly
@@ -161,7 +162,8 @@ class NoiseModel(eqx.Module):
             return gyro
         process = RateErrorProcess.matched(autocovariance, step_s, carried.white_var,
                                            span_s, gap_s, observed=~carried.one_sided)
-        ends = OneSidedRows.of(carried.operator(), carried.one_sided, process)
+        ends = OneSidedRows.of(carried.operator(), carried.one_sided, process,
+                               reach=carried.reach, directions=carried.directions)
         return NoiseModel(self.name, (*gyro.terms, RateError(process, ends, jnp.asarray(np.nan))))
 
     def one_sided_weighed(self, shift_sd: float, by_process: bool, *, span_s: np.ndarray,

@@ -1,32 +1,15 @@
 """The thermometer's noise through the dT/dt estimator, times wD, as what a noise model carries
-on a log's rows (:class:`CarriedThermometer`); beside white noise alone its exact covariance
-in one eigenbasis (:class:`RowEigenbasis`); beside a correlated term, the part of it the
-block filter's process cannot carry: the one-sided rows at the log's ends
-(:class:`OneSidedRows`).
+on a log's rows (:class:`CarriedThermometer`), and, beside a correlated term, the part of it
+the block filter's process cannot carry: the one-sided rows at the log's ends
+(:class:`OneSidedRows`). Beside white noise alone the rows' exact covariance is carried
+instead (:mod:`gyroid.noise._rate_error_eigenbasis`).
 
 The estimator is linear in the logged temperature, so white thermometer noise gives the rate
 an error ``L e`` over the rows (``L`` the estimator as a matrix, ``e`` the noise); times wD
 (its least-squares value on the log, fixed for the fit) it adds ``wD^2 v L L'`` to the drift's
-noise.
-
-Beside white noise ``s^2 D0`` alone (``D0``: a row's variance per unit level,
-``row_scale^2``, or each row's own when the log gives it, ``s = 1``) the rows' covariance
-``s^2 D0 + M`` is diagonal in one basis for every ``s``: with ``D0^-1/2 M D0^-1/2 = V
-diag(lam) V'`` and ``W = V' D0^-1/2``, ``r' C^-1 r = sum (W r)^2 / (s^2 + lam)`` and ``log
-det C = sum log D0 + sum log(s^2 + lam)``. The coordinates ``W r`` are the innovations a
-filter would give (exact, O(n^2) per evaluation, one eigendecomposition per fit), so the
-coefficients integrate out of this likelihood as out of any filter's
-(:mod:`gyroid.inference._collapsed`). The process below cannot stand in for it there: the
-white level is read where the rate error's spectrum falls below it, and where the rate
-error dominates the rows (the simulation-based calibration's thermal bench, 20 s block
-means, a 1200 s window, |wD| above 9 deg/h per degC/h) the process moved the white level's
-mode by 1.2 of its sd (rms over 15 logs) from the exact covariance's, and a match held to
-the white level's Whittle score at a white level read on least-squares residuals by 1.0
-(``experiments/sbc.py``: the process's 90 % intervals held the level 81.5 % of the time).
-
-Beside a correlated term the exact covariance is no longer diagonal in one basis for every
-level. In the log's interior the estimator is one kernel and its error stationary: a process
-of the block filter carries it (:mod:`gyroid.noise._rate_error_process`). Within half a
+noise. Beside a correlated term, in the log's interior the estimator is one kernel and its
+error stationary: a process of the block filter carries it
+(:mod:`gyroid.noise._rate_error_process`). Within half a
 window of either end the window is one-sided and the error is not the interior's (at the
 first row some five times its variance, correlated over the window): the process, being
 stationary, misses it, and a fit carrying the process alone moved the coefficients a median
@@ -62,11 +45,16 @@ marginal in chunks of 500 took 2.9-3.9 s, 1.5-2.0 s without the correction's col
 on main (timed in turn in one process). So a fit weighs them first
 (:mod:`gyroid.inference._one_sided`): where their exact error moves no coefficient by more
 than :data:`ONE_SIDED_TOLERANCE` of its sd, the process reads them like every other row.
+The rows the early states cover and the row the end's columns start from are what the
+widest window of the fit's search needs, and each end's directions are padded to its
+polynomial's coefficients, so that every window's term has one shape: the tour's first fit
+(paper A's bench, default noise, a cold cache) compiled 66 s of XLA in 51 programs where
+each window's own shapes took 356 s in 106 (117.7 s of CPU against 180.7 for the whole
+command; main's single oscillator 62.8 s; one machine, in turn).
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -80,7 +68,6 @@ from scipy.linalg import solve_triangular
 from gyroid.noise._block_filter import block_innovations
 from gyroid.noise._rate_error_process import RateErrorProcess
 
-_LOG_2PI = math.log(2.0 * math.pi)
 #: A singular value of the one-sided rows' operator below this share of the largest is
 #: rounding, not a direction of their error.
 _RANK_TOLERANCE = 1e-9
@@ -99,88 +86,23 @@ class CarriedThermometer:
     ``autocovariance()`` the estimator's interior error at lags of one row (None where the
     rows are not evenly spaced for it: a log of bursts); ``one_sided`` the rows whose
     window is one-sided (within half a window of either end); ``white_var`` the rows'
-    white variance beside it (what the process is matched against)."""
+    white variance beside it (what the process is matched against); ``reach`` how many
+    first rows, and from which row the last ones, read samples the one-sided rows read at
+    the widest window of the fit's search, and ``directions`` the most each end's error
+    spans at any window (:meth:`OneSidedRows.of`: every window's one-sided rows then have
+    the same shapes and one compiled program serves the search)."""
 
     operator: Callable[[], np.ndarray]
     autocovariance: Callable[[], np.ndarray | None]
     one_sided: np.ndarray
     white_var: float
+    reach: tuple[int, int] | None = None
+    directions: int = 0
 
     def covariance(self) -> np.ndarray:
         """The rows' exact covariance ``wD^2 v L L'``."""
         operator = self.operator()
         return operator @ operator.T
-
-
-class RowEigenbasis(eqx.Module):
-    """The rows' covariance ``s^2 D0 + M`` in the eigenbasis of ``D0^-1/2 M D0^-1/2`` over
-    the rows kept (module docstring). Each kept row's position holds one coordinate (an
-    eigenvector, ``basis`` row, and its eigenvalue ``lam``); a held-out row's position holds
-    none (``on`` 0), so that the rows' weights mask the coordinates. Every coordinate is
-    scaled by the kept rows' geometric mean of ``D0`` so that the coordinates' variances
-    carry ``log det D0`` between them."""
-
-    covariance: Float[Array, "n n"]  # M, (deg/h)^2
-    d0: Float[Array, " n"]
-    basis: Float[Array, "n n"]
-    lam: Float[Array, " n"]
-    on: Float[Array, " n"]
-    log_scale: Float[Array, ""]  # the kept rows' mean log D0
-
-    @classmethod
-    def of(cls, covariance: np.ndarray, d0: np.ndarray, keep: np.ndarray) -> RowEigenbasis:
-        """The eigenbasis of ``covariance`` (M) over the white part ``d0`` on the rows
-        ``keep`` (a boolean mask)."""
-        covariance, d0 = np.asarray(covariance, dtype=float), np.asarray(d0, dtype=float)
-        keep = np.asarray(keep, dtype=bool)
-        root = 1.0 / np.sqrt(d0[keep])
-        lam, vectors = np.linalg.eigh(root[:, None] * covariance[np.ix_(keep, keep)]
-                                      * root[None, :])
-        n = d0.size
-        basis, lam_rows = np.zeros((n, n)), np.zeros(n)
-        kept = np.flatnonzero(keep)
-        basis[np.ix_(kept, kept)] = vectors.T * root[None, :]
-        lam_rows[kept] = np.maximum(lam, 0.0)
-        return cls(jnp.asarray(covariance), jnp.asarray(d0), jnp.asarray(basis),
-                   jnp.asarray(lam_rows), jnp.asarray(keep, dtype=float),
-                   jnp.asarray(float(np.mean(np.log(d0[keep])))))
-
-    def on_rows(self, keep: np.ndarray) -> RowEigenbasis:
-        """The same covariance's eigenbasis over the rows ``keep`` (a boolean mask)."""
-        return RowEigenbasis.of(np.asarray(self.covariance), np.asarray(self.d0), keep)
-
-    def _level(self, white) -> Array:
-        """``s^2`` from the white sd a filter is given (a row's, or each row's): ``white^2 /
-        D0`` is the same on every row."""
-        ratio = jnp.broadcast_to(jnp.asarray(white) ** 2, self.d0.shape) / self.d0
-        return jnp.sum(self.on * ratio) / jnp.sum(self.on)
-
-    def innovations(self, observed, white) -> tuple[Array, Array]:
-        """The coordinates of ``observed`` (rows; trailing columns alike) and their
-        variances at the white sd ``white``: independent, as a filter's innovations."""
-        scale = jnp.exp(self.log_scale)
-        return (jnp.sqrt(scale) * (self.basis @ observed),
-                scale * (self._level(white) + self.lam))
-
-    def leave_one_out_rows(self, innovation, variance) -> Array:
-        """Each row's density given every other row, from :meth:`innovations` of its
-        residual (Burkner, Gabry & Vehtari 2021, for non-factorised normal models): with
-        ``g = C^-1 r`` and ``c = diag(C^-1)``, ``-0.5 log 2pi + 0.5 log c_i - 0.5 g_i^2 /
-        c_i``; 0 for a row held out."""
-        scale = jnp.exp(self.log_scale)
-        inverse = self.on / (variance / scale)
-        g = self.basis.T @ (innovation / jnp.sqrt(scale) * inverse)
-        c = (self.basis**2).T @ inverse
-        safe = jnp.where(c > 0, c, 1.0)
-        rows = -0.5 * _LOG_2PI + 0.5 * jnp.log(safe) - 0.5 * g**2 / safe
-        return jnp.where(c > 0, rows, 0.0)
-
-    def standardised(self, residual, white) -> Array:
-        """The residual's sequential innovations over their sds (time-ordered, by the
-        Cholesky factor of ``s^2 D0 + M``): independent N(0, 1) where the model is right."""
-        covariance = jnp.diag(self._level(white) * self.d0) + self.covariance
-        return jax.scipy.linalg.solve_triangular(jnp.linalg.cholesky(covariance), residual,
-                                                 lower=True)
 
 
 class OneSidedRows(eqx.Module):
@@ -204,8 +126,6 @@ class OneSidedRows(eqx.Module):
     early: Float[Array, "m r"] | None
     #: ``G`` (:func:`_inflation`), ``r`` by ``r`` in ``c``'s directions' order.
     inflation: Float[Array, "r r"]
-    #: How many rows are one-sided (their loadings on ``c`` itself, not zero).
-    count: int = eqx.field(static=True)
     #: The row from which the trailing columns are read, and how many they are; None: all
     #: read from the first row.
     late: tuple[int, int] | None = eqx.field(static=True)
@@ -213,16 +133,21 @@ class OneSidedRows(eqx.Module):
     explained_at: tuple[int, ...] = eqx.field(static=True)
 
     @classmethod
-    def of(cls, operator: np.ndarray, one_sided: np.ndarray, process: RateErrorProcess
-           ) -> OneSidedRows:
+    def of(cls, operator: np.ndarray, one_sided: np.ndarray, process: RateErrorProcess, *,
+           reach: tuple[int, int] | None = None, directions: int = 0) -> OneSidedRows:
         """From the rows' error per unit thermometer noise ``operator`` (rows by noise
         samples), the one-sided rows ``one_sided`` (a boolean mask) and the process carried
-        on the other rows (for :func:`_inflation`)."""
+        on the other rows (for :func:`_inflation`). ``reach``: the early rows cover at least
+        the first ``reach[0]`` rows and the end's columns are read from ``reach[1]`` at the
+        latest; ``directions``: each end's directions padded with zero ones to as many (a
+        zero direction adds nothing to ``U M U'``): so that a fit's windows share their
+        shapes (:class:`CarriedThermometer`)."""
         operator = np.asarray(operator, dtype=float)
         one_sided = np.asarray(one_sided, dtype=bool)
         n = operator.shape[0]
         ends = _ends(operator, one_sided)
-        bases = [_directions(operator[rows], scale) for rows, scale in ends]
+        bases = [_padded(_directions(operator[rows], scale), directions)
+                 for rows, scale in ends]
         basis = np.concatenate(bases) if bases else np.zeros((0, operator.shape[1]))
         rank = basis.shape[0]
         on_ends = np.zeros((n, rank))
@@ -230,35 +155,36 @@ class OneSidedRows(eqx.Module):
         explained = np.zeros((n, rank))
         explained[~one_sided] = operator[~one_sided] @ basis.T
         inflation = _inflation(explained, one_sided, process)
-        count = int(one_sided.sum())
         start = len(bases[0]) if len(bases) == 2 and len(bases[1]) else 0
         if not start:
             identity = np.eye(rank)
             return cls(jnp.asarray(np.concatenate([on_ends, explained], axis=1)),
                        jnp.asarray(np.block([[identity, identity], [identity, inflation]])),
-                       None, jnp.asarray(inflation), count, None,
-                       tuple(range(rank, 2 * rank)))
+                       None, jnp.asarray(inflation), None, tuple(range(rank, 2 * rank)))
         s, e = slice(0, start), slice(start, rank)
         ending = rank - start
         early = on_ends[:, s] + explained[:, s]  # V_s
-        # the rows that read V_s, rounded up to a sixteenth of the rows (few compiled shapes
-        # across windows; the rows beyond read it as zero)
+        # the rows that read V_s (at least the reach's), rounded up to a sixteenth of the
+        # rows; the rows beyond read it as zero
         step = max(n // 16, 1)
-        rows = min(-(-(int(np.flatnonzero(np.any(early != 0.0, axis=1))[-1]) + 1) // step)
-                   * step, n)
+        reads = int(np.flatnonzero(np.any(early != 0.0, axis=1))[-1]) + 1
+        reads = max(reads, reach[0] if reach is not None else 0)
+        rows = min(-(-reads // step) * step, n)
         less = np.eye(rank) - inflation  # H
         loadings = np.concatenate([explained[:, s], on_ends[:, e], explained[:, e]], axis=1)
         zero, identity = np.zeros((start, ending)), np.eye(ending)
         middle = np.block([[-less[s, s], zero, -less[s, e]],
                            [zero.T, identity, identity],
                            [-less[e, s], identity, identity - less[e, e]]])
-        # the end's columns read from their first row, rounded down alike, after the early
-        # rows
+        # the end's columns read from their first row (at the latest the reach's), rounded
+        # down alike, after the early rows
         nonzero = np.flatnonzero(np.any(loadings[:, start:] != 0.0, axis=1))
-        first = int(nonzero[0]) // step * step if nonzero.size else 0
+        first = int(nonzero[0]) if nonzero.size else 0
+        first = min(first, reach[1]) if reach is not None else first
+        first = first // step * step
         late = (first, 2 * ending) if first > rows else None
         return cls(jnp.asarray(loadings), jnp.asarray(middle), jnp.asarray(early[:rows]),
-                   jnp.asarray(inflation), count, late,
+                   jnp.asarray(inflation), late,
                    (*range(start), *range(start + ending, start + 2 * ending)))
 
     @property
@@ -368,6 +294,12 @@ def _directions(ends: np.ndarray, scale: float) -> np.ndarray:
     out = np.zeros((kept.shape[0], ends.shape[1]))
     out[:, support] = kept
     return out
+
+
+def _padded(basis: np.ndarray, directions: int) -> np.ndarray:
+    """``basis`` (rows: directions) with zero rows appended up to ``directions``."""
+    missing = max(directions - basis.shape[0], 0)
+    return np.concatenate([basis, np.zeros((missing, basis.shape[1]))]) if missing else basis
 
 
 def _inflation(explained: np.ndarray, one_sided: np.ndarray, process: RateErrorProcess

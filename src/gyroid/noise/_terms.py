@@ -40,8 +40,9 @@ from gyroid.noise._allan_terms import (
     second_differenced,
 )
 from gyroid.noise._block_filter import Processes, flicker_times
+from gyroid.noise._rate_error_eigenbasis import RowEigenbasis
 from gyroid.noise._rate_error_process import RateErrorProcess
-from gyroid.noise._rate_error_rows import OneSidedRows, RowEigenbasis
+from gyroid.noise._rate_error_rows import OneSidedRows
 
 
 def high_frequency_sd(residual: np.ndarray) -> float:
@@ -376,7 +377,7 @@ class RateError(AbstractRateError):
 
 class ExactRateError(AbstractRateError):
     """The rate error beside white noise alone: the rows' exact covariance, in its
-    eigenbasis (:class:`~gyroid.noise._rate_error_rows.RowEigenbasis`)."""
+    eigenbasis (:class:`~gyroid.noise._rate_error_eigenbasis.RowEigenbasis`)."""
 
     rows: RowEigenbasis
 
