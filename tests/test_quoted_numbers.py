@@ -1183,6 +1183,9 @@ def test_the_thermometers_carrier_against_its_exact_covariance():
         "paper_a_0.05C", "paper_a_0.05C_white", "paper_a_0.01C", "fog_smooth_0.01C"))
     assert max(runs[k]["summary"]["mode_check_max"] for k in runs) < 1e-3
     moved = [_way_spread(s, "carried", "shift_median") for s in (noisy, white, fine, fog)]
+    # under white noise alone the fit carries the exact covariance; what a process would do
+    assert moved[1] == (0.0, 0.0) and white["one_sided_shift_sd"] is None
+    instead = _way_spread(white, "oscillators_alone", "shift_median")
     widths = (_way_spread(noisy, "carried", "sd_ratio_min")[0],
               _way_spread(noisy, "carried", "sd_ratio_max")[1])
     former = _way_spread(noisy, "one_oscillator", "shift_median")
@@ -1190,15 +1193,18 @@ def test_the_thermometers_carrier_against_its_exact_covariance():
     assert max(m[1] for m in moved) < 0.1 < former[0]
     _quoted(f"exact covariance's estimates to a median {moved[0][0]:.2f} to {moved[0][1]:.2f} "
             f"of their sd with a 0.05 degC thermometer (sds {widths[0]:.2f} to "
-            f"{widths[1]:.2f} times the exact ones), {moved[1][0]:.2f} to {moved[1][1]:.2f} "
-            f"under white noise, {moved[2][0]:.2f} to {moved[2][1]:.2f} with 0.01 degC and "
+            f"{widths[1]:.2f} times the exact ones), {moved[2][0]:.2f} to {moved[2][1]:.2f} "
+            f"with 0.01 degC and "
             f"{moved[3][1]:.2f} on the FOG bench above, over {noisy['seeds']} seeds each",
             f"with {power[0]:.2f} to {power[1]:.2f} of the estimator's power at low "
             f"frequencies and blind to the one-sided rows, moved them a median "
             f"{former[0]:.2f} to {former[1]:.2f}.",
-            f"alike ({power[0]:.2f} to {power[1]:.2f} of the estimator's low-frequency power")
+            f"alike ({power[0]:.2f} to {power[1]:.2f} of the estimator's low-frequency power",
+            f"Under white noise the fit carries the exact covariance; the process there would "
+            f"have moved the estimates a median {instead[0]:.2f} to {instead[1]:.2f} of their "
+            f"sd")
     # the one-sided rows weighed: read by the process on the FOG bench, exact on paper A's
-    papers = (noisy, white, fine, runs["paper_a_0.05C_window_1200s"]["summary"])
+    papers = (noisy, fine, runs["paper_a_0.05C_window_1200s"]["summary"])
     weighed = [s["one_sided_shift_sd"] for s in papers]
     alone = [_way_spread(s, "oscillators_alone", "shift_median") for s in papers]
     assert fog["one_sided_exact"] == 0 and all(s["one_sided_exact"] == s["seeds"]
