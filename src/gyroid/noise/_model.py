@@ -303,7 +303,8 @@ class NoiseModel(eqx.Module):
         their variances under this model, in time order, white sd ``white``; None for
         independent rows. A carried rate error's one-sided rows are filtered as columns
         beside ``observed`` and corrected for after (:meth:`~gyroid.noise.
-        _rate_error_rows.OneSidedRows.innovations`)."""
+        _rate_error_rows.OneSidedRows.innovations`); beside white noise alone its rows'
+        exact covariance gives its eigenbasis's coordinates instead, not in time order."""
         filtered = self.filtered(observed, white, values, clock)
         if filtered is None:
             return None
