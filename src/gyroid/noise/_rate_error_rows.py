@@ -48,9 +48,10 @@ than :data:`ONE_SIDED_TOLERANCE` of its sd, the process reads them like every ot
 The rows the early states cover and the row the end's columns start from are what the
 widest window of the fit's search needs, and each end's directions are padded to its
 polynomial's coefficients, so that every window's term has one shape: the tour's first fit
-(paper A's bench, default noise, a cold cache) compiled 66 s of XLA in 51 programs where
-each window's own shapes took 356 s in 106 (117.7 s of CPU against 180.7 for the whole
-command; main's single oscillator 62.8 s; one machine, in turn).
+(paper A's bench, default noise, a cold cache) compiled 67 s of XLA in 51 programs where
+each window's own shapes took 145 s in 53, the BFGS and gradient programs twice (117.7 s of
+CPU against 180.7 for the whole command; main's single oscillator 62.8 s; one machine, in
+turn).
 """
 
 from __future__ import annotations
