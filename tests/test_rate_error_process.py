@@ -222,7 +222,7 @@ def _carried_of(problem: BenchProblem):
 
 def test_a_fits_windows_share_their_compiled_shapes():
     """Every window a fit's search tries carries the one-sided rows in the same shapes (the
-    widest window's reach, each end's directions padded to its polynomial's coefficients):
+    widest window's reach, each end's directions padded to the estimator's degree):
     one compiled program serves the search. Padded, the carried covariance is the same."""
     log = _noisy_thermometer_bench(2, hours=3.0)
     problem = BenchProblem.from_log(log, "thermal", BenchOptions(noise="white+flicker+rw",

@@ -131,8 +131,9 @@ def carried_thermometer(log: BenchLog, window_s: float, wd: float, thermometer_v
     error per unit noise, the one-sided rows, and the interior's autocovariance at lags of
     one row (none for a log of bursts, whose estimator differentiates on a grid across the
     gaps: a kernel not the rows'); the rows the one-sided ones share samples with at the
-    widest window the fit tries, ``widest_s`` (s; None: this one), and the most directions
-    an end's error spans (its polynomial's coefficients), so that its windows share shapes."""
+    widest window the fit tries, ``widest_s`` (s; None: this one), and the directions an
+    end's error spans at most (a slope of a polynomial of the estimator's degree: as many as
+    the degree), so that its windows share shapes."""
     if thermometer_var <= 0 or log.n < 2:
         return None
     time_s = np.asarray(log.time_s)
@@ -148,4 +149,4 @@ def carried_thermometer(log: BenchLog, window_s: float, wd: float, thermometer_v
         one_sided=one_sided_rows(time_s, window_s),
         white_var=white_level_var(np.asarray(log.drift_deg_h)),
         reach=rows_sharing_the_ends(time_s, max(window_s, widest_s or window_s)),
-        directions=RATE_POLY_DEGREE + 1)
+        directions=RATE_POLY_DEGREE)

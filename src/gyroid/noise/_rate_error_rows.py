@@ -46,12 +46,13 @@ on main (timed in turn in one process). So a fit weighs them first
 (:mod:`gyroid.inference._one_sided`): where their exact error moves no coefficient by more
 than :data:`ONE_SIDED_TOLERANCE` of its sd, the process reads them like every other row.
 The rows the early states cover and the row the end's columns start from are what the
-widest window of the fit's search needs, and each end's directions are padded to its
-polynomial's coefficients, so that every window's term has one shape: the tour's first fit
-(paper A's bench, default noise, a cold cache) compiled 67 s of XLA in 51 programs where
-each window's own shapes took 145 s in 53, the BFGS and gradient programs twice (117.7 s of
-CPU against 180.7 for the whole command; main's single oscillator 62.8 s; one machine, in
-turn).
+widest window of the fit's search needs, and each end's directions are padded to the
+estimator's degree (five on paper A's bench at every window from 300 to 2400 s; an end that
+spans more keeps its own shape), so that every window's term has one shape: the tour's first fit
+(paper A's bench, default noise, a cold cache) compiled 56 s of XLA in 51 programs where
+each window's own shapes took 145 s in 53, the BFGS and gradient programs twice; main's
+single oscillator 29 s in 40. The whole command took 118.7 s of CPU against 180.7 (main
+66.9), warm 34.6 s (main 23.2; one machine, runs in turn beside one study).
 """
 
 from __future__ import annotations
