@@ -1,7 +1,8 @@
 """The thermometer's noise in the estimated dT/dt, in the log's interior, as a state-space
-process that a block filter carries (errors in variables under every noise model; the
+process that a block filter carries (errors in variables beside a correlated term; the
 one-sided rows at the log's ends are carried exactly beside it:
-:mod:`gyroid.noise._rate_error_rows`).
+:mod:`gyroid.noise._rate_error_rows`; beside white noise alone the rows' exact covariance
+is carried instead: :mod:`gyroid.noise._rate_error_eigenbasis`).
 
 The dT/dt estimator is a local polynomial's slope over a window (a Savitzky-Golay
 differentiator, :func:`~gyroid.models.temperature_rate_deg_c_per_h`): white thermometer
