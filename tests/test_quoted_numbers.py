@@ -647,7 +647,7 @@ def _fog_phrases() -> dict[str, str]:
         f"{largest:.2f}x), {trusted} of {len(default)} default fits trusted, and their truths "
         f"inside every 95 % interval (a z-scores' sd of {min(only['z_sd'].values()):.2f}-"
         f"{max(only['z_sd'].values()):.2f}: the intervals are conservative; re-run on "
-        f"2026-11-27 with the thermometer's noise carried, a median "
+        f"2026-12-01 with the thermometer's two oscillators, a median "
         f"{only['median_seconds']:.0f} s a fit")
     assert all(v == len(default) for v in only["inside_95"].values())
     white_seconds = _results("fog_thermal_bench_white_only_white")["summary"]["smooth"][
