@@ -140,8 +140,8 @@ def white_level_var(drift_deg_h: np.ndarray) -> float:
     means' true white variance, and 480x on the SBC's ramped thermal logs. It is only the
     floor the thermometer's process is matched above
     (:func:`gyroid.noise._rate_error_process.match`, beside a correlated term; white noise
-    alone carries the exact covariance): fitted with
-    the true white level instead, that bench's coefficients moved at most 0.01 posterior sd
-    and the noise levels 0.01 sd (seeds 0 and 1, 2026-12-01)."""
+    alone carries the exact covariance): fitted with the true white level instead, that
+    bench's coefficients and noise levels moved at most 0.01 posterior sd (seeds 0 and 1,
+    2026-12-01)."""
     steps = np.diff(np.asarray(drift_deg_h, dtype=float))
     return float((1.4826 * np.median(np.abs(steps - np.median(steps)))) ** 2 / 2.0)
