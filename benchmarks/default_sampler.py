@@ -16,7 +16,8 @@ import numpy as np
 from _report import report
 
 import gyroid
-from gyroid.inference import Emcee, Importance, fit_log
+from gyroid.bench import fit_log
+from gyroid.inference import Emcee, Importance
 from gyroid.simulation import simulate_thermal_bench
 
 

@@ -32,13 +32,13 @@ from scaling import make_log
 
 #: The stages of a default bench fit: (file, function) -> name.
 STAGES = {
-    ("_rate_window_marginal.py", "marginal_window"): "rate_window_marginal_search",
-    ("_rate_window.py", "choose_rate_window"): "rate_window_least_squares",
-    ("_rate_error_process.py", "matched"): "thermometer_rate_error_match",
-    ("_point.py", "point_estimate"): "final_mode",
-    ("_importance.py", "sample"): "importance_sampling",
-    ("_allowed_noise.py", "allowed_noise"): "noise_priors_check",
-    ("_bench_checks.py", "bench_checks"): "other_checks",
+    ("bench/_rate_window_marginal.py", "marginal_window"): "rate_window_marginal_search",
+    ("bench/_rate_window.py", "choose_rate_window"): "rate_window_least_squares",
+    ("noise/_rate_error_process.py", "matched"): "thermometer_rate_error_match",
+    ("bench/_point.py", "point_estimate"): "final_mode",
+    ("inference/_importance.py", "sample"): "importance_sampling",
+    ("bench/_allowed_noise.py", "allowed_noise"): "noise_priors_check",
+    ("bench/_checks.py", "bench_checks"): "other_checks",
 }
 #: The calls whose own time is compiled work or waiting for it (on the main thread: a batch
 #: of evaluations runs on worker threads, which the main thread waits for on a lock).
@@ -67,7 +67,7 @@ def main() -> None:
     args = parser.parse_args()
     started = time.perf_counter()
     import gyroid
-    from gyroid.inference import fit_log
+    from gyroid.bench import fit_log
     from gyroid.inference._storage import block_log_likelihood
     from gyroid.io._bench_reader import bench_log_from_table
     from gyroid.io._tables import read_log_table

@@ -28,7 +28,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from gyroid.inference import BenchOptions, BenchProblem, Emcee, problem_batcher, summarise_draws
+from gyroid.bench import BenchOptions, BenchProblem
+from gyroid.inference import Emcee, problem_batcher, summarise_draws
 from gyroid.io import BenchLog
 from gyroid.models import Flight, G, RollParams, correction_coefficients, navigation_errors
 from gyroid.models._derived import RATE_WINDOW_S

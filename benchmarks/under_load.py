@@ -38,7 +38,7 @@ def main() -> None:
     parser.add_argument("--json", default=None)
     args = parser.parse_args()
     import gyroid
-    from gyroid.inference import fit_log
+    from gyroid.bench import fit_log
     from gyroid.io import write_bench_log
     from gyroid.simulation import simulate_thermal_bench
 

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 import gyroid
-from gyroid.inference import BenchOptions
+from gyroid.bench import BenchOptions
 from gyroid.io import atomic_write_text, json_text
 
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -40,7 +40,8 @@ def save_run(folder: Path, *, seed: int, config: dict, results: dict, started: f
 
 def fitted_thermal(seed: int):
     """A thermal bench simulated with paper A's truth, fitted (emcee), as a FittedDrift."""
-    from gyroid.inference import Emcee, fit_log
+    from gyroid.bench import fit_log
+    from gyroid.inference import Emcee
     from gyroid.simulation import simulate_thermal_bench
 
     sim = simulate_thermal_bench(seed=seed)

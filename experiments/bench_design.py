@@ -23,10 +23,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from _common import results_dir, save_run  # noqa: E402
 
-from gyroid.inference import (
-    BenchOptions,
-    BenchProblem,  # noqa: E402
-)
+from gyroid.bench import BenchOptions, BenchProblem
 from gyroid.io import FittedDrift  # noqa: E402
 from gyroid.models._derived import RATE_WINDOW_S
 from gyroid.simulation import ThermalProtocol, simulate_thermal_bench  # noqa: E402

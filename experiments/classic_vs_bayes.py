@@ -16,7 +16,7 @@ import numpy as np
 from _common import results_dir, save_run
 
 from gyroid import GyroNoise
-from gyroid.inference import BenchOptions, BenchProblem
+from gyroid.bench import BenchOptions, BenchProblem
 from gyroid.papers import magnetic_k
 from gyroid.simulation import PAPER_A_DEVICE_2, simulate_magnetic_bench
 

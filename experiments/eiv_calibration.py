@@ -19,7 +19,7 @@ import time
 import numpy as np
 from _common import results_dir, save_run
 
-from gyroid.inference import BenchOptions, fit_log
+from gyroid.bench import BenchOptions, fit_log
 from gyroid.simulation import GyroNoise, simulate_thermal_bench
 
 WAYS = {"carried": {}, "left_out": {"errors_in_variables": False},

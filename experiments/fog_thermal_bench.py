@@ -146,7 +146,7 @@ def static_log(seed: int, hours: float) -> np.ndarray:
 def measured_noise_priors(seed: int, hours: float) -> tuple[dict, dict]:
     """IEEE noise priors from ``gyroid noise``'s fit of :func:`static_log` (as ``gyroid fit
     --noise DIR`` makes them), and what that fit found (terms' means and intervals)."""
-    from gyroid.inference import fit_noise
+    from gyroid.allan import fit_noise
     from gyroid.noise import noise_model, priors_from_noise
 
     fitted = fit_noise(static_log(seed, hours), 1.0 / RATE_HZ, seed=seed)
@@ -177,7 +177,8 @@ def one(seed: int, profile: str, noise: str, white_only: bool,
         warmup: float | None = None, flicker: str = "spectral",
         datasheet: bool = False) -> dict:
     import gyroid
-    from gyroid.inference import BenchOptions, Emcee, Importance, fit_log
+    from gyroid.bench import BenchOptions, fit_log
+    from gyroid.inference import Emcee, Importance
     from gyroid.io import BenchLog
     from gyroid.models import LogNormal
 
@@ -238,7 +239,8 @@ def _datasheet_widths(fit, columns: dict, terms: str, seed: int, truth: dict) ->
     log by default: its interval's width and its range's over the noise levels the log
     allows (what the default's noise_prior_dependence says to read instead), and whether
     the truth lies in each."""
-    from gyroid.inference import Emcee, Importance, fit_log
+    from gyroid.bench import fit_log
+    from gyroid.inference import Emcee, Importance
     from gyroid.io import BenchLog
 
     default = fit_log(BenchLog(columns), terms, seed=seed,

@@ -26,7 +26,7 @@ import numpy as np
 from _common import results_dir, save_run
 
 import gyroid
-from gyroid.inference import fit_log
+from gyroid.bench import fit_log
 from gyroid.io import BenchLog
 from gyroid.workflows import find_discrepancies
 

@@ -28,7 +28,8 @@ import numpy as np
 from _common import flicker_noise, results_dir, save_run
 
 import gyroid
-from gyroid.inference import BenchOptions, Emcee, fit_log
+from gyroid.bench import BenchOptions, fit_log
+from gyroid.inference import Emcee
 from gyroid.io import BenchLog
 from gyroid.simulation import GyroNoise, simulate_thermal_bench
 

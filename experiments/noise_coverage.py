@@ -49,7 +49,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 import gyroid
-from gyroid.inference import fit_noise
+from gyroid.allan import fit_noise
 
 SPREAD = 3.0  # truths drawn log-uniformly in [nominal / SPREAD, nominal * SPREAD]
 #: Terms counted as false detections where a grade's gyro lacks them and gyroid resolves them.
@@ -225,7 +225,7 @@ def truth_misses(rate: np.ndarray, grade: Grade, truth: dict[str, float],
     freedom under the truth's own terms: what a right model can be asked."""
     from scipy.stats import chi2
 
-    from gyroid.inference._allan_interval import overlapping_edf
+    from gyroid.allan._interval import overlapping_edf
 
     amplitudes = {k: v for k, v in truth.items() if k != "G"} | (
         {"G": truth["G"]} if "G" in truth else {})

@@ -22,7 +22,7 @@ from noise_coverage import allan_variance_package, slope_method
 from scipy import stats
 
 import gyroid
-from gyroid.inference import fit_noise
+from gyroid.allan import fit_noise
 from gyroid.io import dataset_logs
 
 DATASET = "mpu6050_sunsided"

@@ -6,7 +6,7 @@ deviation at 328-1000 s is 5.5-8.8 deg/h).
 
 Per ADIS run and axis: gyroid's fit (trusted or not, why, N and B, where it misses the
 overlapping Allan deviation's interval); per axis, the unit over
-the runs (:func:`gyroid.inference.fit_unit_noise`): its N and B, the interval a new run
+the runs (:func:`gyroid.allan.fit_unit_noise`): its N and B, the interval a new run
 should land in and how many runs it holds; and held out: each run left out in turn, the
 unit pooled over the other five, whether the left-out run's N and B lie in the interval
 those five give a new run (a prediction of a run the pool has not seen). For the MTi-G
@@ -26,7 +26,7 @@ import numpy as np
 from _common import results_dir, save_run
 
 import gyroid
-from gyroid.inference import fit_noise, fit_unit_noise
+from gyroid.allan import fit_noise, fit_unit_noise
 from gyroid.io import dataset_logs
 
 DATASET = "smac_imudata"

@@ -31,8 +31,9 @@ def one_lot(seeds: tuple[int, ...]) -> dict:
     """Pool the lot's runs under white and under auto noise: trust, run-to-run p-values,
     the population's intervals against the truth, the time."""
     import gyroid
-    from gyroid.inference import BenchOptions, fit_pool
+    from gyroid.bench import BenchOptions
     from gyroid.io import BenchLog
+    from gyroid.pool import fit_pool
 
     gyroid.configure()
     logs, w0_truths = [], []

@@ -23,8 +23,9 @@ from pathlib import Path
 from _common import results_dir, save_run
 
 import gyroid
-from gyroid.inference import BenchOptions, fit_pool
+from gyroid.bench import BenchOptions
 from gyroid.io import load_bench_log
+from gyroid.pool import fit_pool
 
 
 def main() -> None:

@@ -23,11 +23,9 @@ import numpy as np  # noqa: E402
 from _common import results_dir, save_run  # noqa: E402
 from scipy import stats  # noqa: E402
 
-from gyroid.inference import (
-    BenchOptions,
-    fit_pool,  # noqa: E402
-)
+from gyroid.bench import BenchOptions
 from gyroid.models import Normal  # noqa: E402
+from gyroid.pool import fit_pool
 from gyroid.simulation import (  # noqa: E402
     GyroNoise,  # noqa: E402
     MagneticProtocol,

@@ -31,11 +31,12 @@ from _common import flicker_noise, results_dir, save_run
 from scipy import stats
 
 import gyroid
-from gyroid.inference import BenchOptions, BenchProblem, RollProblem
-from gyroid.inference._bench_predictive import bench_held_out
+from gyroid.bench import BenchOptions, BenchProblem
+from gyroid.bench._predictive import bench_held_out
 from gyroid.inference._predictive import PREDICTIVE_P, predictive_scales
-from gyroid.inference._roll_predictive import roll_held_out
 from gyroid.io import BenchLog, RollLog
+from gyroid.roll import RollProblem
+from gyroid.roll._predictive import roll_held_out
 from gyroid.simulation import FlightProfile, simulate_flight
 
 ROWS = 2000

@@ -23,7 +23,7 @@ rate error, beside the gyro's own noise (the filter's terms written out,
 * ``exact``: ``wD^2 v L L'``;
 * ``carried``: the fit's (the term's covariance over the rows); its estimates are the fit's
   mode (``mode_check``, their largest difference in sds: a dense check of the filter). The
-  fit weighs the one-sided rows' exact error at the mode (:mod:`gyroid.inference._one_sided`)
+  fit weighs the one-sided rows' exact error at the mode (:mod:`gyroid.bench._one_sided`)
   and where reading them by the process moves no coefficient by more than 0.1 sd it does so
   (then this way is ``oscillators_alone``'s); per seed ``one_sided_shift_sd`` and
   ``one_sided_exact``;
@@ -64,9 +64,9 @@ from fog_thermal_bench import fog_log
 from scipy import linalg, optimize, stats
 
 import gyroid
-from gyroid.inference import BenchOptions
-from gyroid.inference._bench_problem import BenchProblem
-from gyroid.inference._thermometer import carried_thermometer
+from gyroid.bench import BenchOptions
+from gyroid.bench._problem import BenchProblem
+from gyroid.bench._thermometer import carried_thermometer
 from gyroid.io import BenchLog
 from gyroid.noise._rate_error_process import (
     RateErrorProcess,

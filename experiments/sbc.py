@@ -31,7 +31,8 @@ from _common import results_dir, save_run  # noqa: E402
 from scipy import stats  # noqa: E402
 
 from gyroid import BenchLog, DriftModel, GyroNoise  # noqa: E402
-from gyroid.inference import BenchOptions, Emcee  # noqa: E402
+from gyroid.bench import BenchOptions
+from gyroid.inference import Emcee
 from gyroid.io import (  # noqa: E402
     load_arviz,  # noqa: E402
     run_labels,

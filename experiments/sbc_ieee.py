@@ -75,7 +75,8 @@ def simulate(truth: dict[str, float], flicker_tau_s, flicker_unit_var: float,
 
 def one(seed: int, substeps: int = 1) -> dict:
     import gyroid
-    from gyroid.inference import BenchOptions, BenchProblem, Emcee, Importance, fit_log
+    from gyroid.bench import BenchOptions, BenchProblem, fit_log
+    from gyroid.inference import Emcee, Importance
     from gyroid.io import BenchLog
     from gyroid.models._derived import RATE_WINDOW_S
     from gyroid.noise import Flicker

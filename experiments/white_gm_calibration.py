@@ -19,7 +19,8 @@ import time
 import numpy as np
 from _common import results_dir, save_run
 
-from gyroid.inference import BenchOptions, Emcee, fit_log
+from gyroid.bench import BenchOptions, fit_log
+from gyroid.inference import Emcee
 from gyroid.simulation import GyroNoise, ThermalProtocol, simulate_thermal_bench
 
 #: The correlated noise every log carries (as benchmarks/scaling.py's --gm-rows).

@@ -21,7 +21,8 @@ from _common import results_dir, save_run
 from fog_thermal_bench import fog_log
 
 import gyroid
-from gyroid.inference import BenchOptions, Emcee, Importance, fit_log
+from gyroid.bench import BenchOptions, fit_log
+from gyroid.inference import Emcee, Importance
 from gyroid.io import BenchLog
 from gyroid.workflows import compensate
 

@@ -7,9 +7,9 @@ import allantools
 import numpy as np
 import pytest
 
-from gyroid.inference import fit_noise
-from gyroid.inference._allan_interval import coefficient_covariance, overlapping_edf
-from gyroid.inference._haar import overlapping_haar
+from gyroid.allan import fit_noise
+from gyroid.allan._haar import overlapping_haar
+from gyroid.allan._interval import coefficient_covariance, overlapping_edf
 from gyroid.noise import STATIC_TERMS
 
 

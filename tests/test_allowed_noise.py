@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
-from gyroid.inference import BenchOptions, fit_log
+from gyroid.bench import BenchOptions, fit_log
 from gyroid.io import BenchLog
 from gyroid.models import LogNormal
 
@@ -103,7 +103,7 @@ def test_a_white_fit_is_weighed_by_the_same_check():
 def test_an_interval_that_could_be_ten_times_wider_is_not_trustworthy(factor, passed, severity):
     """Contract section 7, trust by range: a warning from 2x, and beyond 10x for some
     coefficient an error (exit 3): the interval is then the priors' answer."""
-    from gyroid.inference._allowed_noise import AllowedNoise
+    from gyroid.bench._allowed_noise import AllowedNoise
     from gyroid.inference._check_report import CheckReport
 
     allowed = AllowedNoise(upper={"B_deg_h": 0.1}, ranges={"w0": (-6.1, 8.3), "w1": (0.0, 1.0)},
@@ -126,7 +126,7 @@ def test_a_range_over_the_default_noise_model_says_the_choice_is_what_it_rests_o
     flicker + rate random walk, which the log does not rule out) says that its intervals
     rest on the choice of white+gm, with the range over both models; a default the log
     rules out is named as such in a passing check."""
-    from gyroid.inference._allowed_noise import AllowedNoise, OtherNoise
+    from gyroid.bench._allowed_noise import AllowedNoise, OtherNoise
 
     levels = {"N_deg_sqrt_h": 0.4, "B_deg_h": 5.9, "K_deg_h_sqrt_h": 14.0}
     allowed = AllowedNoise(upper=levels, ranges={"w0": (11.0, 84.4), "w1": (2.3, 8.5)},

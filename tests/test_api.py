@@ -40,7 +40,7 @@ def test_a_bench_fits_options_are_checked_when_made():
     import pytest
 
     from gyroid import GyroidInputError
-    from gyroid.inference import BenchOptions
+    from gyroid.bench import BenchOptions
 
     default = BenchOptions()
     assert default.noise_model.name == "white+flicker+rw" and default.rate_window_s is None

@@ -7,7 +7,7 @@ import pytest
 
 from gyroid import BenchLog
 from gyroid._config import ONE_CORE_ENVIRONMENT, compute_threads
-from gyroid.inference import BenchOptions, BenchProblem
+from gyroid.bench import BenchOptions, BenchProblem
 from gyroid.inference._batching import in_chunks, problem_batcher
 
 

@@ -31,7 +31,8 @@ def test_the_bare_script_baseline_fits_the_same_coefficients(tmp_path):
     import subprocess
     import sys
 
-    from gyroid.inference import BenchOptions, Emcee, fit_log
+    from gyroid.bench import BenchOptions, fit_log
+    from gyroid.inference import Emcee
     from gyroid.io import write_bench_log
     from gyroid.simulation import ThermalProtocol, simulate_thermal_bench
 

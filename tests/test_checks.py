@@ -4,8 +4,8 @@ that do or do not disagree with the data), and the contract's JSON shape."""
 import numpy as np
 import pytest
 
+from gyroid.bench import BenchOptions
 from gyroid.inference import (
-    BenchOptions,
     Check,
     CheckReport,
     FitEvidence,
@@ -276,7 +276,7 @@ def test_a_column_in_the_wrong_unit_is_named(column, scale, offset, names):
     check says what the log implies and which unit to map. (A consumer MEMS gyro at 100 Hz,
     0.3 deg/sqrt(h): in deg/s its noise would be a strategic FOG's. Sampled at 1 Hz it could
     pass for a navigation FOG: there the check cannot tell.)"""
-    from gyroid.inference._plausibility import units_sanity
+    from gyroid.bench._plausibility import units_sanity
     from gyroid.io import BenchLog
 
     rng = np.random.default_rng(0)
@@ -295,7 +295,7 @@ def test_effects_that_cancel_each_other_are_named():
     """Two inputs moving together let two effects grow without bound in opposite directions
     while their sum fits the drift (the Astro Pi field and temperature): sizes no gyro has,
     named by the effect-size warning; the true sizes pass."""
-    from gyroid.inference._plausibility import CANCELLING_FACTOR, effect_sizes
+    from gyroid.bench._plausibility import CANCELLING_FACTOR, effect_sizes
     from gyroid.io import BenchLog
     from gyroid.models import H0_UT, DriftModel
 
@@ -398,7 +398,7 @@ def test_the_console_says_why_a_stopped_mode_leaves_the_posterior_standing():
     from dataclasses import replace
 
     from gyroid import BenchLog
-    from gyroid.inference import fit_log
+    from gyroid.bench import fit_log
 
     rng = np.random.default_rng(0)
     log = BenchLog({"time_s": np.arange(600.0), "drift_deg_h": rng.normal(1.0, 0.1, 600)})
@@ -416,8 +416,8 @@ def test_the_drifts_own_slope_within_a_block_is_no_spike(seed):
     of 38 samples: about each block's mean alone, the drift's slope across a block made its
     end samples "spikes beyond 5.1 sd" (seed 1: two, whose noise was +3.4 and +3.2 sd);
     about each block's line, none. An 8 sd spike added to one sample is still named."""
-    from gyroid.inference._bench_checks import spikes_within_segments
-    from gyroid.inference._bench_problem import IEEE_MAX_ROWS
+    from gyroid.bench._checks import spikes_within_segments
+    from gyroid.bench._problem import IEEE_MAX_ROWS
     from gyroid.io import BenchLog, MeansOfBlocks
     from gyroid.simulation import simulate_thermal_bench
 

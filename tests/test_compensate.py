@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 from helpers import WHITE
 
+from gyroid.bench import BenchOptions, fit_log
 from gyroid.cli import main
-from gyroid.inference import BenchOptions, Emcee, fit_log
+from gyroid.inference import Emcee
 from gyroid.io import FittedDrift
 from gyroid.io._memory import memory_free_bytes
 from gyroid.simulation import PAPER_A_THERMAL, ThermalProtocol, gauss_markov, simulate_thermal_bench

@@ -8,15 +8,10 @@ import numpy as np
 import pytest
 from helpers import SHORT_MAGNETIC
 
-from gyroid.inference import (
-    ALL_PARAMETERS,
-    BenchOptions,
-    BenchProblem,
-    Emcee,
-    RollProblem,
-    problem_batcher,
-)
+from gyroid.bench import BenchOptions, BenchProblem
+from gyroid.inference import Emcee, problem_batcher
 from gyroid.io import RollLog
+from gyroid.roll import ALL_PARAMETERS, RollProblem
 from gyroid.simulation import FlightProfile, simulate_flight, simulate_magnetic_bench
 
 

@@ -9,7 +9,7 @@ import pytest
 
 import gyroid
 from gyroid import _compiled_programs as programs
-from gyroid.inference import BenchOptions
+from gyroid.bench import BenchOptions
 
 pytestmark = pytest.mark.skipif(programs.mapping_limit() is None,
                                 reason="no memory-mapping limit to read (not Linux)")

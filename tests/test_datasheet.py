@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from helpers import write_log
 
+from gyroid.allan import fit_noise
 from gyroid.cli import main
-from gyroid.inference import fit_noise
 from gyroid.io._datasheet import parse_quantity, read_datasheet
 from gyroid.workflows._datasheet import convert_datasheet, spec_verdicts
 

@@ -147,7 +147,7 @@ def test_rate_window_scores_by_projection_equal_full_least_squares():
     # instead of refitting: the residual sums must be the least-squares ones.
     import jax.numpy as jnp
 
-    from gyroid.inference import choose_rate_window
+    from gyroid.bench import choose_rate_window
     from gyroid.models import DriftModel
     from gyroid.simulation import simulate_thermal_bench
 
@@ -171,7 +171,7 @@ def test_the_rate_errors_covariance_is_solved_by_its_band_as_densely(window_s):
     # or densely where the band covers most of the log (the longest window here)
     import scipy.linalg
 
-    from gyroid.inference._rate_window import covariance_solve
+    from gyroid.bench._rate_window import covariance_solve
     from gyroid.models._derived import temperature_rate_operator
 
     time_s = np.arange(1000) * 36.0
@@ -193,7 +193,7 @@ def test_rate_window_of_a_model_with_a_time_constant_is_its_profiled_least_squar
     time constant of 0 made the first row NaN and the command a traceback."""
     import jax.numpy as jnp
 
-    from gyroid.inference import choose_rate_window
+    from gyroid.bench import choose_rate_window
     from gyroid.models import DriftModel
     from gyroid.simulation import simulate_thermal_bench
 

@@ -8,7 +8,7 @@ import pytest
 from helpers import SHORT_THERMAL
 
 from gyroid import GyroidInputError
-from gyroid.inference import BenchOptions, BenchProblem, choose_rate_window
+from gyroid.bench import BenchOptions, BenchProblem, choose_rate_window
 from gyroid.io import BenchLog
 from gyroid.models import DriftModel, least_squares_from_r, with_rows
 from gyroid.models import _design as design

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 from scipy.stats import multivariate_normal, norm
 
-from gyroid.inference import BenchOptions, BenchProblem, fit_log
+from gyroid.bench import BenchOptions, BenchProblem, fit_log
 from gyroid.inference._emcee import Emcee
 from gyroid.io import BenchLog
 from gyroid.models import temperature_rate_deg_c_per_h
@@ -178,7 +178,7 @@ def test_held_out_folds_by_generalised_least_squares_match_refitted_modes(sigma_
     every fold's mode, levels included, gives the same predictions and bands. The levels of
     ~160 kept rows move by ~1/sqrt(2*160) = 6 % between folds, so the bands agree to a few
     percent and the predictions to a small fraction of their sd."""
-    from gyroid.inference._bench_predictive import _collapsed_folds, _refit_folds
+    from gyroid.bench._predictive import _collapsed_folds, _refit_folds
     from gyroid.inference._predictive import stretches
 
     problem = _problem(sigma_known, seed=2)

@@ -14,7 +14,7 @@ import pytest
 from helpers import random_blocks
 from scipy import integrate, stats
 
-from gyroid.inference import BenchOptions, BenchProblem, fit_log
+from gyroid.bench import BenchOptions, BenchProblem, fit_log
 from gyroid.io import BenchLog
 from gyroid.noise._block_filter import block_innovations, flicker_times
 from gyroid.noise._mean_covariance import mean_covariance, part_covariance

@@ -10,7 +10,8 @@ import pytest
 from helpers import SHORT_THERMAL
 
 from gyroid import BenchLog, GyroNoise
-from gyroid.inference import BenchOptions, BenchProblem, Emcee, Importance
+from gyroid.bench import BenchOptions, BenchProblem
+from gyroid.inference import Emcee, Importance
 from gyroid.inference._batching import in_chunks, problem_batcher
 from gyroid.models._derived import RATE_WINDOW_S
 from gyroid.simulation import simulate_thermal_bench

@@ -7,7 +7,8 @@ from helpers import SHORT_MAGNETIC, SHORT_THERMAL
 from scipy import stats
 
 from gyroid import BenchLog, GyroNoise
-from gyroid.inference import BenchOptions, BenchProblem, Emcee, fit_log
+from gyroid.bench import BenchOptions, BenchProblem, fit_log
+from gyroid.inference import Emcee
 from gyroid.io import paper_a_table_log, paper_a_thermal_table
 from gyroid.models._derived import RATE_WINDOW_S
 from gyroid.papers import setpoint_table_fit

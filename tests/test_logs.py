@@ -5,7 +5,7 @@ import pytest
 from helpers import SHORT_MAGNETIC, SHORT_THERMAL, write_log
 
 from gyroid import BenchLog, BenchProblem, GyroidInputError, load_bench_log
-from gyroid.inference import BenchOptions
+from gyroid.bench import BenchOptions
 from gyroid.io import bench_log_text
 from gyroid.models._derived import RATE_WINDOW_S
 from gyroid.simulation import simulate_magnetic_bench, simulate_thermal_bench

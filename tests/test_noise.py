@@ -10,9 +10,10 @@ import pytest
 from helpers import write_log
 from scipy import stats
 
+from gyroid.allan import fit_noise
+from gyroid.allan._haar import haar_statistics
+from gyroid.bench import BenchOptions
 from gyroid.cli import main
-from gyroid.inference import BenchOptions, fit_noise
-from gyroid.inference._haar import haar_statistics
 
 
 def _static_rate(rng, n: int, dt: float, *, N: float = 0.0, K: float = 0.0,
@@ -58,8 +59,8 @@ def test_a_term_sets_posterior_by_importance_sampling_matches_quadrature():
     own host log-posterior: each log-amplitude's mean within 4 Monte-Carlo standard errors
     (its sd over the square root of the effective draws) and its sd within 10 %. 400 s of
     log does not resolve K: its posterior keeps the prior's lower tail (sd 3.3 in log)."""
+    from gyroid.allan._problem import NoiseProblem
     from gyroid.inference import fit
-    from gyroid.inference._noise_problem import NoiseProblem
 
     rng = np.random.default_rng(11)
     stats_ = haar_statistics(_static_rate(rng, 40_000, 0.01, N=0.3, K=25.0), 0.01)
@@ -258,7 +259,7 @@ def test_fit_takes_its_noise_priors_from_a_static_noise_fit(tmp_path):
     b = record["noise"]["posterior"]["B_deg_h"]
     assert b["ci95"][0] < 6.0 < b["ci95"][1]
     # the same ramp, default priors: its B is what the 1500 s ramp alone can say
-    from gyroid.inference import fit_log
+    from gyroid.bench import fit_log
     from gyroid.io import load_bench_log
 
     alone = fit_log(load_bench_log(ramp, "bias,temperature", axis="x"), "bias,temperature",
@@ -386,7 +387,7 @@ def test_a_start_up_transient_does_not_make_the_samples_after_it_outliers():
     were named outliers in 4 of these 4 logs; the mean is now cut at the log's ends."""
     from scipy import signal
 
-    from gyroid.inference._noise_outliers import remove_outliers
+    from gyroid.allan._outliers import remove_outliers
 
     b, a = signal.butter(4, 1.5 / 50.0)
     for seed in (0, 2, 4, 8):
@@ -406,7 +407,7 @@ def test_a_filtered_logs_samples_are_not_outliers_and_its_spikes_are(cutoff_hz):
     here, while 12 sd spikes added to three samples are named, each that far from it."""
     from scipy.ndimage import uniform_filter1d
 
-    from gyroid.inference._noise_outliers import WITHIN_MEAN_SD, remove_outliers
+    from gyroid.allan._outliers import WITHIN_MEAN_SD, remove_outliers
 
     rate = _filtered_static(np.random.default_rng(7), 6.0, cutoff_hz)
     _, found = remove_outliers(rate, sample_s=0.1)

@@ -9,7 +9,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from gyroid.inference import BenchOptions, BenchProblem, Emcee, fit
+from gyroid.bench import BenchOptions, BenchProblem
+from gyroid.inference import Emcee, fit
 from gyroid.io import BenchLog
 from gyroid.models._derived import RATE_WINDOW_S
 from gyroid.models._priors import LogNormal

@@ -10,10 +10,10 @@ import pytest
 from helpers import write_log
 from scipy.signal import lfilter
 
+from gyroid.allan import fit_noise, fit_unit_noise
+from gyroid.allan._haar import HaarStatistics
+from gyroid.allan._levels import level_fit, level_runs
 from gyroid.cli import main
-from gyroid.inference import fit_noise, fit_unit_noise
-from gyroid.inference._haar import HaarStatistics
-from gyroid.inference._noise_levels import level_fit, level_runs
 from gyroid.noise._allan_terms import gauss_markov_avar
 
 

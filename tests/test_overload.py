@@ -8,7 +8,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from gyroid.inference import BenchOptions, Emcee, fit_log
+from gyroid.bench import BenchOptions, fit_log
+from gyroid.inference import Emcee
 from gyroid.io import parse_column_maps
 from gyroid.io._bench_reader import load_bench_log
 from gyroid.models._drift import DriftModel

@@ -10,13 +10,14 @@ import pytest
 from helpers import SHORT_MAGNETIC
 from scipy.stats import multivariate_normal
 
+from gyroid.bench import BenchOptions
 from gyroid.cli import main
 from gyroid.errors import GyroidInputError
-from gyroid.inference import BenchOptions, PoolProblem, fit_pool
 from gyroid.io import run_labels
 from gyroid.models import LogNormal, Normal
 from gyroid.papers import magnetic_repeatability, repeatability_json
 from gyroid.pipeline._compensate_file import fitted_axes
+from gyroid.pool import PoolProblem, fit_pool
 from gyroid.simulation import simulate_lot
 
 

@@ -10,8 +10,9 @@ import pytest
 from helpers import SHORT_MAGNETIC
 
 from gyroid import BenchLog
+from gyroid.bench import BenchOptions, fit_log
 from gyroid.cli import main
-from gyroid.inference import BenchOptions, fit_log, fit_pool
+from gyroid.pool import fit_pool
 
 
 @pytest.mark.slow

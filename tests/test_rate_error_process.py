@@ -17,8 +17,8 @@ from helpers import random_blocks
 from scipy import stats
 from scipy.linalg import toeplitz
 
-from gyroid.inference import BenchOptions, BenchProblem
-from gyroid.inference._thermometer import carried_thermometer
+from gyroid.bench import BenchOptions, BenchProblem
+from gyroid.bench._thermometer import carried_thermometer
 from gyroid.io import BenchLog
 from gyroid.models._rate_error import estimator_autocovariance
 from gyroid.noise._block_filter import block_innovations, flicker_times
@@ -276,7 +276,7 @@ def test_the_one_sided_rows_are_read_by_the_process_only_where_that_moves_nothin
     and it stays; beside the flicker and walk the default model allows, less than the
     tolerance, and the process reads those rows. There the fit's mode moves from the exact
     density's by less than the tolerance (in the exact posterior's sds)."""
-    from gyroid.inference._point import point_estimate
+    from gyroid.bench._point import point_estimate
     from gyroid.noise._rate_error_rows import ONE_SIDED_TOLERANCE
 
     log = _noisy_thermometer_bench(2, hours=3.0)

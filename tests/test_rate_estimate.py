@@ -4,7 +4,7 @@ the temperature is smooth, nothing is said."""
 
 import numpy as np
 
-from gyroid.inference._rate_estimate import rate_estimate
+from gyroid.bench._rate_estimate import rate_estimate
 from gyroid.models import temperature_rate_deg_c_per_h
 from gyroid.simulation import ThermalProtocol, simulate_thermal_bench
 

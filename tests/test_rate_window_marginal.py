@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from gyroid import BenchLog
-from gyroid.inference import BenchOptions, BenchProblem
-from gyroid.inference._rate_window import choose_rate_window
-from gyroid.inference._rate_window_marginal import marginal_window
+from gyroid.bench import BenchOptions, BenchProblem
+from gyroid.bench._rate_window import choose_rate_window
+from gyroid.bench._rate_window_marginal import marginal_window
 
 WALK = 0.005  # deg/h/sqrt(h)
 

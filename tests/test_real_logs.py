@@ -13,8 +13,9 @@ import numpy as np
 import pytest
 from helpers import require_dataset
 
+from gyroid.bench import BenchOptions, fit_log
 from gyroid.cli import main
-from gyroid.inference import BenchOptions, Emcee, fit_log
+from gyroid.inference import Emcee
 from gyroid.io import BenchLog, contiguous_segments, load_bench_log
 from gyroid.models._derived import RATE_WINDOW_S
 from gyroid.workflows import allan_deviation, compensate
@@ -241,7 +242,7 @@ def test_under_ieee_noise_the_point_is_the_marginal_mode_the_posterior_centres_o
     import jax
     import jax.numpy as jnp
 
-    from gyroid.inference import BenchProblem
+    from gyroid.bench import BenchProblem
     from gyroid.inference._collapsed import collapse
 
     keep = np.ones(pan_log.n, dtype=bool)
@@ -273,7 +274,7 @@ def test_a_real_allan_variance_the_noise_terms_cannot_describe_is_refused():
     matches the Allan deviation's -1/2 line read at 1 s (allantools) within 5 %."""
     import allantools
 
-    from gyroid.inference import fit_noise
+    from gyroid.allan import fit_noise
     from gyroid.io import dataset_logs
 
     require_dataset("mpu6050_sunsided")

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 from helpers import require_dataset
 
-from gyroid.inference import BenchOptions, fit_noise, fit_unit_noise
+from gyroid.allan import fit_noise, fit_unit_noise
+from gyroid.bench import BenchOptions
 from gyroid.io import dataset_logs
 
 SAMPLE_S = 0.01
@@ -86,7 +87,8 @@ def test_the_mpu6050_y_axis_later_minutes_are_covered_or_the_fit_is_refused(term
     exited 0 while 12 of the 22 later 15 s means fell outside its 95 % band (its bias
     wanders). The default noise (IEEE 952's) covers them, or the fit is refused (the
     temperature hardly moves: no slope to identify)."""
-    from gyroid.inference import Emcee, fit_log
+    from gyroid.bench import fit_log
+    from gyroid.inference import Emcee
     from gyroid.io import BenchLog
 
     require_dataset("mpu6050_sunsided")

@@ -67,8 +67,8 @@ def test_intervals_cover_the_truth_over_many_flights(tmp_path):
     from scipy import stats
 
     from gyroid.inference import fit
-    from gyroid.inference._roll_problem import RollProblem
     from gyroid.io import load_roll_log
+    from gyroid.roll._problem import RollProblem
     from gyroid.simulation import FlightProfile, roll_log_text, simulate_flight
     from gyroid.simulation._flight import PAPER_B_PARAMS
 

@@ -3,9 +3,9 @@ effect the model leaves out that grows with time fails, its bands said to be too
 
 import pytest
 
-from gyroid.inference import RollProblem
-from gyroid.inference._roll_predictive import roll_predictive
 from gyroid.io import RollLog
+from gyroid.roll import RollProblem
+from gyroid.roll._predictive import roll_predictive
 from gyroid.simulation import FlightProfile, simulate_flight
 
 SHORT = FlightProfile(duration_s=40.0)

@@ -9,9 +9,9 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 import pytest
 
+from gyroid.bench import BenchOptions, fit_log
 from gyroid.cli import main
 from gyroid.errors import GyroidInputError
-from gyroid.inference import BenchOptions, fit_log
 from gyroid.inference._residual_checks import outliers_among
 from gyroid.io import MeansOfBlocks, load_bench_log, stream_block_means
 

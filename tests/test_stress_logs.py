@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 from helpers import fast_ramp_log, mems_burst_log, weak_field_log, write_log
 
+from gyroid.bench import BenchOptions, fit_log
 from gyroid.cli import main
-from gyroid.inference import BenchOptions, Emcee, fit_log
+from gyroid.inference import Emcee
 from gyroid.io import BenchLog
 from gyroid.simulation import GyroNoise, simulate_magnetic_bench
 

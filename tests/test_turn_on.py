@@ -11,9 +11,9 @@ import pytest
 from helpers import write_log
 
 from gyroid import BenchLog
+from gyroid.bench import BenchOptions, fit_log
 from gyroid.cli import main
 from gyroid.errors import GyroidInputError
-from gyroid.inference import BenchOptions, fit_log
 from gyroid.io._fitted import FittedDrift, _noise_estimate
 from gyroid.models._drift import DriftModel
 from gyroid.noise import NOISE_MODELS, NoiseEstimate

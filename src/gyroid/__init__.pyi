@@ -2,23 +2,19 @@
 (lazy_loader) and imports each name on first use, from the subpackage that holds it."""
 
 from ._config import configure as configure
+from .allan import NoiseFit as NoiseFit
+from .allan import fit_noise as fit_noise
+from .bench import BenchFit as BenchFit
+from .bench import BenchOptions as BenchOptions
+from .bench import BenchProblem as BenchProblem
+from .bench import fit_log as fit_log
 from .errors import GyroidInputError as GyroidInputError
 from .errors import UntrustworthyResult as UntrustworthyResult
 from .inference import AbstractProblem as AbstractProblem
-from .inference import BenchFit as BenchFit
-from .inference import BenchOptions as BenchOptions
-from .inference import BenchProblem as BenchProblem
 from .inference import Emcee as Emcee
 from .inference import Importance as Importance
 from .inference import Nuts as Nuts
-from .inference import PoolFit as PoolFit
-from .inference import PoolProblem as PoolProblem
-from .inference import RollFit as RollFit
-from .inference import RollProblem as RollProblem
 from .inference import fit as fit
-from .inference import fit_log as fit_log
-from .inference import fit_pool as fit_pool
-from .inference import fit_roll_log as fit_roll_log
 from .io import BenchLog as BenchLog
 from .io import FittedDrift as FittedDrift
 from .io import RollLog as RollLog
@@ -36,7 +32,13 @@ from .models import Parameter as Parameter
 from .models import build_inputs as build_inputs
 from .models import resolve_roll_terms as resolve_roll_terms
 from .models import resolve_terms as resolve_terms
+from .pool import PoolFit as PoolFit
+from .pool import PoolProblem as PoolProblem
+from .pool import fit_pool as fit_pool
 from .reports import write as write
+from .roll import RollFit as RollFit
+from .roll import RollProblem as RollProblem
+from .roll import fit_roll_log as fit_roll_log
 from .simulation import GyroNoise as GyroNoise
 from .simulation import MagneticProtocol as MagneticProtocol
 from .simulation import SimulatedBench as SimulatedBench

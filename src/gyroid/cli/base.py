@@ -235,8 +235,8 @@ def fit_options(function):
     @functools.wraps(function)
     def wrapper(*args, terms, seed, noise, t0_C, prior_choice, prior_items, flat_prior,
                 rate_window, segment_means, mappings, progress, axes, instance, **kwargs):
-        from gyroid.inference._bench_options import BenchOptions
-        from gyroid.inference._rate_window import parse_rate_window
+        from gyroid.bench._options import BenchOptions
+        from gyroid.bench._rate_window import parse_rate_window
         from gyroid.models._prior_scales import resolve_prior_option
         from gyroid.noise._model import DEFAULT_NOISE
         from gyroid.pipeline._fit_file import FitOptions, GivenNoisePriors

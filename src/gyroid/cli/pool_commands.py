@@ -51,7 +51,7 @@ def pool(logs, terms, out, seed, t0_C, prior_choice, prior_items, segment_means,
     for a new run, which 'gyroid compensate --fit OUT' uses. Each log is a bench log of one
     run (docs/formats.md section 1); runs are named by file stem, or by folder when stems repeat.
     Exit code 3 when a self-check says the result must not be used."""
-    from gyroid.inference._bench_options import BenchOptions
+    from gyroid.bench._options import BenchOptions
     from gyroid.models._prior_scales import resolve_prior_option
     from gyroid.pipeline._pool_runs import pool_to_dir
 

@@ -1,7 +1,8 @@
-"""Fitting: one abstract problem (:class:`AbstractProblem`) with three final kinds (a bench
-log's drift model, paper B's loop on a roll log, a pooled lot of runs), one :func:`fit`,
-interchangeable samplers (:class:`Importance`, :class:`Emcee`, :class:`Nuts`), frozen
-results, and the self-checks every fit passes through.
+"""Fitting any problem: one abstract problem (:class:`AbstractProblem`, whose final kinds
+live in their own packages: :mod:`gyroid.bench`, :mod:`gyroid.roll`, :mod:`gyroid.pool`,
+:mod:`gyroid.allan`), one :func:`fit`, interchangeable samplers (:class:`Importance`,
+:class:`Emcee`, :class:`Nuts`), the one marginal of a model linear in its coefficients, the
+result base, and the self-checks every fit passes through. Nothing here imports a kind.
 """
 
 import lazy_loader

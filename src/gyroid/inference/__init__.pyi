@@ -2,11 +2,6 @@
 file (lazy_loader) and imports each name on first use."""
 
 from ._batching import problem_batcher as problem_batcher
-from ._bench_density import BenchDensity as BenchDensity
-from ._bench_fit import fit_log as fit_log
-from ._bench_options import BenchOptions as BenchOptions
-from ._bench_problem import BenchProblem as BenchProblem
-from ._bench_result import BenchFit as BenchFit
 from ._check_report import Check as Check
 from ._check_report import CheckReport as CheckReport
 from ._check_report import FitEvidence as FitEvidence
@@ -18,34 +13,18 @@ from ._checks import prior_data_conflict as prior_data_conflict
 from ._emcee import Emcee as Emcee
 from ._fit import fit as fit
 from ._importance import Importance as Importance
-from ._noise_fit import NoiseFit as NoiseFit
-from ._noise_fit import fit_noise as fit_noise
-from ._noise_model_fit import NoiseModelFit as NoiseModelFit
-from ._noise_problem import NoiseProblem as NoiseProblem
-from ._noise_unit import UnitNoise as UnitNoise
-from ._noise_unit import fit_unit_noise as fit_unit_noise
 from ._nuts import Nuts as Nuts
-from ._pool_fit import fit_pool as fit_pool
-from ._pool_fit import pool_estimates as pool_estimates
-from ._pool_fit import pool_problem as pool_problem
-from ._pool_problem import PoolProblem as PoolProblem
-from ._pool_result import PoolFit as PoolFit
 from ._posterior import Posterior as Posterior
 from ._posterior import interval_summary as interval_summary
 from ._posterior import summarise_draws as summarise_draws
 from ._problem import AbstractProblem as AbstractProblem
 from ._problem import AbstractSampler as AbstractSampler
 from ._problem import PointEstimate as PointEstimate
-from ._rate_window import choose_rate_window as choose_rate_window
 from ._residual_checks import block_variance_ratios as block_variance_ratios
 from ._residual_checks import outliers as outliers
 from ._residual_checks import residual_whiteness as residual_whiteness
 from ._residual_checks import segment_variance_ratio as segment_variance_ratio
 from ._result import FitResult as FitResult
-from ._roll_density import ALL_PARAMETERS as ALL_PARAMETERS
-from ._roll_fit import fit_roll_log as fit_roll_log
-from ._roll_problem import RollProblem as RollProblem
-from ._roll_result import RollFit as RollFit
 from ._starts import START_MULTIPLES as START_MULTIPLES
 from ._starts import grid_points as grid_points
 from ._starts import start_grid as start_grid

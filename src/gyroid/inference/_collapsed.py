@@ -285,7 +285,7 @@ def log_posteriors_at(template: CollapsedCoefficients, columns: Float[Array, "m 
 
 
 def collapse(density) -> AbstractMarginal | None:
-    """The marginal (module docstring) of a :class:`~gyroid.inference._bench_density.
+    """The marginal (module docstring) of a :class:`~gyroid.bench._density.
     BenchDensity` whose model is linear: filtered under correlated noise
     (:func:`filtered_form`), on the rows' sufficient statistics under white noise (the
     density's own where it holds them: O(p^2) an evaluation, whatever the log's length;
@@ -342,7 +342,7 @@ def _coefficient_priors(density, real: np.ndarray):
 
 def filtered_form(density, columns: Float[Array, "n 1+r"] | None = None,
                   real: np.ndarray | None = None) -> CollapsedCoefficients | None:
-    """The filtered marginal of a :class:`~gyroid.inference._bench_density.BenchDensity`: a
+    """The filtered marginal of a :class:`~gyroid.bench._density.BenchDensity`: a
     linear model (every coefficient real) under a correlated noise model; None
     otherwise (under white noise the marginal is :func:`collapse`'s, on sufficient
     statistics). With ``columns`` and ``real``, :func:`collapsed_form`'s at given positive
@@ -357,7 +357,7 @@ def filtered_form(density, columns: Float[Array, "n 1+r"] | None = None,
 
 def collapsed_form(density, columns: Float[Array, "n 1+r"] | None = None,
                    real: np.ndarray | None = None) -> CollapsedCoefficients:
-    """The marginal of a :class:`~gyroid.inference._bench_density.BenchDensity` under its
+    """The marginal of a :class:`~gyroid.bench._density.BenchDensity` under its
     noise model, filtered (white rows their own innovations). With ``columns`` (the drift
     less the model at zero real coefficients, then the model's derivatives in them) and
     ``real`` (their indices among the model's parameters), the form for given positive

@@ -1,7 +1,7 @@
 """The mode of a bench problem whose model is linear in its real coefficients once its
 positive parameters are given (a warm-up's time constant, a lag's, a step's time: every
 catalogued effect) under any noise model; part of the bench mode-finder
-(:func:`gyroid.inference._point.point_estimate`).
+(:func:`gyroid.bench._point.point_estimate`).
 
 The real coefficients are integrated out exactly for given positive parameters (the
 collapsed form of :mod:`gyroid.inference._collapsed` on the model's columns there), and the
@@ -140,7 +140,7 @@ def collapsed_at_white_start(density, noise_start: Callable[[np.ndarray, float],
     """A model with positive parameters: its collapsed form at the
     start grid's best white least-squares point, and the noise levels guessed by
     ``noise_start(residual, white)`` from that point's residual (what the rate window's
-    marginal compares, :mod:`gyroid.inference._rate_window_marginal`)."""
+    marginal compares, :mod:`gyroid.bench._rate_window_marginal`)."""
     profile = _Profile(density)
     point, guess = profile.white_guess(noise_start)
     return profile.at(point), guess

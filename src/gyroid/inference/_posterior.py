@@ -32,7 +32,7 @@ class Posterior:
     move: str | None = None  # emcee's move ("de" or "stretch")
     #: Importance sampling's weighed draws of the marginal coordinates and their ``solved``
     #: rows (:class:`~gyroid.inference._marginal_target.MarginalTarget`), which
-    #: :func:`~gyroid.inference._allowed_noise.allowed_noise` reuses; None for a chain.
+    #: :func:`~gyroid.bench._allowed_noise.allowed_noise` reuses; None for a chain.
     evaluated: tuple[np.ndarray, np.ndarray] | None = field(default=None, repr=False)
 
     def flat(self, name: str) -> np.ndarray:

@@ -7,17 +7,18 @@ methods are jit-compiled and vmapped over draws: ``log_posterior``,
 ``log_likelihood_blocks``, ...), so that problems differing only in their description
 share one compilation.
 
-Final subclasses: :class:`~gyroid.inference.BenchProblem` (a bench log's drift model),
-:class:`~gyroid.inference.RollProblem` (paper B's loop on a roll log) and
-:class:`~gyroid.inference.PoolProblem` (a lot of runs, partially pooled).
+Final subclasses: :class:`~gyroid.bench.BenchProblem` (a bench log's drift model),
+:class:`~gyroid.roll.RollProblem` (paper B's loop on a roll log) and
+:class:`~gyroid.pool.PoolProblem` (a lot of runs, partially pooled).
 :func:`~gyroid.inference.fit` fits any of them: the mode (:meth:`AbstractProblem.mode`), a
 posterior (any :class:`~gyroid.inference.AbstractSampler`), then the result with its
-self-checks, built once and frozen by the kind's result module, which imports its problem
-one way (:data:`gyroid.inference._fit.RESULTS`).
+self-checks, built once and frozen by the problem's own :meth:`AbstractProblem.result`
+(each kind's package, which generic inference never imports, holds its result module; that
+module names its problem for the type checker only).
 
-Where a new model goes: a final subclass with its density and ``mode``, a result module
-importing it, and one line in ``RESULTS``; a new self-check: :mod:`gyroid.inference._checks`,
-read from the :class:`FitEvidence` every problem builds.
+Where a new model goes: its own package with a final subclass (its density, ``mode`` and
+``result``) and a result module; a new self-check: :mod:`gyroid.inference._checks`, read
+from the :class:`FitEvidence` every problem builds.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ from __future__ import annotations
 import abc
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Generic, TypeVar
 
 import equinox as eqx
 import jax.numpy as jnp
@@ -33,6 +35,13 @@ from jaxtyping import Array, Float
 
 from gyroid.inference._posterior import Posterior
 from gyroid.models._priors import Prior, natural_from_sampling
+
+if TYPE_CHECKING:
+    from gyroid.inference._result import FitResult
+
+#: The result a kind of problem builds (:meth:`AbstractProblem.result`), for the type checker:
+#: :func:`~gyroid.inference.fit` of a ``BenchProblem`` is a ``BenchFit``.
+R = TypeVar("R", bound="FitResult", covariant=True)
 
 
 @dataclass(frozen=True, eq=False)
@@ -64,7 +73,7 @@ class AbstractDensity(eqx.Module):
         """The log-posterior at sampling coordinates ``u``; -inf where it is not finite."""
 
 
-class AbstractProblem(eqx.Module):
+class AbstractProblem(eqx.Module, Generic[R]):
     """A posterior to fit (see the module docstring). Subclasses are final."""
 
     density: eqx.AbstractVar[AbstractDensity]
@@ -119,6 +128,12 @@ class AbstractProblem(eqx.Module):
         """The sampler :func:`~gyroid.inference.fit` uses unless given one (importance
         sampling, emcee where its weights fail, for bench, roll and static-noise logs;
         NUTS for a pooled lot)."""
+
+    @abc.abstractmethod
+    def result(self, point: PointEstimate, posterior: Posterior | None, *,
+               seed: int) -> R:
+        """The fit's frozen result, of this problem's kind, its self-checks computed first
+        (``seed``: the sampler's, for any draws the checks make)."""
 
     def collapsed(self):
         """The problem with its linear coefficients integrated out, where that is exact and

@@ -14,10 +14,10 @@ grid, and refines the best points locally:
   two positive parameters per model);
 * real parameters start at zero (the profile solves them exactly).
 
-:func:`gyroid.inference._point.point_estimate` starts here (the profile of
+:func:`gyroid.bench._point.point_estimate` starts here (the profile of
 :mod:`gyroid.inference._point_profiled`, the discrepancy search's candidates included), as
 does the dT/dt window's least squares of a model with positive parameters
-(:mod:`gyroid.inference._rate_window`); :func:`best_least_squares` compares the points.
+(:mod:`gyroid.bench._rate_window`); :func:`best_least_squares` compares the points.
 """
 
 from __future__ import annotations

@@ -57,7 +57,7 @@ def load_bench_log(
     strictly; temperatures must be in degC; ``sigma_deg_h``, where present, must be
     positive. The first problem found ends the load with a :class:`GyroidInputError` that
     names the row or column. (Whether the terms are identifiable on the log is the
-    problem's to check: :meth:`gyroid.inference.BenchProblem.from_log`.)
+    problem's to check: :meth:`gyroid.bench.BenchProblem.from_log`.)
     """
     del t0_C  # kept for callers; the reference temperature shapes the inputs, not the log
     return bench_log_from_table(read_log_table(path, tuple(column_map)), terms,

@@ -148,7 +148,7 @@ def read_datasheet(path: str | Path) -> Datasheet:
 #: within a factor of 2 of the typical value at one sd (4 at two): datasheets state typical
 #: values, and units of one type differ by tens of percent in N and by up to a few times in
 #: B and K. Narrower than 2, so the fit's allowed-noise check keeps it (a measured prior,
-#: :mod:`gyroid.inference._allowed_noise`).
+#: :mod:`gyroid.bench._allowed_noise`).
 DATASHEET_LOG_SD = math.log(2.0)
 #: The IEEE 952 levels of the bench fit's noise model that a datasheet's terms set.
 LEVELS = {"N": "N_deg_sqrt_h", "B": "B_deg_h", "K": "K_deg_h_sqrt_h"}

@@ -6,7 +6,7 @@ so the rate it gives is the true rate's estimate plus ``L e``: a thermometer noi
 white at the sample scale becomes a rate error correlated over the estimator's window, and
 ``wD L e`` enters the drift residuals. With white thermometer noise of variance ``v`` per row
 the rate error's covariance is ``v L L'`` ((degC/h)^2); the drift likelihood adds ``wD^2``
-times it (:class:`~gyroid.inference._bench_density.BenchDensity`).
+times it (:class:`~gyroid.bench._density.BenchDensity`).
 
 What is left out, and why: the temperature error's direct effect on ``w1 t + w2 t^2`` is
 ``(w1 + 2 w2 t) e``, white, and about ``w1 sT`` (1e-3 deg/h for paper A's gyro and a

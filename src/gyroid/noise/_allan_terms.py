@@ -31,7 +31,7 @@ tau**2`` with ``w = (1, -4, 6, -4, 1)`` at ``d = -2..2``: white noise ``-S |u| /
 rate random walk ``q |u|**3 / 12``, flicker ``h u**2 ln|u|``, a Gauss-Markov bias's
 exponential kernel integrated twice, quantisation's white angle. They give the overlapping
 Allan variance's degrees of freedom under a fitted model
-(:mod:`gyroid.inference._allan_interval`). F is a deficit, not a process, and gives none.
+(:mod:`gyroid.allan._interval`). F is a deficit, not a process, and gives none.
 
 The terms a drift log's likelihood shares (N, B, K, G) are :mod:`gyroid.noise._terms`'s.
 """

@@ -115,7 +115,7 @@ class NoiseModel(eqx.Module):
     @property
     def rival(self) -> NoiseModel | None:
         """The noise model a fit under this one is weighed against (what the log allows
-        under each, :mod:`gyroid.inference._allowed_noise`): the default, for a correlated
+        under each, :mod:`gyroid.bench._allowed_noise`): the default, for a correlated
         model of other terms (a Gauss-Markov bias is flat beyond its correlation time, where
         flicker and a walk rise, and a log often cannot tell them apart); None for white
         noise, whose whiteness check tests the rows themselves, and for the default's
@@ -172,7 +172,7 @@ class NoiseModel(eqx.Module):
         error moves the coefficients by, ``shift_sd`` (in their sds), recorded, and with
         ``by_process`` those rows read by the interior's process like every other row (on
         rows of spans ``span_s`` after gaps ``gap_s``, s), their exact error dropped
-        (:func:`~gyroid.inference._one_sided.weigh_one_sided`)."""
+        (:func:`~gyroid.bench._one_sided.weigh_one_sided`)."""
         term = self.carried
         if not isinstance(term, RateError):
             raise ValueError("one_sided_weighed: this model carries no rate error process")

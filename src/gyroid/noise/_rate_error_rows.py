@@ -43,7 +43,7 @@ read from their row: 16.4 s. The start's ``V_s c_s`` as states of the first rows
 (five, filtered over every row) and the process's four states: 2000 evaluations of the
 marginal in chunks of 500 took 2.9-3.9 s, 1.5-2.0 s without the correction's columns, 1.2 s
 on main (timed in turn in one process). So a fit weighs them first
-(:mod:`gyroid.inference._one_sided`): where their exact error moves no coefficient by more
+(:mod:`gyroid.bench._one_sided`): where their exact error moves no coefficient by more
 than :data:`ONE_SIDED_TOLERANCE` of its sd, the process reads them like every other row.
 The rows the early states cover and the row the end's columns start from are what the
 widest window of the fit's search needs, and each end's directions are padded to the

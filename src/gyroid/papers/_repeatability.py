@@ -10,7 +10,7 @@ the 50 min of a sweep would make it larger; the answer therefore also gives, per
 coefficient, the within-test sd above which the two tests would agree (``s_star``: the
 difference at the 5 % level of a two-sided test).
 
-Per device, the two tests are pooled with :func:`gyroid.inference._pool_fit.pool_estimates`:
+Per device, the two tests are pooled with :func:`gyroid.pool._fit.pool_estimates`:
 population means ~ Normal(0, 1) deg/h per 100 uT (the paper's largest coefficient is
 0.58), between-test sds half-normal(0.5).
 """
@@ -22,10 +22,10 @@ import math
 import numpy as np
 
 from gyroid.inference._nuts import Nuts
-from gyroid.inference._pool_fit import pool_estimates
-from gyroid.inference._pool_result import PoolFit
 from gyroid.io._paper_tables import paper_a_magnetic_coefficients
 from gyroid.models._priors import Normal
+from gyroid.pool._fit import pool_estimates
+from gyroid.pool._result import PoolFit
 
 #: Angle random walk assumed for paper A's FOG, deg/sqrt(h).
 ASSUMED_ARW_DEG_RT_H = 0.005

@@ -11,9 +11,8 @@ from pathlib import Path
 import jax.numpy as jnp
 import numpy as np
 
-from gyroid.inference._bench_fit import fit_log
+from gyroid.bench._fit import fit_log
 from gyroid.inference._importance import Importance
-from gyroid.inference._pool_fit import fit_pool
 from gyroid.io._fitted import FittedDrift
 from gyroid.io._log_writer import bench_log_text
 from gyroid.io._outputs import json_text
@@ -24,6 +23,7 @@ from gyroid.plotting import (
     save,
     thermal_run,
 )
+from gyroid.pool._fit import fit_pool
 from gyroid.reports._reproduction import write_reproduction
 from gyroid.reports._write import write
 from gyroid.simulation._bench import (

@@ -1,6 +1,6 @@
 """What ``gyroid fit`` does with one log, and ``gyroid batch`` with each of many: read it,
 fit it, write its files. The options are one object (:class:`FitOptions`, the bench fit's
-own a :class:`~gyroid.inference.BenchOptions` in it), so that both commands take every
+own a :class:`~gyroid.bench.BenchOptions` in it), so that both commands take every
 option and check it before any log is read."""
 
 from __future__ import annotations
@@ -9,11 +9,11 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from gyroid.bench._fit import fit_log
+from gyroid.bench._options import BenchOptions
+from gyroid.bench._problem import IEEE_MAX_ROWS
+from gyroid.bench._result import BenchFit, NoisePriorSource
 from gyroid.errors import GyroidInputError
-from gyroid.inference._bench_fit import fit_log
-from gyroid.inference._bench_options import BenchOptions
-from gyroid.inference._bench_problem import IEEE_MAX_ROWS
-from gyroid.inference._bench_result import BenchFit, NoisePriorSource
 from gyroid.inference._emcee import Emcee
 from gyroid.inference._importance import Importance
 from gyroid.io._bench_reader import bench_log_from_table
@@ -91,7 +91,7 @@ class GivenNoisePriors:
 class FitOptions:
     """Every option of ``gyroid fit`` and ``gyroid batch``, checked when made (a wrong option
     is one message before any log is read): the bench fit's own (``bench``,
-    :class:`~gyroid.inference.BenchOptions`) and how the file is read and the fit seeded."""
+    :class:`~gyroid.bench.BenchOptions`) and how the file is read and the fit seeded."""
 
     terms: str
     bench: BenchOptions = field(default_factory=BenchOptions)

@@ -1,6 +1,6 @@
 """What ``gyroid noise`` does: with one log, read it once, fit each gyro axis's noise, write
 the results (:mod:`gyroid.pipeline._axes`); with several runs of one unit, each run's and
-the unit's (:mod:`gyroid.inference._noise_unit`)."""
+the unit's (:mod:`gyroid.allan._unit`)."""
 
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ from pathlib import Path
 
 import numpy as np
 
+from gyroid.allan._fit import NoiseFit, fit_noise
+from gyroid.allan._unit import UnitNoise, fit_unit_noise
 from gyroid.errors import GyroidInputError
-from gyroid.inference._noise_fit import NoiseFit, fit_noise
-from gyroid.inference._noise_unit import UnitNoise, fit_unit_noise
 from gyroid.io._bench_reader import bench_log_from_table
 from gyroid.io._datasheet import read_datasheet
 from gyroid.io._logs import contiguous_segments, run_labels
@@ -82,7 +82,7 @@ def noise_file(path: str | Path, out: str | Path, options: NoiseOptions = NoiseO
 @dataclass(frozen=True)
 class UnitRuns:
     """Several static runs of one unit (or lot): each run's fits (by its label) and the
-    unit's terms per axis (:func:`~gyroid.inference.fit_unit_noise`)."""
+    unit's terms per axis (:func:`~gyroid.allan.fit_unit_noise`)."""
 
     runs: dict[str, PerAxis[NoiseFit]]
     unit: PerAxis[UnitNoise]

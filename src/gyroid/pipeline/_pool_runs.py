@@ -7,16 +7,16 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
+from gyroid.bench._options import BenchOptions
 from gyroid.errors import GyroidInputError
-from gyroid.inference._bench_options import BenchOptions
-from gyroid.inference._pool_fit import fit_pool
-from gyroid.inference._pool_result import PoolFit
 from gyroid.io._bench_reader import bench_log_from_table
 from gyroid.io._logs import BenchLog, run_labels
 from gyroid.io._outputs import output_dir
 from gyroid.io._tables import read_log_table
 from gyroid.io._units import ColumnMap
 from gyroid.models._priors import Prior
+from gyroid.pool._fit import fit_pool
+from gyroid.pool._result import PoolFit
 from gyroid.reports._write import write
 
 

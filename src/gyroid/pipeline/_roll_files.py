@@ -8,12 +8,12 @@ from pathlib import Path
 
 from gyroid.inference._emcee import Emcee
 from gyroid.inference._importance import Importance
-from gyroid.inference._roll_fit import fit_roll_log
-from gyroid.inference._roll_result import RollFit
 from gyroid.io._outputs import json_text, output_dir
 from gyroid.io._roll_log import load_roll_log
 from gyroid.io._units import ColumnMap
 from gyroid.reports._write import write
+from gyroid.roll._fit import fit_roll_log
+from gyroid.roll._result import RollFit
 from gyroid.simulation._flight import FlightProfile, roll_log_text, simulate_flight
 
 

@@ -112,7 +112,7 @@ def fit_overview(time_s: np.ndarray, drift: np.ndarray, predictions: np.ndarray,
     the residuals against time; ``data_label`` says what the fitted rows are (block
     means...). ``predictions`` are draws of the model at every
     :func:`plot_step`-th sample (what
-    :meth:`~gyroid.inference.BenchFit.predict_draws` gives with that ``every``); long
+    :meth:`~gyroid.bench.BenchFit.predict_draws` gives with that ``every``); long
     logs are drawn thinned the same way."""
     shown, thinned = _every(np.asarray(time_s).size)
     with figure_style():

@@ -12,7 +12,7 @@ _TERM_STYLES = {"Q": (0, (1, 1)), "N": ":", "B": "--", "K": "-.", "R": (0, (5, 1
 
 
 def noise_allan_figure(result) -> Figure:
-    """Log-log Allan deviation of a :class:`~gyroid.inference.NoiseFit`: the log's (per
+    """Log-log Allan deviation of a :class:`~gyroid.allan.NoiseFit`: the log's (per
     averaging time, with its chi-square 68 % interval; the shortest ones a prefilter shapes,
     left out of the fit, in grey), its overlapping Allan deviation with the 99 % interval
     the ``allan_interval`` check reads (filled where the model's band misses it; the band's
@@ -76,7 +76,7 @@ def _value(result, name: str) -> str:
 
 
 def unit_noise_figure(result) -> Figure:
-    """A unit's terms over its runs (:class:`~gyroid.inference.UnitNoise`), one panel per
+    """A unit's terms over its runs (:class:`~gyroid.allan.UnitNoise`), one panel per
     pooled term: each run's median and 90 % interval, the unit's median and 90 % interval,
     and the 90 % interval a new run should land in (shaded)."""
     names = list(result.terms)

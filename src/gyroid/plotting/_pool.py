@@ -15,7 +15,7 @@ _Z95 = 1.959964
 
 def forest_plot(result, *, units: dict[str, str] | None = None, title: str | None = None,
                 truth: dict | None = None):
-    """Runs against the population (a :class:`~gyroid.inference.PoolFit`).
+    """Runs against the population (a :class:`~gyroid.pool.PoolFit`).
 
     Per run: its own least-squares estimate (open circle, thin line, +/- 1.96 sd) and its
     pooled coefficient (filled square, thick line, central 95 % of the posterior). Below:

@@ -14,12 +14,12 @@ import numpy as np
 from gyroid.io._outputs import json_text
 
 if TYPE_CHECKING:
-    from gyroid.inference._bench_result import BenchFit
-    from gyroid.inference._noise_fit import NoiseFit
-    from gyroid.inference._noise_unit import UnitNoise
-    from gyroid.inference._pool_result import PoolFit
-    from gyroid.inference._roll_result import RollFit
+    from gyroid.allan._fit import NoiseFit
+    from gyroid.allan._unit import UnitNoise
+    from gyroid.bench._result import BenchFit
     from gyroid.io._logs import BenchLog
+    from gyroid.pool._result import PoolFit
+    from gyroid.roll._result import RollFit
     from gyroid.workflows._compensate import Compensation
     from gyroid.workflows._datasheet import DatasheetExport
     from gyroid.workflows._discrepancy_report import DiscrepancyReport
@@ -30,8 +30,8 @@ if TYPE_CHECKING:
 
 def write(folder: str | Path, result, **context) -> list[Path]:
     """Write ``result``'s files into ``folder`` (which exists) and return their paths.
-    ``result`` is a :class:`~gyroid.inference.BenchFit`, :class:`~gyroid.inference.RollFit`,
-    :class:`~gyroid.inference.PoolFit`, :class:`~gyroid.workflows.Compensation`,
+    ``result`` is a :class:`~gyroid.bench.BenchFit`, :class:`~gyroid.roll.RollFit`,
+    :class:`~gyroid.pool.PoolFit`, :class:`~gyroid.workflows.Compensation`,
     :class:`~gyroid.workflows.Propagation` or :class:`~gyroid.workflows.DiscrepancyReport`;
     ``context`` is what only some figures take (``truth``: known values drawn in a fit's
     pair plot, or a simulated lot's ``truth()`` in its forest plot; ``title``: a forest
@@ -220,11 +220,11 @@ def _unit_noise(folder: Path, result: UnitNoise) -> list[Path]:
 def _writers() -> tuple[tuple[type, Callable[..., list[Path]]], ...]:
     """Each kind of result and its writer, by type (the kinds imported when the first
     result is written: a result's own module is loaded by then)."""
-    from gyroid.inference._bench_result import BenchFit
-    from gyroid.inference._noise_fit import NoiseFit
-    from gyroid.inference._noise_unit import UnitNoise
-    from gyroid.inference._pool_result import PoolFit
-    from gyroid.inference._roll_result import RollFit
+    from gyroid.allan._fit import NoiseFit
+    from gyroid.allan._unit import UnitNoise
+    from gyroid.bench._result import BenchFit
+    from gyroid.pool._result import PoolFit
+    from gyroid.roll._result import RollFit
     from gyroid.workflows._compensate import Compensation
     from gyroid.workflows._datasheet import DatasheetExport
     from gyroid.workflows._discrepancy_report import DiscrepancyReport

@@ -1,6 +1,6 @@
 """Lots of runs (or units) of one gyro type with a known population: each run's
 coefficients drawn from ``N(mean, between_sd**2)``, then a bench log simulated with them
-(:mod:`gyroid.simulation._bench`). What pooling (:mod:`gyroid.inference._pool_fit`) is checked
+(:mod:`gyroid.simulation._bench`). What pooling (:mod:`gyroid.pool._fit`) is checked
 against."""
 
 from __future__ import annotations

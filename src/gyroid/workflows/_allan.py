@@ -25,8 +25,8 @@ from dataclasses import dataclass
 import allantools
 import numpy as np
 
+from gyroid.allan._haar import overlapping_haar
 from gyroid.errors import GyroidInputError
-from gyroid.inference._haar import overlapping_haar
 from gyroid.io._logs import contiguous_segments
 
 #: How sure a bias-instability floor must be to stand above the white line (the several

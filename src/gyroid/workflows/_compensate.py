@@ -19,9 +19,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyroid._compiled_programs import release_if_crowded
+from gyroid.bench._plausibility import units_sanity
 from gyroid.errors import GyroidInputError
 from gyroid.inference._checks import Check, CheckReport, fit_verdict
-from gyroid.inference._plausibility import units_sanity
 from gyroid.inference._predictive import (
     HeldOut,
     part_means,

@@ -1,7 +1,7 @@
 """The discrepancy workflow: where does a model disagree with a log, which missing effect
 explains it, and how much does adding it close the gap?
 
-Evidence. Every candidate model is a :class:`~gyroid.inference.BenchProblem` under a white +
+Evidence. Every candidate model is a :class:`~gyroid.bench.BenchProblem` under a white +
 Gauss-Markov noise model (``white+gm``, flat priors on the effects'
 coefficients) and is fitted by the problem's own mode-finder, so slowly wandering noise
 (bias instability) is not mistaken for an effect; the log-likelihood compared is the
@@ -15,7 +15,7 @@ an effect is not hidden by a noise model fitted without it. Two candidates whose
 within ``AMBIGUITY_DBIC`` of each other (a Bayes factor below 20) are reported as
 interchangeable on this log.
 
-Where the pieces live: the fits compared, :class:`~gyroid.inference.BenchProblem`; where and
+Where the pieces live: the fits compared, :class:`~gyroid.bench.BenchProblem`; where and
 with what the residuals disagree, and the "unexplained" test's reading,
 :mod:`gyroid.workflows._residual_structure`; the greedy loop and the report (shared with roll
 logs), :mod:`gyroid.workflows._discrepancy_report`.
@@ -30,12 +30,12 @@ from dataclasses import dataclass
 import jax.numpy as jnp
 import numpy as np
 
+from gyroid.bench._checks import bench_checks
+from gyroid.bench._options import BenchOptions
+from gyroid.bench._problem import BenchProblem
+from gyroid.bench._rate_window import choose_rate_window
 from gyroid.errors import GyroidInputError
-from gyroid.inference._bench_checks import bench_checks
-from gyroid.inference._bench_options import BenchOptions
-from gyroid.inference._bench_problem import BenchProblem
 from gyroid.inference._problem import PointEstimate
-from gyroid.inference._rate_window import choose_rate_window
 from gyroid.io._logs import BenchLog, block_means
 from gyroid.models import _effects as registry
 from gyroid.models._drift import DriftModel

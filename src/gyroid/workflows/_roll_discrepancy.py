@@ -11,10 +11,10 @@ import numpy as np
 
 from gyroid.inference._checks import CheckReport, fit_checks, point_fit_evidence
 from gyroid.inference._problem import PointEstimate
-from gyroid.inference._roll_density import RollDensity
-from gyroid.inference._roll_problem import RollProblem
 from gyroid.io._roll_log import RollLog
 from gyroid.models._roll_effects import ROLL_EFFECTS, resolve_roll_terms, roll_parameter
+from gyroid.roll._density import RollDensity
+from gyroid.roll._problem import RollProblem
 from gyroid.workflows._discrepancy_report import (
     DiscrepancyReport,
     Step,
