@@ -258,8 +258,8 @@ def test_a_time_constant_is_sampled_as_its_exact_marginal():
     exact conditional Gaussian) gives the means and sds the draws must match within 4.5
     Monte-Carlo standard errors; each kept draw's log-posterior is the joint density's
     own."""
+    from gyroid.bench._point_profiled import _Profile
     from gyroid.inference._collapsed import conditional_solution, padded
-    from gyroid.inference._point_profiled import _Profile
     from gyroid.models import LogNormal
 
     rng = np.random.default_rng(11)

@@ -340,8 +340,8 @@ def test_posterior_predictions_of_a_linear_model_are_its_design_rows_times_the_d
 def test_every_mode_finder_starts_on_one_grid():
     # The point estimate and the discrepancy's whitened fits start from the same grid: 7
     # multiples of a time constant's registry median, a step's own candidates from the log.
-    from gyroid.inference import START_MULTIPLES, grid_points, start_grid
-    from gyroid.inference._point_profiled import _Profile
+    from gyroid.bench import START_MULTIPLES, grid_points, start_grid
+    from gyroid.bench._point_profiled import _Profile
     from gyroid.models import DriftModel, parameter
 
     sim = simulate_thermal_bench(seed=3, protocol=SHORT_THERMAL)

@@ -7,3 +7,6 @@ from ._options import BenchOptions as BenchOptions
 from ._problem import BenchProblem as BenchProblem
 from ._rate_window import choose_rate_window as choose_rate_window
 from ._result import BenchFit as BenchFit
+from ._starts import START_MULTIPLES as START_MULTIPLES
+from ._starts import grid_points as grid_points
+from ._starts import start_grid as start_grid

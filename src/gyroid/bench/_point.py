@@ -9,8 +9,8 @@
 * A model with positive parameters (time constants, a step's time) under any noise model:
   for given positive parameters every drift effect is linear in the real ones, which are
   integrated out; the positive parameters are profiled from the grid of
-  :mod:`gyroid.inference._starts` and the noise levels found at the marginal's mode
-  (:mod:`gyroid.inference._point_profiled`).
+  :mod:`gyroid.bench._starts` and the noise levels found at the marginal's mode
+  (:mod:`gyroid.bench._point_profiled`).
 
 The covariance is the closed form's, or the marginal's (the coefficients' conditional
 covariance beside the levels' inverse Hessian, widened by the positive parameters'
@@ -26,11 +26,11 @@ import numpy as np
 from scipy.linalg import block_diag
 
 from gyroid.bench._density import BenchDensity, predicted
+from gyroid.bench._point_profiled import profiled_mode
 from gyroid.inference._batching import problem_batcher
 from gyroid.inference._collapsed import filtered_form
 from gyroid.inference._marginal_mode import at_marginal_mode, marginal_mode
 from gyroid.inference._mode import Optimum
-from gyroid.inference._point_profiled import profiled_mode
 from gyroid.inference._problem import PointEstimate
 from gyroid.models._priors import Normal, natural_with_sd
 
@@ -172,7 +172,7 @@ def point_estimate(problem: BenchDensity, *,
 def _profiled(problem: BenchDensity) -> PointEstimate:
     """The mode of a model linear in its real coefficients given its positive ones: those
     profiled, these integrated out
-    (:func:`~gyroid.inference._point_profiled.profiled_mode`), the noise levels guessed by
+    (:func:`~gyroid.bench._point_profiled.profiled_mode`), the noise levels guessed by
     the noise model from the best white start's residual."""
     u, covariance, converged, message, n_starts = profiled_mode(
         problem, lambda residual, white: noise_from_residual(problem, residual, white),

@@ -17,6 +17,7 @@ from gyroid.bench._density import BenchDensity, predicted
 from gyroid.bench._one_sided import weigh_one_sided, windows_in_one_form
 from gyroid.bench._options import BenchOptions
 from gyroid.bench._point import point_estimate
+from gyroid.bench._point_profiled import collapsed_log_likelihood
 from gyroid.bench._rate_window import choose_rate_window, reads_rate
 from gyroid.bench._rate_window_marginal import marginal_window
 from gyroid.bench._result import BenchFit, bench_result
@@ -27,7 +28,6 @@ from gyroid.inference._emcee import Emcee
 from gyroid.inference._importance import Importance
 from gyroid.inference._marginal_target import MarginalTarget, marginal_target
 from gyroid.inference._mode import Optimum
-from gyroid.inference._point_profiled import collapsed_log_likelihood
 from gyroid.inference._posterior import Posterior
 from gyroid.inference._problem import AbstractProblem, PointEstimate
 from gyroid.io._logs import BenchLog, MeansOfBlocks, SampleDeviations, contiguous_segments

@@ -18,8 +18,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from gyroid.bench._starts import best_least_squares, grid_points, start_grid
 from gyroid.errors import GyroidInputError
-from gyroid.inference._starts import best_least_squares, grid_points, start_grid
 from gyroid.io._logs import BenchLog
 from gyroid.models._derived import RATE_POLY_DEGREE, RATE_WINDOW_S, temperature_rate_deg_c_per_h
 from gyroid.models._design import with_rows

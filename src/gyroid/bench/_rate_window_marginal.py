@@ -38,11 +38,11 @@ import numpy as np
 
 from gyroid._config import compute_threads
 from gyroid.bench._point import correlated_levels, noise_from_residual, noise_guess
+from gyroid.bench._point_profiled import collapsed_at_white_start
 from gyroid.inference._collapsed import filtered_form
 from gyroid.inference._marginal_mode import marginal_mode
 from gyroid.inference._mode import Optimum
 from gyroid.inference._model_columns import split_parameters
-from gyroid.inference._point_profiled import collapsed_at_white_start
 from gyroid.models._derived import RATE_POLY_DEGREE
 
 #: Windows compared, the least-squares choice included.

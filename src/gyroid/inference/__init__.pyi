@@ -25,6 +25,3 @@ from ._residual_checks import outliers as outliers
 from ._residual_checks import residual_whiteness as residual_whiteness
 from ._residual_checks import segment_variance_ratio as segment_variance_ratio
 from ._result import FitResult as FitResult
-from ._starts import START_MULTIPLES as START_MULTIPLES
-from ._starts import grid_points as grid_points
-from ._starts import start_grid as start_grid

@@ -363,7 +363,7 @@ def collapsed_form(density, columns: Float[Array, "n 1+r"] | None = None,
     ``real`` (their indices among the model's parameters), the form for given positive
     parameters of any model linear in its real ones (built on the host, its columns then
     replaced inside compiled code: :meth:`CollapsedCoefficients.with_columns`,
-    :mod:`gyroid.inference._point_profiled`); without them, a linear model's own."""
+    :mod:`gyroid.bench._point_profiled`); without them, a linear model's own."""
     if columns is None:
         columns = jnp.column_stack([density.drift, density.model.design(density.inputs)])
         real = np.arange(density.n_model)

@@ -29,8 +29,13 @@ from jax.typing import ArrayLike
 from gyroid._exported import exported
 from gyroid.inference._batching import problem_batcher
 from gyroid.inference._collapsed import collapse, filtered_form
-from gyroid.inference._model_columns import COLUMN_BATCH, chunks, columns_at, split_parameters
-from gyroid.inference._point_profiled import positive_log_prior
+from gyroid.inference._model_columns import (
+    COLUMN_BATCH,
+    chunks,
+    columns_at,
+    positive_log_prior,
+    split_parameters,
+)
 
 
 @dataclass(frozen=True)

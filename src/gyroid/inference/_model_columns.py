@@ -6,6 +6,8 @@ points side by side."""
 
 from __future__ import annotations
 
+import math
+
 import equinox as eqx
 import jax.numpy as jnp
 import numpy as np
@@ -50,3 +52,13 @@ def columns_at(density, points: np.ndarray) -> np.ndarray:
     points = np.atleast_2d(np.asarray(points, dtype=float))
     return np.concatenate([np.asarray(_columns_at(density, jnp.asarray(chunk)))
                            for chunk in chunks(points)])[: len(points)]
+
+
+def positive_log_prior(density, points: np.ndarray) -> np.ndarray:
+    """The positive parameters' log-prior (normal in their logs, where they have one: the
+    density's own terms) at each row of ``points`` (logs)."""
+    _, positive = split_parameters(density)
+    loc, scale, on = (np.asarray(a, dtype=float)[positive] for a in (
+        density.prior_loc, density.prior_scale, density.prior_on))
+    z = on * (np.atleast_2d(points) - loc) / scale
+    return np.sum(-0.5 * z**2 - on * (np.log(scale) + 0.5 * math.log(2.0 * math.pi)), axis=1)

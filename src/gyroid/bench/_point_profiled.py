@@ -5,7 +5,7 @@ catalogued effect) under any noise model; part of the bench mode-finder
 
 The real coefficients are integrated out exactly for given positive parameters (the
 collapsed form of :mod:`gyroid.inference._collapsed` on the model's columns there), and the
-rest is found by alternating twice, from the grid of :mod:`gyroid.inference._starts`
+rest is found by alternating twice, from the grid of :mod:`gyroid.bench._starts`
 (the noise levels first guessed from the residual of the grid's best white least
 squares):
 
@@ -36,6 +36,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from gyroid._exported import exported
+from gyroid.bench._starts import best_least_squares, grid_points, start_grid
 from gyroid.inference._collapsed import (
     collapsed_form,
     conditional_solution,
@@ -44,8 +45,12 @@ from gyroid.inference._collapsed import (
 )
 from gyroid.inference._marginal_mode import at_marginal_mode, marginal_mode
 from gyroid.inference._mode import BoundedSearch, safe_inverse, value_hessian
-from gyroid.inference._model_columns import chunks, columns_at, split_parameters
-from gyroid.inference._starts import best_least_squares, grid_points, start_grid
+from gyroid.inference._model_columns import (
+    chunks,
+    columns_at,
+    positive_log_prior,
+    split_parameters,
+)
 
 #: The local search's bounds about the grid: a fifth of its least value to 3.3 times its
 #: largest (logs).
@@ -54,16 +59,6 @@ BELOW, ABOVE = math.log(0.2), math.log(50.0 / 15.0)
 STEP = 1e-3
 #: The local search about the grid's best point (each evaluation a filter pass).
 _SEARCH = BoundedSearch(xatol=1e-4, fatol=1e-4)
-
-
-def positive_log_prior(density, points: np.ndarray) -> np.ndarray:
-    """The positive parameters' log-prior (normal in their logs, where they have one: the
-    density's own terms) at each row of ``points`` (logs)."""
-    _, positive = split_parameters(density)
-    loc, scale, on = (np.asarray(a, dtype=float)[positive] for a in (
-        density.prior_loc, density.prior_scale, density.prior_on))
-    z = on * (np.atleast_2d(points) - loc) / scale
-    return np.sum(-0.5 * z**2 - on * (np.log(scale) + 0.5 * math.log(2.0 * math.pi)), axis=1)
 
 
 class _Profile:

@@ -15,7 +15,7 @@ grid, and refines the best points locally:
 * real parameters start at zero (the profile solves them exactly).
 
 :func:`gyroid.bench._point.point_estimate` starts here (the profile of
-:mod:`gyroid.inference._point_profiled`, the discrepancy search's candidates included), as
+:mod:`gyroid.bench._point_profiled`, the discrepancy search's candidates included), as
 does the dT/dt window's least squares of a model with positive parameters
 (:mod:`gyroid.bench._rate_window`); :func:`best_least_squares` compares the points.
 """
