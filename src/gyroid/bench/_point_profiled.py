@@ -13,7 +13,7 @@ squares):
    posterior: the grid (its points side by side, ``COLUMN_BATCH`` of
    :mod:`gyroid.inference._collapsed` at a time), then a bounded Nelder-Mead (Brent's
    method in one dimension) on host; each evaluation one forward filter pass. Only the
-   model's columns (:func:`~gyroid.inference._collapsed.columns_at`) are compiled per
+   model's columns (:func:`~gyroid.inference._model_columns.columns_at`) are compiled per
    model; the filter and the marginal are shared by every model of as many coefficients
    on the log's rows;
 2. the positive parameters held, the noise levels at the marginal's mode
@@ -77,7 +77,7 @@ class _Profile:
         self.grid_columns = self._padded(raw)
 
     def _model_columns(self, points: np.ndarray) -> np.ndarray:
-        """The model's columns (:func:`~gyroid.inference._collapsed.columns_at`) at each
+        """The model's columns (:func:`~gyroid.inference._model_columns.columns_at`) at each
         row of ``points``."""
         return columns_at(self.density, points)
 
