@@ -62,11 +62,12 @@ def test_the_filter_is_the_exact_likelihood_of_block_means_of_any_lengths_and_ga
 
 
 @pytest.mark.parametrize("centred", [True, False])
-def test_columns_zero_up_to_a_row_are_filtered_from_it_alike(centred):
-    """``late``: trailing columns zero before a row, filtered from that row on only, get
-    the innovations the whole filter gives them (zero before it), the other columns
-    theirs unchanged; first rows held out, so the walk's diffuse level is revealed before
-    the late columns start (the constraint's innovation at its row, theirs too)."""
+def test_columns_zero_up_to_a_row_have_zero_innovations_there_and_leave_the_rest_alone(centred):
+    """The one-sided rows' end columns are zero until the end's last window, and are filtered
+    with the data from the first row (one scan): their innovations are exactly zero before
+    their row (the walk's diffuse level revealed before it: the constraint's innovation at
+    the first row learnt from is theirs too), and the other columns' are those of the
+    filter without them; the first rows held out."""
     rng = np.random.default_rng(4)
     span, gap, _, end = _blocks(rng, 60)
     taus, unit = flicker_times(span.min(), end[-1])
@@ -78,11 +79,15 @@ def test_columns_zero_up_to_a_row_are_filtered_from_it_alike(centred):
             [(jnp.asarray(taus), 6.0, unit)], (10.0 / 60.0) ** 2 if centred else 0.0,
             jnp.asarray(held_out))
     whole, variance = block_innovations(jnp.asarray(columns), *args, centred=centred)
-    late, late_variance = block_innovations(jnp.asarray(columns), *args, centred=centred,
-                                            late=(late_from, 2))
-    np.testing.assert_allclose(np.asarray(late), np.asarray(whole), rtol=1e-12, atol=1e-12)
-    np.testing.assert_allclose(np.asarray(late_variance), np.asarray(variance), rtol=1e-12)
-    assert np.all(np.asarray(late)[:late_from, 3:][held_out[:late_from] > 0][1:] == 0.0)
+    alone, alone_variance = block_innovations(jnp.asarray(columns[:, :3]), *args,
+                                              centred=centred)
+    np.testing.assert_allclose(np.asarray(whole)[:, :3], np.asarray(alone), rtol=1e-12,
+                               atol=1e-12)
+    np.testing.assert_allclose(np.asarray(variance), np.asarray(alone_variance), rtol=1e-12)
+    before = np.asarray(whole)[:late_from, 3:]
+    learnt = np.flatnonzero(held_out[:late_from] > 0)
+    assert np.all(before[learnt[1:]] == 0.0)  # the first row learnt from: the constraint's
+    assert np.any(np.asarray(whole)[late_from:, 3:] != 0.0)
 
 
 @pytest.mark.parametrize("centred", [True, False])
@@ -91,7 +96,7 @@ def test_constant_states_read_by_the_first_rows_add_their_covariance(centred, he
     """``early``: constant standard-normal states read through loadings ``V`` on the first
     rows, filtered there and left out after: the likelihood is the dense Gaussian's with
     ``V V'`` added, first rows held out or not (the diffuse level revealed among them or
-    after them), and with trailing columns read late beside them."""
+    after them), and with trailing columns zero until late beside them."""
     rng = np.random.default_rng(5)
     span, gap, start, end = _blocks(rng, 50)
     taus, unit = flicker_times(span.min(), end[-1])
@@ -110,14 +115,10 @@ def test_constant_states_read_by_the_first_rows_add_their_covariance(centred, he
     args = (jnp.asarray(span), jnp.asarray(gap), jnp.asarray(white),
             [(jnp.asarray(taus), 6.0, unit)], k, jnp.asarray(kept, dtype=float))
     innovation, variance = block_innovations(jnp.asarray(columns), *args, centred=centred,
-                                             late=(40, 1), early=jnp.asarray(loadings[:9]))
+                                             early=jnp.asarray(loadings[:9]))
     terms = innovation[:, 0] ** 2 / variance + jnp.log(2 * np.pi * variance)
     filtered = -0.5 * float(jnp.sum(jnp.where(jnp.asarray(kept), terms, 0.0)))
     assert filtered == pytest.approx(exact, rel=1e-9)
-    whole, _ = block_innovations(jnp.asarray(columns), *args, centred=centred,
-                                 early=jnp.asarray(loadings[:9]))
-    np.testing.assert_allclose(np.asarray(innovation), np.asarray(whole), rtol=1e-12,
-                               atol=1e-12)
 
 
 def test_a_walk_without_a_walk_is_a_constant_the_constraint_removes():

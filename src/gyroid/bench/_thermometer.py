@@ -22,7 +22,7 @@ from gyroid.models._rate_error import (
     estimator_autocovariance,
     one_sided_rows,
     rate_coefficient_index,
-    rows_sharing_the_ends,
+    rows_sharing_the_start,
     thermometer_noise_var,
     white_level_var,
 )
@@ -148,5 +148,5 @@ def carried_thermometer(log: BenchLog, window_s: float, wd: float, thermometer_v
                                 if even else None),
         one_sided=one_sided_rows(time_s, window_s),
         white_var=white_level_var(np.asarray(log.drift_deg_h)),
-        reach=rows_sharing_the_ends(time_s, max(window_s, widest_s or window_s)),
+        reach=rows_sharing_the_start(time_s, max(window_s, widest_s or window_s)),
         directions=RATE_POLY_DEGREE)

@@ -101,19 +101,17 @@ def one_sided_rows(time_s: np.ndarray, window_s: float) -> np.ndarray:
     return (time_s - time_s[0] < reach) | (time_s[-1] - time_s < reach)
 
 
-def rows_sharing_the_ends(time_s: np.ndarray, window_s: float) -> tuple[int, int]:
-    """How many of the log's first rows, and from which row on its last ones, may read a
-    thermometer sample that a one-sided row's window reads (:func:`one_sided_rows`: the
-    first and last ``2 half`` samples of the grid; a centred window reaches ``half`` samples
-    either side, so within ``3 half`` of either end), at ``window_s`` (s)."""
+def rows_sharing_the_start(time_s: np.ndarray, window_s: float) -> int:
+    """How many of the log's first rows may read a thermometer sample that a one-sided
+    row's window at the start reads (:func:`one_sided_rows`: the first ``2 half`` samples
+    of the grid; a centred window reaches ``half`` samples either side, so within
+    ``3 half`` of the start), at ``window_s`` (s)."""
     time_s = np.asarray(time_s, dtype=float)
     if time_s.size < 2:
-        return time_s.size, 0
+        return time_s.size
     _, step = grid_plan(time_s, window_s)
     half, _ = half_and_degree(window_s, step, estimator_grid_size(time_s, window_s))
-    reach = (3 * half + 1) * step
-    return (int(np.searchsorted(time_s - time_s[0], reach)),
-            int(np.searchsorted(time_s - time_s[0], time_s[-1] - time_s[0] - reach)))
+    return int(np.searchsorted(time_s - time_s[0], (3 * half + 1) * step))
 
 
 def estimator_autocovariance(window_s: float, step_s: float, noise_var_C2: float

@@ -112,7 +112,6 @@ def block_innovations(
     update: Float[Array, " n"] | None = None,
     centred: bool = True,
     rate_error: RateErrorProcess | None = None,
-    late: tuple[int, int] | None = None,
     early: Float[Array, "m r"] | None = None,
 ) -> tuple[Float[Array, "n ..."], Float[Array, " n"]]:
     """Innovations of the block means ``observed`` (trailing columns filtered alike) and
@@ -130,10 +129,14 @@ def block_innovations(
     whose filter needs no diffuse start).
 
     A carried rate error's one-sided rows (:class:`~gyroid.noise._rate_error_rows.
-    OneSidedRows`), exactly: ``late`` ``(row, count)``: ``observed``'s last ``count``
-    columns (rows by columns) are zero before ``row`` and filtered from it on only;
-    ``early`` (``m`` by ``r``): ``r`` constant standard-normal states read through these
-    loadings by the first ``m`` rows, filtered there and left out after."""
+    OneSidedRows`), exactly: their loadings are trailing columns of ``observed``, filtered
+    alike from the first row (the end's are zero until its last window: their innovations
+    are zero there, exactly, and one scan reads every row; filtering them from their own
+    row on took a second scan of another shape, compiled apart, and 23 % of a cold fit's
+    compilation on paper A's bench, 32.0 s against 24.7); ``early`` (``m`` by ``r``): ``r``
+    constant standard-normal states read through these loadings by the first ``m`` rows,
+    filtered there and left out after (a scan of its own: carried over every row they
+    would halve that compilation and cost a warm fit 1.7x)."""
     tau_s = jnp.concatenate([jnp.zeros(0), *(p[0] for p in processes)])
     phi, c, qxx, qmm, qxm = block_transitions(span_s, gap_s, tau_s, 1.0, 1.0)
     j = tau_s.size
@@ -177,9 +180,9 @@ def block_innovations(
     q = (qxx, q_link, q_block)
     if not centred:
         return _anchored(observed, transition, c, q, qxm, r, update, start, scale,
-                         (late, early))
+                         early)
     return _centred(observed, transition, c, q, qxm, r, update, start, j, scale,
-                    (late, early))
+                    early)
 
 
 def _with_process(phi, qxx, c, qxm, start, process: RateErrorProcess):
@@ -224,7 +227,7 @@ def _plus_noise(cov, noise, scale, j):
     return out
 
 
-def _centred(observed, transition, c, q, qxm, r, update, start_cov, j, scale, parts):
+def _centred(observed, transition, c, q, qxm, r, update, start_cov, j, scale, early):
     """The block filter with the walk (state ``j``) diffuse at the start and its running
     mean (state ``j + 1``) observed as zero at the end (module docstring)."""
     a = j + 1
@@ -257,7 +260,7 @@ def _centred(observed, transition, c, q, qxm, r, update, start_cov, j, scale, pa
 
     start = (jnp.zeros((n_states, *observed.shape[1:])), start_cov, start_d, jnp.ones(()))
     (mean, cov, _, _), (innovation, total) = _scan(
-        step, scale, start, (observed, transition, c, q, qxm, r, update), *parts)
+        step, scale, start, (observed, transition, c, q, qxm, r, update), early)
     # the walk's weighted mean over the log, observed as zero
     first = jnp.argmax(update > 0)
     innovation = innovation.at[first].set(-mean[a])
@@ -265,7 +268,7 @@ def _centred(observed, transition, c, q, qxm, r, update, start_cov, j, scale, pa
     return innovation, total
 
 
-def _anchored(observed, transition, c, q, qxm, r, update, start_cov, scale, parts):
+def _anchored(observed, transition, c, q, qxm, r, update, start_cov, scale, early):
     """The block filter with the walk from zero at the first block (``centred=False``)."""
     n_states = c.shape[1]
 
@@ -284,43 +287,33 @@ def _anchored(observed, transition, c, q, qxm, r, update, start_cov, scale, part
 
     start = (jnp.zeros((n_states, *observed.shape[1:])), start_cov)
     _, (innovation, total) = _scan(step, scale, start,
-                                   (observed, transition, c, q, qxm, r, update), *parts)
+                                   (observed, transition, c, q, qxm, r, update), early)
     return innovation, total
 
 
-def _scan(step, scale, start, rows, late, early):
+def _scan(step, scale, start, rows, early):
     """The filter's ``step(scale, carry, row)`` over ``rows`` (the observed, the transition,
     the observation's loadings, the new noise, its covariance with the mean, the white
     variance, the updates) from ``start`` (the states' means, states by columns, their
-    covariance, then what else the filter carries): with ``late``, the observed's trailing
-    columns' means started at zero at their row, their innovations zero before; with
-    ``early``, its constant states set before the rate error's (the last ``k``) over its
-    rows and left out after (:func:`block_innovations`)."""
+    covariance, then what else the filter carries): with ``early``, its constant states set
+    before the rate error's (the last ``k``) over its rows and left out after
+    (:func:`block_innovations`)."""
     n = rows[0].shape[0]
-    row, count = late if late is not None and late[1] and 0 < late[0] < n else (n, 0)
     rows_early, states = (0, 0) if early is None else early.shape
     at = _early_at(rows)
-    width = rows[0].shape[1] - count if count else None
-    carry = start if not count else (start[0][:, :width], *start[1:])
+    carry = start
     if rows_early:
         carry = _with_early(carry, states, at)
     outputs = []
-    for low, high in pairwise(sorted({0, n, rows_early, row})):
-        if low == row:
-            carry = (jnp.concatenate([carry[0], jnp.zeros((carry[0].shape[0], count))],
-                                     axis=1), *carry[1:])
+    for low, high in pairwise(sorted({0, n, rows_early})):
         if rows_early and low == rows_early:
             carry = _without_early(carry, states, at)
         part = jax.tree_util.tree_map(lambda x, low=low, high=high: x[low:high], rows)
-        if low < row and count:
-            part = (part[0][:, :width], *part[1:])
         scale_part = scale
         if low < rows_early:
             part, scale_part = _early_rows(part, scale, early, at)
         carry, (innovation, total) = jax.lax.scan(
             lambda c, x, s=scale_part: step(s, c, x), carry, part)
-        if low < row and count:
-            innovation = jnp.concatenate([innovation, jnp.zeros((high - low, count))], axis=1)
         outputs.append((innovation, total))
     return carry, tuple(jnp.concatenate(o) for o in zip(*outputs, strict=True))
 

@@ -293,7 +293,6 @@ class NoiseModel(eqx.Module):
             columns, span, gap, jnp.broadcast_to(white**2, span.shape), processes,
             diffusion, clock.weight, centred=centred,
             rate_error=None if carried is None else carried.process,
-            late=None if exact is None else exact.late,
             early=None if exact is None else exact.early)
         ends = None if exact is None else innovation[:, width:]
         return innovation[:, :width].reshape(observed.shape), variance, ends

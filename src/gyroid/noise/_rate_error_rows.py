@@ -89,8 +89,8 @@ class CarriedThermometer:
     rows are not evenly spaced for it: a log of bursts); ``one_sided`` the rows whose
     window is one-sided (within half a window of either end); ``white_var`` the rows'
     white variance beside it (what the process is matched against); ``reach`` how many
-    first rows, and from which row the last ones, read samples the one-sided rows read at
-    the widest window of the fit's search, and ``directions`` the most each end's error
+    first rows read samples the start's one-sided rows read at the widest window of the
+    fit's search, and ``directions`` the most each end's error
     spans at any window (:meth:`OneSidedRows.of`: every window's one-sided rows then have
     the same shapes and one compiled program serves the search)."""
 
@@ -98,7 +98,7 @@ class CarriedThermometer:
     autocovariance: Callable[[], np.ndarray | None]
     one_sided: np.ndarray
     white_var: float
-    reach: tuple[int, int] | None = None
+    reach: int | None = None
     directions: int = 0
 
     def covariance(self) -> np.ndarray:
@@ -118,9 +118,10 @@ class OneSidedRows(eqx.Module):
     the filter carries over those rows (``early``: ``V_s`` there) and then leaves out. The
     correction is then ``-B_s H_ss B_s'``, the cross terms ``-B H B'`` between the ends,
     and the end's ``[A_e, B_e]`` in ``[[I, I], [I, I - H_ee]]``: columns ``[B_s, A_e,
-    B_e]``. The end's are zero but in its last window or so, so the filter reads them only
-    from row ``late[0]`` on. Where the ends share samples (a log shorter than two windows)
-    there is no early part, and the columns are ``[A, B]`` in ``[[I, I], [I, G]]``."""
+    B_e]`` (zero but in the end's last window or so: the filter carries them from the
+    first row, zero until then, in the one scan that reads the rest). Where the ends share
+    samples (a log shorter than two windows) there is no early part, and the columns are
+    ``[A, B]`` in ``[[I, I], [I, G]]``."""
 
     loadings: Float[Array, "n w"]
     middle: Float[Array, "w w"]
@@ -128,22 +129,18 @@ class OneSidedRows(eqx.Module):
     early: Float[Array, "m r"] | None
     #: ``G`` (:func:`_inflation`), ``r`` by ``r`` in ``c``'s directions' order.
     inflation: Float[Array, "r r"]
-    #: The row from which the trailing columns are read, and how many they are; None: all
-    #: read from the first row.
-    late: tuple[int, int] | None = eqx.field(static=True)
     #: Where ``B``'s columns (``c``'s directions in order) are in ``loadings``.
     explained_at: tuple[int, ...] = eqx.field(static=True)
 
     @classmethod
     def of(cls, operator: np.ndarray, one_sided: np.ndarray, process: RateErrorProcess, *,
-           reach: tuple[int, int] | None = None, directions: int = 0) -> OneSidedRows:
+           reach: int | None = None, directions: int = 0) -> OneSidedRows:
         """From the rows' error per unit thermometer noise ``operator`` (rows by noise
         samples), the one-sided rows ``one_sided`` (a boolean mask) and the process carried
         on the other rows (for :func:`_inflation`). ``reach``: the early rows cover at least
-        the first ``reach[0]`` rows and the end's columns are read from ``reach[1]`` at the
-        latest; ``directions``: each end's directions padded with zero ones to as many (a
-        zero direction adds nothing to ``U M U'``): so that a fit's windows share their
-        shapes (:class:`CarriedThermometer`)."""
+        the first ``reach`` rows; ``directions``: each end's directions padded with zero
+        ones to as many (a zero direction adds nothing to ``U M U'``): so that a fit's
+        windows share their shapes (:class:`CarriedThermometer`)."""
         operator = np.asarray(operator, dtype=float)
         one_sided = np.asarray(one_sided, dtype=bool)
         n = operator.shape[0]
@@ -162,7 +159,7 @@ class OneSidedRows(eqx.Module):
             identity = np.eye(rank)
             return cls(jnp.asarray(np.concatenate([on_ends, explained], axis=1)),
                        jnp.asarray(np.block([[identity, identity], [identity, inflation]])),
-                       None, jnp.asarray(inflation), None, tuple(range(rank, 2 * rank)))
+                       None, jnp.asarray(inflation), tuple(range(rank, 2 * rank)))
         s, e = slice(0, start), slice(start, rank)
         ending = rank - start
         early = on_ends[:, s] + explained[:, s]  # V_s
@@ -170,7 +167,7 @@ class OneSidedRows(eqx.Module):
         # rows; the rows beyond read it as zero
         step = max(n // 16, 1)
         reads = int(np.flatnonzero(np.any(early != 0.0, axis=1))[-1]) + 1
-        reads = max(reads, reach[0] if reach is not None else 0)
+        reads = max(reads, reach if reach is not None else 0)
         rows = min(-(-reads // step) * step, n)
         less = np.eye(rank) - inflation  # H
         loadings = np.concatenate([explained[:, s], on_ends[:, e], explained[:, e]], axis=1)
@@ -178,15 +175,8 @@ class OneSidedRows(eqx.Module):
         middle = np.block([[-less[s, s], zero, -less[s, e]],
                            [zero.T, identity, identity],
                            [-less[e, s], identity, identity - less[e, e]]])
-        # the end's columns read from their first row (at the latest the reach's), rounded
-        # down alike, after the early rows
-        nonzero = np.flatnonzero(np.any(loadings[:, start:] != 0.0, axis=1))
-        first = int(nonzero[0]) if nonzero.size else 0
-        first = min(first, reach[1]) if reach is not None else first
-        first = first // step * step
-        late = (first, 2 * ending) if first > rows else None
         return cls(jnp.asarray(loadings), jnp.asarray(middle), jnp.asarray(early[:rows]),
-                   jnp.asarray(inflation), late,
+                   jnp.asarray(inflation),
                    (*range(start), *range(start + ending, start + 2 * ending)))
 
     @property
