@@ -185,8 +185,12 @@ class BenchDensity(AbstractDensity):
     @property
     def row_filter(self) -> RowFilter:
         """The noise model on these rows (what the likelihood and its collapsed form
-        filter with)."""
-        return RowFilter(self.noise, self.steps_s, self.sigma, self.gap_s, self.weight,
+        filter with). Every row's weight is an array, ones where none is held out, so a
+        fit's forms with and without held-out rows (the predictive check's folds) share
+        their compiled programs."""
+        weight = (jnp.ones_like(self.steps_s) if self.weight is None
+                  else jnp.asarray(self.weight))
+        return RowFilter(self.noise, self.steps_s, self.sigma, self.gap_s, weight,
                          step_s=self.step_s, row_scale=self.row_scale)
 
     @property

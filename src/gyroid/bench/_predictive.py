@@ -15,7 +15,7 @@ import numpy as np
 from gyroid.bench._density import BenchDensity, predicted
 from gyroid.bench._point import point_estimate
 from gyroid.inference._check_report import Check
-from gyroid.inference._collapsed import collapsed_form, conditional_solution
+from gyroid.inference._collapsed import collapsed_form, conditional_solution, padded
 from gyroid.inference._model_columns import columns_at, split_parameters
 from gyroid.inference._predictive import (
     HeldOut,
@@ -161,14 +161,15 @@ def _collapsed_folds(density: BenchDensity, parts: Stretches, time_s: np.ndarray
     folds = []
     for k in range(int(parts.fold_of.max()) + 1):
         held = parts.fold_of == k
-        kept = collapsed_form(density.without_rows(parts.rows_of_fold(k)), columns,
-                              None if columns is None else real)
+        # padded as the mode's form is, so the two share one compiled program
+        kept = padded(collapsed_form(density.without_rows(parts.rows_of_fold(k)), columns,
+                                     None if columns is None else real))
         mean, factor = conditional_solution(kept, v)
         factor = np.asarray(factor)
-        covariance = np.linalg.inv(factor @ factor.T)
+        covariance = np.linalg.inv(factor @ factor.T)[:real.size, :real.size]
         x = design_means[held]
         folds.append(HeldOut(observed=observed[held],
-                             predicted=offset_means[held] + x @ np.asarray(mean),
+                             predicted=offset_means[held] + x @ np.asarray(mean)[:real.size],
                              covariance=x @ covariance @ x.T + noise_cov[np.ix_(held, held)],
                              counts=counts[held]))
     return folds

@@ -130,13 +130,11 @@ def block_innovations(
 
     A carried rate error's one-sided rows (:class:`~gyroid.noise._rate_error_rows.
     OneSidedRows`), exactly: their loadings are trailing columns of ``observed``, filtered
-    alike from the first row (the end's are zero until its last window: their innovations
-    are zero there, exactly, and one scan reads every row; filtering them from their own
-    row on took a second scan of another shape, compiled apart, and 23 % of a cold fit's
-    compilation on paper A's bench, 32.0 s against 24.7); ``early`` (``m`` by ``r``): ``r``
-    constant standard-normal states read through these loadings by the first ``m`` rows,
-    filtered there and left out after (a scan of its own: carried over every row they
-    would halve that compilation and cost a warm fit 1.7x)."""
+    alike from the first row (the end's are zero, and so their innovations, until its last
+    window: one scan, one compiled shape); ``early`` (``m`` by ``r``): ``r`` constant
+    standard-normal states read through these loadings by the first ``m`` rows, filtered
+    there and left out after (their own scan: carried over every row, a warm fit took
+    1.7x as long)."""
     tau_s = jnp.concatenate([jnp.zeros(0), *(p[0] for p in processes)])
     phi, c, qxx, qmm, qxm = block_transitions(span_s, gap_s, tau_s, 1.0, 1.0)
     j = tau_s.size
