@@ -190,7 +190,7 @@ class BenchDensity(AbstractDensity):
         their compiled programs."""
         weight = (jnp.ones_like(self.steps_s) if self.weight is None
                   else jnp.asarray(self.weight))
-        return RowFilter(self.noise, self.steps_s, self.sigma, self.gap_s, weight,
+        return RowFilter(self.noise, self.steps_s, weight, sigma=self.sigma, gap_s=self.gap_s,
                          step_s=self.step_s, row_scale=self.row_scale)
 
     @property

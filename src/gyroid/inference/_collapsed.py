@@ -112,7 +112,6 @@ class CollapsedCoefficients(AbstractMarginal):
     #: The density's noise model on its rows (no drift model: candidates' fits on one log's
     #: rows with as many coefficients share every compiled program).
     row_filter: RowFilter
-    weight: Float[Array, " n"]
 
     def _innovations(self, v: Float[Array, " k"]) -> tuple[Array, Array]:
         """Every column filtered by the density's own noise model at the levels ``v``: the
@@ -120,7 +119,7 @@ class CollapsedCoefficients(AbstractMarginal):
         white, values = self.row_filter.levels_of(v)
         filtered = self.row_filter.innovations(self.columns, white, values)
         if filtered is None:
-            return self.columns, jnp.broadcast_to(white**2, self.weight.shape)
+            return self.columns, jnp.broadcast_to(white**2, self.row_filter.weight.shape)
         return filtered
 
     def _normal_equations(self, v: Float[Array, " k"]) -> NormalEquations:
@@ -128,14 +127,15 @@ class CollapsedCoefficients(AbstractMarginal):
         filtered = self.row_filter.filtered(self.columns, white, values)
         if filtered is None:
             innovation = self.columns
-            variance = jnp.broadcast_to(white**2, self.weight.shape)
+            variance = jnp.broadcast_to(white**2, self.row_filter.weight.shape)
             ends = None
         else:
             innovation, variance, ends = filtered
         # a held-out row's weight 0 outside the root: sqrt(0 / variance) has no gradient
-        scale = jnp.sqrt(self.weight) * jnp.sqrt(1.0 / variance)
+        weight = self.row_filter.weight
+        scale = jnp.sqrt(weight) * jnp.sqrt(1.0 / variance)
         a, design = innovation[:, 0] * scale, innovation[:, 1:] * scale[:, None]
-        log_norm = -0.5 * jnp.sum(self.weight * (jnp.log(variance) + _LOG_2PI))
+        log_norm = -0.5 * jnp.sum(weight * (jnp.log(variance) + _LOG_2PI))
         carried = self.row_filter.noise.carried_process
         if ends is None or carried is None or carried.ends is None:
             def residual_sq(beta):
@@ -171,8 +171,8 @@ class CollapsedCoefficients(AbstractMarginal):
         p = self.beta_loc.size
         innovation, variance = self._innovations(u[p:])
         residual = innovation[:, 0] - innovation[:, 1:] @ u[:p]
-        return -0.5 * jnp.sum(self.weight * (residual**2 / variance + jnp.log(variance)
-                                             + _LOG_2PI))
+        weight = self.row_filter.weight
+        return -0.5 * jnp.sum(weight * (residual**2 / variance + jnp.log(variance) + _LOG_2PI))
 
     def filtered(self, v: Float[Array, " k"]) -> Float[Array, "n 2+p"]:
         """Every column's innovations at the levels ``v``, then their variances: the
@@ -370,11 +370,8 @@ def collapsed_form(density, columns: Float[Array, "n 1+r"] | None = None,
     p = density.n_model
     beta_loc, precision, log_norm = _coefficient_priors(density, np.asarray(real))
     loc_k, scale_k, on_k = _on_device(*(a[p:] for a in _prior_arrays(density)))
-    weight = (jnp.ones_like(density.drift) if density.weight is None
-              else jnp.asarray(density.weight))
     return CollapsedCoefficients(
         columns=columns,
         row_filter=density.row_filter,
-        weight=weight,
         beta_loc=beta_loc, beta_precision=precision,
         beta_log_norm=log_norm, noise_loc=loc_k, noise_scale=scale_k, noise_on=on_k)

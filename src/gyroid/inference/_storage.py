@@ -81,7 +81,7 @@ def _by_noise_level(density, collapsed, flat: np.ndarray, chunk: int) -> np.ndar
     p = density.n_model
     levels, which = np.unique(flat[:, p:], axis=0, return_inverse=True)
     filtered = in_chunks(problem_batcher(collapsed.filtered), levels, chunk)  # (u, n, 2+p)
-    weight = np.asarray(collapsed.weight)
+    weight = np.asarray(collapsed.row_filter.weight)
     member = np.zeros((weight.size, int(density.n_blocks)))
     member[np.arange(weight.size), np.asarray(density.block)] = 1.0
     out = np.empty((flat.shape[0], member.shape[1]))

@@ -28,9 +28,10 @@ class RowFilter(eqx.Module):
 
     noise: NoiseModel
     steps_s: Float[Array, " n"]
+    #: 1 for a row learnt from, 0 for one predicted through (held out).
+    weight: Float[Array, " n"]
     sigma: Float[Array, " n"] | None = None  # the log's own sd of each row, deg/h
     gap_s: Float[Array, " n"] | None = None
-    weight: Float[Array, " n"] | None = None
     step_s: float = eqx.field(static=True, default=1.0)
     #: A row's white sd per sample's (1/sqrt(m) for the mean of m samples).
     row_scale: float = eqx.field(static=True, default=1.0)
@@ -67,7 +68,7 @@ class RowFilter(eqx.Module):
         filtered = self.innovations(residual, white, values)
         if filtered is None:
             rows = -0.5 * (residual / white) ** 2 - jnp.log(white) - 0.5 * _LOG_2PI
-            return rows if self.weight is None else rows * self.weight
+            return rows * self.weight
         return self.rows_of(*filtered)
 
     def rows_of(self, innovation, variance) -> Array:
@@ -79,7 +80,7 @@ class RowFilter(eqx.Module):
             rows = carried.rows.leave_one_out_rows(innovation, variance)
         else:
             rows = -0.5 * innovation**2 / variance - 0.5 * jnp.log(variance) - 0.5 * _LOG_2PI
-        return rows if self.weight is None else rows * self.weight
+        return rows * self.weight
 
     def log_likelihood(self, residual, white, values: Mapping) -> Array:
         """The rows' joint log-likelihood (the rows held out left out)."""
@@ -88,7 +89,7 @@ class RowFilter(eqx.Module):
             return jnp.sum(self.row_log_likelihood(residual, white, values))
         innovation, variance = carried.rows.innovations(residual, white)
         rows = innovation**2 / variance + jnp.log(variance) + _LOG_2PI
-        return -0.5 * jnp.sum(rows if self.weight is None else rows * self.weight)
+        return -0.5 * jnp.sum(rows * self.weight)
 
     def standardised(self, residual, white, values: Mapping) -> Array:
         """The residual over its modelled sd, in time order: independent N(0, 1) where the
