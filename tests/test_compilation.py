@@ -122,3 +122,37 @@ def test_stabiliser_rate_sums_equal_the_per_sample_density():
     direct = stats.norm.logpdf(log.gs_rate_deg_s, float(values["D0gs"]),
                                float(values["sigma_m_deg_s"])).sum()
     assert float(np.sum(with_mems - angle_only)) == pytest.approx(direct, rel=1e-10)
+
+
+@pytest.mark.slow
+def test_logs_of_one_shape_share_the_marginal_whatever_their_step(monkeypatch):
+    """Two thermal logs of as many block means, one sampled at twice the other's rate over
+    half the time: their steps, a row's white scale and the flicker's variances differ, and
+    are arrays of the marginal's programs, not constants compiled into them (the second
+    log's programs are the first's, by their keys in gyroid's program store)."""
+    import gyroid._exported as store
+    from gyroid.simulation import ThermalProtocol, simulate_thermal_bench
+
+    marginal = ("_batched_bfgs", "marginal_gradients", "conditional_solution")
+    keys: list[set[str]] = []
+    keyed = store.program_key
+
+    def recorded(name: str, args: tuple):
+        found = keyed(name, args)
+        if found is not None and name.endswith(marginal):
+            keys[-1].add(found[0])
+        return found
+
+    monkeypatch.setattr(store, "program_key", recorded)
+    options = BenchOptions(errors_in_variables=False)  # the noise alone: IEEE 952's
+    steps, modes = [], []
+    for hours, rate_hz in ((0.7, 1.0), (1.4, 0.5)):  # 2520 samples: 840 means of three
+        keys.append(set())
+        protocol = ThermalProtocol().stretched(hours=hours, rate_hz=rate_hz)
+        problem = BenchProblem.from_log(simulate_thermal_bench(protocol=protocol, seed=3).log,
+                                        "thermal", options)
+        steps.append(problem.density.step_s)
+        modes.append(problem.mode())
+    assert steps[1] == 2 * steps[0]
+    assert len(keys[0]) >= 2 and keys[1] <= keys[0]
+    assert all(m.converged for m in modes)

@@ -191,7 +191,8 @@ class BenchDensity(AbstractDensity):
         weight = (jnp.ones_like(self.steps_s) if self.weight is None
                   else jnp.asarray(self.weight))
         return RowFilter(self.noise, self.steps_s, weight, sigma=self.sigma, gap_s=self.gap_s,
-                         step_s=self.step_s, row_scale=self.row_scale)
+                         step_s=jnp.asarray(float(self.step_s)),
+                         row_scale=jnp.asarray(float(self.row_scale)))
 
     @property
     def names(self) -> tuple[str, ...]:

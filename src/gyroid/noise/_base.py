@@ -21,7 +21,7 @@ class RowClock:
     ``weight`` 1 for a row learnt from and 0 for one predicted through (None: all)."""
 
     steps_s: Float[Array, " n"]
-    step_s: float
+    step_s: float | Array
     gap_s: Float[Array, " n"] | None = None
     weight: Float[Array, " n"] | None = None
 

@@ -241,7 +241,8 @@ class NoiseModel(eqx.Module):
         return values, variances
 
     # ----- the white level --------------------------------------------------------------
-    def row_white_sd(self, values: Mapping, *, step_s: float, row_scale: float) -> Array:
+    def row_white_sd(self, values: Mapping, *, step_s: float | Array,
+                     row_scale: float | Array) -> Array:
         """The white sd of a row (deg/h; traceable) when the log does not give it."""
         return self.white.row_white_sd(values, step_s=step_s, row_scale=row_scale)
 
@@ -279,7 +280,7 @@ class NoiseModel(eqx.Module):
         if self._at_instants(clock.gap_s is not None, processes, centred):
             taus, level, unit = processes[0]
             return (*gauss_markov_innovations(observed, clock.steps_s, white,
-                                              level * np.sqrt(unit), taus[0], clock.weight),
+                                              level * jnp.sqrt(unit), taus[0], clock.weight),
                     None)
         span = jnp.full_like(clock.steps_s, clock.step_s)
         gap = jnp.zeros_like(span) if clock.gap_s is None else clock.gap_s

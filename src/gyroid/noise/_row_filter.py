@@ -32,9 +32,11 @@ class RowFilter(eqx.Module):
     weight: Float[Array, " n"]
     sigma: Float[Array, " n"] | None = None  # the log's own sd of each row, deg/h
     gap_s: Float[Array, " n"] | None = None
-    step_s: float = eqx.field(static=True, default=1.0)
-    #: A row's white sd per sample's (1/sqrt(m) for the mean of m samples).
-    row_scale: float = eqx.field(static=True, default=1.0)
+    #: The rows' median step (s) and a row's white sd per sample's (1/sqrt(m) for the mean
+    #: of m samples): arrays, so that logs of one shape share the compiled programs of
+    #: their marginal whatever their step.
+    step_s: Float[Array, ""] | float = 1.0
+    row_scale: Float[Array, ""] | float = 1.0
 
     @property
     def names(self) -> tuple[str, ...]:

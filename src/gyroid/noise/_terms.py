@@ -130,7 +130,8 @@ class AbstractWhiteTerm(AbstractNoiseTerm):
     wanders: ClassVar[bool] = False
 
     @abc.abstractmethod
-    def row_white_sd(self, values: Mapping, *, step_s: float, row_scale: float) -> Array:
+    def row_white_sd(self, values: Mapping, *, step_s: float | Array,
+                     row_scale: float | Array) -> Array:
         """The white sd of a row (deg/h; traceable): rows ``step_s`` apart, each the mean
         of ``1 / row_scale**2`` samples."""
 
@@ -196,7 +197,7 @@ class AngleRandomWalk(AbstractWhiteTerm, AbstractAllanTerm):
                 {"N_deg_sqrt_h": 1.0 / (2.0 * dof)})
 
     def row_white_sd(self, values, *, step_s, row_scale):
-        return 60.0 * values["N_deg_sqrt_h"] / math.sqrt(step_s)
+        return 60.0 * values["N_deg_sqrt_h"] / jnp.sqrt(step_s)
 
     def sample_white_sd(self, values, sample_s):
         return float(60.0 * values["N_deg_sqrt_h"] / math.sqrt(sample_s))
@@ -219,8 +220,9 @@ class Flicker(AbstractNoiseTerm, AbstractAllanTerm):
     (:func:`~gyroid.noise._block_filter.flicker_times`)."""
 
     tau_s: Float[Array, " j"] | None = None
-    #: Each process's variance per unit ``B**2``.
-    unit_var: float = 0.0
+    #: Each process's variance per unit ``B**2`` (an array once set up for a log: logs of
+    #: one shape share their compiled programs whatever their step).
+    unit_var: Float[Array, ""] | float = 0.0
 
     code: ClassVar[str] = "B"
     level_names: ClassVar[tuple[str, ...]] = ("B_deg_h",)
@@ -248,7 +250,7 @@ class Flicker(AbstractNoiseTerm, AbstractAllanTerm):
 
     def for_log(self, step_s, duration_s):
         taus, unit = flicker_times(step_s, duration_s + step_s)
-        return Flicker(tau_s=jnp.asarray(taus), unit_var=unit)
+        return Flicker(tau_s=jnp.asarray(taus), unit_var=jnp.asarray(unit))
 
     def processes(self, values):
         if self.tau_s is None:
