@@ -1084,7 +1084,7 @@ def test_where_a_fit_s_time_goes():
     and a profiled warm fit's stages."""
     r = json.loads((ROOT / "benchmarks" / "results_profile_fit.json").read_text())
     seconds, stages = r["seconds"], r["stages_s"]
-    assert seconds["first_fit"] > 1.5 * seconds["warm_fit"]  # "about twice a warm one"
+    assert seconds["first_fit"] > seconds["warm_fit"]  # "the difference JAX tracing"
     _quoted(f"the first fit in a process {seconds['first_fit']:.1f} s, a warm one "
             f"{seconds['warm_fit']:.1f} s",
             f"the figures {seconds['write']:.1f} s, {seconds['block_log_likelihoods']:.2f} s of "
